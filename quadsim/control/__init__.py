@@ -1,0 +1,42 @@
+"""Controllers: pure numeric code turning (state, command) into four rotor forces.
+
+Nothing here imports pybullet. Pick one with `make_controller`.
+"""
+
+from __future__ import annotations
+
+import enum
+from typing import Any, Protocol
+
+from quadsim.messages import ActiveCommand, RotorForces, VehicleState
+from quadsim.vehicle import VehicleParams
+
+
+class ControllerKind(enum.Enum):
+    CASCADE = "cascade"  # velocity -> attitude -> body rate (default)
+    SEED = "seed"  # port of the original V-REP quadricopter controller
+
+
+class Controller(Protocol):
+    """What the simulation loop calls once per control step."""
+
+    kind: ControllerKind
+
+    def reset(self) -> None:
+        """Forget all internal state (integrators, holds); the next armed update re-arms."""
+
+    def update(self, state: VehicleState, command: ActiveCommand, dt_s: float) -> RotorForces:
+        """Rotor forces (N) for this control step."""
+
+    def describe(self) -> dict[str, Any]:
+        """The controller's name and every gain, as plain data for recordings."""
+
+
+def make_controller(kind: ControllerKind, vehicle: VehicleParams) -> Controller:
+    if kind is ControllerKind.CASCADE:
+        from quadsim.control.cascade import CascadeController
+
+        return CascadeController(vehicle)
+    from quadsim.control.seed import SeedController
+
+    return SeedController(vehicle)

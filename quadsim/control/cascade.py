@@ -1,0 +1,215 @@
+"""The cascade controller: velocity -> attitude (thrust direction) -> body rate -> mixer.
+
+Each axis either tracks the commanded rate (horizontal velocity in the heading frame, climb
+rate, yaw rate) or, when that part of the command is zero or the dead-man has fired, holds
+what it had once the vehicle has slowed down (position, altitude, heading). Hover thrust is fed
+forward; tilt, climb rate and body rates are saturated; integrators stop while saturated.
+
+The update is written with plain floats, not numpy: at 240 Hz it is the hot path.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import asdict, dataclass
+from typing import Any
+
+from quadsim.control import ControllerKind
+from quadsim.messages import HEIGHT_MODE_BASE_M, ActiveCommand, RotorForces, VehicleState, ZMode
+from quadsim.mixer import Mixer
+from quadsim.vehicle import VehicleParams
+
+_IDLE: RotorForces = (0.0, 0.0, 0.0, 0.0)
+
+
+@dataclass(frozen=True)
+class CascadeGains:
+    """Gains and saturations of the cascade; units in the names (1/s is a loop bandwidth)."""
+
+    position_p_per_s: float = 1.2  # horizontal position hold -> velocity
+    altitude_p_per_s: float = 2.0  # altitude hold / height z-mode -> climb rate
+    heading_p_per_s: float = 2.5  # heading hold -> yaw rate
+    velocity_p_xy_per_s: float = 3.0  # velocity error -> acceleration
+    velocity_i_xy_per_s2: float = 1.5
+    velocity_p_z_per_s: float = 5.0
+    velocity_i_z_per_s2: float = 3.0
+    velocity_i_limit_mps2: float = 3.0
+    velocity_i_band_mps: float = 0.25  # integrate only near the set-point (no wind-up in transients)
+    attitude_p_per_s: float = 9.0  # tilt error -> roll/pitch rate
+    rate_p_rp_per_s: float = 28.0  # roll/pitch rate error -> angular acceleration
+    rate_p_yaw_per_s: float = 10.0
+    max_tilt_rad: float = 0.61  # 35 degrees
+    max_rate_rp_radps: float = 7.0
+    max_up_accel_mps2: float = 7.0
+    max_down_accel_mps2: float = 6.0
+    hold_latch_speed_mps: float = 0.08  # a hold is taken once the vehicle is slower than this
+    hold_latch_yaw_rate_radps: float = 0.05
+
+
+def _wrap(angle: float) -> float:
+    return (angle + math.pi) % (2.0 * math.pi) - math.pi
+
+
+class CascadeController:
+    kind = ControllerKind.CASCADE
+
+    def __init__(self, vehicle: VehicleParams, gains: CascadeGains = CascadeGains()) -> None:
+        self.vehicle = vehicle
+        self.gains = gains
+        self.mixer = Mixer(vehicle)
+        self._mass = vehicle.mass_kg
+        self._g = vehicle.gravity_mps2
+        self._jxx = vehicle.inertia_kgm2[0][0]
+        self._jyy = vehicle.inertia_kgm2[1][1]
+        self._jzz = vehicle.inertia_kgm2[2][2]
+        # drag feed-forward: the acceleration lost to body drag at the wanted velocity
+        self._drag_xy = vehicle.drag_coefficients_ns_per_m[0] / vehicle.mass_kg
+        self._drag_z = vehicle.drag_coefficients_ns_per_m[2] / vehicle.mass_kg
+        self._tan_tilt = math.tan(gains.max_tilt_rad)
+        self.reset()
+
+    def describe(self) -> dict[str, Any]:
+        return {"name": self.kind.value, "gains": asdict(self.gains)}
+
+    def reset(self) -> None:
+        self._armed = False
+        self._xy_hold: tuple[float, float] | None = None
+        self._z_hold: float | None = None
+        self._z_target: float | None = None
+        self._yaw_hold: float | None = None
+        self._ix = self._iy = self._iz = 0.0
+
+    def update(self, state: VehicleState, command: ActiveCommand, dt_s: float) -> RotorForces:
+        if not command.armed:
+            self._armed = False
+            return _IDLE
+        g = self.gains
+        px, py, pz = state.position_m
+        qx, qy, qz, qw = state.orientation_xyzw
+        vx, vy, vz = state.linear_velocity_mps
+        wp, wq, wr = state.angular_velocity_body_rps
+        if not self._armed:
+            self.reset()
+            self._armed = True
+            self._xy_hold = (px, py)
+            self._z_hold = pz
+            self._yaw_hold = None
+
+        # rotation world <- body
+        xx, yy, zz = qx * qx, qy * qy, qz * qz
+        xy, xz, yz, wx, wy, wz = qx * qy, qx * qz, qy * qz, qw * qx, qw * qy, qw * qz
+        r00, r01, r02 = 1.0 - 2.0 * (yy + zz), 2.0 * (xy - wz), 2.0 * (xz + wy)
+        r10, r11, r12 = 2.0 * (xy + wz), 1.0 - 2.0 * (xx + zz), 2.0 * (yz - wx)
+        r20, r21, r22 = 2.0 * (xz - wy), 2.0 * (yz + wx), 1.0 - 2.0 * (xx + yy)
+        yaw = math.atan2(r10, r00)
+
+        if command.hold:
+            ux = uy = uz = ur = 0.0
+        else:
+            tw = command.twist
+            ux, uy, uz, ur = tw.linear_x, tw.linear_y, tw.linear_z, tw.angular_z
+        latch2 = g.hold_latch_speed_mps * g.hold_latch_speed_mps
+        lim = self.vehicle.limits
+
+        # horizontal: track the commanded velocity (heading frame -> world), or hold position
+        if ux != 0.0 or uy != 0.0:
+            self._xy_hold = None
+            c, s = math.cos(yaw), math.sin(yaw)
+            vsx, vsy = c * ux - s * uy, s * ux + c * uy
+        else:
+            if self._xy_hold is None and vx * vx + vy * vy < latch2:
+                self._xy_hold = (px, py)
+            if self._xy_hold is not None:
+                vsx = g.position_p_per_s * (self._xy_hold[0] - px)
+                vsy = g.position_p_per_s * (self._xy_hold[1] - py)
+                sp = math.hypot(vsx, vsy)
+                if sp > lim.max_horizontal_speed_mps:
+                    k = lim.max_horizontal_speed_mps / sp
+                    vsx, vsy = vsx * k, vsy * k
+            else:
+                vsx = vsy = 0.0
+
+        # vertical: climb rate, altitude hold, or the height z-mode's altitude
+        if command.z_mode is ZMode.HEIGHT:
+            self._z_hold = None
+            if not command.hold or self._z_target is None:
+                self._z_target = HEIGHT_MODE_BASE_M + uz if not command.hold else pz
+            vsz = g.altitude_p_per_s * (self._z_target - pz)
+        else:
+            self._z_target = None
+            if uz != 0.0:
+                self._z_hold = None
+                vsz = uz
+            else:
+                if self._z_hold is None and vz * vz < latch2:
+                    self._z_hold = pz
+                vsz = 0.0 if self._z_hold is None else g.altitude_p_per_s * (self._z_hold - pz)
+        if vsz > lim.max_climb_rate_mps:
+            vsz = lim.max_climb_rate_mps
+        elif vsz < -lim.max_descent_rate_mps:
+            vsz = -lim.max_descent_rate_mps
+
+        # yaw: track the commanded rate, or hold the heading
+        if ur != 0.0:
+            self._yaw_hold = None
+            rs = ur
+        else:
+            if self._yaw_hold is None and -g.hold_latch_yaw_rate_radps < wr < g.hold_latch_yaw_rate_radps:
+                self._yaw_hold = yaw
+            rs = 0.0 if self._yaw_hold is None else g.heading_p_per_s * _wrap(self._yaw_hold - yaw)
+
+        # velocity loop (world frame) -> wanted acceleration, with drag feed-forward
+        ex, ey, ez = vsx - vx, vsy - vy, vsz - vz
+        ax = g.velocity_p_xy_per_s * ex + self._ix + self._drag_xy * vsx
+        ay = g.velocity_p_xy_per_s * ey + self._iy + self._drag_xy * vsy
+        az = g.velocity_p_z_per_s * ez + self._iz + self._drag_z * vsz
+        sat_z = False
+        if az > g.max_up_accel_mps2:
+            az, sat_z = g.max_up_accel_mps2, True
+        elif az < -g.max_down_accel_mps2:
+            az, sat_z = -g.max_down_accel_mps2, True
+        a_max = (az + self._g) * self._tan_tilt  # the tilt limit, as a horizontal acceleration
+        ah = math.hypot(ax, ay)
+        sat_xy = ah > a_max
+        if sat_xy:
+            k = a_max / ah
+            ax, ay = ax * k, ay * k
+        # anti-windup: integrate only while the output is not saturated and the error is small
+        # (a transient's large error would otherwise wind the integrator up and overshoot)
+        ilim, band = g.velocity_i_limit_mps2, g.velocity_i_band_mps
+        if not sat_xy and -band < ex < band and -band < ey < band:
+            self._ix = max(-ilim, min(ilim, self._ix + g.velocity_i_xy_per_s2 * ex * dt_s))
+            self._iy = max(-ilim, min(ilim, self._iy + g.velocity_i_xy_per_s2 * ey * dt_s))
+        if not sat_z and -band < ez < band:
+            self._iz = max(-ilim, min(ilim, self._iz + g.velocity_i_z_per_s2 * ez * dt_s))
+
+        # thrust vector -> collective thrust along the current body z, and the wanted body z
+        m = self._mass
+        fx, fy, fz = m * ax, m * ay, m * (az + self._g)
+        thrust = fx * r02 + fy * r12 + fz * r22
+        if thrust < 0.0:
+            thrust = 0.0
+        norm = math.sqrt(fx * fx + fy * fy + fz * fz)
+        bx, by, bz = fx / norm, fy / norm, fz / norm
+        # wanted body z expressed in the body frame; tilt error about e3 x d
+        dx = r00 * bx + r10 * by + r20 * bz
+        dy = r01 * bx + r11 * by + r21 * bz
+        dz = r02 * bx + r12 * by + r22 * bz
+        sin_t = math.sqrt(dx * dx + dy * dy)
+        k_att = g.attitude_p_per_s * (math.atan2(sin_t, dz) / sin_t if sin_t > 1e-9 else 1.0)
+        ps, qs = -k_att * dy, k_att * dx
+        mr = g.max_rate_rp_radps
+        ps = -mr if ps < -mr else (mr if ps > mr else ps)
+        qs = -mr if qs < -mr else (mr if qs > mr else qs)
+        my = lim.max_yaw_rate_radps
+        rs = -my if rs < -my else (my if rs > my else rs)
+
+        # rate loop -> body torques (with the gyroscopic term), then the mixer
+        ap = g.rate_p_rp_per_s * (ps - wp)
+        aq = g.rate_p_rp_per_s * (qs - wq)
+        ar = g.rate_p_yaw_per_s * (rs - wr)
+        jxx, jyy, jzz = self._jxx, self._jyy, self._jzz
+        tx = jxx * ap + (jzz - jyy) * wq * wr
+        ty = jyy * aq + (jxx - jzz) * wp * wr
+        tz = jzz * ar + (jyy - jxx) * wp * wq
+        return self.mixer.to_rotor_forces(thrust, tx, ty, tz)

@@ -1,0 +1,178 @@
+"""A port of the original V-REP quadricopter Twist controller (../shared/seed/controller.lua).
+
+The structure, gains and mixer pattern are the original's:
+    altitude PID around the hover command 5.335 with a vertical-velocity term;
+    velocity errors in the heading frame fed into PD corrections of the body's two tilt angles;
+    a yaw-rate loop; and m1 = T(1-a+b+r), m2 = T(1-a-b-r), m3 = T(1+a-b+r), m4 = T(1+a+b-r).
+
+Mapping to an explicit time step. The original ran once per V-REP step, DT_REF = 50 ms (V-REP's
+default), and its difference terms are only right at that step. Here, at any control step dt:
+    cumul = cumul + e                 ->  cumul += e * dt / DT_REF        (same integral)
+    k * (x - x_prev)                  ->  k * (x - x_prev) * DT_REF / dt  (same derivative)
+so the loop has the same gains in continuous time and stays stable at 240 Hz.
+
+Units. The original's outputs are propeller commands of the V-REP model, whose hover value is
+5.335. They are mapped linearly to newtons, 5.335 -> this vehicle's hover thrust per rotor,
+so every gain keeps its meaning as a fraction of hover thrust.
+
+Rotor numbering (from the signs of the mixer): 1 front-left CCW, 2 rear-left CW, 3 rear-right CCW,
+4 front-right CW; the vehicle must have that layout (checked at construction).
+
+Angles. The original reads the body's Euler angles relative to a frame that follows only its
+heading, with V-REP's X-Y-Z convention (R = Rx(alpha) Ry(beta) Rz(gamma)); the heading is the
+gamma of the body's own X-Y-Z angles. Both are computed the same way here.
+
+z-modes. In `height` mode linear.z is, as in the original, an offset above 2 m. In `velocity`
+mode the height reference integrates linear.z (the original had no such mode).
+When the dead-man holds, the velocity and yaw-rate references are zero and the height stands.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import asdict, dataclass
+from typing import Any
+
+from quadsim.control import ControllerKind
+from quadsim.errors import ConfigError
+from quadsim.messages import HEIGHT_MODE_BASE_M, ActiveCommand, RotorForces, VehicleState, ZMode
+from quadsim.vehicle import Spin, VehicleParams
+
+DT_REF_S = 0.05  # the V-REP simulation step the original's difference terms assumed
+HOVER_COMMAND = 5.335  # the original's hover propeller command
+
+_IDLE: RotorForces = (0.0, 0.0, 0.0, 0.0)
+
+
+@dataclass(frozen=True)
+class SeedGains:
+    """The original script's constants, unchanged."""
+
+    p: float = 2.0  # pParam
+    i: float = 0.001  # iParam (per DT_REF step)
+    d: float = 0.001  # dParam (per DT_REF step)
+    v: float = -2.0  # vParam
+    attitude_p: float = 0.25
+    attitude_d: float = 2.1  # per DT_REF step
+    velocity_p: float = 0.05
+    velocity_d: float = 0.05  # per DT_REF step
+    yaw_p: float = 1.0
+    yaw_d: float = 1.0  # per DT_REF step
+
+
+def _check_layout(vehicle: VehicleParams) -> None:
+    expected = ((1, 1, Spin.CCW), (-1, 1, Spin.CW), (-1, -1, Spin.CCW), (1, -1, Spin.CW))
+    for rotor, (sx, sy, spin) in zip(vehicle.rotors, expected):
+        x, y, _ = rotor.position_m
+        if x * sx <= 0 or y * sy <= 0 or rotor.spin is not spin:
+            raise ConfigError(
+                f"{vehicle.params_path}: the seed controller needs the original rotor layout "
+                f"(1 front-left ccw, 2 rear-left cw, 3 rear-right ccw, 4 front-right cw); "
+                f"{rotor.link_name} is at x={x:.3f}, y={y:.3f}, {rotor.spin.value}")
+
+
+class SeedController:
+    kind = ControllerKind.SEED
+
+    def __init__(self, vehicle: VehicleParams, gains: SeedGains = SeedGains()) -> None:
+        _check_layout(vehicle)
+        self.vehicle = vehicle
+        self.gains = gains
+        self._newton_per_command = vehicle.hover_thrust_per_rotor_n / HOVER_COMMAND
+        self._max = vehicle.max_thrust_n
+        self.reset()
+
+    def describe(self) -> dict[str, Any]:
+        return {"name": self.kind.value, "gains": asdict(self.gains), "dt_ref_s": DT_REF_S,
+                "hover_command": HOVER_COMMAND, "newton_per_command": self._newton_per_command}
+
+    def reset(self) -> None:
+        self._armed = False
+        self._height: float | None = None
+        self._cumul = 0.0
+        self._last_e = 0.0
+        self._p_alpha = self._p_beta = 0.0
+        self._old_vx = self._old_vy = 0.0
+        self._old_wz = 0.0
+
+    def update(self, state: VehicleState, command: ActiveCommand, dt_s: float) -> RotorForces:
+        if not command.armed:
+            self._armed = False
+            return _IDLE
+        gn = self.gains
+        px, py, pz = state.position_m
+        qx, qy, qz, qw = state.orientation_xyzw
+        vx, vy, vz = state.linear_velocity_mps
+        bp, bq, br = state.angular_velocity_body_rps
+        if not self._armed:
+            self.reset()
+            self._armed = True
+            self._height = pz
+        k = DT_REF_S / dt_s  # differences per control step -> per original step
+
+        xx, yy, zz = qx * qx, qy * qy, qz * qz
+        xy, xz, yz, wx, wy, wz = qx * qy, qx * qz, qy * qz, qw * qx, qw * qy, qw * qz
+        r00, r01, r02 = 1.0 - 2.0 * (yy + zz), 2.0 * (xy - wz), 2.0 * (xz + wy)
+        r10, r11, r12 = 2.0 * (xy + wz), 1.0 - 2.0 * (xx + zz), 2.0 * (yz - wx)
+        r20, r21, r22 = 2.0 * (xz - wy), 2.0 * (yz + wx), 1.0 - 2.0 * (xx + yy)
+
+        # heading: gamma of the body's X-Y-Z Euler angles; velocities in the heading frame
+        gamma = math.atan2(-r01, r00)
+        cg, sg = math.cos(gamma), math.sin(gamma)
+        vel_local_x = cg * vx + sg * vy
+        vel_local_y = -sg * vx + cg * vy
+        vel_local_z = vz
+        # attitude relative to the heading frame: M = Rz(gamma)^T R, X-Y-Z angles of M
+        m02 = cg * r02 + sg * r12
+        m12 = -sg * r02 + cg * r12
+        m22 = r22
+        alpha = math.atan2(-m12, m22)
+        beta = math.asin(-1.0 if m02 < -1.0 else (1.0 if m02 > 1.0 else m02))
+        wz_world = r20 * bp + r21 * bq + r22 * br  # V-REP's vel_ang[3] is in the world frame
+
+        if command.hold:
+            ref_vx = ref_vy = ref_wz = 0.0
+        else:
+            tw = command.twist
+            ref_vx, ref_vy, ref_wz = tw.linear_x, tw.linear_y, tw.angular_z
+            if command.z_mode is ZMode.HEIGHT:
+                self._height = HEIGHT_MODE_BASE_M + tw.linear_z
+            else:
+                lim = self.vehicle.limits
+                h = self._height + tw.linear_z * dt_s  # type: ignore[operator]
+                self._height = max(lim.min_altitude_m, min(lim.max_altitude_m, h)) if tw.linear_z else h
+        height = self._height
+
+        # vertical control
+        e = height - pz  # type: ignore[operator]
+        self._cumul += e / k
+        thrust = HOVER_COMMAND + gn.p * e + gn.i * self._cumul + gn.d * (e - self._last_e) * k + vel_local_z * gn.v
+        self._last_e = e
+
+        # horizontal control
+        vel_error_x = ref_vx - vel_local_x
+        vel_error_y = ref_vy - vel_local_y
+        alpha_e = alpha
+        alpha_corr = gn.attitude_p * alpha_e + gn.attitude_d * (alpha_e - self._p_alpha) * k
+        beta_e = -beta
+        beta_corr = -gn.attitude_p * beta_e - gn.attitude_d * (beta_e - self._p_beta) * k
+        self._p_alpha, self._p_beta = alpha_e, beta_e
+        alpha_corr += vel_error_y * gn.velocity_p + (vel_local_y - self._old_vy) * gn.velocity_d * k
+        beta_corr -= vel_error_x * gn.velocity_p + (vel_local_x - self._old_vx) * gn.velocity_d * k
+        self._old_vx, self._old_vy = vel_local_x, vel_local_y
+
+        # rotational (yaw-rate) control
+        rot_corr = -(ref_wz - wz_world) * gn.yaw_p - (wz_world - self._old_wz) * gn.yaw_d * k
+        self._old_wz = wz_world
+
+        scale, top = self._newton_per_command, self._max
+        m1 = thrust * (1.0 - alpha_corr + beta_corr + rot_corr) * scale
+        m2 = thrust * (1.0 - alpha_corr - beta_corr - rot_corr) * scale
+        m3 = thrust * (1.0 + alpha_corr - beta_corr + rot_corr) * scale
+        m4 = thrust * (1.0 + alpha_corr + beta_corr - rot_corr) * scale
+        return (
+            0.0 if m1 < 0.0 else (top if m1 > top else m1),
+            0.0 if m2 < 0.0 else (top if m2 > top else m2),
+            0.0 if m3 < 0.0 else (top if m3 > top else m3),
+            0.0 if m4 < 0.0 else (top if m4 > top else m4),
+        )

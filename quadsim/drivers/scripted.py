@@ -1,0 +1,154 @@
+"""The scripted driver: a timeline of Twist commands from a small text format.
+
+Script format (one statement per line; `#` starts a comment):
+
+    z_mode height            # optional: velocity (default) or height; --z-mode overrides it
+    2.5  linear.z=0          # DURATION_S then FIELD=VALUE...: publish this Twist for 2.5 s
+    3.0  linear.x=1.0 angular.z=0.5
+    1.0                      # no fields: a zero Twist (hover in place)
+    silence 2.0              # publish nothing for 2 s (the dead-man timeout then holds)
+
+Fields are `linear.x linear.y linear.z angular.x angular.y angular.z` (units of DESIGN.md:
+m/s, m/s or m, rad/s); unnamed fields are zero. Segments follow one another; the script lasts
+the sum of their durations. Commands are published at the input rate (20 Hz by default),
+each segment from the first poll at or after its start time.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from importlib import resources
+from pathlib import Path
+from typing import Any
+
+from quadsim.errors import ScriptError
+from quadsim.messages import Twist, ZMode
+
+_FIELDS = ("linear.x", "linear.y", "linear.z", "angular.x", "angular.y", "angular.z")
+
+
+@dataclass(frozen=True)
+class Segment:
+    duration_s: float
+    twist: Twist | None  # None: silence
+
+
+@dataclass(frozen=True)
+class Script:
+    name: str
+    segments: tuple[Segment, ...]
+    z_mode: ZMode | None  # what the script asks for; None: the run's default
+    source: str  # the script's text, kept so a recording can fly it again
+
+    @property
+    def duration_s(self) -> float:
+        return sum(s.duration_s for s in self.segments)
+
+
+def parse_script(text: str, name: str = "<script>") -> Script:
+    """Parse the script format; raises ScriptError naming the line at fault."""
+    segments: list[Segment] = []
+    z_mode: ZMode | None = None
+    for lineno, raw in enumerate(text.splitlines(), start=1):
+        line = raw.split("#", 1)[0].strip()
+        if not line:
+            continue
+        where = f"{name}, line {lineno}"
+        words = line.split()
+        head = words[0].lower()
+        if head == "z_mode":
+            if len(words) != 2 or words[1].lower() not in ("velocity", "height"):
+                raise ScriptError(f"{where}: expected 'z_mode velocity' or 'z_mode height', got {line!r}")
+            z_mode = ZMode(words[1].lower())
+            continue
+        silence = head == "silence"
+        if silence:
+            words = words[1:]
+            if len(words) != 1:
+                raise ScriptError(f"{where}: expected 'silence DURATION_S', got {line!r}")
+        duration = _number(words[0], where, "duration")
+        if duration <= 0:
+            raise ScriptError(f"{where}: duration must be > 0 s, got {words[0]}")
+        values = dict.fromkeys(_FIELDS, 0.0)
+        for word in words[1:]:
+            key, sep, value = word.partition("=")
+            if not sep or key not in values:
+                raise ScriptError(f"{where}: expected FIELD=VALUE with FIELD one of {', '.join(_FIELDS)}, got {word!r}")
+            values[key] = _number(value, where, key)
+        segments.append(Segment(duration, None if silence else Twist(*values.values())))
+    if not segments:
+        raise ScriptError(f"{name}: the script has no command lines")
+    return Script(name, tuple(segments), z_mode, text)
+
+
+def _number(text: str, where: str, what: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        raise ScriptError(f"{where}: {what} must be a number, got {text!r}") from None
+    if not math.isfinite(value):
+        raise ScriptError(f"{where}: {what} must be finite, got {text!r}")
+    return value
+
+
+def builtin_scenarios() -> dict[str, str]:
+    """Names of the shipped scenarios and their first comment line."""
+    out = {}
+    for entry in sorted(resources.files("quadsim.scenarios").iterdir(), key=lambda e: e.name):
+        if entry.name.endswith(".qscript"):
+            first = entry.read_text().splitlines()[0].lstrip("# ").strip()
+            out[entry.name[: -len(".qscript")]] = first
+    return out
+
+
+def load_script(name_or_path: str) -> Script:
+    """A built-in scenario by name, or a script file by path."""
+    path = Path(name_or_path)
+    if path.suffix or path.exists() or "/" in name_or_path:
+        if not path.is_file():
+            raise ScriptError(f"script file not found: {name_or_path}")
+        try:
+            text = path.read_text()
+        except (OSError, UnicodeDecodeError) as exc:
+            raise ScriptError(f"cannot read script {name_or_path}: {exc}") from None
+        return parse_script(text, str(path))
+    scenarios = builtin_scenarios()
+    if name_or_path not in scenarios:
+        raise ScriptError(f"unknown scenario {name_or_path!r}; built-in scenarios: {', '.join(scenarios)} (or give a script file path)")
+    text = resources.files("quadsim.scenarios").joinpath(name_or_path + ".qscript").read_text()
+    return parse_script(text, name_or_path)
+
+
+class ScriptedDriver:
+    """Plays a Script: at each poll, the Twist of the segment the time falls in."""
+
+    name = "scripted"
+
+    def __init__(self, script: Script) -> None:
+        self.script = script
+        ends, t = [], 0.0
+        for seg in script.segments:
+            t += seg.duration_s
+            ends.append(t)
+        self._ends = tuple(ends)
+        self._index = 0
+        self._finished = False
+
+    def poll(self, step: int, time_s: float) -> Twist | None:
+        ends = self._ends
+        # a small tolerance keeps a boundary at 2.0 s from landing on 1.99999 by float sums
+        while self._index < len(ends) and time_s >= ends[self._index] - 1e-9:
+            self._index += 1
+        if self._index >= len(ends):
+            self._finished = True
+            return None
+        return self.script.segments[self._index].twist
+
+    @property
+    def finished(self) -> bool:
+        return self._finished
+
+    def describe(self) -> dict[str, Any]:
+        return {"name": self.name, "script": self.script.name, "source": self.script.source,
+                "z_mode": self.script.z_mode.value if self.script.z_mode else None}

@@ -1,0 +1,213 @@
+"""Physics: the PyBullet world, the vehicle body, its motors and the forces applied each step.
+
+Holds no controller and no gains: it takes four commanded rotor forces per step and returns
+the vehicle's state. It is the only flight module that imports pybullet.
+"""
+
+from __future__ import annotations
+
+import os
+from dataclasses import dataclass
+
+import pybullet as pb
+
+from quadsim.errors import ConfigError, QuadsimError
+from quadsim.messages import RotorForces, VehicleState
+from quadsim.motors import MotorBank
+from quadsim.vehicle import VehicleParams
+from quadsim.world import Shape, WorldSpec
+
+#: Clearance above the ground the vehicle is placed at, so it starts just resting on the floor.
+_SPAWN_CLEARANCE_M = 0.001
+
+
+@dataclass(frozen=True)
+class StartPose:
+    x_m: float = 0.0
+    y_m: float = 0.0
+    yaw_rad: float = 0.0
+
+
+class PhysicsWorld:
+    """A PyBullet client with the world and one vehicle in it. Composition, not inheritance:
+    the client is private, and only what the simulator needs is exposed.
+
+    Every `step`: the motors move toward the commanded forces; each rotor's force is applied at
+    its link along body z; the summed yaw reaction torque on a rotor link in its own frame (see
+    STYLE.md on the base-link torque frame bug); linear body drag at the base; then one
+    `stepSimulation`. PyBullet clears external forces after each step, so all are re-applied.
+    """
+
+    def __init__(self, vehicle: VehicleParams, world: WorldSpec, physics_hz: int,
+                 start: StartPose = StartPose(), gui: bool = False) -> None:
+        if gui and not os.environ.get("DISPLAY") and os.name != "nt":
+            raise QuadsimError("--gui needs a display (DISPLAY is not set); run without --gui")
+        self.vehicle = vehicle
+        self.dt_s = 1.0 / physics_hz
+        self._cid = pb.connect(pb.GUI if gui else pb.DIRECT)
+        if self._cid < 0:
+            raise QuadsimError("could not start PyBullet" + (" with a GUI" if gui else ""))
+        self._gui = gui
+        cid = self._cid
+        pb.setGravity(0.0, 0.0, -vehicle.gravity_mps2, physicsClientId=cid)
+        pb.setTimeStep(self.dt_s, physicsClientId=cid)
+        pb.setPhysicsEngineParameter(deterministicOverlappingPairs=1, physicsClientId=cid)
+        if gui:
+            pb.configureDebugVisualizer(pb.COV_ENABLE_GUI, 0, physicsClientId=cid)
+        self.landmark_ids = self._build_world(world)
+        self.start = start
+        try:
+            self.body_id = pb.loadURDF(
+                str(vehicle.urdf_path), self._spawn_position(), self._spawn_orientation(),
+                flags=pb.URDF_USE_INERTIA_FROM_FILE, physicsClientId=cid)
+        except pb.error as exc:
+            raise ConfigError(f"PyBullet could not load {vehicle.urdf_path}: {exc}") from None
+        links = {pb.getJointInfo(self.body_id, i, physicsClientId=cid)[12].decode(): i
+                 for i in range(pb.getNumJoints(self.body_id, physicsClientId=cid))}
+        self.link_index = links
+        self._rotor_links = tuple(links[r.link_name] for r in vehicle.rotors)
+        # reaction torque per newton on each rotor, about body z (CCW rotor -> negative yaw)
+        c = vehicle.yaw_torque_per_thrust_m
+        self._yaw_per_n = tuple(-r.spin.sign * c for r in vehicle.rotors)
+        self._drag = vehicle.drag_coefficients_ns_per_m
+        self.motors = MotorBank(vehicle.motor_time_constant_s, vehicle.max_thrust_n, self.dt_s)
+        self.step_count = 0
+        self._read_kinematics()
+
+    # --- building ---------------------------------------------------------------------------
+
+    def _spawn_position(self) -> tuple[float, float, float]:
+        aabb_min_z = self._resting_height()
+        return (self.start.x_m, self.start.y_m, aabb_min_z + _SPAWN_CLEARANCE_M)
+
+    def _spawn_orientation(self) -> tuple[float, float, float, float]:
+        return tuple(pb.getQuaternionFromEuler((0.0, 0.0, self.start.yaw_rad)))  # type: ignore[return-value]
+
+    def _resting_height(self) -> float:
+        """Height of base_link above the floor when the vehicle rests on its collision shape."""
+        if not hasattr(self, "_rest_z"):
+            probe = pb.loadURDF(str(self.vehicle.urdf_path), (0, 0, 10.0), physicsClientId=self._cid)
+            lo = min(pb.getAABB(probe, i, physicsClientId=self._cid)[0][2]
+                     for i in range(-1, pb.getNumJoints(probe, physicsClientId=self._cid))
+                     if pb.getCollisionShapeData(probe, i, physicsClientId=self._cid))
+            pb.removeBody(probe, physicsClientId=self._cid)
+            self._rest_z = 10.0 - lo
+        return self._rest_z
+
+    def _build_world(self, world: WorldSpec) -> dict[str, int]:
+        cid = self._cid
+        half = world.floor.size_m / 2.0
+        reps = world.floor.size_m / world.floor.texture_tile_m
+        floor_col = pb.createCollisionShape(pb.GEOM_PLANE, physicsClientId=cid)
+        floor_vis = pb.createVisualShape(
+            pb.GEOM_MESH,
+            vertices=[(-half, -half, 0.0), (half, -half, 0.0), (half, half, 0.0), (-half, half, 0.0)],
+            indices=[0, 1, 2, 0, 2, 3],
+            uvs=[(0.0, 0.0), (reps, 0.0), (reps, reps), (0.0, reps)],
+            normals=[(0.0, 0.0, 1.0)] * 4,
+            physicsClientId=cid)
+        floor = pb.createMultiBody(0.0, floor_col, floor_vis, physicsClientId=cid)
+        pb.changeDynamics(floor, -1, lateralFriction=world.floor.friction, physicsClientId=cid)
+        if world.floor.texture_path is not None:
+            tex = pb.loadTexture(str(world.floor.texture_path), physicsClientId=cid)
+            pb.changeVisualShape(floor, -1, textureUniqueId=tex, rgbaColor=(1, 1, 1, 1), physicsClientId=cid)
+        ids = {"floor": floor}
+        for lm in world.landmarks:
+            sx, sy, sz = lm.size_m
+            if lm.shape is Shape.BOX:
+                geom = {"shapeType": pb.GEOM_BOX, "halfExtents": (sx / 2, sy / 2, sz / 2)}
+                vis = pb.createVisualShape(rgbaColor=lm.color_rgba, physicsClientId=cid, **geom)
+                col = pb.createCollisionShape(physicsClientId=cid, **geom) if lm.collision else -1
+            elif lm.shape is Shape.CYLINDER:
+                vis = pb.createVisualShape(pb.GEOM_CYLINDER, radius=sx, length=sz, rgbaColor=lm.color_rgba, physicsClientId=cid)
+                col = pb.createCollisionShape(pb.GEOM_CYLINDER, radius=sx, height=sz, physicsClientId=cid) if lm.collision else -1
+            else:
+                vis = pb.createVisualShape(pb.GEOM_SPHERE, radius=sx, rgbaColor=lm.color_rgba, physicsClientId=cid)
+                col = pb.createCollisionShape(pb.GEOM_SPHERE, radius=sx, physicsClientId=cid) if lm.collision else -1
+            ids[lm.name] = pb.createMultiBody(0.0, col, vis, basePosition=lm.position_m, physicsClientId=cid)
+        return ids
+
+    # --- stepping ---------------------------------------------------------------------------
+
+    def reset(self) -> None:
+        """Put the vehicle back at its start pose, at rest, rotors stopped."""
+        pb.resetBasePositionAndOrientation(self.body_id, self._spawn_position(), self._spawn_orientation(), physicsClientId=self._cid)
+        pb.resetBaseVelocity(self.body_id, (0.0, 0.0, 0.0), (0.0, 0.0, 0.0), physicsClientId=self._cid)
+        self.motors.reset()
+        self.step_count = 0
+        self._read_kinematics()
+
+    def step(self, command_n: RotorForces) -> None:
+        """Advance one physics step with the given commanded rotor forces (N)."""
+        body, cid = self.body_id, self._cid
+        f = self.motors.advance(command_n)
+        r0, r1, r2, r3 = self._rotor_links
+        link_frame = pb.LINK_FRAME
+        origin = (0.0, 0.0, 0.0)
+        pb.applyExternalForce(body, r0, (0.0, 0.0, f[0]), origin, link_frame, physicsClientId=cid)
+        pb.applyExternalForce(body, r1, (0.0, 0.0, f[1]), origin, link_frame, physicsClientId=cid)
+        pb.applyExternalForce(body, r2, (0.0, 0.0, f[2]), origin, link_frame, physicsClientId=cid)
+        pb.applyExternalForce(body, r3, (0.0, 0.0, f[3]), origin, link_frame, physicsClientId=cid)
+        y0, y1, y2, y3 = self._yaw_per_n
+        # the rotor links share base_link's axes, so a torque about rotor z is one about body z
+        pb.applyExternalTorque(body, r0, (0.0, 0.0, y0 * f[0] + y1 * f[1] + y2 * f[2] + y3 * f[3]),
+                               link_frame, physicsClientId=cid)
+        # drag: velocity into base_link, -c v per axis, applied at the base in its own frame
+        (m00, m01, m02), (m10, m11, m12), (m20, m21, m22) = self._rotation
+        vx, vy, vz = self._linear_velocity
+        cx, cy, cz = self._drag
+        pb.applyExternalForce(
+            body, -1,
+            (-cx * (m00 * vx + m10 * vy + m20 * vz),
+             -cy * (m01 * vx + m11 * vy + m21 * vz),
+             -cz * (m02 * vx + m12 * vy + m22 * vz)),
+            origin, link_frame, physicsClientId=cid)
+        pb.stepSimulation(physicsClientId=cid)
+        self.step_count += 1
+        self._read_kinematics()
+
+    def _read_kinematics(self) -> None:
+        cid = self._cid
+        self._position, self._orientation = pb.getBasePositionAndOrientation(self.body_id, physicsClientId=cid)
+        self._linear_velocity, self._angular_velocity = pb.getBaseVelocity(self.body_id, physicsClientId=cid)
+        x, y, z, w = self._orientation
+        xx, yy, zz, xy, xz, yz, wx, wy, wz = x * x, y * y, z * z, x * y, x * z, y * z, w * x, w * y, w * z
+        self._rotation = (
+            (1.0 - 2.0 * (yy + zz), 2.0 * (xy - wz), 2.0 * (xz + wy)),
+            (2.0 * (xy + wz), 1.0 - 2.0 * (xx + zz), 2.0 * (yz - wx)),
+            (2.0 * (xz - wy), 2.0 * (yz + wx), 1.0 - 2.0 * (xx + yy)),
+        )
+
+    def state(self) -> VehicleState:
+        """The vehicle's state after the last step (body rates in base_link)."""
+        (m00, m01, m02), (m10, m11, m12), (m20, m21, m22) = self._rotation
+        wx, wy, wz = self._angular_velocity
+        return VehicleState(
+            self.step_count,
+            self._position,
+            self._orientation,
+            self._linear_velocity,
+            (m00 * wx + m10 * wy + m20 * wz, m01 * wx + m11 * wy + m21 * wz, m02 * wx + m12 * wy + m22 * wz),
+            self.motors.thrusts_n,
+        )
+
+    # --- lifetime ---------------------------------------------------------------------------
+
+    @property
+    def client_id(self) -> int:
+        """The PyBullet client, for components that render from it (cameras)."""
+        return self._cid
+
+    def close(self) -> None:
+        if self._cid >= 0:
+            try:
+                pb.disconnect(physicsClientId=self._cid)
+            except pb.error:
+                pass
+            self._cid = -1
+
+    def __enter__(self) -> "PhysicsWorld":
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
