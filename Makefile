@@ -14,7 +14,7 @@ $(STAMP): pyproject.toml
 
 ## fly: set up, then fly (with no display: record a scripted demo flight and say so)
 fly: $(STAMP)
-	$(PY) main.py demo
+	$(PY) main.py fly
 
 ## test: set up, then run the whole test suite headless
 test: $(STAMP)

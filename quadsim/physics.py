@@ -9,7 +9,7 @@ from __future__ import annotations
 import os
 from dataclasses import dataclass
 
-import pybullet as pb
+from quadsim.pybullet_import import pb
 
 from quadsim.errors import ConfigError, QuadsimError
 from quadsim.messages import RotorForces, VehicleState

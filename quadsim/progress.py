@@ -1,0 +1,43 @@
+"""A small progress bar for long headless work, on stderr, that stays quiet when not a terminal."""
+
+from __future__ import annotations
+
+import sys
+import time
+from typing import TextIO
+
+
+class ProgressBar:
+    """Redraws at most ten times a second on a terminal; elsewhere prints a line per quarter."""
+
+    def __init__(self, total: float, label: str, stream: TextIO | None = None, unit: str = "s") -> None:
+        self.total = total
+        self.label = label
+        self.unit = unit
+        self.stream = stream if stream is not None else sys.stderr
+        self._tty = hasattr(self.stream, "isatty") and self.stream.isatty()
+        self._last_draw = 0.0
+        self._next_quarter = 0.25
+
+    def update(self, done: float, extra: str = "") -> None:
+        frac = 0.0 if self.total <= 0 else min(1.0, done / self.total)
+        if self._tty:
+            now = time.monotonic()
+            if now - self._last_draw < 0.1 and frac < 1.0:
+                return
+            self._last_draw = now
+            width = 30
+            filled = int(frac * width)
+            bar = "#" * filled + "-" * (width - filled)
+            self.stream.write(f"\r{self.label} [{bar}] {done:7.1f}/{self.total:.1f} {self.unit} {extra}")
+            self.stream.flush()
+        elif frac >= self._next_quarter:
+            while frac >= self._next_quarter:
+                self._next_quarter += 0.25
+            self.stream.write(f"{self.label}: {frac * 100:3.0f}% ({done:.1f}/{self.total:.1f} {self.unit}) {extra}\n")
+            self.stream.flush()
+
+    def close(self) -> None:
+        if self._tty:
+            self.stream.write("\n")
+            self.stream.flush()

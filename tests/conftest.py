@@ -1,0 +1,15 @@
+"""Shared fixtures. Tests run headless: PyBullet DIRECT, SDL dummy drivers."""
+
+import os
+
+import pytest
+
+os.environ.setdefault("SDL_VIDEODRIVER", "dummy")
+os.environ.setdefault("SDL_AUDIODRIVER", "dummy")
+
+
+@pytest.fixture(scope="session")
+def vehicle():
+    from quadsim.vehicle import load_vehicle
+
+    return load_vehicle()

@@ -1,0 +1,80 @@
+"""The CLI as a user meets it: a summary after a run, one-line errors with exit code 2."""
+
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parent.parent
+
+
+def cli(*args: str, cwd: Path = ROOT) -> subprocess.CompletedProcess:
+    return subprocess.run([sys.executable, str(ROOT / "main.py"), *args], capture_output=True, text=True, cwd=cwd,
+                          env={"PATH": "/usr/bin:/bin", "SDL_VIDEODRIVER": "dummy", "PYTHONPATH": str(ROOT)})
+
+
+def test_run_prints_summary():
+    out = cli("run", "--script", "square")
+    assert out.returncode == 0, out.stderr
+    text = out.stdout
+    assert "real-time factor" in text and "distance flown" in text
+    final = next(line for line in text.splitlines() if line.startswith("final pose"))
+    x = float(final.split("x=")[1].split()[0])
+    z = float(final.split("z=")[1].split()[0])
+    assert abs(x) < 0.2 and abs(z - 2.0) < 0.05  # the square returns to its start at 2 m
+    assert "100%" in out.stderr  # progress was shown
+
+
+def test_run_with_seed_and_duration():
+    out = cli("run", "--script", "takeoff", "--controller", "seed", "--duration", "2")
+    assert out.returncode == 0, out.stderr
+    assert "sim time        2.00 s" in out.stdout and "controller seed" in out.stdout
+
+
+def _one_line_error(out: subprocess.CompletedProcess, *words: str) -> None:
+    assert out.returncode == 2
+    assert "Traceback" not in out.stderr
+    lines = [line for line in out.stderr.splitlines() if line.strip() and "pybullet build time" not in line]
+    assert len(lines) == 1, out.stderr
+    for w in words:
+        assert w in lines[0]
+
+
+def test_unknown_scenario():
+    _one_line_error(cli("run", "--script", "barrel-roll"), "unknown scenario", "square")
+
+
+def test_unparsable_script_names_line(tmp_path):
+    bad = tmp_path / "bad.qscript"
+    bad.write_text("z_mode height\n2.0 linear.z=0\n1.0 linear.x=one\n")
+    _one_line_error(cli("run", "--script", str(bad)), "line 3", "linear.x")
+
+
+def test_missing_script_file(tmp_path):
+    _one_line_error(cli("run", "--script", str(tmp_path / "none.qscript")), "not found")
+
+
+def test_rate_that_does_not_divide():
+    _one_line_error(cli("run", "--script", "hover", "--control-hz", "100"), "does not divide")
+
+
+def test_missing_urdf(tmp_path):
+    _one_line_error(cli("run", "--script", "hover", "--urdf", str(tmp_path / "ghost.urdf")), "URDF not found")
+
+
+@pytest.mark.parametrize("command", ["run", "fly", "scenarios", "evaluate", "bench"])
+def test_help_on_every_command(command):
+    out = cli(command, "--help")
+    assert out.returncode == 0 and "usage:" in out.stdout and len(out.stdout.splitlines()) > 3
+
+
+def test_fly_without_display_flies_demo_and_says_so():
+    out = cli("fly", "--duration", "3")
+    assert out.returncode == 0, out.stderr
+    assert "No display found" in out.stdout and "sim time        3.00 s" in out.stdout
+
+
+def test_scenarios_lists_builtins():
+    out = cli("scenarios")
+    assert out.returncode == 0 and "figure8" in out.stdout and "hover" in out.stdout

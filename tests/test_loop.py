@@ -1,0 +1,77 @@
+"""The loop owns the step count and the rates; the dead-man timeout applies to scripted input."""
+
+import pytest
+
+from quadsim import ConfigError, Rates, SimConfig, Simulator, StateLog, Twist, ZMode
+from quadsim.drivers.scripted import ScriptedDriver, parse_script
+
+
+def test_rates_must_divide_physics_rate():
+    with pytest.raises(ConfigError, match="control_hz=100 Hz does not divide the physics rate 240 Hz"):
+        Rates(control_hz=100)
+    with pytest.raises(ConfigError, match="state_hz"):
+        Rates(state_hz=50)
+    with pytest.raises(ConfigError, match="positive whole number"):
+        Rates(input_hz=0)
+
+
+def test_published_states_follow_the_state_rate():
+    with Simulator(SimConfig(rates=Rates(state_hz=30))) as sim:
+        log = StateLog()
+        sim.add_sink(log)
+        sim.run_for(1.0)
+        assert sim.step_count == 240
+        assert [s.step for s in log.states] == list(range(8, 241, 8))
+
+
+def test_commands_are_stamped_at_the_input_rate():
+    script = parse_script("z_mode height\n1.0 linear.z=0\n", "t")
+    with Simulator(SimConfig(z_mode=ZMode.HEIGHT), ScriptedDriver(script)) as sim:
+        log = StateLog()
+        sim.add_sink(log)
+        sim.run_for(1.0)
+        assert [step for step, _ in log.commands] == list(range(0, 240, 12))
+
+
+def test_slower_control_rate_still_flies():
+    with Simulator(SimConfig(z_mode=ZMode.HEIGHT, rates=Rates(control_hz=120))) as sim:
+        sim.send(Twist())
+        assert sim.run_for(4.0).position_m[2] == pytest.approx(2.0, abs=0.03)
+
+
+def test_silence_triggers_dead_man_hold():
+    # fly forward, then the script goes silent: after the 0.5 s timeout the vehicle stops and holds
+    script = parse_script("z_mode height\n4.0 linear.z=0\n2.0 linear.x=1.0\nsilence 6.0\n", "t")
+    with Simulator(SimConfig(z_mode=ZMode.HEIGHT), ScriptedDriver(script)) as sim:
+        sim.run_for(6.0)
+        assert sim.state.linear_velocity_mps[0] > 0.9
+        sim.run_for(0.4)  # within the timeout: still flying the last command
+        assert sim.state.linear_velocity_mps[0] > 0.9
+        sim.run_for(3.0)
+        held = sim.state.position_m
+        assert abs(sim.state.linear_velocity_mps[0]) < 0.02
+        later = sim.run_for(2.6).position_m
+        assert abs(later[0] - held[0]) < 0.01 and later[2] == pytest.approx(2.0, abs=0.02)
+
+
+def test_nan_command_keeps_last_good_one_until_the_timeout():
+    with Simulator(SimConfig(z_mode=ZMode.HEIGHT)) as sim:
+        sim.send(Twist())
+        sim.run_for(4.0)
+        sim.send(Twist(linear_x=1.0))
+        sim.run_for(1.5)
+        sim.send(Twist(linear_x=float("nan")))
+        state = sim.run_for(0.4)  # rejected: the last good command (1 m/s forward) stands
+        assert state.linear_velocity_mps[0] == pytest.approx(1.0, abs=0.05)
+        assert sim.gate.rejected_count > 0
+        state = sim.run_for(3.0)  # only rejected commands for longer than the timeout: hold
+        assert abs(state.linear_velocity_mps[0]) < 0.05
+
+
+def test_reset_returns_to_start():
+    with Simulator(SimConfig(z_mode=ZMode.HEIGHT)) as sim:
+        start = sim.state.position_m
+        sim.send(Twist(linear_x=1.0))
+        sim.run_for(3.0)
+        sim.reset()
+        assert sim.step_count == 0 and sim.state.position_m == pytest.approx(start)

@@ -1,0 +1,55 @@
+"""The script format, its errors (naming the line), and the built-in scenarios."""
+
+import pytest
+
+from quadsim import ScriptError, Twist, ZMode
+from quadsim.drivers.scripted import ScriptedDriver, builtin_scenarios, load_script, parse_script
+
+
+def test_parse_segments_and_z_mode():
+    script = parse_script("# demo\nz_mode height\n2.0 linear.z=0.5  # up\n1.5 linear.x=1 angular.z=-0.5\n1\nsilence 2\n")
+    assert script.z_mode is ZMode.HEIGHT
+    assert [s.duration_s for s in script.segments] == [2.0, 1.5, 1.0, 2.0]
+    assert script.segments[1].twist == Twist(linear_x=1.0, angular_z=-0.5)
+    assert script.segments[2].twist == Twist() and script.segments[3].twist is None
+    assert script.duration_s == 6.5
+
+
+@pytest.mark.parametrize("text,line,words", [
+    ("1.0 linear.x=1\nfast linear.x=2\n", 2, "duration must be a number"),
+    ("1.0\n\n2.0 linear.q=1\n", 3, "FIELD=VALUE"),
+    ("z_mode sideways\n", 1, "z_mode"),
+    ("-1.0\n", 1, "> 0"),
+    ("1.0 linear.x=nan\n", 1, "finite"),
+])
+def test_errors_name_the_line(text, line, words):
+    with pytest.raises(ScriptError) as err:
+        parse_script(text, "my.qscript")
+    assert f"my.qscript, line {line}" in str(err.value) and words in str(err.value)
+
+
+def test_empty_script_is_refused():
+    with pytest.raises(ScriptError, match="no command lines"):
+        parse_script("# nothing\n", "x")
+
+
+def test_builtin_scenarios_exist_and_parse():
+    names = builtin_scenarios()
+    assert {"hover", "takeoff", "square", "yaw", "figure8"} <= set(names)
+    for name in names:
+        assert load_script(name).duration_s > 0
+
+
+def test_unknown_scenario_lists_builtins():
+    with pytest.raises(ScriptError) as err:
+        load_script("loop-the-loop")
+    assert "unknown scenario 'loop-the-loop'" in str(err.value) and "figure8" in str(err.value)
+
+
+def test_driver_follows_the_timeline():
+    driver = ScriptedDriver(parse_script("1.0 linear.x=1\n0.5 linear.y=2\n"))
+    assert driver.poll(0, 0.0) == Twist(linear_x=1.0)
+    assert driver.poll(0, 0.95) == Twist(linear_x=1.0)
+    assert driver.poll(0, 1.0) == Twist(linear_y=2.0)
+    assert not driver.finished
+    assert driver.poll(0, 1.5) is None and driver.finished

@@ -1,0 +1,82 @@
+"""The vehicle is read from the URDF's inertial blocks and the parameter file, and validated."""
+
+import math
+import shutil
+from pathlib import Path
+
+import pytest
+
+from quadsim.errors import ConfigError
+from quadsim.vehicle import DEFAULT_URDF, Spin, load_vehicle
+
+
+def test_mass_and_inertia_come_from_the_urdf(vehicle):
+    # base 0.9 + four rotors 0.025 + two cameras 0.005, as written in the URDF
+    assert vehicle.mass_kg == pytest.approx(1.01)
+    ixx, iyy, izz = (vehicle.inertia_kgm2[i][i] for i in range(3))
+    # base inertia plus the rotors' parallel-axis share: 4 * 0.025 * 0.12^2 about x and y
+    assert ixx == pytest.approx(0.0072 + 4e-5 + 4 * 0.025 * 0.12**2, rel=0.02)
+    assert izz == pytest.approx(0.0130 + 8e-5 + 4 * 0.025 * 2 * 0.12**2, rel=0.02)
+    assert abs(vehicle.com_m[0]) < 0.002 and abs(vehicle.com_m[1]) < 1e-9
+
+
+def test_rotors_come_from_the_rotor_links(vehicle):
+    names = [r.link_name for r in vehicle.rotors]
+    assert names == ["rotor_1", "rotor_2", "rotor_3", "rotor_4"]
+    signs = [(math.copysign(1, r.position_m[0]), math.copysign(1, r.position_m[1])) for r in vehicle.rotors]
+    assert signs == [(1, 1), (-1, 1), (-1, -1), (1, -1)]  # front-left, rear-left, rear-right, front-right
+    assert [r.spin for r in vehicle.rotors] == [Spin.CCW, Spin.CW, Spin.CCW, Spin.CW]
+    assert vehicle.camera_links == ("floor_camera_link", "front_camera_link")
+
+
+def test_parameters_are_frozen(vehicle):
+    with pytest.raises(Exception):
+        vehicle.mass_kg = 2.0  # type: ignore[misc]
+
+
+def _copy_vehicle(tmp_path: Path) -> tuple[Path, Path]:
+    urdf = tmp_path / "v.urdf"
+    shutil.copy(DEFAULT_URDF, urdf)
+    params = tmp_path / "v.params.toml"
+    shutil.copy(DEFAULT_URDF.with_suffix(".params.toml"), params)
+    return urdf, params
+
+
+def test_missing_field_names_file_and_field(tmp_path):
+    urdf, params = _copy_vehicle(tmp_path)
+    params.write_text(params.read_text().replace("motor_time_constant_s = 0.02", ""))
+    with pytest.raises(ConfigError) as err:
+        load_vehicle(urdf)
+    assert "v.params.toml" in str(err.value) and "motor_time_constant_s" in str(err.value)
+
+
+def test_absurd_value_names_file_and_field(tmp_path):
+    urdf, params = _copy_vehicle(tmp_path)
+    params.write_text(params.read_text().replace("max_thrust_n = 6.0", "max_thrust_n = -3.0"))
+    with pytest.raises(ConfigError) as err:
+        load_vehicle(urdf)
+    assert "max_thrust_n" in str(err.value) and "v.params.toml" in str(err.value)
+
+
+def test_too_weak_rotors_are_refused(tmp_path):
+    urdf, params = _copy_vehicle(tmp_path)
+    params.write_text(params.read_text().replace("max_thrust_n = 6.0", "max_thrust_n = 2.0"))
+    with pytest.raises(ConfigError, match="too little to fly"):
+        load_vehicle(urdf)
+
+
+def test_bad_urdf_mass_names_link(tmp_path):
+    urdf, _ = _copy_vehicle(tmp_path)
+    urdf.write_text(urdf.read_text().replace('<mass value="0.9"/>', '<mass value="zero"/>'))
+    with pytest.raises(ConfigError) as err:
+        load_vehicle(urdf)
+    assert "base_link" in str(err.value) and "mass" in str(err.value)
+
+
+def test_missing_files_are_named(tmp_path):
+    with pytest.raises(ConfigError, match="URDF not found"):
+        load_vehicle(tmp_path / "nope.urdf")
+    urdf = tmp_path / "lonely.urdf"
+    shutil.copy(DEFAULT_URDF, urdf)
+    with pytest.raises(ConfigError, match="lonely.params.toml"):
+        load_vehicle(urdf)
