@@ -14,6 +14,7 @@ from quadsim.pybullet_import import pb
 from quadsim.errors import ConfigError, QuadsimError
 from quadsim.messages import RotorForces, VehicleState
 from quadsim.motors import MotorBank
+from quadsim.rotation import matrix_from_quaternion
 from quadsim.vehicle import VehicleParams
 from quadsim.world import Shape, WorldSpec
 
@@ -170,13 +171,7 @@ class PhysicsWorld:
         cid = self._cid
         self._position, self._orientation = pb.getBasePositionAndOrientation(self.body_id, physicsClientId=cid)
         self._linear_velocity, self._angular_velocity = pb.getBaseVelocity(self.body_id, physicsClientId=cid)
-        x, y, z, w = self._orientation
-        xx, yy, zz, xy, xz, yz, wx, wy, wz = x * x, y * y, z * z, x * y, x * z, y * z, w * x, w * y, w * z
-        self._rotation = (
-            (1.0 - 2.0 * (yy + zz), 2.0 * (xy - wz), 2.0 * (xz + wy)),
-            (2.0 * (xy + wz), 1.0 - 2.0 * (xx + zz), 2.0 * (yz - wx)),
-            (2.0 * (xz - wy), 2.0 * (yz + wx), 1.0 - 2.0 * (xx + yy)),
-        )
+        self._rotation = matrix_from_quaternion(self._orientation)
 
     def state(self) -> VehicleState:
         """The vehicle's state after the last step (body rates in base_link)."""

@@ -78,3 +78,7 @@ def test_fly_without_display_flies_demo_and_says_so():
 def test_scenarios_lists_builtins():
     out = cli("scenarios")
     assert out.returncode == 0 and "figure8" in out.stdout and "hover" in out.stdout
+
+
+def test_gui_without_display_is_a_clear_error():
+    _one_line_error(cli("run", "--script", "hover", "--gui"), "needs a display")

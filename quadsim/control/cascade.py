@@ -17,6 +17,7 @@ from typing import Any
 from quadsim.control import ControllerKind
 from quadsim.messages import HEIGHT_MODE_BASE_M, ActiveCommand, RotorForces, VehicleState, ZMode
 from quadsim.mixer import Mixer
+from quadsim.rotation import matrix_from_quaternion
 from quadsim.vehicle import VehicleParams
 
 _IDLE: RotorForces = (0.0, 0.0, 0.0, 0.0)
@@ -85,7 +86,6 @@ class CascadeController:
             return _IDLE
         g = self.gains
         px, py, pz = state.position_m
-        qx, qy, qz, qw = state.orientation_xyzw
         vx, vy, vz = state.linear_velocity_mps
         wp, wq, wr = state.angular_velocity_body_rps
         if not self._armed:
@@ -96,11 +96,7 @@ class CascadeController:
             self._yaw_hold = None
 
         # rotation world <- body
-        xx, yy, zz = qx * qx, qy * qy, qz * qz
-        xy, xz, yz, wx, wy, wz = qx * qy, qx * qz, qy * qz, qw * qx, qw * qy, qw * qz
-        r00, r01, r02 = 1.0 - 2.0 * (yy + zz), 2.0 * (xy - wz), 2.0 * (xz + wy)
-        r10, r11, r12 = 2.0 * (xy + wz), 1.0 - 2.0 * (xx + zz), 2.0 * (yz - wx)
-        r20, r21, r22 = 2.0 * (xz - wy), 2.0 * (yz + wx), 1.0 - 2.0 * (xx + yy)
+        (r00, r01, r02), (r10, r11, r12), (r20, r21, r22) = matrix_from_quaternion(state.orientation_xyzw)
         yaw = math.atan2(r10, r00)
 
         if command.hold:

@@ -36,6 +36,7 @@ from typing import Any
 from quadsim.control import ControllerKind
 from quadsim.errors import ConfigError
 from quadsim.messages import HEIGHT_MODE_BASE_M, ActiveCommand, RotorForces, VehicleState, ZMode
+from quadsim.rotation import matrix_from_quaternion
 from quadsim.vehicle import Spin, VehicleParams
 
 DT_REF_S = 0.05  # the V-REP simulation step the original's difference terms assumed
@@ -101,7 +102,6 @@ class SeedController:
             return _IDLE
         gn = self.gains
         px, py, pz = state.position_m
-        qx, qy, qz, qw = state.orientation_xyzw
         vx, vy, vz = state.linear_velocity_mps
         bp, bq, br = state.angular_velocity_body_rps
         if not self._armed:
@@ -110,11 +110,7 @@ class SeedController:
             self._height = pz
         k = DT_REF_S / dt_s  # differences per control step -> per original step
 
-        xx, yy, zz = qx * qx, qy * qy, qz * qz
-        xy, xz, yz, wx, wy, wz = qx * qy, qx * qz, qy * qz, qw * qx, qw * qy, qw * qz
-        r00, r01, r02 = 1.0 - 2.0 * (yy + zz), 2.0 * (xy - wz), 2.0 * (xz + wy)
-        r10, r11, r12 = 2.0 * (xy + wz), 1.0 - 2.0 * (xx + zz), 2.0 * (yz - wx)
-        r20, r21, r22 = 2.0 * (xz - wy), 2.0 * (yz + wx), 1.0 - 2.0 * (xx + yy)
+        (r00, r01, r02), (r10, r11, r12), (r20, r21, r22) = matrix_from_quaternion(state.orientation_xyzw)
 
         # heading: gamma of the body's X-Y-Z Euler angles; velocities in the heading frame
         gamma = math.atan2(-r01, r00)
