@@ -5,13 +5,14 @@ Stepping order, once per physics step n (time n / physics_hz):
   2. control (n % control_every == 0): the controller turns state + active command into rotor forces
   3. physics:                          motors, forces, one PyBullet step -> step n + 1
   4. publish ((n + 1) % state_every == 0): sinks receive the state at step n + 1
+  5. taps    ((n + 1) % every == 0):       e.g. the cameras capture the state at step n + 1
 Nothing here reads the wall clock; only a window paces these steps to real time.
 """
 
 from __future__ import annotations
 
 from dataclasses import asdict, dataclass
-from typing import Any, Protocol
+from typing import Any, Callable, Protocol
 
 from quadsim.command_gate import CommandGate
 from quadsim.control import Controller
@@ -84,12 +85,19 @@ class SimLoop:
         self.rates = rates
         self.driver = driver
         self.sinks: list[Sink] = []
+        self._taps: list[tuple[int, Callable[[VehicleState], None]]] = []
         self.step_count = 0
         self._input_every = rates.every(rates.input_hz)
         self._control_every = rates.every(rates.control_hz)
         self._state_every = rates.every(rates.state_hz)
         self._control_dt_s = 1.0 / rates.control_hz
         self._rotor_command: RotorForces = (0.0, 0.0, 0.0, 0.0)
+
+    def add_tap(self, every_steps: int, callback: Callable[[VehicleState], None]) -> None:
+        """Call `callback(state)` after every `every_steps`-th physics step (cameras use this)."""
+        if every_steps <= 0:
+            raise ConfigError(f"a tap needs a positive step interval, got {every_steps}")
+        self._taps.append((every_steps, callback))
 
     @property
     def time_s(self) -> float:
@@ -113,7 +121,7 @@ class SimLoop:
         physics, controller, gate, driver = self.physics, self.controller, self.gate, self.driver
         input_every, control_every, state_every = self._input_every, self._control_every, self._state_every
         control_dt, hz = self._control_dt_s, self.rates.physics_hz
-        sinks = self.sinks
+        sinks, taps = self.sinks, self._taps
         n = self.step_count
         command = self._rotor_command
         for _ in range(steps):
@@ -132,5 +140,8 @@ class SimLoop:
                 state = physics.state()
                 for sink in sinks:
                     sink.on_state(state)
+            for every, tap in taps:
+                if n % every == 0:
+                    tap(physics.state())
         self.step_count = n
         self._rotor_command = command

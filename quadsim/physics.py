@@ -11,12 +11,13 @@ from dataclasses import dataclass
 
 from quadsim.pybullet_import import pb
 
-from quadsim.errors import ConfigError, QuadsimError
+from quadsim.errors import QuadsimError
 from quadsim.messages import RotorForces, VehicleState
 from quadsim.motors import MotorBank
 from quadsim.rotation import matrix_from_quaternion
 from quadsim.vehicle import VehicleParams
-from quadsim.world import Shape, WorldSpec
+from quadsim.scene import build_world, load_vehicle_body
+from quadsim.world import WorldSpec
 
 #: Clearance above the ground the vehicle is placed at, so it starts just resting on the floor.
 _SPAWN_CLEARANCE_M = 0.001
@@ -55,14 +56,9 @@ class PhysicsWorld:
         pb.setPhysicsEngineParameter(deterministicOverlappingPairs=1, physicsClientId=cid)
         if gui:
             pb.configureDebugVisualizer(pb.COV_ENABLE_GUI, 0, physicsClientId=cid)
-        self.landmark_ids = self._build_world(world)
+        self.landmark_ids = build_world(world, cid)
         self.start = start
-        try:
-            self.body_id = pb.loadURDF(
-                str(vehicle.urdf_path), self._spawn_position(), self._spawn_orientation(),
-                flags=pb.URDF_USE_INERTIA_FROM_FILE, physicsClientId=cid)
-        except pb.error as exc:
-            raise ConfigError(f"PyBullet could not load {vehicle.urdf_path}: {exc}") from None
+        self.body_id = load_vehicle_body(vehicle, cid, self._spawn_position(), self._spawn_orientation())
         links = {pb.getJointInfo(self.body_id, i, physicsClientId=cid)[12].decode(): i
                  for i in range(pb.getNumJoints(self.body_id, physicsClientId=cid))}
         self.link_index = links
@@ -94,39 +90,6 @@ class PhysicsWorld:
             pb.removeBody(probe, physicsClientId=self._cid)
             self._rest_z = 10.0 - lo
         return self._rest_z
-
-    def _build_world(self, world: WorldSpec) -> dict[str, int]:
-        cid = self._cid
-        half = world.floor.size_m / 2.0
-        reps = world.floor.size_m / world.floor.texture_tile_m
-        floor_col = pb.createCollisionShape(pb.GEOM_PLANE, physicsClientId=cid)
-        floor_vis = pb.createVisualShape(
-            pb.GEOM_MESH,
-            vertices=[(-half, -half, 0.0), (half, -half, 0.0), (half, half, 0.0), (-half, half, 0.0)],
-            indices=[0, 1, 2, 0, 2, 3],
-            uvs=[(0.0, 0.0), (reps, 0.0), (reps, reps), (0.0, reps)],
-            normals=[(0.0, 0.0, 1.0)] * 4,
-            physicsClientId=cid)
-        floor = pb.createMultiBody(0.0, floor_col, floor_vis, physicsClientId=cid)
-        pb.changeDynamics(floor, -1, lateralFriction=world.floor.friction, physicsClientId=cid)
-        if world.floor.texture_path is not None:
-            tex = pb.loadTexture(str(world.floor.texture_path), physicsClientId=cid)
-            pb.changeVisualShape(floor, -1, textureUniqueId=tex, rgbaColor=(1, 1, 1, 1), physicsClientId=cid)
-        ids = {"floor": floor}
-        for lm in world.landmarks:
-            sx, sy, sz = lm.size_m
-            if lm.shape is Shape.BOX:
-                geom = {"shapeType": pb.GEOM_BOX, "halfExtents": (sx / 2, sy / 2, sz / 2)}
-                vis = pb.createVisualShape(rgbaColor=lm.color_rgba, physicsClientId=cid, **geom)
-                col = pb.createCollisionShape(physicsClientId=cid, **geom) if lm.collision else -1
-            elif lm.shape is Shape.CYLINDER:
-                vis = pb.createVisualShape(pb.GEOM_CYLINDER, radius=sx, length=sz, rgbaColor=lm.color_rgba, physicsClientId=cid)
-                col = pb.createCollisionShape(pb.GEOM_CYLINDER, radius=sx, height=sz, physicsClientId=cid) if lm.collision else -1
-            else:
-                vis = pb.createVisualShape(pb.GEOM_SPHERE, radius=sx, rgbaColor=lm.color_rgba, physicsClientId=cid)
-                col = pb.createCollisionShape(pb.GEOM_SPHERE, radius=sx, physicsClientId=cid) if lm.collision else -1
-            ids[lm.name] = pb.createMultiBody(0.0, col, vis, basePosition=lm.position_m, physicsClientId=cid)
-        return ids
 
     # --- stepping ---------------------------------------------------------------------------
 

@@ -44,6 +44,17 @@ class RotorSpec:
 
 
 @dataclass(frozen=True)
+class CameraMount:
+    """Where a camera link sits on the body: pose relative to the base_link origin.
+
+    The link's x axis is the viewing direction and its z axis the image's up."""
+
+    link_name: str
+    position_m: Vec3
+    rotation: Mat3  # base_link <- camera link
+
+
+@dataclass(frozen=True)
 class CommandLimits:
     max_horizontal_speed_mps: float
     max_climb_rate_mps: float
@@ -70,8 +81,18 @@ class VehicleParams:
     motor_time_constant_s: float
     drag_coefficients_ns_per_m: Vec3
     limits: CommandLimits
-    camera_links: tuple[str, ...]
+    camera_mounts: tuple[CameraMount, ...]
     gravity_mps2: float = 9.81
+
+    @property
+    def camera_links(self) -> tuple[str, ...]:
+        return tuple(m.link_name for m in self.camera_mounts)
+
+    def camera_mount(self, link_name: str) -> CameraMount:
+        for mount in self.camera_mounts:
+            if mount.link_name == link_name:
+                return mount
+        raise ConfigError(f"{self.urdf_path.name}: no camera link named {link_name!r} (have {list(self.camera_links)})")
 
     @property
     def yaw_torque_per_thrust_m(self) -> float:
@@ -337,7 +358,11 @@ def _build(urdf: Path, params: Path, links: dict[str, _Link], table: dict[str, A
     )
     if limits.min_altitude_m >= limits.max_altitude_m:
         raise ConfigError(f"{params}: [limits] min_altitude_m must be below max_altitude_m")
-    cameras = tuple(sorted(n for n in links if n.endswith("_camera_link")))
+    if any(abs(v) > 1e-9 for v in links["base_link"].com_in_link_m):
+        # PyBullet reports the base's pose at its inertial origin; keep that the link origin
+        raise ConfigError(f"{urdf.name}: base_link's <inertial> origin must be at the link origin (0 0 0)")
+    cameras = tuple(CameraMount(n, links[n].origin_in_base_m, links[n].rotation_in_base)
+                    for n in sorted(n for n in links if n.endswith("_camera_link")))
     return VehicleParams(
         name=urdf.stem,
         urdf_path=urdf,
@@ -352,5 +377,5 @@ def _build(urdf: Path, params: Path, links: dict[str, _Link], table: dict[str, A
         motor_time_constant_s=tau,
         drag_coefficients_ns_per_m=(float(drag[0]), float(drag[1]), float(drag[2])),
         limits=limits,
-        camera_links=cameras,
+        camera_mounts=cameras,
     )
