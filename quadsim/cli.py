@@ -9,6 +9,7 @@ import sys
 from pathlib import Path
 
 from quadsim import __version__
+from quadsim.camera import RendererKind
 from quadsim.control import ControllerKind
 from quadsim.errors import QuadsimError
 from quadsim.loop import Rates
@@ -34,6 +35,19 @@ def _add_sim_options(p: argparse.ArgumentParser) -> None:
     g.add_argument("--timeout", type=float, default=0.5, metavar="S",
                    help="dead-man timeout: hold position after S seconds without a command (default 0.5)")
     g.add_argument("--gui", action="store_true", help="also open PyBullet's own 3D window (needs a display)")
+    o = p.add_argument_group("recording and cameras")
+    o.add_argument("--out", type=Path, default=None, metavar="DIR|FILE",
+                   help="where the MCAP recording goes: a folder (a dated name is made) or a .mcap file "
+                        "(default: recordings/)")
+    o.add_argument("--no-record", action="store_true", help="do not record")
+    o.add_argument("--cameras", default="front,floor", metavar="LIST",
+                   help="onboard cameras to render: front,floor (default), front, floor or none")
+    o.add_argument("--camera-size", default="320x240", metavar="WxH", help="image size of each camera (default 320x240)")
+    o.add_argument("--camera-hz", type=int, default=30, help="frame rate of each camera; must divide the physics rate (default 30)")
+    o.add_argument("--renderer", choices=[r.value for r in RendererKind], default=RendererKind.TINY.value,
+                   help="tiny: PyBullet's CPU TinyRenderer (default); egl: PyBullet's EGL plugin, where a driver exists")
+    o.add_argument("--render-workers", type=int, default=2, metavar="N",
+                   help="render processes, so rendering uses other cores while physics steps (default 2; 0 = in-process)")
 
 
 def _config(args: argparse.Namespace, script_z_mode: ZMode | None):
@@ -45,35 +59,81 @@ def _config(args: argparse.Namespace, script_z_mode: ZMode | None):
                      rates=rates, command_timeout_s=args.timeout, start=StartPose(), gui=args.gui)
 
 
+def _outputs(args: argparse.Namespace):
+    from quadsim.camera import CameraSpec, default_cameras
+    from quadsim.session import OutputOptions
+
+    try:
+        width, height = (int(v) for v in args.camera_size.lower().split("x"))
+    except ValueError:
+        raise QuadsimError(f"--camera-size must look like 320x240, got {args.camera_size!r}") from None
+    wanted = [c.strip() for c in args.cameras.split(",") if c.strip()]
+    available = {c.name: c for c in default_cameras(width, height, args.camera_hz)}
+    if wanted == ["none"]:
+        wanted = []
+    unknown = [c for c in wanted if c not in available]
+    if unknown:
+        raise QuadsimError(f"--cameras: unknown camera {unknown[0]!r}; choose from front, floor or none")
+    if args.render_workers < 0:
+        raise QuadsimError("--render-workers must be 0 or more")
+    cameras: tuple[CameraSpec, ...] = tuple(available[c] for c in wanted)
+    return OutputOptions(record=not args.no_record, out=args.out, cameras=cameras,
+                         renderer=RendererKind(args.renderer), render_workers=args.render_workers)
+
+
 def _fly_script(args: argparse.Namespace, script_name: str, realtime: bool) -> int:
     from quadsim.drivers.scripted import ScriptedDriver, load_script
     from quadsim.headless import run_headless
     from quadsim.progress import ProgressBar
+    from quadsim.session import RecordedRun, Terminated, raise_on_sigterm
     from quadsim.sim import Simulator
 
     script = load_script(script_name)
     config = _config(args, script.z_mode)
+    outputs = _outputs(args)
     duration = args.duration if args.duration is not None else script.duration_s
     if not duration > 0:
         raise QuadsimError(f"--duration must be > 0 s, got {duration}")
+    cams = ", ".join(f"{c.name} {c.width_px}x{c.height_px}@{c.rate_hz}Hz" for c in outputs.cameras) or "none"
     print(f"flying '{script.name}' for {duration:.1f} s: controller {config.controller.value}, "
-          f"z-mode {config.z_mode.value}, physics {config.rates.physics_hz} Hz, control {config.rates.control_hz} Hz")
+          f"z-mode {config.z_mode.value}, physics {config.rates.physics_hz} Hz, control {config.rates.control_hz} Hz, "
+          f"cameras {cams}")
+    raise_on_sigterm()
     bar = ProgressBar(duration, "sim time")
+    label = f"{Path(script.name).stem}_{config.controller.value}"
+    run_info = {"command": "run", "script": script.name, "duration_s": duration, "realtime": realtime}
+    interrupted: KeyboardInterrupt | None = None
     with Simulator(config, ScriptedDriver(script)) as sim:
-        try:
-            summary = run_headless(sim, duration, progress=bar.update, realtime=realtime)
-        except KeyboardInterrupt:
+        with RecordedRun(sim, outputs, label, run_info) as run:
+            if run.path is not None:
+                print(f"recording to {run.path}", flush=True)
+            try:
+                summary = run_headless(sim, duration, progress=bar.update, realtime=realtime)
+            except KeyboardInterrupt as exc:
+                interrupted = exc
+                summary = None
             bar.close()
-            print(f"interrupted at sim time {sim.time_s:.2f} s", file=sys.stderr)
-            return 130
-        bar.close()
-    for line in summary.lines():
-        print(line)
+        final_time = sim.time_s
+    if summary is not None:
+        for line in summary.lines():
+            print(line)
+    if run.recorder is not None:
+        rec = run.recorder
+        if rec.error:
+            print(f"recording       {rec.error}")
+        else:
+            size = run.path.stat().st_size / 1e6 if run.path and run.path.exists() else 0.0
+            print(f"recording       {run.path} ({size:.1f} MB, {rec.message_count} messages)")
+    if interrupted is not None:
+        what = "terminated" if isinstance(interrupted, Terminated) else "interrupted"
+        saved = "; the recording is finished and readable" if run.recorder is not None and not run.recorder.error else ""
+        print(f"{what} at sim time {final_time:.2f} s{saved}", file=sys.stderr)
+        return 143 if isinstance(interrupted, Terminated) else 130
     return 0
 
 
 def cmd_run(args: argparse.Namespace) -> int:
-    return _fly_script(args, args.script, realtime=args.gui)
+    return _fly_script(args, args.script, realtime=args.gui or args.realtime)
 
 
 def cmd_fly(args: argparse.Namespace) -> int:
@@ -117,6 +177,33 @@ def cmd_evaluate(args: argparse.Namespace) -> int:
     return 0
 
 
+def cmd_info(args: argparse.Namespace) -> int:
+    from quadsim.mcap_info import read_info
+
+    info = read_info(args.file)
+    for line in info.lines():
+        print(line)
+    missing = info.missing_topics()
+    if missing:
+        raise QuadsimError(f"{args.file}: not a quadsim recording: missing topics {', '.join(missing)}")
+    return 0
+
+
+def cmd_recover(args: argparse.Namespace) -> int:
+    from quadsim.mcap_salvage import recover
+
+    result = recover(args.file, args.output)
+    t0, t1 = result.span_s
+    if result.was_complete:
+        print(f"{args.file} was complete; its {result.messages} messages were copied to {result.path}")
+    else:
+        print(f"recovered {result.messages} messages on {result.topics} topics from {result.chunks} complete chunks, "
+              f"covering {t0:.2f} .. {t1:.2f} s of simulation time")
+        print(f"what was lost: {result.note or 'nothing readable after the last chunk'}")
+        print(f"written to {result.path}")
+    return 0
+
+
 def cmd_bench(args: argparse.Namespace) -> int:
     from quadsim.bench import run_flight_core_bench
 
@@ -141,6 +228,7 @@ def build_parser() -> argparse.ArgumentParser:
                    help="a built-in scenario (python main.py scenarios lists them) or a script file")
     p.add_argument("--duration", type=float, default=None, metavar="S",
                    help="seconds of sim time (default: the script's length; beyond it the vehicle holds)")
+    p.add_argument("--realtime", action="store_true", help="pace simulation time to the wall clock (as --gui does)")
     _add_sim_options(p)
     p.set_defaults(func=cmd_run)
 
@@ -160,6 +248,20 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--controller", action="append", choices=[c.value for c in ControllerKind],
                    help="only this controller (repeatable; default: all)")
     p.set_defaults(func=cmd_evaluate)
+
+    p = sub.add_parser("info", help="describe a recording: duration, topics, rates, run parameters",
+                       description="Describe an MCAP recording. On a damaged file, say what is wrong and how much "
+                                   "is readable (exit code 2).")
+    p.add_argument("file", type=Path, metavar="FILE.mcap")
+    p.set_defaults(func=cmd_info)
+
+    p = sub.add_parser("recover", help="salvage a recording cut short (killed process, power loss)",
+                       description="Read every complete chunk of a damaged or cut-short MCAP file and write its "
+                                   "messages, schemas, metadata and attachments to a new, valid, indexed MCAP.")
+    p.add_argument("file", type=Path, metavar="DAMAGED.mcap")
+    p.add_argument("-o", "--output", type=Path, default=None, metavar="OUT.mcap",
+                   help="where to write (default: DAMAGED.recovered.mcap beside the input)")
+    p.set_defaults(func=cmd_recover)
 
     p = sub.add_parser("bench", help="measure speed against a bare-PyBullet baseline run in the same process",
                        description="Benchmark. Every figure is given as steps/s, real-time factor and a ratio to a "

@@ -59,6 +59,8 @@ class VehicleState(NamedTuple):
     position_m: base_link origin in `world`. orientation_xyzw: world <- base_link quaternion.
     linear_velocity_mps: in `world`. angular_velocity_body_rps: body rates in `base_link`.
     rotor_thrusts_n: the forces the four rotors produced during the last physics step.
+    specific_force_body_mps2: what an accelerometer at the base reads (acceleration minus
+    gravity, in base_link; +9.81 along z at rest), over the last physics step.
     """
 
     step: int
@@ -67,6 +69,7 @@ class VehicleState(NamedTuple):
     linear_velocity_mps: tuple[float, float, float]
     angular_velocity_body_rps: tuple[float, float, float]
     rotor_thrusts_n: tuple[float, float, float, float]
+    specific_force_body_mps2: tuple[float, float, float]
 
     def yaw_rad(self) -> float:
         x, y, z, w = self.orientation_xyzw

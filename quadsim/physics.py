@@ -70,6 +70,7 @@ class PhysicsWorld:
         self.motors = MotorBank(vehicle.motor_time_constant_s, vehicle.max_thrust_n, self.dt_s)
         self.step_count = 0
         self._read_kinematics()
+        self._previous_velocity = self._linear_velocity
 
     # --- building ---------------------------------------------------------------------------
 
@@ -100,6 +101,7 @@ class PhysicsWorld:
         self.motors.reset()
         self.step_count = 0
         self._read_kinematics()
+        self._previous_velocity = self._linear_velocity
 
     def step(self, command_n: RotorForces) -> None:
         """Advance one physics step with the given commanded rotor forces (N)."""
@@ -128,6 +130,7 @@ class PhysicsWorld:
             origin, link_frame, physicsClientId=cid)
         pb.stepSimulation(physicsClientId=cid)
         self.step_count += 1
+        self._previous_velocity = self._linear_velocity
         self._read_kinematics()
 
     def _read_kinematics(self) -> None:
@@ -140,6 +143,10 @@ class PhysicsWorld:
         """The vehicle's state after the last step (body rates in base_link)."""
         (m00, m01, m02), (m10, m11, m12), (m20, m21, m22) = self._rotation
         wx, wy, wz = self._angular_velocity
+        (vx, vy, vz), (ux, uy, uz) = self._linear_velocity, self._previous_velocity
+        inv_dt = 1.0 / self.dt_s
+        # specific force: (dv/dt - gravity) in world, then into base_link
+        fx, fy, fz = (vx - ux) * inv_dt, (vy - uy) * inv_dt, (vz - uz) * inv_dt + self.vehicle.gravity_mps2
         return VehicleState(
             self.step_count,
             self._position,
@@ -147,6 +154,7 @@ class PhysicsWorld:
             self._linear_velocity,
             (m00 * wx + m10 * wy + m20 * wz, m01 * wx + m11 * wy + m21 * wz, m02 * wx + m12 * wy + m22 * wz),
             self.motors.thrusts_n,
+            (m00 * fx + m10 * fy + m20 * fz, m01 * fx + m11 * fy + m21 * fz, m02 * fx + m12 * fy + m22 * fz),
         )
 
     # --- lifetime ---------------------------------------------------------------------------

@@ -11,6 +11,7 @@ Worker -> parent: ("ready",) once set up, then (seq, [CameraFrame, ...]) per job
 
 from __future__ import annotations
 
+import signal
 import sys
 import traceback
 from multiprocessing.connection import Client
@@ -49,6 +50,9 @@ def worker_main(conn, urdf: str, params: str, world: str, specs: tuple, renderer
 
 
 def main() -> None:
+    # Ctrl-C reaches the whole process group: let the parent decide when the worker stops, so
+    # it can still collect the frames in flight and finish its recording
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
     address = sys.argv[1]
     authkey = bytes.fromhex(sys.stdin.readline().strip())
     conn = Client(address, family="AF_UNIX", authkey=authkey)

@@ -9,13 +9,16 @@ import pytest
 ROOT = Path(__file__).resolve().parent.parent
 
 
+QUIET = ("--no-record", "--cameras", "none")  # flight-only runs: nothing written, nothing rendered
+
+
 def cli(*args: str, cwd: Path = ROOT) -> subprocess.CompletedProcess:
     return subprocess.run([sys.executable, str(ROOT / "main.py"), *args], capture_output=True, text=True, cwd=cwd,
                           env={"PATH": "/usr/bin:/bin", "SDL_VIDEODRIVER": "dummy", "PYTHONPATH": str(ROOT)})
 
 
 def test_run_prints_summary():
-    out = cli("run", "--script", "square")
+    out = cli("run", "--script", "square", *QUIET)
     assert out.returncode == 0, out.stderr
     text = out.stdout
     assert "real-time factor" in text and "distance flown" in text
@@ -27,7 +30,7 @@ def test_run_prints_summary():
 
 
 def test_run_with_seed_and_duration():
-    out = cli("run", "--script", "takeoff", "--controller", "seed", "--duration", "2")
+    out = cli("run", "--script", "takeoff", "--controller", "seed", "--duration", "2", *QUIET)
     assert out.returncode == 0, out.stderr
     assert "sim time        2.00 s" in out.stdout and "controller seed" in out.stdout
 
@@ -56,21 +59,21 @@ def test_missing_script_file(tmp_path):
 
 
 def test_rate_that_does_not_divide():
-    _one_line_error(cli("run", "--script", "hover", "--control-hz", "100"), "does not divide")
+    _one_line_error(cli("run", "--script", "hover", "--control-hz", "100", *QUIET), "does not divide")
 
 
 def test_missing_urdf(tmp_path):
-    _one_line_error(cli("run", "--script", "hover", "--urdf", str(tmp_path / "ghost.urdf")), "URDF not found")
+    _one_line_error(cli("run", "--script", "hover", "--urdf", str(tmp_path / "ghost.urdf"), *QUIET), "URDF not found")
 
 
-@pytest.mark.parametrize("command", ["run", "fly", "scenarios", "evaluate", "bench"])
+@pytest.mark.parametrize("command", ["run", "fly", "scenarios", "evaluate", "bench", "info", "recover"])
 def test_help_on_every_command(command):
     out = cli(command, "--help")
     assert out.returncode == 0 and "usage:" in out.stdout and len(out.stdout.splitlines()) > 3
 
 
 def test_fly_without_display_flies_demo_and_says_so():
-    out = cli("fly", "--duration", "3")
+    out = cli("fly", "--duration", "3", *QUIET)
     assert out.returncode == 0, out.stderr
     assert "No display found" in out.stdout and "sim time        3.00 s" in out.stdout
 
@@ -81,4 +84,4 @@ def test_scenarios_lists_builtins():
 
 
 def test_gui_without_display_is_a_clear_error():
-    _one_line_error(cli("run", "--script", "hover", "--gui"), "needs a display")
+    _one_line_error(cli("run", "--script", "hover", "--gui", *QUIET), "needs a display")

@@ -1,0 +1,77 @@
+"""A run's outputs around a Simulator: the camera pipeline and the MCAP recorder, opened
+together and always finished together (normal end, Ctrl-C, SIGTERM, an exception)."""
+
+from __future__ import annotations
+
+import signal
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from quadsim.camera import CameraSpec, RendererKind, default_cameras
+from quadsim.camera_pipeline import CameraPipeline
+from quadsim.recorder import McapRecorder, check_writable, recording_path
+from quadsim.sim import Simulator
+
+
+@dataclass(frozen=True)
+class OutputOptions:
+    record: bool = True
+    out: Path | None = None  # a .mcap file, or a folder (default recordings/)
+    cameras: tuple[CameraSpec, ...] = field(default_factory=default_cameras)
+    renderer: RendererKind = RendererKind.TINY
+    render_workers: int = 2  # 0: render in this process
+    ordered_delivery: bool = True  # headless: frames in capture order at fixed points
+
+
+class Terminated(KeyboardInterrupt):
+    """SIGTERM, turned into an exception so the run unwinds and finishes its recording."""
+
+
+def raise_on_sigterm() -> None:
+    def handler(signum: int, frame: object) -> None:
+        raise Terminated()
+
+    signal.signal(signal.SIGTERM, handler)
+
+
+class RecordedRun:
+    """Cameras and recorder for one simulator. Use as a context manager; `close` is idempotent."""
+
+    def __init__(self, sim: Simulator, options: OutputOptions, label: str, run_info: dict[str, Any] | None = None) -> None:
+        self.sim = sim
+        self.options = options
+        self.recorder: McapRecorder | None = None
+        self.cameras: CameraPipeline | None = None
+        self.path: Path | None = None
+        try:
+            if options.record:
+                self.path = recording_path(options.out, label)
+                check_writable(self.path)
+                self.recorder = McapRecorder(self.path, sim, options.cameras, run_info)
+                sim.add_sink(self.recorder)
+            if options.cameras:
+                self.cameras = CameraPipeline(sim, options.cameras, options.renderer, options.render_workers,
+                                              options.ordered_delivery)
+                if self.recorder is not None:
+                    self.cameras.sinks.append(self.recorder)
+        except BaseException:
+            self.close()
+            raise
+
+    def close(self) -> None:
+        try:
+            if self.cameras is not None:
+                try:
+                    self.cameras.drain()  # the frames still being rendered belong in the file
+                finally:
+                    self.cameras.close()
+        finally:
+            if self.recorder is not None:
+                self.recorder.close()
+
+    def __enter__(self) -> "RecordedRun":
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
