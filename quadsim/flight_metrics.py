@@ -99,6 +99,11 @@ def return_metrics(f: Flight, t_start: float = 5.0) -> dict[str, float]:
     return {"return_error_m": math.dist(start[:2], end[:2])}
 
 
+def altitude_hold_metrics(f: Flight, t_start: float = 5.0, target_m: float = 2.0) -> dict[str, float]:
+    """How well altitude holds while manoeuvring (a coordinated turn must not sink)."""
+    return {"altitude_error_max_m": max(abs(s.position_m[2] - target_m) for s in f.between(t_start, f.t(f.states[-1])))}
+
+
 def envelope_metrics(f: Flight) -> dict[str, float]:
     """How wild the flight was: tilt and altitude extremes (for 'does not diverge')."""
     tilt = max(math.acos(max(-1.0, min(1.0, _body_z_up(s)))) for s in f.states)
@@ -118,7 +123,7 @@ SCENARIO_METRICS: dict[str, Callable[[Flight], dict[str, float]]] = {
     "step_left": lambda f: step_metrics(f, 1),
     "yaw": yaw_metrics,
     "square": return_metrics,
-    "figure8": return_metrics,
+    "figure8": altitude_hold_metrics,
 }
 
 

@@ -62,7 +62,12 @@ def build_world(world: WorldSpec, cid: int, collisions: bool = True) -> dict[str
 def load_vehicle_body(vehicle: VehicleParams, cid: int, position: tuple[float, float, float],
                       orientation: tuple[float, float, float, float]) -> int:
     try:
-        return pb.loadURDF(str(vehicle.urdf_path), position, orientation,
+        body = pb.loadURDF(str(vehicle.urdf_path), position, orientation,
                            flags=pb.URDF_USE_INERTIA_FROM_FILE, physicsClientId=cid)
     except pb.error as exc:
         raise ConfigError(f"PyBullet could not load {vehicle.urdf_path}: {exc}") from None
+    # PyBullet damps every link a little by default (0.04); the parameter file's drag is the
+    # only drag the vehicle should feel
+    for link in range(-1, pb.getNumJoints(body, physicsClientId=cid)):
+        pb.changeDynamics(body, link, linearDamping=0.0, angularDamping=0.0, physicsClientId=cid)
+    return body

@@ -1,0 +1,146 @@
+"""Round trip of the recording contract, read back with readers quadsim does not use to write."""
+
+import json
+from pathlib import Path
+
+import pytest
+from mcap.reader import make_reader
+from mcap_ros2.decoder import DecoderFactory
+
+from quadsim.vehicle import DEFAULT_URDF
+from tests.recording_helpers import record_flight
+
+CONTRACT = {
+    "/quad_cmd_twist": ("geometry_msgs/msg/Twist", 20),
+    "/quad/pose": ("geometry_msgs/msg/PoseStamped", 60),
+    "/quad/odom": ("nav_msgs/msg/Odometry", 60),
+    "/quad/imu": ("sensor_msgs/msg/Imu", 60),
+    "/quad/rotor_thrusts": ("std_msgs/msg/Float64MultiArray", 60),
+    "/tf": ("tf2_msgs/msg/TFMessage", 60),
+    "/tf_static": ("tf2_msgs/msg/TFMessage", None),
+    "/quad/front_camera/image_raw/compressed": ("sensor_msgs/msg/CompressedImage", 30),
+    "/quad/floor_camera/image_raw/compressed": ("sensor_msgs/msg/CompressedImage", 30),
+    "/quad/front_camera/camera_info": ("sensor_msgs/msg/CameraInfo", 30),
+    "/quad/floor_camera/camera_info": ("sensor_msgs/msg/CameraInfo", 30),
+}
+DURATION_S = 3.0
+
+
+@pytest.fixture(scope="module")
+def recorded(tmp_path_factory):
+    path = tmp_path_factory.mktemp("rec") / "flight.mcap"
+    log = record_flight(path)
+    with open(path, "rb") as fh:
+        reader = make_reader(fh, decoder_factories=[DecoderFactory()])
+        header, summary = reader.get_header(), reader.get_summary()
+        decoded = [(ch.topic, msg, dec) for _, ch, msg, dec in reader.iter_decoded_messages(log_time_order=True)]
+        metadata = {m.name: m.metadata for m in reader.iter_metadata()}
+        attachments = {a.name: a.data for a in reader.iter_attachments()}
+    return path, log, header, summary, decoded, metadata, attachments
+
+
+def test_profile_schemas_encodings_and_qos(recorded):
+    _, _, header, summary, _, _, _ = recorded
+    assert header.profile == "ros2"
+    channels = {ch.topic: ch for ch in summary.channels.values()}
+    assert set(channels) == set(CONTRACT)
+    for topic, (type_name, _) in CONTRACT.items():
+        ch = channels[topic]
+        schema = summary.schemas[ch.schema_id]
+        assert (schema.name, schema.encoding, ch.message_encoding) == (type_name, "ros2msg", "cdr")
+        assert "offered_qos_profiles" in ch.metadata
+    assert "durability: 1" in channels["/tf_static"].metadata["offered_qos_profiles"]  # transient local
+    assert "durability: 2" in channels["/quad/pose"].metadata["offered_qos_profiles"]
+    # dependencies concatenated the rosbag2 way
+    odom_schema = summary.schemas[channels["/quad/odom"].schema_id].data.decode()
+    assert "MSG: std_msgs/Header" in odom_schema and "MSG: builtin_interfaces/Time" in odom_schema
+
+
+def test_counts_at_declared_rates(recorded):
+    _, _, _, summary, _, _, _ = recorded
+    counts = {summary.channels[c].topic: n for c, n in summary.statistics.channel_message_counts.items()}
+    for topic, (_, rate) in CONTRACT.items():
+        expected = 1 if rate is None else round(DURATION_S * rate)
+        assert counts[topic] == expected, topic
+
+
+def test_stamps_equal_log_time_and_frames(recorded):
+    _, _, _, _, decoded, _, _ = recorded
+    frames = {}
+    for topic, msg, dec in decoded:
+        assert msg.publish_time == msg.log_time
+        assert msg.log_time % 1 == 0 and msg.log_time <= DURATION_S * 1e9
+        headers = [t.header for t in dec.transforms] if topic.startswith("/tf") else ([dec.header] if hasattr(dec, "header") else [])
+        for h in headers:
+            assert h.stamp.sec * 1_000_000_000 + h.stamp.nanosec == msg.log_time, topic
+        if topic.startswith("/tf"):
+            frames[topic] = {(t.header.frame_id, t.child_frame_id) for t in dec.transforms}
+        elif headers:
+            frames.setdefault(topic, set()).add(headers[0].frame_id)
+        if topic == "/quad/odom":
+            assert dec.child_frame_id == "base_link"
+    assert frames["/tf"] == {("world", "base_link")}
+    assert frames["/tf_static"] == {("base_link", "front_camera_optical"), ("base_link", "floor_camera_optical")}
+    assert frames["/quad/pose"] == {"world"} and frames["/quad/odom"] == {"world"} and frames["/quad/imu"] == {"base_link"}
+    assert frames["/quad/front_camera/image_raw/compressed"] == {"front_camera_optical"}
+    assert frames["/quad/floor_camera/camera_info"] == {"floor_camera_optical"}
+
+
+def test_recorded_poses_equal_simulated_ones(recorded):
+    _, log, _, _, decoded, _, _ = recorded
+    poses = [(msg.log_time, dec.pose) for topic, msg, dec in decoded if topic == "/quad/pose"]
+    assert len(poses) == len(log.states)
+    for (ns, pose), state in zip(poses, log.states):
+        assert ns == state.step * 1_000_000_000 // 240
+        assert (pose.position.x, pose.position.y, pose.position.z) == state.position_m
+        q = pose.orientation
+        assert (q.x, q.y, q.z, q.w) == state.orientation_xyzw
+    commands = [dec for topic, _, dec in decoded if topic == "/quad_cmd_twist"]
+    assert commands[-1].linear.x == 1.0 and commands[-1].angular.z == 0.5
+
+
+def test_imu_specific_force_matches_recorded_thrust(recorded):
+    # an accelerometer in flight reads (rotor thrust - body drag) / mass along body z
+    _, _, _, _, decoded, _, _ = recorded
+    imu = {msg.log_time: dec.linear_acceleration.z for topic, msg, dec in decoded if topic == "/quad/imu"}
+    thrust = {msg.log_time: sum(dec.data) for topic, msg, dec in decoded if topic == "/quad/rotor_thrusts"}
+    climb = {msg.log_time: dec.twist.twist.linear.z for topic, msg, dec in decoded if topic == "/quad/odom"}
+    airborne = [t for t in imu if t > 1.0e9]
+    assert len(airborne) > 100
+    # (0.05: the IMU sits at the base origin, 1.8 mm from the CoM, so pitching adds a little)
+    assert all(abs(imu[t] - (thrust[t] - 0.20 * climb[t]) / 1.01) < 0.05 for t in airborne)
+    assert any(abs(imu[t] - 9.81) < 0.2 for t in airborne)  # and hovering, it reads about g
+
+
+def test_metadata_and_attachments(recorded):
+    _, _, _, _, _, metadata, attachments = recorded
+    meta = metadata["quadsim"]
+    params = json.loads(meta["parameters"])
+    assert params["controller"]["name"] == "cascade" and params["config"]["rates"]["physics_hz"] == 240
+    assert params["vehicle"]["mass_kg"] == pytest.approx(1.01)
+    assert [c["name"] for c in params["cameras"]] == ["front", "floor"]
+    assert "wall_clock_start_utc" in meta and meta["quadsim_version"]
+    assert attachments["quadsim_x.urdf"] == DEFAULT_URDF.read_bytes()
+    assert "quadsim_x.params.toml" in attachments and "default.toml" in attachments
+
+
+def test_rosbags_reads_it_as_a_ros2_bag(recorded):
+    from rosbags.highlevel import AnyReader
+
+    path = recorded[0]
+    with AnyReader([Path(path)]) as reader:
+        conns = [c for c in reader.connections if c.topic == "/quad/odom"]
+        first = next(reader.messages(connections=conns))
+        odom = reader.deserialize(first[2], conns[0].msgtype)
+        assert odom.child_frame_id == "base_link" and first[1] == 1_000_000_000 // 60
+
+
+def test_our_reader_gives_typed_data(recorded):
+    from quadsim.recording_reader import RecordingReader
+
+    path, log = recorded[0], recorded[1]
+    with RecordingReader(path) as reader:
+        poses = list(reader.poses())
+        assert [p for _, p, _ in poses] == [s.position_m for s in log.states]
+        assert reader.parameters["driver"]["script"] == "test"
+        assert len(list(reader.images("front"))) == 90
