@@ -190,9 +190,10 @@ def cmd_info(args: argparse.Namespace) -> int:
 
 
 def cmd_recover(args: argparse.Namespace) -> int:
+    from quadsim.mcap_info import CORE_TOPICS
     from quadsim.mcap_salvage import recover
 
-    result = recover(args.file, args.output)
+    result = recover(args.file, args.output, CORE_TOPICS)
     t0, t1 = result.span_s
     if result.was_complete:
         print(f"{args.file} was complete; its {result.messages} messages were copied to {result.path}")

@@ -117,8 +117,10 @@ class Recovered:
     note: str
 
 
-def recover(src: Path, dst: Path | None = None) -> Recovered:
-    """Write every complete message of `src` into a new indexed MCAP (default SRC.recovered.mcap)."""
+def recover(src: Path, dst: Path | None = None, required_topics: tuple[str, ...] = ()) -> Recovered:
+    """Write every complete message of `src` into a new indexed MCAP (default SRC.recovered.mcap).
+
+    With `required_topics`, refuse a file that has none of them (someone else's MCAP)."""
     found = scan(src)
     out = dst if dst is not None else src.with_name(src.stem + ".recovered.mcap")
     if out.exists():
@@ -127,6 +129,10 @@ def recover(src: Path, dst: Path | None = None) -> Recovered:
         raise QuadsimError("the output must be a different file from the input")
     if not found.messages:
         raise QuadsimError(f"{src}: no complete message could be read ({found.stop_reason or 'no chunks'}); nothing to recover")
+    topics = {ch.topic for ch in found.channels.values()}
+    if required_topics and not topics & set(required_topics):
+        raise QuadsimError(f"{src}: has none of a quadsim recording's topics (found {', '.join(sorted(topics)) or 'none'}); "
+                           f"nothing written")
     try:
         fh = open(out, "xb")
     except OSError as exc:

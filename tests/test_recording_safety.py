@@ -1,0 +1,178 @@
+"""Nothing is lost: recordings survive Ctrl-C, SIGTERM, SIGKILL, exceptions and a full disk."""
+
+import errno
+import re
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+from mcap.reader import make_reader
+
+from quadsim import QuadsimError, SimConfig, Simulator, Twist, ZMode
+from quadsim.mcap_salvage import scan
+from quadsim.recorder import McapRecorder, check_writable
+from quadsim.session import OutputOptions, RecordedRun
+from tests.recording_helpers import record_flight
+
+ROOT = Path(__file__).resolve().parent.parent
+
+
+def _summary_ok(path: Path) -> dict:
+    with open(path, "rb") as fh:
+        summary = make_reader(fh).get_summary()
+    assert summary is not None and summary.statistics is not None
+    return {summary.channels[c].topic: n for c, n in summary.statistics.channel_message_counts.items()}
+
+
+class FillingDisk:
+    """A file that fails with ENOSPC once `limit` bytes have been written."""
+
+    def __init__(self, path: Path, limit: int):
+        self._fh = open(path, "wb")
+        self._limit = limit
+        self.written = 0
+
+    def write(self, data) -> int:
+        if self.written + len(data) > self._limit:
+            raise OSError(errno.ENOSPC, "No space left on device")
+        self.written += len(data)
+        return self._fh.write(data)
+
+    def flush(self):
+        self._fh.flush()
+
+    def tell(self):
+        return self._fh.tell()
+
+    def close(self):
+        self._fh.close()
+
+
+def test_disk_full_stops_recording_keeps_flying_keeps_data(tmp_path):
+    path = tmp_path / "full.mcap"
+    disk = FillingDisk(path, limit=60_000)
+    with Simulator(SimConfig(z_mode=ZMode.HEIGHT)) as sim:
+        rec = McapRecorder(path, sim, (), {}, stream=disk)
+        sim.add_sink(rec)
+        sim.send(Twist(linear_x=-0.5))  # backwards: the way ahead has a tower in it
+        sim.run_for(30.0)  # the recording fills up long before the end
+        assert rec.error is not None and "No space left" in rec.error and "quadsim recover" in rec.error
+        assert sim.state.position_m[0] < -13.0  # still flew all the way
+        rec.close()
+    disk.close()
+    found = scan(path)
+    assert found.messages and 0 < found.span_s[1] < 30.0  # what was written before is readable
+
+
+def test_refuses_to_start_where_it_cannot_write(tmp_path):
+    blocker = tmp_path / "a_file"
+    blocker.write_text("x")
+    with pytest.raises(QuadsimError, match="cannot create the recording folder"):
+        check_writable(blocker / "sub" / "run.mcap")
+    with pytest.raises(QuadsimError, match="MB free"):
+        check_writable(tmp_path / "run.mcap", min_free_bytes=1 << 62)
+    existing = tmp_path / "exists.mcap"
+    existing.write_bytes(b"keep me")
+    with pytest.raises(QuadsimError, match="already exists"):
+        check_writable(existing)
+    assert existing.read_bytes() == b"keep me"
+
+
+def test_cli_refuses_unwritable_out_with_exit_2(tmp_path):
+    blocker = tmp_path / "a_file"
+    blocker.write_text("x")
+    out = subprocess.run([sys.executable, str(ROOT / "main.py"), "run", "--script", "hover", "--cameras", "none",
+                          "--out", str(blocker / "dir")], capture_output=True, text=True, cwd=ROOT)
+    assert out.returncode == 2 and "Traceback" not in out.stderr and "recording folder" in out.stderr
+
+
+def test_exception_in_the_loop_still_finishes_the_file(tmp_path):
+    class Boom:
+        def on_command(self, step, twist):
+            pass
+
+        def on_state(self, state):
+            if state.step >= 480:
+                raise RuntimeError("a bug in some sink")
+
+    path = tmp_path / "boom.mcap"
+    with pytest.raises(RuntimeError, match="a bug"):
+        with Simulator(SimConfig()) as sim:
+            with RecordedRun(sim, OutputOptions(out=path, cameras=()), "boom"):
+                sim.add_sink(Boom())
+                sim.send(Twist(linear_z=0.5))
+                sim.run_for(5.0)
+    counts = _summary_ok(path)  # finished properly: summary and index present
+    assert counts["/quad/pose"] >= 119
+
+
+def test_two_recorded_runs_give_identical_messages(tmp_path):
+    def messages(path):
+        with open(path, "rb") as fh:
+            return [(ch.topic, m.log_time, m.data) for _, ch, m in make_reader(fh).iter_messages(log_time_order=False)]
+
+    a, b = tmp_path / "a.mcap", tmp_path / "b.mcap"
+    record_flight(a, workers=2)
+    record_flight(b, workers=2)
+    ma, mb = messages(a), messages(b)
+    assert len(ma) > 1000 and any(t.endswith("compressed") for t, _, _ in ma)
+    assert ma == mb  # images included, and in the same order
+
+
+def _start_recording(tmp_path: Path, *extra: str) -> tuple[subprocess.Popen, Path, float]:
+    out = tmp_path / "killed.mcap"
+    proc = subprocess.Popen([sys.executable, str(ROOT / "main.py"), "run", "--script", "hover", "--realtime",
+                             "--cameras", "none", "--out", str(out), *extra],
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, cwd=ROOT)
+    deadline = time.monotonic() + 60
+    while time.monotonic() < deadline:
+        line = proc.stdout.readline()
+        if line.startswith("recording to"):
+            return proc, out, time.monotonic()
+        if not line and proc.poll() is not None:
+            break
+    proc.kill()
+    raise AssertionError("the recording process did not start: " + proc.stderr.read())
+
+
+def test_sigkill_mid_run_recovers_all_but_the_last_second(tmp_path):
+    proc, out, started = _start_recording(tmp_path)
+    time.sleep(4.0)
+    proc.send_signal(signal.SIGKILL)
+    killed_after = time.monotonic() - started
+    proc.wait()
+    assert not scan(out).complete  # cut short, as a crash leaves it: no footer
+    result = subprocess.run([sys.executable, str(ROOT / "main.py"), "recover", str(out)],
+                            capture_output=True, text=True, cwd=ROOT)
+    assert result.returncode == 0, result.stderr
+    recovered = out.with_name("killed.recovered.mcap")
+    counts = _summary_ok(recovered)
+    with open(recovered, "rb") as fh:
+        poses = [m.log_time for _, ch, m in make_reader(fh).iter_messages(topics=["/quad/pose"])]
+    end_s = poses[-1] / 1e9
+    # sim time ran at wall-clock pace: everything up to about a second before the kill is there
+    assert end_s >= killed_after - 1.0 - 0.5, (end_s, killed_after)
+    assert poses == [i * 4 * 1_000_000_000 // 240 for i in range(1, len(poses) + 1)]  # every state, no gaps
+    assert counts["/quad_cmd_twist"] > 0 and counts["/tf_static"] == 1
+    assert re.search(r"recovered \d+ messages", result.stdout)
+
+
+def test_sigterm_finishes_the_recording(tmp_path):
+    proc, out, _ = _start_recording(tmp_path)
+    time.sleep(2.0)
+    proc.send_signal(signal.SIGTERM)
+    _, err = proc.communicate(timeout=30)
+    assert proc.returncode == 143 and "terminated at sim time" in err and "finished and readable" in err
+    assert _summary_ok(out)["/quad/pose"] > 60
+
+
+def test_ctrl_c_finishes_the_recording(tmp_path):
+    proc, out, _ = _start_recording(tmp_path)
+    time.sleep(2.0)
+    proc.send_signal(signal.SIGINT)
+    _, err = proc.communicate(timeout=30)
+    assert proc.returncode == 130 and "interrupted at sim time" in err
+    assert _summary_ok(out)["/quad/pose"] > 60
