@@ -149,3 +149,99 @@ def run_flight_core_bench(steps: int = 24000, repeats: int = 3, out: Callable[[s
     out(f"  target: full loop >= 100x real time [{'met' if ok_rt else 'MISSED'}], "
         f"within 3x of the baseline [{'met' if ok_ratio else 'MISSED'}]")
     return figures
+
+
+# --- cameras and recording ---------------------------------------------------------------------
+
+def _camera_client(sim: Simulator):
+    """The cameras' view from a vehicle hovering at 2 m in the default world."""
+    from quadsim.camera import camera_pose, default_cameras, projection_matrix, view_matrix
+
+    cams = default_cameras()
+    state = sim.state
+    views = {c.name: view_matrix(camera_pose(sim.vehicle.camera_mount(c.link_name), state.position_m,
+                                             state.orientation_xyzw)) for c in cams}
+    return cams, views, {c.name: projection_matrix(c) for c in cams}
+
+
+def camera_costs(frames: int, repeats: int, out: Callable[[str], None]) -> dict[str, float]:
+    """Per-frame cost of the bare getCameraImage call and of quadsim's whole camera pipeline."""
+    import tempfile
+    from pathlib import Path
+
+    from quadsim.camera import RendererKind
+    from quadsim.camera_rig import CameraRig
+    from quadsim.recorder import McapRecorder
+
+    sim = _hovering_sim(ControllerKind.CASCADE, Rates())
+    cams, views, projs = _camera_client(sim)
+    cid = sim.physics.client_id
+    results: dict[str, float] = {}
+    state = sim.state
+    rig = CameraRig(sim.vehicle, cams, RendererKind.TINY, cid, None)
+    with tempfile.TemporaryDirectory() as tmp:
+        rec = McapRecorder(Path(tmp) / "bench.mcap", sim, cams)
+        for cam in cams:
+            def bare(n: int, cam=cam) -> None:
+                for _ in range(n):
+                    pb.getCameraImage(cam.width_px, cam.height_px, views[cam.name], projs[cam.name],
+                                      renderer=pb.ER_TINY_RENDERER, physicsClientId=cid)
+
+            def pipeline(n: int, cam=cam) -> None:
+                for i in range(n):
+                    for frame in rig.render((cam.name,), i, state.position_m, state.orientation_xyzw):
+                        rec.on_camera_frame(frame)
+
+            results[f"bare_{cam.name}"] = _best_of(repeats, frames, bare)
+            results[f"pipeline_{cam.name}"] = _best_of(repeats, frames, pipeline)
+        rec.close()
+    sim.close()
+    out(f"  per frame, {cams[0].width_px}x{cams[0].height_px}, TinyRenderer   {'ms':>8s} {'x baseline':>11s}")
+    for cam in cams:
+        b, p = results[f"bare_{cam.name}"], results[f"pipeline_{cam.name}"]
+        out(f"  {cam.name:5s} bare getCameraImage (baseline)      {b * 1e3:8.2f} {1.0:10.2f}x")
+        out(f"  {cam.name:5s} render+encode+serialise+write      {p * 1e3:8.2f} {p / b:10.2f}x")
+    worst = max(results[f"pipeline_{c.name}"] / results[f"bare_{c.name}"] for c in cams)
+    out(f"  target: pipeline <= 1.2x the bare render [{'met' if worst <= 1.2 else 'MISSED'}: worst {worst:.2f}x]")
+    return results
+
+
+def recorded_flight(duration_s: float, cameras: bool, workers: int) -> tuple[float, int]:
+    """(real-time factor, bytes written) of the square scenario flown headless and recorded."""
+    import tempfile
+    from pathlib import Path
+
+    from quadsim.camera import default_cameras
+    from quadsim.drivers.scripted import ScriptedDriver, load_script
+    from quadsim.session import OutputOptions, RecordedRun
+
+    script = load_script("square")
+    with tempfile.TemporaryDirectory() as tmp:
+        path = Path(tmp) / "bench.mcap"
+        with Simulator(SimConfig(z_mode=ZMode.HEIGHT), ScriptedDriver(script)) as sim:
+            options = OutputOptions(out=path, cameras=default_cameras() if cameras else (), render_workers=workers)
+            run = RecordedRun(sim, options, "bench")  # workers start before the clock does
+            t0 = time.perf_counter()
+            try:
+                sim.run_for(duration_s)
+            finally:
+                run.close()
+            wall = time.perf_counter() - t0
+        return duration_s / wall, path.stat().st_size
+
+
+def run_recording_bench(out: Callable[[str], None] = print, flight_s: float = 20.0) -> None:
+    out("quadsim bench: cameras and recording")
+    camera_costs(frames=30, repeats=3, out=out)
+    core = full_loop(12000, 3)
+    rtf_cam, size_cam = recorded_flight(flight_s, cameras=True, workers=2)
+    rtf_cam1, _ = recorded_flight(flight_s, cameras=True, workers=0)
+    rtf_nocam, size_nocam = recorded_flight(60.0, cameras=False, workers=0)
+    out(f"  headless flight ('square', {flight_s:.0f} s sim), recorded:        {'x real time':>12s}")
+    out(f"  both cameras 320x240@30Hz, 2 render workers          {rtf_cam:11.2f}x")
+    out(f"  both cameras 320x240@30Hz, rendered in-process      {rtf_cam1:11.2f}x")
+    out(f"  no cameras (flight core alone: {core.real_time_factor:.0f}x)               {rtf_nocam:11.1f}x")
+    out(f"  target: with cameras >= 1.5x [{'met' if rtf_cam >= 1.5 else 'MISSED'}]; "
+        f"without cameras >= 100x [{'met' if rtf_nocam >= 100 else 'MISSED'}]")
+    out(f"  one minute of recording: {size_cam / flight_s * 60 / 1e6:.1f} MB with both cameras, "
+        f"{size_nocam / 1e6:.2f} MB without")

@@ -206,9 +206,12 @@ def cmd_recover(args: argparse.Namespace) -> int:
 
 
 def cmd_bench(args: argparse.Namespace) -> int:
-    from quadsim.bench import run_flight_core_bench
+    from quadsim.bench import run_flight_core_bench, run_recording_bench
 
-    run_flight_core_bench(steps=args.steps, repeats=args.repeats)
+    if args.section in ("all", "flight"):
+        run_flight_core_bench(steps=args.steps, repeats=args.repeats)
+    if args.section in ("all", "recording"):
+        run_recording_bench()
     return 0
 
 
@@ -269,6 +272,8 @@ def build_parser() -> argparse.ArgumentParser:
                                    "baseline measured in the same run; best of --repeats.")
     p.add_argument("--steps", type=int, default=24000, help="physics steps per timed run (default 24000 = 100 s sim)")
     p.add_argument("--repeats", type=int, default=3, help="timed runs per figure; the best is kept (default 3)")
+    p.add_argument("--section", choices=["all", "flight", "recording"], default="all",
+                   help="flight: the flight core; recording: cameras and recording (default: all)")
     p.set_defaults(func=cmd_bench)
     return parser
 
