@@ -139,7 +139,7 @@ def cmd_run(args: argparse.Namespace) -> int:
 def cmd_fly(args: argparse.Namespace) -> int:
     has_display = bool(os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY")) and os.environ.get("SDL_VIDEODRIVER") != "dummy"
     if not has_display:
-        print(f"No display found: flying the scripted demo '{DEMO_SCENARIO}' headless instead. "
+        print(f"No display found: recording the scripted demo '{DEMO_SCENARIO}' headless instead. "
               f"(Other flights: python main.py run --script NAME; list them with: python main.py scenarios)")
         args.gui = False
         return _fly_script(args, DEMO_SCENARIO, realtime=False)
