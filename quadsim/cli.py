@@ -136,17 +136,47 @@ def cmd_run(args: argparse.Namespace) -> int:
     return _fly_script(args, args.script, realtime=args.gui or args.realtime)
 
 
+def has_display() -> bool:
+    if os.environ.get("SDL_VIDEODRIVER") in ("dummy", "offscreen"):
+        return False
+    if sys.platform.startswith("linux"):
+        return bool(os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY"))
+    return True  # macOS and Windows always have a desktop
+
+
 def cmd_fly(args: argparse.Namespace) -> int:
-    has_display = bool(os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY")) and os.environ.get("SDL_VIDEODRIVER") != "dummy"
-    if not has_display:
-        print(f"No display found: recording the scripted demo '{DEMO_SCENARIO}' headless instead. "
-              f"(Other flights: python main.py run --script NAME; list them with: python main.py scenarios)")
+    if not has_display():
+        print(f"No display found: the teleop window cannot open. Recording the scripted demo '{DEMO_SCENARIO}' "
+              f"headless instead. (Headless flights: python main.py run --script NAME; list them with: "
+              f"python main.py scenarios)")
         args.gui = False
         return _fly_script(args, DEMO_SCENARIO, realtime=False)
-    print(f"Flying the scripted demo '{DEMO_SCENARIO}' in PyBullet's window, in real time. "
-          f"(The keyboard/gamepad teleop window is not built yet.)")
-    args.gui = True
-    return _fly_script(args, DEMO_SCENARIO, realtime=True)
+    from quadsim.drivers.joystick import JoystickMapping, load_mapping
+    from quadsim.session import Terminated, raise_on_sigterm
+    from quadsim.teleop_app import TeleopApp, TeleopOptions
+
+    try:
+        width, height = (int(v) for v in args.window.lower().split("x"))
+    except ValueError:
+        raise QuadsimError(f"--window must look like 1280x720, got {args.window!r}") from None
+    options = TeleopOptions(input=args.input, keyboard_layout=args.keys,
+                            joystick_mapping=load_mapping(args.joy_map) if args.joy_map else JoystickMapping(),
+                            window_size=(width, height))
+    config = _config(args, None)
+    outputs = _outputs(args)
+    raise_on_sigterm()
+    exit_code = 0
+    with TeleopApp(config, outputs, options) as app:
+        print(f"flying with {app.driver.name}; press H or F1 in the window for the keys, Esc to quit")
+        try:
+            app.run()
+        except KeyboardInterrupt as exc:
+            exit_code = 143 if isinstance(exc, Terminated) else 130
+        flown = app.sim.time_s
+    print(f"flew {flown:.1f} s of simulation time")
+    for path in app.recordings:
+        print(f"recording       {path}")
+    return exit_code
 
 
 def cmd_scenarios(args: argparse.Namespace) -> int:
@@ -236,10 +266,21 @@ def build_parser() -> argparse.ArgumentParser:
     _add_sim_options(p)
     p.set_defaults(func=cmd_run)
 
-    p = sub.add_parser("fly", aliases=["demo"], help="fly (with no display: a scripted demo flight, said so)",
-                       description="Fly the vehicle. With no display this flies the scripted demo flight headless "
-                                   "and says so.")
-    p.add_argument("--duration", type=float, default=None, metavar="S", help="seconds of sim time for the demo")
+    p = sub.add_parser("fly", aliases=["demo"], help="fly with keyboard or gamepad in a window (no display: a demo)",
+                       description="Open the teleop window: fly with the keyboard or a gamepad, see the front and floor "
+                                   "cameras, a map and a HUD; the flight is recorded. With no display, record the "
+                                   "scripted demo flight headless instead, and say so.")
+    p.add_argument("--duration", type=float, default=None, metavar="S",
+                   help="seconds of sim time for the demo flown when there is no display")
+    t = p.add_argument_group("teleop window")
+    t.add_argument("--input", choices=["auto", "keyboard", "joystick"], default="auto",
+                   help="auto (default): a joystick if one is plugged in, else the keyboard")
+    t.add_argument("--keys", choices=["default", "teleop_twist_keyboard"], default="default",
+                   help="keyboard layout: default (arrows move, W/S climb, A/D yaw, Space stop) or "
+                        "teleop_twist_keyboard (i/,/j/l, u/o/m/., t/b, k stop, q/z speed)")
+    t.add_argument("--joy-map", type=Path, default=None, metavar="FILE.toml",
+                   help="joystick mapping file (axes, buttons, deadzone, scales); see README")
+    t.add_argument("--window", default="1280x720", metavar="WxH", help="initial window size (default 1280x720)")
     _add_sim_options(p)
     p.set_defaults(func=cmd_fly)
 

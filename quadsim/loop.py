@@ -1,7 +1,8 @@
 """The simulation loop: the one owner of the step counter and of every rate.
 
 Stepping order, once per physics step n (time n / physics_hz):
-  1. input   (n % input_every == 0):   poll the driver; the gate takes its command, stamped n
+  1. input   (n % input_every == 0, or the driver has a change pending):
+                                       poll the driver; the gate takes its command, stamped n
   2. control (n % control_every == 0): the controller turns state + active command into rotor forces
   3. physics:                          motors, forces, one PyBullet step -> step n + 1
   4. publish ((n + 1) % state_every == 0): sinks receive the state at step n + 1
@@ -125,7 +126,7 @@ class SimLoop:
         n = self.step_count
         command = self._rotor_command
         for _ in range(steps):
-            if driver is not None and n % input_every == 0:
+            if driver is not None and (n % input_every == 0 or driver.pending):
                 twist = driver.poll(n, n / hz)
                 if twist is not None:
                     accepted = gate.receive(twist, n)

@@ -44,7 +44,12 @@ def recording_path(out: Path | None, label: str, now: dt.datetime | None = None)
     folder = out if out is not None else DEFAULT_DIR
     stamp = (now or dt.datetime.now()).strftime("%Y-%m-%d_%H-%M-%S")
     safe = re.sub(r"[^A-Za-z0-9_.-]+", "-", label).strip("-") or "run"
-    return folder / f"{stamp}_{safe}.mcap"
+    path = folder / f"{stamp}_{safe}.mcap"
+    n = 2
+    while path.exists():  # two recordings in the same second
+        path = folder / f"{stamp}_{safe}_{n}.mcap"
+        n += 1
+    return path
 
 
 def check_writable(path: Path, min_free_bytes: int = MIN_FREE_BYTES) -> None:

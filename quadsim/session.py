@@ -36,28 +36,62 @@ def raise_on_sigterm() -> None:
 
 
 class RecordedRun:
-    """Cameras and recorder for one simulator. Use as a context manager; `close` is idempotent."""
+    """Cameras and recorder for one simulator. Use as a context manager; `close` is idempotent.
+
+    Recording can be stopped and started again (the window's key for it); each start makes a
+    new file."""
 
     def __init__(self, sim: Simulator, options: OutputOptions, label: str, run_info: dict[str, Any] | None = None) -> None:
         self.sim = sim
         self.options = options
+        self.label = label
+        self.run_info = run_info or {}
         self.recorder: McapRecorder | None = None
         self.cameras: CameraPipeline | None = None
         self.path: Path | None = None
         try:
-            if options.record:
-                self.path = recording_path(options.out, label)
-                check_writable(self.path)
-                self.recorder = McapRecorder(self.path, sim, options.cameras, run_info)
-                sim.add_sink(self.recorder)
             if options.cameras:
                 self.cameras = CameraPipeline(sim, options.cameras, options.renderer, options.render_workers,
                                               options.ordered_delivery)
-                if self.recorder is not None:
-                    self.cameras.sinks.append(self.recorder)
+            if options.record:
+                self.start_recording()
         except BaseException:
             self.close()
             raise
+
+    @property
+    def recording(self) -> bool:
+        return self.recorder is not None and not self.recorder.closed
+
+    def start_recording(self) -> Path:
+        """Open a new recording file and start writing to it."""
+        if self.recording:
+            raise RuntimeError("already recording")
+        out = self.options.out
+        if out is not None and out.suffix == ".mcap" and self.path is not None:
+            out = out.parent  # --out FILE names the first recording; later ones go beside it
+        path = recording_path(out, self.label)
+        check_writable(path)
+        info = {**self.run_info, "start_step": self.sim.step_count}
+        recorder = McapRecorder(path, self.sim, self.options.cameras, info)
+        self.sim.add_sink(recorder)
+        if self.cameras is not None:
+            self.cameras.sinks.append(recorder)
+        self.recorder, self.path = recorder, path
+        return path
+
+    def stop_recording(self) -> None:
+        """Finish the current file (with the frames still being rendered)."""
+        rec = self.recorder
+        if rec is None or rec.closed:
+            return
+        if self.cameras is not None:
+            self.cameras.drain()
+            if rec in self.cameras.sinks:
+                self.cameras.sinks.remove(rec)
+        if rec in self.sim.loop.sinks:
+            self.sim.loop.sinks.remove(rec)
+        rec.close()
 
     def close(self) -> None:
         try:

@@ -15,6 +15,10 @@ class InputDriver(Protocol):
     """The one protocol of keyboard, joystick, scripted, replay and programmatic input."""
 
     name: str
+    #: True when the driver has a change to publish before the next input-rate tick (a key
+    #: pressed, a stick moved): the loop then polls it at the next step, like the ROS joy
+    #: node publishing on change as well as at its autorepeat rate.
+    pending: bool
 
     def poll(self, step: int, time_s: float) -> Twist | None:
         """The command to publish now, or None to publish nothing (silence)."""

@@ -16,6 +16,7 @@ class ProgrammaticDriver:
     """
 
     name = "programmatic"
+    pending = False  # commands follow the input rate only
 
     def __init__(self) -> None:
         self._twist: Twist | None = None

@@ -124,6 +124,7 @@ class ScriptedDriver:
     """Plays a Script: at each poll, the Twist of the segment the time falls in."""
 
     name = "scripted"
+    pending = False  # commands follow the input rate only
 
     def __init__(self, script: Script) -> None:
         self.script = script

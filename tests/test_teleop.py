@@ -1,0 +1,252 @@
+"""The teleop window, driven headless (SDL dummy video) with synthetic pygame events."""
+
+import math
+from pathlib import Path
+
+import numpy as np
+import pygame
+import pytest
+from mcap.reader import make_reader
+from mcap_ros2.decoder import DecoderFactory
+
+from quadsim import SimConfig, ZMode
+from quadsim.drivers.joystick import JoystickMapping, apply_deadzone
+from quadsim.pacing import FixedStepPacer
+from quadsim.session import OutputOptions
+from quadsim.teleop_app import TeleopApp, TeleopOptions
+
+FPS = 30  # each frame advances 1/30 s of simulation time
+
+
+def make_app(tmp_path: Path, cameras=(), options=TeleopOptions(), config=SimConfig(), **kw) -> TeleopApp:
+    return TeleopApp(config, OutputOptions(out=tmp_path, cameras=cameras, render_workers=0), options,
+                     pacer=FixedStepPacer(240, 1 / FPS), **kw)
+
+
+def post(kind, **fields):
+    pygame.event.post(pygame.event.Event(kind, **fields))
+
+
+def key(k, down=True):
+    post(pygame.KEYDOWN if down else pygame.KEYUP, key=k, mod=0, unicode="", scancode=0)
+
+
+def run_with(app: TeleopApp, frames: int, schedule: dict[int, list] | None = None) -> None:
+    """Run `frames` frames; schedule[frame] = [callables posting events before that frame]."""
+    start = app.frame_count
+
+    def before(a):
+        for action in (schedule or {}).get(a.frame_count - start, []):
+            action()
+
+    app.run(max_frames=start + frames, before_frame=before)
+
+
+def twist_messages(path: Path):
+    with open(path, "rb") as fh:
+        reader = make_reader(fh, decoder_factories=[DecoderFactory()])
+        return [(m.log_time / 1e9, d) for _, _, m, d in reader.iter_decoded_messages(topics=["/quad_cmd_twist"])]
+
+
+def test_keys_fly_where_they_say_and_are_recorded(tmp_path):
+    app = make_app(tmp_path)
+    run_with(app, 150, {
+        0: [lambda: key(pygame.K_w)], 60: [lambda: key(pygame.K_w, False)],      # climb 2 s
+        75: [lambda: key(pygame.K_UP)], 135: [lambda: key(pygame.K_UP, False)],  # forward 2 s
+    })
+    x, y, z = app.sim.state.position_m
+    assert 1.3 < z < 1.8  # 2 s at 0.8 m/s
+    assert x > 1.2 and abs(y) < 0.05
+    app.close()
+    path = app.recordings[0]
+    msgs = twist_messages(path)
+    forward = [d.linear.x for t, d in msgs if 3.0 < t < 4.4]
+    assert forward and all(v == pytest.approx(1.0) for v in forward)
+    climbing = [d.linear.z for t, d in msgs if 0.2 < t < 1.9]
+    assert climbing and all(v == pytest.approx(0.8) for v in climbing)
+    assert all(d.linear.x == 0.0 for t, d in msgs if t > 4.6)  # released: that motion stops
+    # published at the fixed 20 Hz whether or not anything changes, plus at each change
+    assert 20 * 5.0 <= len(msgs) <= 20 * 5.0 + 6
+
+
+def test_releasing_a_key_stops_the_motion(tmp_path):
+    app = make_app(tmp_path, config=SimConfig(z_mode=ZMode.HEIGHT))
+    run_with(app, 200, {60: [lambda: key(pygame.K_LEFT)], 120: [lambda: key(pygame.K_LEFT, False)]})
+    assert app.sim.state.position_m[1] > 1.0  # flew left
+    assert abs(app.sim.state.linear_velocity_mps[1]) < 0.05  # and stopped
+    app.close()
+
+
+def test_focus_loss_clears_held_keys(tmp_path):
+    app = make_app(tmp_path, config=SimConfig(z_mode=ZMode.HEIGHT))
+    run_with(app, 120, {60: [lambda: key(pygame.K_UP)], 80: [lambda: post(pygame.WINDOWFOCUSLOST)]})
+    assert app.keyboard.held == set()
+    assert app.sim.gate.last_command.linear_x == 0.0
+    assert abs(app.sim.state.linear_velocity_mps[0]) < 0.1
+    app.close()
+
+
+def test_window_close_finishes_a_readable_recording(tmp_path):
+    app = make_app(tmp_path)
+    run_with(app, 1000, {10: [lambda: key(pygame.K_w)], 40: [lambda: post(pygame.QUIT)]})
+    assert app.quit and app.frame_count == 40
+    app.close()
+    with open(app.recordings[0], "rb") as fh:
+        summary = make_reader(fh).get_summary()
+    counts = {summary.channels[c].topic: n for c, n in summary.statistics.channel_message_counts.items()}
+    assert counts["/quad/pose"] == 40 * 8 // 4 and counts["/quad_cmd_twist"] > 20
+
+
+def test_escape_quits(tmp_path):
+    app = make_app(tmp_path)
+    run_with(app, 100, {5: [lambda: key(pygame.K_ESCAPE)]})
+    assert app.quit and app.frame_count == 5
+    app.close()
+
+
+def test_pause_reset_zmode_and_recording_keys(tmp_path):
+    app = make_app(tmp_path)
+    run_with(app, 60, {0: [lambda: key(pygame.K_w)]})
+    t = app.sim.time_s
+    run_with(app, 10, {0: [lambda: key(pygame.K_p)]})
+    assert app.paused and app.sim.time_s == t  # paused: no sim time passes
+    run_with(app, 10, {0: [lambda: key(pygame.K_p), lambda: key(pygame.K_w, False)]})
+    assert not app.paused and app.sim.time_s > t
+    altitude = app.sim.state.position_m[2]
+    run_with(app, 60, {0: [lambda: key(pygame.K_TAB)]})  # to height mode: holds where it is
+    assert app.sim.gate.z_mode is ZMode.HEIGHT
+    assert app.sim.state.position_m[2] == pytest.approx(altitude, abs=0.1)
+    run_with(app, 2, {0: [lambda: key(pygame.K_F5)]})  # stop recording
+    assert not app.session.recording
+    run_with(app, 2, {0: [lambda: key(pygame.K_F5)]})  # a new one
+    assert app.session.recording and len(app.recordings) == 2
+    run_with(app, 2, {0: [lambda: key(pygame.K_BACKSPACE)]})  # reset: back to start, new file
+    assert app.sim.state.position_m[2] < 0.1 and len(app.recordings) == 3
+    app.close()
+    for path in app.recordings:
+        with open(path, "rb") as fh:
+            assert make_reader(fh).get_summary() is not None
+
+
+def test_speed_keys_and_teleop_twist_layout(tmp_path):
+    app = make_app(tmp_path, options=TeleopOptions(keyboard_layout="teleop_twist_keyboard"),
+                   config=SimConfig(z_mode=ZMode.HEIGHT))
+    run_with(app, 40, {5: [lambda: key(pygame.K_q)], 10: [lambda: key(pygame.K_i)]})
+    assert app.sim.gate.last_command.linear_x == pytest.approx(1.1)
+    run_with(app, 5, {0: [lambda: key(pygame.K_k)]})  # k: stop
+    assert app.sim.gate.last_command.linear_x == 0.0
+    app.close()
+
+
+def test_window_shows_both_cameras_map_and_hud(tmp_path):
+    from quadsim.camera import default_cameras
+
+    app = make_app(tmp_path, cameras=default_cameras(), options=TeleopOptions(window_size=(960, 540)))
+    run_with(app, 90, {0: [lambda: key(pygame.K_w)], 45: [lambda: key(pygame.K_w, False)]})
+    pygame.image.save(app.screen, str(tmp_path / "window.png"))
+    pixels = pygame.surfarray.array3d(app.screen).swapaxes(0, 1)
+    rects = app.view.layout(app.screen.get_size())
+    for name in ("front", "floor"):
+        r = rects[name]
+        region = pixels[r.top + 30:r.bottom - 30, r.left + 10:r.right - 10]
+        assert region.std() > 20, f"{name} camera area is flat"
+    m = rects["map"]
+    colours = {tuple(c) for c in pixels[m.top:m.bottom, m.left:m.right].reshape(-1, 3)}
+    assert (255, 70, 70) in colours  # the vehicle's arrow
+    assert (216, 30, 25) in colours and (38, 76, 216) in colours  # the red tower, the blue block
+    front = rects["front"]
+    sky = pixels[front.centery - 120, front.centerx + 150]
+    assert sky.min() > 200  # the front camera's sky (TinyRenderer's white background)
+    assert set(app.frames) == {"front", "floor"}
+    # the window resizes
+    app.screen = pygame.display.set_mode((640, 480), pygame.RESIZABLE)
+    run_with(app, 2)
+    assert app.view.layout(app.screen.get_size())["front"].width < 640
+    app.close()
+
+
+class FakeJoystick:
+    """A gamepad as SDL numbers an Xbox-style pad: axes 0/1 left stick, 3/4 right stick."""
+
+    def __init__(self, instance_id=7):
+        self.axes = [0.0] * 6
+        self.buttons = [0] * 11
+        self.instance_id = instance_id
+
+    def get_name(self): return "Fake Pad"
+    def get_instance_id(self): return self.instance_id
+    def get_numaxes(self): return len(self.axes)
+    def get_axis(self, i): return self.axes[i]
+    def get_numbuttons(self): return len(self.buttons)
+    def get_button(self, i): return self.buttons[i]
+
+
+def test_deadzone_is_rescaled_and_continuous():
+    assert apply_deadzone(0.09, 0.1) == 0.0
+    assert apply_deadzone(0.1001, 0.1) == pytest.approx(0.0, abs=1e-3)
+    assert apply_deadzone(0.55, 0.1) == pytest.approx(0.5)
+    assert apply_deadzone(-1.0, 0.1) == -1.0
+
+
+def test_joystick_mode2_mapping_unplug_replug(tmp_path):
+    pad = FakeJoystick()
+    app = make_app(tmp_path, options=TeleopOptions(input="joystick"), config=SimConfig(z_mode=ZMode.VELOCITY),
+                   device_factory=lambda index: pad)
+    assert app.driver is app.joystick
+    run_with(app, 2, {0: [lambda: post(pygame.JOYDEVICEADDED, device_index=0)]})
+    assert app.joystick.device is pad
+    pad.axes[1] = -0.55  # left stick up: climb
+    pad.axes[4] = -0.55  # right stick up: forward
+    pad.axes[3] = 0.05   # right stick x inside the deadzone: nothing sideways
+    pad.axes[0] = -1.0   # left stick full left: yaw counter-clockwise
+    run_with(app, 60)
+    c = app.sim.gate.last_command
+    assert c.linear_z == pytest.approx(0.5 * 1.0) and c.linear_x == pytest.approx(0.5 * 1.5)
+    assert c.linear_y == 0.0 and c.angular_z == pytest.approx(1.2)
+    assert app.sim.state.angular_velocity_body_rps[2] > 1.0
+    # unplugged mid-flight: nothing more is published, the dead-man holds, the HUD says so
+    run_with(app, 30, {0: [lambda: post(pygame.JOYDEVICEREMOVED, instance_id=7)]})
+    assert app.sim.gate.active(app.sim.step_count).hold
+    assert any("unplugged" in w for w in app._model().warnings)
+    assert abs(app.sim.state.angular_velocity_body_rps[2]) < 0.1
+    # plugged in again: flying resumes
+    run_with(app, 30, {0: [lambda: post(pygame.JOYDEVICEADDED, device_index=0)]})
+    assert not app.sim.gate.active(app.sim.step_count).hold
+    assert app.sim.state.angular_velocity_body_rps[2] > 1.0
+    app.close()
+    with open(app.recordings[0], "rb") as fh:
+        reader = make_reader(fh, decoder_factories=[DecoderFactory()])
+        joy = [d for _, _, _, d in reader.iter_decoded_messages(topics=["/joy"])]
+    assert joy and list(joy[-1].axes)[:5] == pytest.approx([-1.0, -0.55, 0.0, 0.05, -0.55])
+
+
+def test_enable_and_turbo_buttons_gate_motion(tmp_path):
+    pad = FakeJoystick()
+    mapping = JoystickMapping(enable_button=4, turbo_button=5)
+    app = make_app(tmp_path, options=TeleopOptions(input="joystick", joystick_mapping=mapping),
+                   device_factory=lambda index: pad)
+    run_with(app, 2, {0: [lambda: post(pygame.JOYDEVICEADDED, device_index=0)]})
+    pad.axes[4] = -1.0
+    run_with(app, 10)
+    assert app.sim.gate.last_command.linear_x == 0.0  # not enabled: no motion
+    pad.buttons[4] = 1
+    run_with(app, 10)
+    assert app.sim.gate.last_command.linear_x == pytest.approx(1.5)
+    pad.buttons[5] = 1
+    run_with(app, 10)
+    assert app.sim.gate.last_command.linear_x == pytest.approx(3.0)  # turbo
+    app.close()
+
+
+def test_joystick_mapping_file(tmp_path):
+    from quadsim import ConfigError
+    from quadsim.drivers.joystick import load_mapping
+
+    good = tmp_path / "pad.toml"
+    good.write_text("deadzone = 0.2\nlinear_mps = 2.0\nforward = { index = 1, scale = -1.0 }\nenable_button = 0\n")
+    m = load_mapping(good)
+    assert m.deadzone == 0.2 and m.forward.index == 1 and m.enable_button == 0
+    bad = tmp_path / "bad.toml"
+    bad.write_text("dead_zone = 0.2\n")
+    with pytest.raises(ConfigError, match="unknown key"):
+        load_mapping(bad)
