@@ -245,3 +245,106 @@ def run_recording_bench(out: Callable[[str], None] = print, flight_s: float = 20
         f"without cameras >= 100x [{'met' if rtf_nocam >= 100 else 'MISSED'}]")
     out(f"  one minute of recording: {size_cam / flight_s * 60 / 1e6:.1f} MB with both cameras, "
         f"{size_nocam / 1e6:.2f} MB without")
+
+
+# --- the interactive window ---------------------------------------------------------------------
+
+class _Timer:
+    """Wraps a method of an object so the time spent in it is added up under a name."""
+
+    def __init__(self) -> None:
+        self.seconds: dict[str, float] = {}
+
+    def wrap(self, obj: object, method: str, name: str) -> None:
+        inner = getattr(obj, method)
+
+        def timed(*args, **kwargs):
+            t0 = time.perf_counter()
+            try:
+                return inner(*args, **kwargs)
+            finally:
+                self.seconds[name] = self.seconds.get(name, 0.0) + time.perf_counter() - t0
+
+        setattr(obj, method, timed)
+
+
+def run_interactive_bench(out: Callable[[str], None] = print, wall_s: float = 10.0) -> None:
+    """The window headless (SDL dummy video), paced to real time, both cameras and recording on."""
+    import os
+    import tempfile
+    from pathlib import Path
+
+    os.environ["SDL_VIDEODRIVER"] = "dummy"
+    import pygame
+
+    from quadsim.session import OutputOptions
+    from quadsim.teleop_app import TeleopApp, TeleopOptions
+
+    out("quadsim bench: interactive window (SDL dummy video, real-time pacing, 1280x720, "
+        "both cameras 320x240@30Hz, recording on)")
+    with tempfile.TemporaryDirectory() as tmp:
+        app = TeleopApp(SimConfig(z_mode=ZMode.HEIGHT), OutputOptions(out=Path(tmp)), TeleopOptions(input="keyboard"))
+        try:
+            timer = _Timer()
+            rec, cams = app.session.recorder, app.session.cameras
+            timer.wrap(app.sim.physics, "step", "physics")
+            timer.wrap(app.sim.controller, "update", "control")
+            for m in ("on_state", "on_command", "on_camera_frame"):
+                timer.wrap(rec, m, "recording")
+            timer.wrap(cams, "_capture", "cameras")
+            timer.wrap(cams, "poll", "cameras+")
+            timer.wrap(app.view, "draw", "drawing")
+            app.run(max_frames=30)  # warm up: take off, first frames
+            timer.seconds.clear()
+            frames0, steps0, t0 = app.frame_count, app.sim.step_count, time.perf_counter()
+            lagging = 0
+            while time.perf_counter() - t0 < wall_s:
+                app.frame()
+                lagging += app.pacer.lagging
+            wall = time.perf_counter() - t0
+            frames = app.frame_count - frames0
+            sim_s = (app.sim.step_count - steps0) / 240
+            shares = dict(timer.seconds)
+            # physics and the control it calls are nested in sim.step; the frames recorded inside
+            # poll() are counted under recording, so take them out of cameras
+            shares["cameras"] = shares.get("cameras", 0.0) + shares.pop("cameras+", 0.0)
+            busy = sum(shares.values())
+            out(f"  {frames / wall:.1f} frames/s over {wall:.1f} s (target >= 30), sim at {sim_s / wall:.2f}x real time, "
+                f"{lagging} frames behind real time")
+            out("  share of the frame time: " + ", ".join(
+                f"{k} {v / wall * 100:.1f}%" for k, v in sorted(shares.items(), key=lambda kv: -kv[1]))
+                + f", idle/other {max(0.0, wall - busy) / wall * 100:.1f}%")
+            out("  (cameras: submitting jobs to the render workers and taking frames back; the rendering itself "
+                "runs in the workers, on the other core)")
+
+            # key latency: from the key event to the first changed rotor command
+            log: list[tuple[int, tuple]] = []
+            update = app.sim.controller.update
+
+            def logged(state, command, dt):
+                forces = update(state, command, dt)
+                log.append((state.step, forces))
+                return forces
+
+            app.sim.controller.update = logged  # type: ignore[method-assign]
+            app.run(max_frames=app.frame_count + 5)
+            before = app.sim.loop.rotor_command_n
+            log.clear()
+            receive_before = app.sim.gate.last_receive_step
+            t_post = time.perf_counter()
+            pygame.event.post(pygame.event.Event(pygame.KEYDOWN, key=pygame.K_UP, mod=0, unicode="", scancode=0))
+            changed_wall = None
+            while changed_wall is None and time.perf_counter() - t_post < 2.0:
+                app.frame()
+                if any(f != before for _, f in log):
+                    changed_wall = time.perf_counter()
+            poll_step = app.sim.gate.last_receive_step
+            first_change = next((s for s, f in log if f != before), None)
+            if changed_wall is None or poll_step == receive_before or first_change is None:
+                out("  key latency: no change seen within 2 s")
+            else:
+                out(f"  key latency: the first changed rotor command came {first_change - poll_step} control step(s) "
+                    f"after the event was polled (target <= 1); {(changed_wall - t_post) * 1e3:.1f} ms from the "
+                    f"event to the end of the frame that applied it")
+        finally:
+            app.close()

@@ -242,6 +242,10 @@ def cmd_bench(args: argparse.Namespace) -> int:
         run_flight_core_bench(steps=args.steps, repeats=args.repeats)
     if args.section in ("all", "recording"):
         run_recording_bench()
+    if args.section in ("all", "window"):
+        from quadsim.bench import run_interactive_bench
+
+        run_interactive_bench()
     return 0
 
 
@@ -313,8 +317,9 @@ def build_parser() -> argparse.ArgumentParser:
                                    "baseline measured in the same run; best of --repeats.")
     p.add_argument("--steps", type=int, default=24000, help="physics steps per timed run (default 24000 = 100 s sim)")
     p.add_argument("--repeats", type=int, default=3, help="timed runs per figure; the best is kept (default 3)")
-    p.add_argument("--section", choices=["all", "flight", "recording"], default="all",
-                   help="flight: the flight core; recording: cameras and recording (default: all)")
+    p.add_argument("--section", choices=["all", "flight", "recording", "window"], default="all",
+                   help="flight: the flight core; recording: cameras and recording; window: the teleop "
+                        "window headless (default: all)")
     p.set_defaults(func=cmd_bench)
     return parser
 
