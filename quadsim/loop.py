@@ -1,7 +1,7 @@
 """The simulation loop: the one owner of the step counter and of every rate.
 
 Stepping order, once per physics step n (time n / physics_hz):
-  1. input   (n % input_every == 0, or the driver has a change pending):
+  1. input   (n % input_every == 0, or n >= driver.next_poll_step):
                                        poll the driver; the gate takes its command, stamped n
   2. control (n % control_every == 0): the controller turns state + active command into rotor forces
   3. physics:                          motors, forces, one PyBullet step -> step n + 1
@@ -126,7 +126,7 @@ class SimLoop:
         n = self.step_count
         command = self._rotor_command
         for _ in range(steps):
-            if driver is not None and (n % input_every == 0 or driver.pending):
+            if driver is not None and (n % input_every == 0 or n >= driver.next_poll_step):
                 twist = driver.poll(n, n / hz)
                 if twist is not None:
                     accepted = gate.receive(twist, n)

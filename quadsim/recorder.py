@@ -35,6 +35,7 @@ log = logging.getLogger(__name__)
 MIN_FREE_BYTES = 200 * 1024 * 1024
 DEFAULT_DIR = Path("recordings")
 METADATA_NAME = "quadsim"
+EVENT_METADATA_NAME = "quadsim_event"  # one record per event, written when it happens
 
 
 def recording_path(out: Path | None, label: str, now: dt.datetime | None = None) -> Path:
@@ -157,6 +158,15 @@ class McapRecorder:
         ns = self.ns(frame.step)
         self._write(rm.image_topic(spec), ns, rm.compressed_image_msg(frame, spec, ns))
         self._write(rm.camera_info_topic(spec), ns, rm.camera_info_msg(spec, ns))
+
+    def note_event(self, step: int, kind: str, value: str) -> None:
+        """Something a re-simulation must know besides the commands (a z-mode switch)."""
+        if self.error is not None or self.closed:
+            return
+        try:
+            self._writer.add_metadata(EVENT_METADATA_NAME, {"step": str(step), "kind": kind, "value": value})
+        except OSError as exc:
+            self._fail(exc)
 
     def on_joy(self, step: int, axes: tuple[float, ...], buttons: tuple[int, ...]) -> None:
         ns = self.ns(step)

@@ -57,15 +57,16 @@ class SimConfig:
 class Simulator:
     """One simulated vehicle in one world, stepped by a SimLoop that owns the clock."""
 
-    def __init__(self, config: SimConfig = SimConfig(), driver: InputDriver | None = None) -> None:
+    def __init__(self, config: SimConfig = SimConfig(), driver: InputDriver | None = None,
+                 controller_gains: dict[str, Any] | None = None, texture_required: bool = True) -> None:
         self.config = config
         self.vehicle = load_vehicle(config.urdf, config.vehicle_params)
-        self.world = load_world(config.world)
+        self.world = load_world(config.world, texture_required)
         rates = config.rates
         timeout = config.command_timeout_s
         if timeout is not None and not timeout > 0:
             raise ConfigError(f"command timeout must be > 0 s (or None to disable), got {timeout}")
-        self.controller = make_controller(config.controller, self.vehicle)
+        self.controller = make_controller(config.controller, self.vehicle, controller_gains)
         self.gate = CommandGate(self.vehicle.limits, config.z_mode,
                                 None if timeout is None else round(timeout * rates.physics_hz))
         self.driver: InputDriver = driver if driver is not None else ProgrammaticDriver()

@@ -160,6 +160,8 @@ class TeleopApp:
     def toggle_z_mode(self) -> None:
         new = ZMode.HEIGHT if self.sim.gate.z_mode is ZMode.VELOCITY else ZMode.VELOCITY
         self.sim.set_z_mode(new)
+        if self.session.recording:
+            self.session.recorder.note_event(self.sim.step_count, "z_mode", new.value)  # type: ignore[union-attr]
         altitude = self.sim.state.position_m[2]
         self.keyboard.set_z_mode(new, altitude)
         self.joystick.set_z_mode(new, altitude)

@@ -53,8 +53,11 @@ def _vector(entry: dict[str, Any], key: str, n: int, where: str) -> tuple[float,
     return tuple(float(v) for v in value)
 
 
-def load_world(path: Path | str | None = None) -> WorldSpec:
-    """Read and validate a world file; raises ConfigError naming the file and entry."""
+def load_world(path: Path | str | None = None, texture_required: bool = True) -> WorldSpec:
+    """Read and validate a world file; raises ConfigError naming the file and entry.
+
+    Without `texture_required`, a missing floor texture leaves the floor plain (re-simulating
+    a recording, whose attachments hold the world file but not its texture)."""
     world_path = Path(path) if path is not None else DEFAULT_WORLD
     if not world_path.is_file():
         raise ConfigError(f"world file not found: {world_path}")
@@ -67,7 +70,9 @@ def load_world(path: Path | str | None = None) -> WorldSpec:
     texture = floor_t.get("texture")
     texture_path = (world_path.parent / texture).resolve() if texture else None
     if texture_path is not None and not texture_path.is_file():
-        raise ConfigError(f"{world_path}: [floor] texture not found: {texture_path}")
+        if texture_required:
+            raise ConfigError(f"{world_path}: [floor] texture not found: {texture_path}")
+        texture_path = None
     floor = FloorSpec(
         size_m=float(floor_t.get("size_m", 80.0)),
         texture_path=texture_path,

@@ -32,11 +32,22 @@ class Controller(Protocol):
         """The controller's name and every gain, as plain data for recordings."""
 
 
-def make_controller(kind: ControllerKind, vehicle: VehicleParams) -> Controller:
+def make_controller(kind: ControllerKind, vehicle: VehicleParams, gains: dict[str, Any] | None = None) -> Controller:
+    """A controller of `kind`; `gains` (as `describe()` gives them) replace the defaults."""
+    import dataclasses
+
     if kind is ControllerKind.CASCADE:
-        from quadsim.control.cascade import CascadeController
+        from quadsim.control.cascade import CascadeController, CascadeGains
 
-        return CascadeController(vehicle)
-    from quadsim.control.seed import SeedController
+        cls, gains_cls = CascadeController, CascadeGains
+    else:
+        from quadsim.control.seed import SeedController, SeedGains
 
-    return SeedController(vehicle)
+        cls, gains_cls = SeedController, SeedGains  # type: ignore[assignment]
+    if not gains:
+        return cls(vehicle)
+    known = {f.name for f in dataclasses.fields(gains_cls)}
+    unknown = set(gains) - known
+    if unknown:
+        raise ValueError(f"unknown {kind.value} gains: {', '.join(sorted(unknown))}")
+    return cls(vehicle, gains_cls(**gains))

@@ -6,19 +6,24 @@ passes whatever it returns to the command gate, stamped with the step of the pol
 
 from __future__ import annotations
 
+import sys
 from typing import Any, Protocol
 
 from quadsim.messages import Twist
+
+ASAP = 0
+NEVER = sys.maxsize
 
 
 class InputDriver(Protocol):
     """The one protocol of keyboard, joystick, scripted, replay and programmatic input."""
 
     name: str
-    #: True when the driver has a change to publish before the next input-rate tick (a key
-    #: pressed, a stick moved): the loop then polls it at the next step, like the ROS joy
-    #: node publishing on change as well as at its autorepeat rate.
-    pending: bool
+    #: Besides the input-rate ticks, the loop polls the driver at every step n >= next_poll_step.
+    #: Keyboard and joystick set it to ASAP when a key or stick changes (like the ROS joy node
+    #: publishing on change as well as at its autorepeat rate) and back to NEVER once polled;
+    #: the replay driver sets it to the step of its next recorded command.
+    next_poll_step: int
 
     def poll(self, step: int, time_s: float) -> Twist | None:
         """The command to publish now, or None to publish nothing (silence)."""

@@ -18,6 +18,7 @@ os.environ.setdefault("PYGAME_HIDE_SUPPORT_PROMPT", "1")
 import pygame  # noqa: E402
 
 from quadsim.errors import ConfigError  # noqa: E402
+from quadsim.drivers import ASAP, NEVER  # noqa: E402
 from quadsim.messages import HEIGHT_MODE_BASE_M, Twist, ZMode  # noqa: E402
 from quadsim.vehicle import tomllib  # noqa: E402
 
@@ -108,7 +109,7 @@ class JoystickDriver:
         self.z_mode = z_mode
         self.device: JoystickDevice | None = None
         self.status = "no joystick"
-        self.pending = False
+        self.next_poll_step = NEVER
         self.joy_sinks: list[Callable[[int, tuple[float, ...], tuple[int, ...]], None]] = []
         self._factory = device_factory
         self._last_poll_s: float | None = None
@@ -120,7 +121,7 @@ class JoystickDriver:
         if self.device is None:
             self.device = self._factory(index)
             self.status = f"joystick: {self.device.get_name()}"
-            self.pending = True
+            self.next_poll_step = ASAP
 
     def handle_event(self, event: pygame.event.Event) -> bool:
         if event.type == pygame.JOYDEVICEADDED:
@@ -132,7 +133,7 @@ class JoystickDriver:
                 self.status = "joystick unplugged: holding position"
             return True
         if event.type in (pygame.JOYAXISMOTION, pygame.JOYBUTTONDOWN, pygame.JOYBUTTONUP):
-            self.pending = True
+            self.next_poll_step = ASAP
             return True
         return False
 
@@ -164,7 +165,7 @@ class JoystickDriver:
                      linear_z=up, angular_z=axis(m.yaw) * m.yaw_radps * k)
 
     def poll(self, step: int, time_s: float) -> Twist | None:
-        self.pending = False
+        self.next_poll_step = NEVER
         dt = 0.0 if self._last_poll_s is None else time_s - self._last_poll_s
         self._last_poll_s = time_s
         if self.device is None:
@@ -181,7 +182,7 @@ class JoystickDriver:
     def set_z_mode(self, z_mode: ZMode, altitude_m: float) -> None:
         self.z_mode = z_mode
         self._height_offset_m = altitude_m - HEIGHT_MODE_BASE_M
-        self.pending = True
+        self.next_poll_step = ASAP
 
     @property
     def finished(self) -> bool:

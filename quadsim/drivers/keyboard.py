@@ -16,6 +16,7 @@ from typing import Any
 os.environ.setdefault("PYGAME_HIDE_SUPPORT_PROMPT", "1")
 import pygame  # noqa: E402
 
+from quadsim.drivers import ASAP, NEVER  # noqa: E402
 from quadsim.messages import HEIGHT_MODE_BASE_M, Twist, ZMode  # noqa: E402
 
 
@@ -118,7 +119,7 @@ class KeyboardDriver:
         self.scale = 1.0
         self.z_mode = z_mode
         self.held: set[int] = set()
-        self.pending = False  # a change not yet published: the loop polls at once
+        self.next_poll_step = NEVER  # ASAP after a change: the loop polls at once
         self._last_poll_s: float | None = None
         self._height_offset_m = 0.0  # height z-mode: W/S move the altitude wanted
         self._bound = {b.key for b in layout.bindings} | set(layout.stop_keys)
@@ -128,19 +129,19 @@ class KeyboardDriver:
         if event.type == pygame.KEYDOWN:
             if event.key in self.layout.faster_keys:
                 self.scale = min(5.0, self.scale * 1.1)
-                self.pending = True
+                self.next_poll_step = ASAP
                 return True
             if event.key in self.layout.slower_keys:
                 self.scale = max(0.1, self.scale / 1.1)
-                self.pending = True
+                self.next_poll_step = ASAP
                 return True
             if event.key in self._bound:
                 self.held.add(event.key)
-                self.pending = True
+                self.next_poll_step = ASAP
                 return True
         elif event.type == pygame.KEYUP and event.key in self.held:
             self.held.discard(event.key)
-            self.pending = True
+            self.next_poll_step = ASAP
             return True
         elif event.type == pygame.WINDOWFOCUSLOST or (
                 event.type == pygame.ACTIVEEVENT and getattr(event, "gain", 1) == 0 and getattr(event, "state", 0) & 2):
@@ -152,19 +153,19 @@ class KeyboardDriver:
         """Forget every held key (focus lost: their KEYUPs will never come)."""
         if self.held:
             self.held.clear()
-            self.pending = True
+            self.next_poll_step = ASAP
 
     def reset(self) -> None:
         self.held.clear()
         self._last_poll_s = None
         self._height_offset_m = 0.0
-        self.pending = False
+        self.next_poll_step = NEVER
 
     def set_z_mode(self, z_mode: ZMode, altitude_m: float) -> None:
         """Follow a z-mode switch; in height mode W/S then move from the current altitude."""
         self.z_mode = z_mode
         self._height_offset_m = altitude_m - HEIGHT_MODE_BASE_M
-        self.pending = True
+        self.next_poll_step = ASAP
 
     def _units(self) -> dict[Axis, float]:
         units = dict.fromkeys(Axis, 0.0)
@@ -176,7 +177,7 @@ class KeyboardDriver:
         return {a: max(-1.0, min(1.0, v)) for a, v in units.items()}
 
     def poll(self, step: int, time_s: float) -> Twist:
-        self.pending = False
+        self.next_poll_step = NEVER
         u = self._units()
         s, k = self.speeds, self.scale
         dt = 0.0 if self._last_poll_s is None else time_s - self._last_poll_s

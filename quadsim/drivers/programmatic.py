@@ -4,6 +4,7 @@ from __future__ import annotations
 
 from typing import Any
 
+from quadsim.drivers import NEVER
 from quadsim.messages import Twist
 
 
@@ -16,7 +17,7 @@ class ProgrammaticDriver:
     """
 
     name = "programmatic"
-    pending = False  # commands follow the input rate only
+    next_poll_step = NEVER  # commands follow the input rate only
 
     def __init__(self) -> None:
         self._twist: Twist | None = None

@@ -23,6 +23,7 @@ from pathlib import Path
 from typing import Any
 
 from quadsim.errors import ScriptError
+from quadsim.drivers import NEVER
 from quadsim.messages import Twist, ZMode
 
 _FIELDS = ("linear.x", "linear.y", "linear.z", "angular.x", "angular.y", "angular.z")
@@ -124,7 +125,7 @@ class ScriptedDriver:
     """Plays a Script: at each poll, the Twist of the segment the time falls in."""
 
     name = "scripted"
-    pending = False  # commands follow the input rate only
+    next_poll_step = NEVER  # commands follow the input rate only
 
     def __init__(self, script: Script) -> None:
         self.script = script

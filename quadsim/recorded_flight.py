@@ -1,0 +1,150 @@
+"""A recording loaded whole for playback and re-simulation: states, commands, camera frames,
+the run's parameters, events and attachments.
+
+Foreign files load too (playback shows what is there); damaged ones are refused with what is
+wrong and how to recover them.
+"""
+
+from __future__ import annotations
+
+import json
+from bisect import bisect_right
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from mcap.reader import make_reader
+
+from quadsim import ros_messages as rm
+from quadsim.errors import QuadsimError
+from quadsim.mcap_info import damage_report
+from quadsim.mcap_salvage import check_is_mcap
+from quadsim.messages import Twist, VehicleState
+from quadsim.recorder import EVENT_METADATA_NAME, METADATA_NAME
+from quadsim.rotation import matrix_from_quaternion
+
+NS = 1_000_000_000
+
+
+@dataclass
+class RecordedFlight:
+    path: Path
+    parameters: dict[str, Any] | None
+    physics_hz: int
+    states: list[VehicleState] = field(default_factory=list)
+    state_ns: list[int] = field(default_factory=list)
+    body_velocities: list[tuple[float, float, float]] = field(default_factory=list)  # as /quad/odom has them
+    commands: list[tuple[int, Twist]] = field(default_factory=list)  # (log time ns, twist)
+    frames: dict[str, list[tuple[int, bytes]]] = field(default_factory=dict)  # camera -> (ns, jpeg)
+    events: list[tuple[int, str, str]] = field(default_factory=list)  # (step, kind, value)
+    attachments: dict[str, bytes] = field(default_factory=dict)
+    topics: dict[str, int] = field(default_factory=dict)  # topic -> message count
+    end_ns: int = 0
+
+    @property
+    def is_quadsim(self) -> bool:
+        return self.parameters is not None
+
+    @property
+    def duration_s(self) -> float:
+        return self.end_ns / NS
+
+    def step_of(self, ns: int) -> int:
+        """The physics step a log time was stamped at (stamps are floor(step * 1e9 / hz))."""
+        return round(ns * self.physics_hz / NS)
+
+    def command_steps(self) -> list[tuple[int, Twist]]:
+        return [(self.step_of(ns), t) for ns, t in self.commands]
+
+    def state_at(self, ns: int) -> VehicleState | None:
+        i = bisect_right(self.state_ns, ns) - 1
+        return self.states[i] if i >= 0 else None
+
+    def command_at(self, ns: int) -> Twist | None:
+        keys = [c[0] for c in self.commands]
+        i = bisect_right(keys, ns) - 1
+        return self.commands[i][1] if i >= 0 else None
+
+    def frame_at(self, camera: str, ns: int) -> tuple[int, bytes] | None:
+        frames = self.frames.get(camera, [])
+        i = bisect_right([f[0] for f in frames], ns) - 1
+        return frames[i] if i >= 0 else None
+
+
+def load_flight(path: Path | str) -> RecordedFlight:
+    path = Path(path)
+    check_is_mcap(path)
+    try:
+        fh = open(path, "rb")
+    except OSError as exc:
+        raise QuadsimError(f"{path}: cannot read ({exc.strerror})") from None
+    with fh:
+        try:
+            reader = make_reader(fh)
+            summary = reader.get_summary()
+        except Exception:
+            summary = None
+        if summary is None:
+            raise QuadsimError(damage_report(path))
+        metadata = list(reader.iter_metadata())
+        params_text = next((m.metadata.get("parameters") for m in metadata if m.name == METADATA_NAME), None)
+        params = json.loads(params_text) if params_text else None
+        hz = int(params["config"]["rates"]["physics_hz"]) if params else 240
+        flight = RecordedFlight(path, params, hz)
+        flight.events = sorted((int(m.metadata["step"]), m.metadata["kind"], m.metadata["value"])
+                               for m in metadata if m.name == EVENT_METADATA_NAME)
+        flight.attachments = {a.name: a.data for a in reader.iter_attachments()}
+        types = {ch.topic: summary.schemas[ch.schema_id].name for ch in summary.channels.values()
+                 if ch.schema_id in summary.schemas}
+        if summary.statistics is not None:
+            flight.topics = {summary.channels[c].topic: n for c, n in summary.statistics.channel_message_counts.items()}
+            flight.end_ns = summary.statistics.message_end_time
+        parts: dict[str, dict[int, Any]] = {rm.POSE.name: {}, rm.ODOM.name: {}, rm.IMU.name: {}, rm.ROTOR_THRUSTS.name: {}}
+        cameras = {t.split("/")[-3].removesuffix("_camera"): t for t in types
+                   if t.endswith("/image_raw/compressed") and types[t] == "sensor_msgs/msg/CompressedImage"}
+        wanted = [t for t in (*parts, rm.TWIST.name, *cameras.values())
+                  if t in types and types[t] == _expected_type(t)]
+        for _, channel, message in reader.iter_messages(topics=wanted, log_time_order=True):
+            topic = channel.topic
+            msg = rm.TYPESTORE.deserialize_cdr(message.data, types[topic])
+            if topic in parts:
+                parts[topic][message.log_time] = msg
+            elif topic == rm.TWIST.name:
+                flight.commands.append((message.log_time, Twist(msg.linear.x, msg.linear.y, msg.linear.z,
+                                                                msg.angular.x, msg.angular.y, msg.angular.z)))
+            else:
+                name = next(n for n, t in cameras.items() if t == topic)
+                flight.frames.setdefault(name, []).append((message.log_time, bytes(msg.data)))
+    for ns in sorted(parts[rm.POSE.name]):
+        flight.state_ns.append(ns)
+        flight.states.append(_state(flight.step_of(ns), parts, ns))
+        odom = parts[rm.ODOM.name].get(ns)
+        b = odom.twist.twist.linear if odom is not None else None
+        flight.body_velocities.append((b.x, b.y, b.z) if b is not None else (0.0, 0.0, 0.0))
+    return flight
+
+
+def _expected_type(topic: str) -> str:
+    for t in (rm.TWIST, *rm.STATE_TOPICS):
+        if t.name == topic:
+            return t.type_name
+    return "sensor_msgs/msg/CompressedImage"
+
+
+def _state(step: int, parts: dict[str, dict[int, Any]], ns: int) -> VehicleState:
+    pose = parts[rm.POSE.name][ns].pose
+    q = (pose.orientation.x, pose.orientation.y, pose.orientation.z, pose.orientation.w)
+    odom = parts[rm.ODOM.name].get(ns)
+    imu = parts[rm.IMU.name].get(ns)
+    thrusts = parts[rm.ROTOR_THRUSTS.name].get(ns)
+    velocity, rates = (0.0, 0.0, 0.0), (0.0, 0.0, 0.0)
+    if odom is not None:
+        r = matrix_from_quaternion(q)
+        b = odom.twist.twist.linear
+        velocity = tuple(r[i][0] * b.x + r[i][1] * b.y + r[i][2] * b.z for i in range(3))  # type: ignore[assignment]
+        a = odom.twist.twist.angular
+        rates = (a.x, a.y, a.z)
+    force = (imu.linear_acceleration.x, imu.linear_acceleration.y, imu.linear_acceleration.z) if imu else (0.0, 0.0, 0.0)
+    rotor = tuple(float(v) for v in thrusts.data[:4]) if thrusts is not None and len(thrusts.data) >= 4 else (0.0,) * 4
+    return VehicleState(step, (pose.position.x, pose.position.y, pose.position.z), q, velocity, rates,
+                        rotor, force)  # type: ignore[arg-type]
