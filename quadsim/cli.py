@@ -235,6 +235,80 @@ def cmd_recover(args: argparse.Namespace) -> int:
     return 0
 
 
+def cmd_replay(args: argparse.Namespace) -> int:
+    from quadsim.recorded_flight import load_flight
+
+    flight = load_flight(args.file)
+    if args.resim:
+        from quadsim.progress import ProgressBar
+        from quadsim.resim import resimulate
+
+        bar = ProgressBar(flight.duration_s, "re-flying")
+        report = resimulate(flight, out=args.out, record=not args.no_record, progress=bar.update)
+        bar.close()
+        for line in report.lines():
+            print(line)
+        return 0
+    headless = args.headless or args.mp4 is not None or args.plot is not None
+    if not headless and not has_display():
+        print("No display found: printing the summary instead (use --headless, --mp4 DIR or --plot FILE.png "
+              "for pictures, or --resim to fly it again).")
+        headless = True
+    if headless:
+        from quadsim.replay_export import export_mp4, export_plot, summary_lines
+
+        for line in summary_lines(flight):
+            print(line)
+        if args.mp4 is not None:
+            for path in export_mp4(flight, args.mp4):
+                print(f"video       {path}")
+        if args.plot is not None:
+            print(f"plot        {export_plot(flight, args.plot)}")
+        return 0
+    from quadsim.replay_app import ReplayApp
+
+    width, height = (int(v) for v in args.window.lower().split("x"))
+    with ReplayApp(flight, (width, height), speed=args.speed, loop=args.loop) as app:
+        print("replaying; press H or F1 in the window for the keys, Esc to quit")
+        app.run()
+    return 0
+
+
+def cmd_check(args: argparse.Namespace) -> int:
+    from quadsim.recorded_flight import load_flight
+    from quadsim.resim import resimulate
+
+    files: list[Path] = []
+    for path in args.paths:
+        if path.is_dir():
+            found = sorted(path.rglob("*.mcap"))
+            if not found:
+                raise QuadsimError(f"{path}: no .mcap recordings in this folder")
+            files += found
+        else:
+            files.append(path)
+    failed, unusable = 0, 0
+    for path in files:
+        try:
+            report = resimulate(load_flight(path), record=False, position_tolerance_m=args.tolerance_m,
+                                attitude_tolerance_rad=args.tolerance_rad)
+        except QuadsimError as exc:
+            unusable += 1
+            print(f"ERROR {path}: {exc}")
+            continue
+        ok = report.within(args.tolerance_m, args.tolerance_rad)
+        failed += not ok
+        print(f"{'ok   ' if ok else 'FAIL '} {path}: position off by up to {report.position.max_error:.3g} m, "
+              f"attitude by up to {report.attitude.max_error:.3g} rad")
+        if not ok:
+            for line in report.lines()[1:]:
+                print("     " + line)
+    total = len(files)
+    print(f"{total - failed - unusable} of {total} recordings re-fly within {args.tolerance_m:g} m and "
+          f"{args.tolerance_rad:g} rad" + (f"; {failed} changed" if failed else "") + (f"; {unusable} unusable" if unusable else ""))
+    return 2 if unusable else (1 if failed else 0)
+
+
 def cmd_bench(args: argparse.Namespace) -> int:
     from quadsim.bench import run_flight_core_bench, run_recording_bench
 
@@ -311,6 +385,36 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("-o", "--output", type=Path, default=None, metavar="OUT.mcap",
                    help="where to write (default: DAMAGED.recovered.mcap beside the input)")
     p.set_defaults(func=cmd_recover)
+
+    p = sub.add_parser("replay", help="play a recording back (window, or --headless summary, MP4, plot), "
+                                      "or fly it again (--resim)",
+                       description="Play a recording back in the teleop window (both cameras, the map with the whole "
+                                   "track, the HUD; Space play/pause, arrows seek and speed, click the timeline). "
+                                   "--headless prints a summary and can export MP4 videos and a plot. --resim rebuilds "
+                                   "the vehicle, controller and settings from the recording, flies its commands again, "
+                                   "records the new flight and reports how far it is from the recorded one.")
+    p.add_argument("file", type=Path, metavar="FILE.mcap")
+    p.add_argument("--headless", action="store_true", help="no window: print a summary")
+    p.add_argument("--mp4", type=Path, default=None, metavar="DIR", help="export each camera stream to DIR as MP4")
+    p.add_argument("--plot", type=Path, default=None, metavar="FILE.png",
+                   help="draw the track and the commands against the state to a PNG")
+    p.add_argument("--resim", action="store_true", help="fly the recorded commands again and compare")
+    p.add_argument("--out", type=Path, default=None, metavar="DIR|FILE",
+                   help="with --resim: where the new flight is recorded (default recordings/)")
+    p.add_argument("--no-record", action="store_true", help="with --resim: do not record the new flight")
+    p.add_argument("--speed", type=float, default=1.0, help="playback speed, 0.25 to 16 (default 1)")
+    p.add_argument("--loop", action="store_true", help="start again at the end")
+    p.add_argument("--window", default="1280x720", metavar="WxH", help="initial window size")
+    p.set_defaults(func=cmd_replay)
+
+    p = sub.add_parser("check", help="re-fly recordings as regression tests (exit 1 when one changed)",
+                       description="Fly each recording's commands again and compare with what it recorded. Exit code "
+                                   "0 when every recording re-flies within the tolerances, 1 when one no longer does "
+                                   "(with a report: which topic, when, how far), 2 when a file cannot be used.")
+    p.add_argument("paths", type=Path, nargs="+", metavar="DIR|FILE", help="recordings, or folders of them")
+    p.add_argument("--tolerance-m", type=float, default=1e-3, help="position tolerance (default 0.001 m)")
+    p.add_argument("--tolerance-rad", type=float, default=1e-3, help="attitude tolerance (default 0.001 rad)")
+    p.set_defaults(func=cmd_check)
 
     p = sub.add_parser("bench", help="measure speed against a bare-PyBullet baseline run in the same process",
                        description="Benchmark. Every figure is given as steps/s, real-time factor and a ratio to a "

@@ -49,6 +49,8 @@ class ViewModel:
     show_help: bool
     notice: str = ""
     warnings: list[str] = field(default_factory=list)
+    playback: str | None = None  # replay: shown instead of the recording state
+    timeline: tuple[float, float] | None = None  # replay: (time, duration) s, drawn as a clickable bar
 
 
 class TeleopView:
@@ -69,6 +71,7 @@ class TeleopView:
             "front": pygame.Rect(0, 0, w - side, h),
             "floor": pygame.Rect(w - side, 0, side, inset_h),
             "map": pygame.Rect(w - side, inset_h, side, max(60, h - inset_h)),
+            "timeline": pygame.Rect(16, h - 52, max(40, w - side - 32), 14),
         }
 
     # --- drawing ----------------------------------------------------------------------------
@@ -80,6 +83,8 @@ class TeleopView:
         self._camera(surface, rects["floor"], m.frames.get("floor"), "floor camera")
         self._map(surface, rects["map"], m)
         self._hud(surface, rects["front"], m)
+        if m.timeline is not None:
+            self._timeline(surface, rects["timeline"], *m.timeline)
         if m.show_help:
             self._help(surface, m.help_lines)
 
@@ -149,6 +154,8 @@ class TeleopView:
         vx, vy, vz = s.linear_velocity_mps
         rec = (f"REC {os.path.basename(m.recording_path)}" if m.recording_path and not m.recording_error
                else ("recording stopped: " + m.recording_error if m.recording_error else "not recording (F5 starts)"))
+        if m.playback is not None:
+            rec = m.playback
         cmd = "holding (no command)" if m.command_held else (
             f"x {c.linear_x:+.2f}  y {c.linear_y:+.2f}  z {c.linear_z:+.2f}  yaw {c.angular_z:+.2f}" if m.armed else "idle: no command yet")
         lines = [
@@ -156,7 +163,7 @@ class TeleopView:
              f"heading {math.degrees(s.yaw_rad()):+6.1f} deg", TEXT),
             (f"command  {cmd}", TEXT),
             (f"z-mode {m.z_mode}   controller {m.controller}   input {m.input_status}", TEXT),
-            (rec, ALERT if m.recording_error else (OK if m.recording_path else WARN)),
+            (rec, ALERT if m.recording_error else (OK if m.recording_path or m.playback else WARN)),
             (f"{m.fps:4.1f} fps   {m.real_time_factor:4.2f}x real time   sim {m.sim_time_s:7.2f} s   H/F1: help", TEXT),
         ]
         if m.paused:
@@ -172,6 +179,14 @@ class TeleopView:
         surface.blit(panel, (rect.x + 6, rect.y + 6))
         for i, (text, color) in enumerate(lines):
             self._text(surface, text, (rect.x + 12, rect.y + 10 + 20 * i), color)
+
+    def _timeline(self, surface: pygame.Surface, rect: pygame.Rect, t: float, duration: float) -> None:
+        pygame.draw.rect(surface, (20, 20, 24), rect.inflate(4, 4))
+        done = rect.copy()
+        done.width = int(rect.width * (t / duration if duration > 0 else 0.0))
+        pygame.draw.rect(surface, (90, 160, 240), done)
+        pygame.draw.rect(surface, (200, 200, 210), rect, 1)
+        self._text(surface, f"{t:6.2f} / {duration:.2f} s", (rect.x, rect.y - 20), TEXT)
 
     def _help(self, surface: pygame.Surface, lines: list[str]) -> None:
         w, h = surface.get_size()

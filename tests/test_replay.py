@@ -1,0 +1,227 @@
+"""Replay: playback (window and headless), re-simulation, and recordings as regression tests."""
+
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+import cv2
+import pygame
+import pytest
+from mcap.reader import make_reader
+from mcap.writer import Writer
+
+from quadsim import QuadsimError, SimConfig, ZMode
+from quadsim.pacing import FixedStepPacer
+from quadsim.recorded_flight import load_flight
+from quadsim.replay_app import ReplayApp
+from quadsim.resim import ATTITUDE_TOLERANCE_RAD, POSITION_TOLERANCE_M, resimulate
+from quadsim.session import OutputOptions
+from quadsim.teleop_app import TeleopApp, TeleopOptions
+from tests.recording_helpers import record_flight
+
+ROOT = Path(__file__).resolve().parent.parent
+RECORDINGS = sorted((ROOT / "tests" / "recordings").glob("*.mcap"))
+
+
+def cli(*args):
+    return subprocess.run([sys.executable, str(ROOT / "main.py"), *map(str, args)], capture_output=True, text=True,
+                          cwd=ROOT, env={"PATH": "/usr/bin:/bin", "PYTHONPATH": str(ROOT), "SDL_VIDEODRIVER": "dummy"})
+
+
+# --- recordings as regression tests --------------------------------------------------------------
+
+def test_shipped_recordings_are_small_and_cover_both_controllers_and_teleop():
+    assert len(RECORDINGS) >= 3
+    assert all(p.stat().st_size < 1_000_000 for p in RECORDINGS)
+    drivers = {load_flight(p).parameters["driver"]["name"] for p in RECORDINGS}
+    controllers = {load_flight(p).parameters["controller"]["name"] for p in RECORDINGS}
+    assert {"scripted", "keyboard"} <= drivers and {"cascade", "seed"} <= controllers
+
+
+@pytest.mark.parametrize("path", RECORDINGS, ids=[p.stem for p in RECORDINGS])
+def test_recording_still_reflies(path):
+    # tolerance: 1 mm and 1 mrad on every recorded state (this version re-flies them exactly)
+    report = resimulate(load_flight(path), record=False)
+    assert report.within(POSITION_TOLERANCE_M, ATTITUDE_TOLERANCE_RAD), "\n" + "\n".join(report.lines())
+
+
+def test_fresh_interactive_recording_reflies_to_zero(tmp_path):
+    app = TeleopApp(SimConfig(), OutputOptions(out=tmp_path, cameras=()), TeleopOptions(),
+                    pacer=FixedStepPacer(240, 1 / 30))
+    plan = {2: pygame.K_w, 40: pygame.K_TAB, 50: pygame.K_UP, 51: pygame.K_d}
+
+    def events(a):
+        if a.frame_count in plan:
+            pygame.event.post(pygame.event.Event(pygame.KEYDOWN, key=plan[a.frame_count], mod=0, unicode="", scancode=0))
+
+    app.run(max_frames=120, before_frame=events)
+    app.close()
+    flight = load_flight(app.recordings[0])
+    assert [e[1:] for e in flight.events] == [("z_mode", "height")]
+    report = resimulate(flight, out=tmp_path / "again")
+    assert report.position.max_error == 0.0 and report.attitude.max_error == 0.0
+    assert report.new_recording is not None and load_flight(report.new_recording).states
+
+
+def _with_changed_attachment(src: Path, dst: Path, name: str, edit) -> None:
+    """Copy a recording, editing one attachment (as if the vehicle file had changed)."""
+    with open(src, "rb") as fh:
+        reader = make_reader(fh)
+        summary = reader.get_summary()
+        header = reader.get_header()
+        with open(dst, "wb") as out:
+            w = Writer(out)
+            w.start(header.profile, header.library)
+            sids = {i: w.register_schema(s.name, s.encoding, s.data) for i, s in summary.schemas.items()}
+            cids = {i: w.register_channel(c.topic, c.message_encoding, sids[c.schema_id], c.metadata)
+                    for i, c in summary.channels.items()}
+            for m in reader.iter_metadata():
+                w.add_metadata(m.name, m.metadata)
+            for a in reader.iter_attachments():
+                data = edit(a.data) if a.name == name else a.data
+                w.add_attachment(a.log_time, a.create_time, a.name, a.media_type, data)
+            for _, ch, msg in reader.iter_messages():
+                w.add_message(cids[ch.id], msg.log_time, msg.data, msg.publish_time, msg.sequence)
+            w.finish()
+
+
+def test_check_passes_then_fails_with_a_readable_report(tmp_path):
+    out = cli("check", ROOT / "tests" / "recordings")
+    assert out.returncode == 0, out.stdout + out.stderr
+    assert f"{len(RECORDINGS)} of {len(RECORDINGS)} recordings re-fly" in out.stdout
+    changed = tmp_path / "heavier_drag.mcap"
+    _with_changed_attachment(ROOT / "tests" / "recordings" / "square_cascade.mcap", changed, "quadsim_x.params.toml",
+                             lambda d: d.replace(b"[0.12, 0.12, 0.20]", b"[0.30, 0.30, 0.20]"))
+    out = cli("check", changed)
+    assert out.returncode == 1
+    assert "FAIL" in out.stdout and "/quad/pose position: max" in out.stdout
+    assert "first beyond tolerance at t=" in out.stdout  # which topic, when, how far
+
+
+def test_check_on_unusable_files_exits_2(tmp_path):
+    bad = tmp_path / "cut.mcap"
+    data = (ROOT / "tests" / "recordings" / "square_cascade.mcap").read_bytes()
+    bad.write_bytes(data[: len(data) // 3])
+    out = cli("check", bad)
+    assert out.returncode == 2 and "ERROR" in out.stdout and "quadsim recover" in out.stdout
+    assert "Traceback" not in out.stderr
+
+
+# --- re-simulation refuses what it cannot fly --------------------------------------------------------
+
+def _foreign(path: Path) -> Path:
+    with open(path, "wb") as fh:
+        w = Writer(fh)
+        w.start("", "someone else")
+        sid = w.register_schema("Blob", "jsonschema", b"{}")
+        cid = w.register_channel("/weather", "json", sid)
+        w.add_message(cid, 0, b"{}", 0)
+        w.finish()
+    return path
+
+
+def test_resim_refuses_clearly(tmp_path):
+    with pytest.raises(QuadsimError, match="not a quadsim recording"):
+        resimulate(load_flight(_foreign(tmp_path / "f.mcap")))
+    path = tmp_path / "no_commands.mcap"
+    record_flight(path, cameras=False, script="silence 1.0\n")
+    with pytest.raises(QuadsimError, match="no /quad_cmd_twist commands"):
+        resimulate(load_flight(path))
+    app = TeleopApp(SimConfig(), OutputOptions(out=tmp_path / "mid", record=False, cameras=()), TeleopOptions(),
+                    pacer=FixedStepPacer(240, 1 / 30))
+    app.run(max_frames=10)
+    app.toggle_recording()  # started mid-flight
+    app.run(max_frames=20)
+    app.close()
+    with pytest.raises(QuadsimError, match="started mid-flight"):
+        resimulate(load_flight(app.recordings[0]))
+
+
+def test_cli_resim_on_damaged_file(tmp_path):
+    bad = tmp_path / "cut.mcap"
+    data = (ROOT / "tests" / "recordings" / "climb_cascade.mcap").read_bytes()
+    bad.write_bytes(data[: len(data) // 2])
+    out = cli("replay", bad, "--resim")
+    assert out.returncode == 2 and "cut short" in out.stderr and "Traceback" not in out.stderr
+
+
+# --- headless playback ------------------------------------------------------------------------------
+
+@pytest.fixture(scope="module")
+def with_cameras(tmp_path_factory):
+    path = tmp_path_factory.mktemp("cams") / "cams.mcap"
+    record_flight(path)
+    return path
+
+
+def test_headless_summary_mp4_and_plot(with_cameras, tmp_path):
+    out = cli("replay", with_cameras, "--headless", "--mp4", tmp_path / "videos", "--plot", tmp_path / "plot.png")
+    assert out.returncode == 0, out.stderr
+    assert "duration    3.00 s" in out.stdout and "camera      front: 90 frames" in out.stdout
+    for cam in ("front", "floor"):
+        video = cv2.VideoCapture(str(tmp_path / "videos" / f"cams_{cam}.mp4"))
+        count = 0
+        while video.read()[0]:
+            count += 1
+        assert count == 90 and video.get(cv2.CAP_PROP_FPS) == pytest.approx(30, abs=0.5)
+    plot = cv2.imread(str(tmp_path / "plot.png"))
+    assert plot.shape == (900, 1400, 3) and plot.std() > 10
+    # the flown track is drawn in red in the left panel
+    left = plot[60:580, 40:560]
+    assert ((left[..., 2] > 150) & (left[..., 1] < 80)).sum() > 50
+
+
+def test_replay_without_display_prints_summary(with_cameras):
+    out = cli("replay", with_cameras)
+    assert out.returncode == 0 and "No display found" in out.stdout and "duration" in out.stdout
+
+
+def test_playback_of_a_foreign_file_shows_what_is_there(tmp_path):
+    out = cli("replay", _foreign(tmp_path / "f.mcap"), "--headless")
+    assert out.returncode == 0 and "no quadsim metadata" in out.stdout and "states      none" in out.stdout
+
+
+# --- the playback window ---------------------------------------------------------------------------
+
+def key(k):
+    pygame.event.post(pygame.event.Event(pygame.KEYDOWN, key=k, mod=0, unicode="", scancode=0))
+
+
+def test_playback_window_controls(with_cameras):
+    app = ReplayApp(load_flight(with_cameras), (960, 540), frame_s=0.1)
+    app.run(max_frames=5)
+    assert app.t_ns == pytest.approx(0.5e9, abs=1e6) and app.playing
+    key(pygame.K_SPACE)
+    app.run(max_frames=10)
+    paused_at = app.t_ns
+    assert not app.playing and paused_at == pytest.approx(0.5e9, abs=1e6)
+    key(pygame.K_PERIOD)  # one state forward: 1/60 s later
+    app.run(max_frames=11)
+    assert app.t_ns - paused_at == pytest.approx(1e9 / 60, abs=1e6)
+    for _ in range(8):
+        key(pygame.K_UP)
+    app.run(max_frames=12)
+    assert app.speed == 16.0
+    for _ in range(9):
+        key(pygame.K_DOWN)
+    app.run(max_frames=13)
+    assert app.speed == 0.25
+    # a click on the timeline seeks there
+    bar = app.view.layout(app.screen.get_size())["timeline"]
+    pygame.event.post(pygame.event.Event(pygame.MOUSEBUTTONDOWN, button=1, pos=(bar.x + bar.width * 3 // 4, bar.centery)))
+    app.run(max_frames=14)
+    assert app.t_ns / 1e9 == pytest.approx(0.75 * 3.0, abs=0.05)
+    key(pygame.K_LEFT)  # 5 s back: clamps at the start
+    app.run(max_frames=15)
+    assert app.t_ns == 0
+    # loop: playing past the end wraps
+    key(pygame.K_l)
+    key(pygame.K_END)
+    key(pygame.K_SPACE)
+    app.run(max_frames=20)
+    assert app.loop and app.playing and app.t_ns < 1e9
+    model = app.model()
+    assert set(model.frames) == {"front", "floor"} and len(model.track) > 10
+    pygame.image.save(app.screen, "/tmp/quadsim_replay_test.png")
+    app.close()
