@@ -320,6 +320,10 @@ def cmd_bench(args: argparse.Namespace) -> int:
         from quadsim.bench import run_interactive_bench
 
         run_interactive_bench()
+    if args.section in ("all", "replay"):
+        from quadsim.bench import run_replay_bench
+
+        run_replay_bench()
     return 0
 
 
@@ -421,9 +425,9 @@ def build_parser() -> argparse.ArgumentParser:
                                    "baseline measured in the same run; best of --repeats.")
     p.add_argument("--steps", type=int, default=24000, help="physics steps per timed run (default 24000 = 100 s sim)")
     p.add_argument("--repeats", type=int, default=3, help="timed runs per figure; the best is kept (default 3)")
-    p.add_argument("--section", choices=["all", "flight", "recording", "window"], default="all",
+    p.add_argument("--section", choices=["all", "flight", "recording", "window", "replay"], default="all",
                    help="flight: the flight core; recording: cameras and recording; window: the teleop "
-                        "window headless (default: all)")
+                        "window headless; replay: playback and re-simulation (default: all)")
     p.set_defaults(func=cmd_bench)
     return parser
 

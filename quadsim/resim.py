@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import math
 import tempfile
+import time
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -46,6 +47,8 @@ class ResimReport:
     attitude: Deviation
     velocity: Deviation
     new_recording: Path | None
+    sim_time_s: float = 0.0
+    stepping_wall_s: float = 0.0  # wall time spent flying (not loading, building or comparing)
 
     def within(self, position_m: float, attitude_rad: float) -> bool:
         return self.position.max_error <= position_m and self.attitude.max_error <= attitude_rad
@@ -135,6 +138,7 @@ def resimulate(flight: RecordedFlight, out: Path | None = None, record: bool = T
             label = f"resim_{flight.path.stem}"
             with RecordedRun(sim, outputs, label, {"command": "replay --resim", "source": str(flight.path)}) as run:
                 end_step = flight.states[-1].step
+                t_fly = time.perf_counter()
                 z_events = sorted((step, ZMode(v)) for step, kind, v in flight.events if kind == "z_mode")
                 for step, mode in [*z_events, (end_step, None)]:
                     if step > sim.step_count:
@@ -146,6 +150,7 @@ def resimulate(flight: RecordedFlight, out: Path | None = None, record: bool = T
                         sim.set_z_mode(mode)
                         if run.recorder is not None:
                             run.recorder.note_event(sim.step_count, "z_mode", mode.value)
+                stepping_wall_s = time.perf_counter() - t_fly
                 new_path = run.path
     new = {s.step: s for s in log.states}
     pos, att, vel = [], [], []
@@ -164,4 +169,4 @@ def resimulate(flight: RecordedFlight, out: Path | None = None, record: bool = T
         _deviation("/quad/pose", "position", "m", pos, position_tolerance_m),
         _deviation("/quad/pose", "attitude", "rad", att, attitude_tolerance_rad),
         _deviation("/quad/odom", "velocity", "m/s", vel, position_tolerance_m),
-        new_path)
+        new_path, end_step / config.rates.physics_hz, stepping_wall_s)
