@@ -196,7 +196,7 @@ def cmd_evaluate(args: argparse.Namespace) -> int:
     rows = [(s, m) for s, fn in SCENARIO_METRICS.items() for m in results[controllers[0]][s]
             if m not in ("max_tilt_deg", "min_z_m", "max_z_m", "rate_mean_radps", "peak_mps")]
     targets = {(s, m): bound for s, m, bound in TARGETS}
-    header = f"| scenario | metric | target (cascade) | " + " | ".join(c.value for c in controllers) + " |"
+    header = "| scenario | metric | target (cascade) | " + " | ".join(c.value for c in controllers) + " |"
     print(header)
     print("|" + "---|" * (3 + len(controllers)))
     for s, m in rows:

@@ -13,7 +13,7 @@ from typing import Callable, Sequence
 from quadsim.control import ControllerKind
 from quadsim.drivers.scripted import ScriptedDriver, load_script
 from quadsim.loop import StateLog
-from quadsim.messages import VehicleState, ZMode
+from quadsim.messages import VehicleState
 from quadsim.sim import SimConfig, Simulator
 
 

@@ -1,6 +1,5 @@
 """Replay: playback (window and headless), re-simulation, and recordings as regression tests."""
 
-import shutil
 import subprocess
 import sys
 from pathlib import Path
@@ -11,7 +10,7 @@ import pytest
 from mcap.reader import make_reader
 from mcap.writer import Writer
 
-from quadsim import QuadsimError, SimConfig, ZMode
+from quadsim import QuadsimError, SimConfig
 from quadsim.pacing import FixedStepPacer
 from quadsim.recorded_flight import load_flight
 from quadsim.replay_app import ReplayApp

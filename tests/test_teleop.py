@@ -1,9 +1,7 @@
 """The teleop window, driven headless (SDL dummy video) with synthetic pygame events."""
 
-import math
 from pathlib import Path
 
-import numpy as np
 import pygame
 import pytest
 from mcap.reader import make_reader

@@ -30,7 +30,9 @@ def test_rotors_come_from_the_rotor_links(vehicle):
 
 
 def test_parameters_are_frozen(vehicle):
-    with pytest.raises(Exception):
+    from dataclasses import FrozenInstanceError
+
+    with pytest.raises(FrozenInstanceError):
         vehicle.mass_kg = 2.0  # type: ignore[misc]
 
 

@@ -10,7 +10,7 @@ Unplugged, the driver publishes nothing: the dead-man timeout then holds positio
 from __future__ import annotations
 
 import os
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass
 from pathlib import Path
 from typing import Any, Callable, Protocol
 
