@@ -153,8 +153,8 @@ class TeleopApp:
             if key == pygame.K_F5:
                 self.toggle_recording()
                 return
-        if self.keyboard.handle_event(event) and self.driver is not self.keyboard:
-            pass  # the keyboard only flies when it is the input
+        # both track their device; only the one that is the input driver is polled by the loop
+        self.keyboard.handle_event(event)
         self.joystick.handle_event(event)
 
     def toggle_z_mode(self) -> None:
