@@ -7,20 +7,14 @@ wrong and how to recover them.
 
 from __future__ import annotations
 
-import json
 from bisect import bisect_right
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from mcap.reader import make_reader
-
 from quadsim import ros_messages as rm
-from quadsim.errors import QuadsimError
-from quadsim.mcap_info import damage_report
-from quadsim.mcap_salvage import check_is_mcap
 from quadsim.messages import Twist, VehicleState
-from quadsim.recorder import EVENT_METADATA_NAME, METADATA_NAME
+from quadsim.recording_reader import RecordingReader
 from quadsim.rotation import matrix_from_quaternion
 
 NS = 1_000_000_000
@@ -72,49 +66,30 @@ class RecordedFlight:
 
 
 def load_flight(path: Path | str) -> RecordedFlight:
-    path = Path(path)
-    check_is_mcap(path)
-    try:
-        fh = open(path, "rb")
-    except OSError as exc:
-        raise QuadsimError(f"{path}: cannot read ({exc.strerror})") from None
-    with fh:
-        try:
-            reader = make_reader(fh)
-            summary = reader.get_summary()
-        except Exception:
-            summary = None
-        if summary is None:
-            raise QuadsimError(damage_report(path))
-        metadata = list(reader.iter_metadata())
-        params_text = next((m.metadata.get("parameters") for m in metadata if m.name == METADATA_NAME), None)
-        params = json.loads(params_text) if params_text else None
+    with RecordingReader(path, require_topics=False) as reader:
+        params = reader.parameters
         hz = int(params["config"]["rates"]["physics_hz"]) if params else 240
-        flight = RecordedFlight(path, params, hz)
-        flight.events = sorted((int(m.metadata["step"]), m.metadata["kind"], m.metadata["value"])
-                               for m in metadata if m.name == EVENT_METADATA_NAME)
-        flight.attachments = {a.name: a.data for a in reader.iter_attachments()}
-        types = {ch.topic: summary.schemas[ch.schema_id].name for ch in summary.channels.values()
-                 if ch.schema_id in summary.schemas}
-        if summary.statistics is not None:
-            flight.topics = {summary.channels[c].topic: n for c, n in summary.statistics.channel_message_counts.items()}
-            flight.end_ns = summary.statistics.message_end_time
+        flight = RecordedFlight(reader.path, params, hz)
+        flight.events = reader.events
+        flight.attachments = reader.attachments()
+        types, stats = reader.topics, reader.summary.statistics
+        if stats is not None:
+            flight.topics = {reader.summary.channels[c].topic: n for c, n in stats.channel_message_counts.items()}
+            flight.end_ns = stats.message_end_time
         parts: dict[str, dict[int, Any]] = {rm.POSE.name: {}, rm.ODOM.name: {}, rm.IMU.name: {}, rm.ROTOR_THRUSTS.name: {}}
         cameras = {t.split("/")[-3].removesuffix("_camera"): t for t in types
                    if t.endswith("/image_raw/compressed") and types[t] == "sensor_msgs/msg/CompressedImage"}
         wanted = [t for t in (*parts, rm.TWIST.name, *cameras.values())
                   if t in types and types[t] == _expected_type(t)]
-        for _, channel, message in reader.iter_messages(topics=wanted, log_time_order=True):
-            topic = channel.topic
-            msg = rm.TYPESTORE.deserialize_cdr(message.data, types[topic])
+        camera_of = {t: n for n, t in cameras.items()}
+        for topic, ns, msg in reader.raw_messages(wanted):
             if topic in parts:
-                parts[topic][message.log_time] = msg
+                parts[topic][ns] = msg
             elif topic == rm.TWIST.name:
-                flight.commands.append((message.log_time, Twist(msg.linear.x, msg.linear.y, msg.linear.z,
-                                                                msg.angular.x, msg.angular.y, msg.angular.z)))
+                flight.commands.append((ns, Twist(msg.linear.x, msg.linear.y, msg.linear.z,
+                                                  msg.angular.x, msg.angular.y, msg.angular.z)))
             else:
-                name = next(n for n, t in cameras.items() if t == topic)
-                flight.frames.setdefault(name, []).append((message.log_time, bytes(msg.data)))
+                flight.frames.setdefault(camera_of[topic], []).append((ns, bytes(msg.data)))
     for ns in sorted(parts[rm.POSE.name]):
         flight.state_ns.append(ns)
         flight.states.append(_state(flight.step_of(ns), parts, ns))

@@ -1,7 +1,8 @@
-"""Reading quadsim recordings back: commands, states and camera frames, typed.
+"""Reading recordings back: commands, states and camera frames, typed.
 
 Refuses, with a clear QuadsimError, files that are not MCAP, are damaged or cut short (see
-`quadsim recover`), or lack the topics a quadsim recording has.
+`quadsim recover`), or (unless `require_topics` is off, for playing other programs' files)
+lack the topics a quadsim recording has.
 """
 
 from __future__ import annotations
@@ -17,11 +18,11 @@ from quadsim.errors import QuadsimError
 from quadsim.mcap_info import CORE_TOPICS, damage_report
 from quadsim.mcap_salvage import check_is_mcap
 from quadsim.messages import Twist
-from quadsim.recorder import METADATA_NAME
+from quadsim.recorder import EVENT_METADATA_NAME, METADATA_NAME
 
 
 class RecordingReader:
-    def __init__(self, path: Path | str) -> None:
+    def __init__(self, path: Path | str, require_topics: bool = True) -> None:
         self.path = Path(path)
         check_is_mcap(self.path)
         self._fh = open(self.path, "rb")
@@ -33,15 +34,27 @@ class RecordingReader:
         if summary is None:
             self._fh.close()
             raise QuadsimError(damage_report(self.path))
-        self._summary = summary
-        self.topics = {ch.topic: summary.schemas[ch.schema_id].name for ch in summary.channels.values()}
+        self.summary = summary
+        self.topics = {ch.topic: summary.schemas[ch.schema_id].name for ch in summary.channels.values()
+                       if ch.schema_id in summary.schemas}
         missing = [t for t in CORE_TOPICS if t not in self.topics]
-        if missing:
+        if missing and require_topics:
             self._fh.close()
             raise QuadsimError(f"{self.path}: not a quadsim recording: missing topics {', '.join(missing)}")
-        meta = {m.name: dict(m.metadata) for m in self._reader.iter_metadata()}
-        params = meta.get(METADATA_NAME, {}).get("parameters")
+        records = list(self._reader.iter_metadata())
+        params = next((m.metadata.get("parameters") for m in records if m.name == METADATA_NAME), None)
         self.parameters: dict[str, Any] | None = json.loads(params) if params else None
+        #: (step, kind, value) of what happened besides the commands (z-mode switches)
+        self.events = sorted((int(m.metadata["step"]), m.metadata["kind"], m.metadata["value"])
+                             for m in records if m.name == EVENT_METADATA_NAME)
+
+    def attachments(self) -> dict[str, bytes]:
+        return {a.name: a.data for a in self._reader.iter_attachments()}
+
+    def raw_messages(self, topics: list[str]) -> Iterator[tuple[str, int, Any]]:
+        """(topic, log time ns, decoded message) of several topics, in log-time order."""
+        for _, channel, message in self._reader.iter_messages(topics=topics, log_time_order=True):
+            yield channel.topic, message.log_time, rm.TYPESTORE.deserialize_cdr(message.data, self.topics[channel.topic])
 
     def messages(self, topic: str) -> Iterator[tuple[int, Any]]:
         """(log time ns, decoded message) of one topic, in log-time order."""
