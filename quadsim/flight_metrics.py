@@ -99,9 +99,16 @@ def return_metrics(f: Flight, t_start: float = 5.0) -> dict[str, float]:
     return {"return_error_m": math.dist(start[:2], end[:2])}
 
 
-def altitude_hold_metrics(f: Flight, t_start: float = 5.0, target_m: float = 2.0) -> dict[str, float]:
-    """How well altitude holds while manoeuvring (a coordinated turn must not sink)."""
-    return {"altitude_error_max_m": max(abs(s.position_m[2] - target_m) for s in f.between(t_start, f.t(f.states[-1])))}
+def turn_metrics(f: Flight, t_start: float = 5.0, target_m: float = 2.0, speed_mps: float = 1.0) -> dict[str, float]:
+    """A coordinated turn (the figure-8's circles at 1 m/s): speed held along the heading, no
+    sideways slip, no sinking. Measured from 1 s into each circle (after the rise)."""
+    turning = f.between(t_start + 1.0, t_start + 8.0) + f.between(t_start + 9.0, t_start + 16.0)
+    along = [_heading_velocity(s, s.yaw_rad()) for s in turning]
+    return {
+        "turn_speed_error_max_pct": max(abs(v[0] - speed_mps) for v in along) / speed_mps * 100.0,
+        "turn_slip_max_mps": max(abs(v[1]) for v in along),
+        "altitude_error_max_m": max(abs(s.position_m[2] - target_m) for s in f.between(t_start, f.t(f.states[-1]))),
+    }
 
 
 def envelope_metrics(f: Flight) -> dict[str, float]:
@@ -123,7 +130,7 @@ SCENARIO_METRICS: dict[str, Callable[[Flight], dict[str, float]]] = {
     "step_left": lambda f: step_metrics(f, 1),
     "yaw": yaw_metrics,
     "square": return_metrics,
-    "figure8": altitude_hold_metrics,
+    "figure8": turn_metrics,
 }
 
 

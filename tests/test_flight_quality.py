@@ -48,3 +48,13 @@ def test_seed_flies_without_diverging(scenario):
         assert metrics["rise_90_s"] < 2.0 and metrics["steady_error_pct"] < 15.0
     if scenario == "yaw":
         assert metrics["rate_error_max_pct"] < 10.0
+
+
+def test_coordinated_turn_holds_speed_without_slipping():
+    # the figure-8's circles: 1 m/s along the heading while yawing at 0.785 rad/s
+    from quadsim.flight_metrics import turn_metrics
+
+    m = turn_metrics(fly("figure8"))
+    assert m["turn_slip_max_mps"] < 0.05, m
+    assert m["turn_speed_error_max_pct"] < 10.0, m
+    assert m["altitude_error_max_m"] < 0.02, m

@@ -108,10 +108,15 @@ class CascadeController:
         lim = self.vehicle.limits
 
         # horizontal: track the commanded velocity (heading frame -> world), or hold position
+        turn_ax = turn_ay = 0.0
         if ux != 0.0 or uy != 0.0:
             self._xy_hold = None
             c, s = math.cos(yaw), math.sin(yaw)
             vsx, vsy = c * ux - s * uy, s * ux + c * uy
+            # while turning, that set-point rotates with the heading: feed its rate of change
+            # (yaw rate x velocity) forward, or the loop lags it and the vehicle slips sideways
+            yaw_rate = r20 * wp + r21 * wq + r22 * wr
+            turn_ax, turn_ay = -yaw_rate * vsy, yaw_rate * vsx
         else:
             if self._xy_hold is None and vx * vx + vy * vy < latch2:
                 self._xy_hold = (px, py)
@@ -156,8 +161,8 @@ class CascadeController:
 
         # velocity loop (world frame) -> wanted acceleration, with drag feed-forward
         ex, ey, ez = vsx - vx, vsy - vy, vsz - vz
-        ax = g.velocity_p_xy_per_s * ex + self._ix + self._drag_xy * vsx
-        ay = g.velocity_p_xy_per_s * ey + self._iy + self._drag_xy * vsy
+        ax = g.velocity_p_xy_per_s * ex + self._ix + self._drag_xy * vsx + turn_ax
+        ay = g.velocity_p_xy_per_s * ey + self._iy + self._drag_xy * vsy + turn_ay
         az = g.velocity_p_z_per_s * ez + self._iz + self._drag_z * vsz
         sat_z = False
         if az > g.max_up_accel_mps2:
