@@ -137,12 +137,15 @@ class SimLoop:
                 command = controller.update(physics.state(), gate.active(n), control_dt)
             physics.step(command)
             n += 1
+            state = None  # built once per step, only if someone receives it
             if n % state_every == 0 and sinks:
                 state = physics.state()
                 for sink in sinks:
                     sink.on_state(state)
             for every, tap in taps:
                 if n % every == 0:
-                    tap(physics.state())
+                    if state is None:
+                        state = physics.state()
+                    tap(state)
         self.step_count = n
         self._rotor_command = command

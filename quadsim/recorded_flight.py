@@ -9,6 +9,7 @@ from __future__ import annotations
 
 from bisect import bisect_right
 from dataclasses import dataclass, field
+from functools import cached_property
 from pathlib import Path
 from typing import Any
 
@@ -22,6 +23,8 @@ NS = 1_000_000_000
 
 @dataclass
 class RecordedFlight:
+    """Filled once by `load_flight`; its lookups index the loaded lists on first use."""
+
     path: Path
     parameters: dict[str, Any] | None
     physics_hz: int
@@ -54,15 +57,21 @@ class RecordedFlight:
         i = bisect_right(self.state_ns, ns) - 1
         return self.states[i] if i >= 0 else None
 
+    @cached_property
+    def _command_ns(self) -> list[int]:
+        return [c[0] for c in self.commands]
+
+    @cached_property
+    def _frame_ns(self) -> dict[str, list[int]]:
+        return {cam: [f[0] for f in frames] for cam, frames in self.frames.items()}
+
     def command_at(self, ns: int) -> Twist | None:
-        keys = [c[0] for c in self.commands]
-        i = bisect_right(keys, ns) - 1
+        i = bisect_right(self._command_ns, ns) - 1
         return self.commands[i][1] if i >= 0 else None
 
     def frame_at(self, camera: str, ns: int) -> tuple[int, bytes] | None:
-        frames = self.frames.get(camera, [])
-        i = bisect_right([f[0] for f in frames], ns) - 1
-        return frames[i] if i >= 0 else None
+        i = bisect_right(self._frame_ns.get(camera, []), ns) - 1
+        return self.frames[camera][i] if i >= 0 else None
 
 
 def load_flight(path: Path | str) -> RecordedFlight:

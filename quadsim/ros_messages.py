@@ -15,7 +15,7 @@ from rosbags.typesys import Stores, get_typestore
 from quadsim.camera import LINK_FROM_OPTICAL, CameraSpec
 from quadsim.camera_rig import CameraFrame
 from quadsim.messages import Twist, VehicleState
-from quadsim.rotation import Mat3
+from quadsim.rotation import Mat3, matrix_from_quaternion
 from quadsim.vehicle import CameraMount
 
 TYPESTORE = get_typestore(Stores.ROS2_HUMBLE)
@@ -112,8 +112,6 @@ def pose_msg(s: VehicleState, ns: int):
 
 def body_velocity(s: VehicleState) -> tuple[float, float, float]:
     """World-frame linear velocity expressed in base_link."""
-    from quadsim.rotation import matrix_from_quaternion
-
     r = matrix_from_quaternion(s.orientation_xyzw)
     v = s.linear_velocity_mps
     return tuple(r[0][i] * v[0] + r[1][i] * v[1] + r[2][i] * v[2] for i in range(3))  # type: ignore[return-value]
