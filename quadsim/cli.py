@@ -220,7 +220,7 @@ def cmd_info(args: argparse.Namespace) -> int:
 
 
 def cmd_recover(args: argparse.Namespace) -> int:
-    from quadsim.mcap_info import CORE_TOPICS
+    from quadsim.ros_messages import CORE_TOPICS
     from quadsim.mcap_salvage import recover
 
     result = recover(args.file, args.output, CORE_TOPICS)

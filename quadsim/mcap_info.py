@@ -3,20 +3,13 @@ or, for a damaged file, what is wrong and how much of it is readable."""
 
 from __future__ import annotations
 
-import json
 from dataclasses import dataclass
 from pathlib import Path
 
-from mcap.reader import make_reader
-
-from quadsim import ros_messages as rm
 from quadsim.errors import QuadsimError
-from quadsim.mcap_salvage import check_is_mcap, scan
-from quadsim.recorder import METADATA_NAME
-
-#: topics every quadsim recording has (cameras and /joy depend on the run)
-CORE_TOPICS = (rm.TWIST.name, *(t.name for t in rm.STATE_TOPICS), rm.TF_STATIC.name)
-
+from quadsim.mcap_salvage import damage_report
+from quadsim.recording_reader import RecordingReader
+from quadsim.ros_messages import CORE_TOPICS
 
 @dataclass(frozen=True)
 class TopicInfo:
@@ -82,19 +75,12 @@ class RecordingInfo:
 
 def read_info(path: Path) -> RecordingInfo:
     """Summarise a complete recording; raise QuadsimError saying what is wrong otherwise."""
-    check_is_mcap(path)
-    try:
-        with open(path, "rb") as fh:
-            reader = make_reader(fh)
-            header = reader.get_header()
-            summary = reader.get_summary()
-            metadata = {m.name: dict(m.metadata) for m in reader.iter_metadata()} if summary else {}
-            attachments = tuple(a.name for a in reader.iter_attachments()) if summary else ()
-    except Exception:
-        summary = None
-    if summary is None or summary.statistics is None:
-        raise QuadsimError(damage_report(path))
+    with RecordingReader(path, require_topics=False) as reader:
+        header, summary, ours = reader.header, reader.summary, reader.quadsim_metadata
+        attachments = tuple(reader.attachments())
     stats = summary.statistics
+    if stats is None:
+        raise QuadsimError(damage_report(path))
     start, end = stats.message_start_time / 1e9, stats.message_end_time / 1e9
     duration = max(end - start, 1e-9)
     topics = []
@@ -102,20 +88,5 @@ def read_info(path: Path) -> RecordingInfo:
         schema = summary.schemas.get(ch.schema_id)
         count = stats.channel_message_counts.get(cid, 0)
         topics.append(TopicInfo(ch.topic, schema.name if schema else "?", count, (count - 1) / duration if count > 1 else 0.0))
-    ours = metadata.get(METADATA_NAME, {})
-    params = json.loads(ours["parameters"]) if "parameters" in ours else None
     return RecordingInfo(path, path.stat().st_size, header.profile, header.library, start, end, tuple(topics),
-                         params, ours, attachments)
-
-
-def damage_report(path: Path) -> str:
-    """What is wrong with a file that has no readable summary, and how much of it is readable."""
-    found = scan(path)
-    if found.complete and not found.messages:
-        return f"{path}: a complete MCAP file with no messages"
-    t0, t1 = found.span_s
-    why = found.stop_reason or "it has no summary section"
-    return (f"{path}: damaged or cut short: {why}. Readable: {len(found.messages)} messages in "
-            f"{found.complete_chunks} complete chunks, {t0:.2f} .. {t1:.2f} s"
-            + (f", {found.bad_chunks} damaged chunks skipped" if found.bad_chunks else "")
-            + f". Run 'quadsim recover {path}' to save them to an indexed file.")
+                         reader.parameters, ours, attachments)

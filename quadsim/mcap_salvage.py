@@ -106,6 +106,19 @@ def scan(path: Path) -> Scan:
     return result
 
 
+def damage_report(path: Path) -> str:
+    """What is wrong with a file that has no readable summary, and how much of it is readable."""
+    found = scan(path)
+    if found.complete and not found.messages:
+        return f"{path}: a complete MCAP file with no messages"
+    t0, t1 = found.span_s
+    why = found.stop_reason or "it has no summary section"
+    return (f"{path}: damaged or cut short: {why}. Readable: {len(found.messages)} messages in "
+            f"{found.complete_chunks} complete chunks, {t0:.2f} .. {t1:.2f} s"
+            + (f", {found.bad_chunks} damaged chunks skipped" if found.bad_chunks else "")
+            + f". Run 'quadsim recover {path}' to save them to an indexed file.")
+
+
 @dataclass(frozen=True)
 class Recovered:
     path: Path

@@ -15,8 +15,7 @@ from mcap.reader import make_reader
 
 from quadsim import ros_messages as rm
 from quadsim.errors import QuadsimError
-from quadsim.mcap_info import CORE_TOPICS, damage_report
-from quadsim.mcap_salvage import check_is_mcap
+from quadsim.mcap_salvage import check_is_mcap, damage_report
 from quadsim.messages import Twist
 from quadsim.recorder import EVENT_METADATA_NAME, METADATA_NAME
 
@@ -28,6 +27,7 @@ class RecordingReader:
         self._fh = open(self.path, "rb")
         try:
             self._reader = make_reader(self._fh)
+            self.header = self._reader.get_header()
             summary = self._reader.get_summary()
         except Exception:
             summary = None
@@ -37,12 +37,14 @@ class RecordingReader:
         self.summary = summary
         self.topics = {ch.topic: summary.schemas[ch.schema_id].name for ch in summary.channels.values()
                        if ch.schema_id in summary.schemas}
-        missing = [t for t in CORE_TOPICS if t not in self.topics]
+        missing = [t for t in rm.CORE_TOPICS if t not in self.topics]
         if missing and require_topics:
             self._fh.close()
             raise QuadsimError(f"{self.path}: not a quadsim recording: missing topics {', '.join(missing)}")
         records = list(self._reader.iter_metadata())
-        params = next((m.metadata.get("parameters") for m in records if m.name == METADATA_NAME), None)
+        #: the run's record: version, wall-clock start, parameters (JSON); empty for other programs' files
+        self.quadsim_metadata: dict[str, str] = next((dict(m.metadata) for m in records if m.name == METADATA_NAME), {})
+        params = self.quadsim_metadata.get("parameters")
         self.parameters: dict[str, Any] | None = json.loads(params) if params else None
         #: (step, kind, value) of what happened besides the commands (z-mode switches)
         self.events = sorted((int(m.metadata["step"]), m.metadata["kind"], m.metadata["value"])

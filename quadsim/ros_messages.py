@@ -54,6 +54,8 @@ ROTOR_THRUSTS = Topic("/quad/rotor_thrusts", "std_msgs/msg/Float64MultiArray")
 TF = Topic("/tf", "tf2_msgs/msg/TFMessage")
 TF_STATIC = Topic("/tf_static", "tf2_msgs/msg/TFMessage", QOS_LATCHED)
 STATE_TOPICS = (POSE, ODOM, IMU, ROTOR_THRUSTS, TF)
+#: topics every quadsim recording has (cameras and /joy depend on the run)
+CORE_TOPICS = (TWIST.name, *(t.name for t in STATE_TOPICS), TF_STATIC.name)
 
 
 def image_topic(spec: CameraSpec) -> Topic:
