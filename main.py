@@ -1,7 +1,7 @@
 """quadsim command-line entry: `python main.py --help`."""
 import sys
 
-from quadsim.cli import main
+from quadsim.apps.cli import main
 
 if __name__ == "__main__":
     sys.exit(main())

@@ -1,19 +1,58 @@
-"""quadsim: a quadrotor teleop simulator (PyBullet physics, Twist commands, MCAP recordings)."""
+"""quadsim: a quadrotor teleop simulator (PyBullet physics, Twist commands, MCAP recordings).
 
-import os
+The public API, loaded on first use so that `import quadsim` stays light (no pybullet, no pygame):
 
-os.environ.setdefault("PYGAME_HIDE_SUPPORT_PROMPT", "1")  # before anything imports pygame
+    from quadsim import Simulator, SimConfig, Twist
+    with Simulator(SimConfig()) as sim:
+        sim.send(Twist(linear_z=1.0))   # climb at 1 m/s
+        sim.run_for(2.0)
+        print(sim.state.position_m)
+"""
 
-from quadsim.control import ControllerKind  # noqa: E402
-from quadsim.errors import ConfigError, QuadsimError, ScriptError  # noqa: E402
-from quadsim.loop import Rates, StateLog  # noqa: E402
-from quadsim.messages import Twist, VehicleState, ZMode  # noqa: E402
-from quadsim.physics import StartPose  # noqa: E402
-from quadsim.sim import SimConfig, Simulator  # noqa: E402
+from __future__ import annotations
 
-__version__ = "0.1.0"
+import importlib
+from typing import TYPE_CHECKING, Any
 
-__all__ = [
-    "ConfigError", "ControllerKind", "QuadsimError", "Rates", "ScriptError", "SimConfig",
-    "Simulator", "StartPose", "StateLog", "Twist", "VehicleState", "ZMode", "__version__",
-]
+__version__ = "0.2.0"
+
+#: public name -> module that defines it
+_PUBLIC = {
+    "ActiveCommand": "quadsim.core.types",
+    "ConfigError": "quadsim.errors",
+    "ControllerKind": "quadsim.control",
+    "QuadsimError": "quadsim.errors",
+    "Rates": "quadsim.sim.config",
+    "ScriptError": "quadsim.errors",
+    "SimConfig": "quadsim.sim.config",
+    "Simulator": "quadsim.sim.simulator",
+    "StartPose": "quadsim.core.types",
+    "StateLog": "quadsim.sim.loop",
+    "Twist": "quadsim.core.types",
+    "VehicleState": "quadsim.core.types",
+    "ZMode": "quadsim.core.types",
+}
+
+__all__ = [*sorted(_PUBLIC), "__version__"]
+
+
+def __getattr__(name: str) -> Any:
+    module = _PUBLIC.get(name)
+    if module is None:
+        raise AttributeError(f"module 'quadsim' has no attribute {name!r}")
+    value = getattr(importlib.import_module(module), name)
+    globals()[name] = value  # later lookups skip this function
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted({*globals(), *_PUBLIC})
+
+
+if TYPE_CHECKING:  # for type checkers and IDEs: the same names, eagerly
+    from quadsim.control import ControllerKind
+    from quadsim.core.types import ActiveCommand, StartPose, Twist, VehicleState, ZMode
+    from quadsim.errors import ConfigError, QuadsimError, ScriptError
+    from quadsim.sim.config import Rates, SimConfig
+    from quadsim.sim.loop import StateLog
+    from quadsim.sim.simulator import Simulator

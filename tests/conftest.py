@@ -11,6 +11,6 @@ os.environ.setdefault("PYGAME_HIDE_SUPPORT_PROMPT", "1")
 
 @pytest.fixture(scope="session")
 def vehicle():
-    from quadsim.vehicle import load_vehicle
+    from quadsim.vehicle.params import load_vehicle
 
     return load_vehicle()

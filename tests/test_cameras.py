@@ -8,13 +8,13 @@ import numpy as np
 import pytest
 
 from quadsim import SimConfig, Simulator, StartPose, Twist, ZMode
-from quadsim.camera import CameraSpec, RendererKind, decode_jpeg, default_cameras
-from quadsim.camera_pipeline import CameraPipeline
-from quadsim.camera_rig import CameraRig
-from quadsim.ros_messages import optical_rotation
-from quadsim.rotation import matrix_from_quaternion
-from quadsim.vehicle import load_vehicle
-from quadsim.world import load_world
+from quadsim.sensors.camera import CameraSpec, RendererKind, decode_jpeg, default_cameras
+from quadsim.sensors.pipeline import CameraPipeline
+from quadsim.sensors.rig import CameraRig
+from quadsim.recording.contract import optical_rotation
+from quadsim.core.kinematics import matrix_from_quaternion
+from quadsim.vehicle.params import load_vehicle
+from quadsim.physics.world_spec import load_world
 
 
 class Frames:
@@ -96,7 +96,7 @@ def test_camera_info_matches_the_rendered_projection(tmp_path):
     vehicle = load_vehicle()
     spec = CameraSpec("front", "front_camera_link", 320, 240, 60.0, 30)
     rig = CameraRig.standalone(vehicle, load_world(world), (spec,), RendererKind.TINY)
-    from quadsim.pybullet_import import pb
+    from quadsim.physics.pybullet_quiet import pb
 
     position = (0.3, -0.2, 2.0)
     orientation = tuple(pb.getQuaternionFromEuler((0.08, -0.05, 0.25)))

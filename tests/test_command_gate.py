@@ -5,8 +5,8 @@ import math
 
 import pytest
 
-from quadsim.command_gate import CommandGate
-from quadsim.messages import Twist, ZMode
+from quadsim.control.gate import CommandGate
+from quadsim.core.types import Twist, ZMode
 
 
 @pytest.fixture

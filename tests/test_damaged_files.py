@@ -9,7 +9,7 @@ import pytest
 from mcap.writer import Writer
 
 from quadsim import QuadsimError
-from quadsim.recording_reader import RecordingReader
+from quadsim.recording.reader import RecordingReader
 from tests.recording_helpers import record_flight
 
 ROOT = Path(__file__).resolve().parent.parent

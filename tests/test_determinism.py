@@ -7,7 +7,7 @@ import sys
 from pathlib import Path
 
 from quadsim.control import ControllerKind
-from quadsim.flight_metrics import fly
+from quadsim.apps.evaluate import fly
 
 ROOT = Path(__file__).resolve().parent.parent
 
@@ -33,7 +33,7 @@ def test_seed_controller_is_deterministic_too():
 
 def test_two_processes_give_the_same_states():
     code = ("import sys; sys.path.insert(0, %r); from tests.test_determinism import digest; "
-            "from quadsim.flight_metrics import fly; print(digest(fly('square').states))") % str(ROOT)
+            "from quadsim.apps.evaluate import fly; print(digest(fly('square').states))") % str(ROOT)
     outs = [subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True, cwd=ROOT).stdout.strip()
             for _ in range(2)]
     assert outs[0] == outs[1] == digest(fly("square").states)

@@ -2,8 +2,8 @@
 
 import pytest
 
-from quadsim.mixer import Mixer
-from quadsim.motors import MotorBank
+from quadsim.vehicle.mixer import Mixer
+from quadsim.vehicle.motors import MotorBank
 
 
 def test_round_trip(vehicle):

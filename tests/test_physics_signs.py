@@ -2,7 +2,7 @@
 
 import math
 
-from quadsim.pybullet_import import pb
+from quadsim.physics.pybullet_quiet import pb
 import pytest
 
 from quadsim import SimConfig, Simulator, StartPose, Twist, ZMode

@@ -7,7 +7,7 @@ import pytest
 from mcap.reader import make_reader
 from mcap_ros2.decoder import DecoderFactory
 
-from quadsim.vehicle import DEFAULT_URDF
+from quadsim.vehicle.params import DEFAULT_URDF
 from tests.recording_helpers import record_flight
 
 CONTRACT = {
@@ -136,7 +136,7 @@ def test_rosbags_reads_it_as_a_ros2_bag(recorded):
 
 
 def test_our_reader_gives_typed_data(recorded):
-    from quadsim.recording_reader import RecordingReader
+    from quadsim.recording.reader import RecordingReader
 
     path, log = recorded[0], recorded[1]
     with RecordingReader(path) as reader:

@@ -12,9 +12,9 @@ import pytest
 from mcap.reader import make_reader
 
 from quadsim import QuadsimError, SimConfig, Simulator, Twist, ZMode
-from quadsim.mcap_salvage import scan
-from quadsim.recorder import McapRecorder, check_writable
-from quadsim.session import OutputOptions, RecordedRun
+from quadsim.recording.salvage import scan
+from quadsim.recording.writer import McapRecorder, check_writable
+from quadsim.apps.outputs import OutputOptions, RecordedRun
 from tests.recording_helpers import record_flight
 
 ROOT = Path(__file__).resolve().parent.parent

@@ -11,12 +11,12 @@ from mcap.reader import make_reader
 from mcap.writer import Writer
 
 from quadsim import QuadsimError, SimConfig
-from quadsim.pacing import FixedStepPacer
-from quadsim.recorded_flight import load_flight
-from quadsim.replay_app import ReplayApp
-from quadsim.resim import ATTITUDE_TOLERANCE_RAD, POSITION_TOLERANCE_M, resimulate
-from quadsim.session import OutputOptions
-from quadsim.teleop_app import TeleopApp, TeleopOptions
+from quadsim.apps.window.pacing import FixedStepPacer
+from quadsim.recording.flight import load_flight
+from quadsim.apps.window.replay import ReplayApp
+from quadsim.apps.resim import ATTITUDE_TOLERANCE_RAD, POSITION_TOLERANCE_M, resimulate
+from quadsim.apps.outputs import OutputOptions
+from quadsim.apps.window.teleop import TeleopApp, TeleopOptions
 from tests.recording_helpers import record_flight
 
 ROOT = Path(__file__).resolve().parent.parent

@@ -9,9 +9,9 @@ from mcap_ros2.decoder import DecoderFactory
 
 from quadsim import SimConfig, ZMode
 from quadsim.drivers.joystick import JoystickMapping, apply_deadzone
-from quadsim.pacing import FixedStepPacer
-from quadsim.session import OutputOptions
-from quadsim.teleop_app import TeleopApp, TeleopOptions
+from quadsim.apps.window.pacing import FixedStepPacer
+from quadsim.apps.outputs import OutputOptions
+from quadsim.apps.window.teleop import TeleopApp, TeleopOptions
 
 FPS = 30  # each frame advances 1/30 s of simulation time
 
@@ -137,7 +137,7 @@ def test_speed_keys_and_teleop_twist_layout(tmp_path):
 
 
 def test_window_shows_both_cameras_map_and_hud(tmp_path):
-    from quadsim.camera import default_cameras
+    from quadsim.sensors.camera import default_cameras
 
     app = make_app(tmp_path, cameras=default_cameras(), options=TeleopOptions(window_size=(960, 540)))
     run_with(app, 90, {0: [lambda: key(pygame.K_w)], 45: [lambda: key(pygame.K_w, False)]})

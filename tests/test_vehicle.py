@@ -7,7 +7,7 @@ from pathlib import Path
 import pytest
 
 from quadsim.errors import ConfigError
-from quadsim.vehicle import DEFAULT_URDF, Spin, load_vehicle
+from quadsim.vehicle.params import DEFAULT_URDF, Spin, load_vehicle
 
 
 def test_mass_and_inertia_come_from_the_urdf(vehicle):

@@ -18,9 +18,9 @@ import pygame  # noqa: E402
 
 from quadsim import ControllerKind, SimConfig, Simulator, ZMode  # noqa: E402
 from quadsim.drivers.scripted import ScriptedDriver, load_script  # noqa: E402
-from quadsim.pacing import FixedStepPacer  # noqa: E402
-from quadsim.session import OutputOptions, RecordedRun  # noqa: E402
-from quadsim.teleop_app import TeleopApp, TeleopOptions  # noqa: E402
+from quadsim.apps.window.pacing import FixedStepPacer  # noqa: E402
+from quadsim.apps.outputs import OutputOptions, RecordedRun  # noqa: E402
+from quadsim.apps.window.teleop import TeleopApp, TeleopOptions  # noqa: E402
 
 OUT = ROOT / "tests" / "recordings"
 

@@ -8,8 +8,8 @@ from __future__ import annotations
 import enum
 from typing import Any, Protocol
 
-from quadsim.messages import ActiveCommand, RotorForces, VehicleState
-from quadsim.vehicle import VehicleParams
+from quadsim.core.types import ActiveCommand, RotorForces, VehicleState
+from quadsim.vehicle.params import VehicleParams
 
 
 class ControllerKind(enum.Enum):

@@ -35,9 +35,9 @@ from typing import Any
 
 from quadsim.control import ControllerKind
 from quadsim.errors import ConfigError
-from quadsim.messages import HEIGHT_MODE_BASE_M, ActiveCommand, RotorForces, VehicleState, ZMode
-from quadsim.rotation import matrix_from_quaternion
-from quadsim.vehicle import Spin, VehicleParams
+from quadsim.core.types import HEIGHT_MODE_BASE_M, ActiveCommand, RotorForces, VehicleState, ZMode
+from quadsim.core.kinematics import matrix_from_quaternion
+from quadsim.vehicle.params import Spin, VehicleParams
 
 DT_REF_S = 0.05  # the V-REP simulation step the original's difference terms assumed
 HOVER_COMMAND = 5.335  # the original's hover propeller command

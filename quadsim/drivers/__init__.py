@@ -9,7 +9,7 @@ from __future__ import annotations
 import sys
 from typing import Any, Protocol
 
-from quadsim.messages import Twist
+from quadsim.core.types import Twist
 
 ASAP = 0
 NEVER = sys.maxsize

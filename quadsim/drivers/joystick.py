@@ -19,8 +19,8 @@ import pygame  # noqa: E402
 
 from quadsim.errors import ConfigError  # noqa: E402
 from quadsim.drivers import ASAP, NEVER  # noqa: E402
-from quadsim.messages import HEIGHT_MODE_BASE_M, Twist, ZMode  # noqa: E402
-from quadsim.vehicle import tomllib  # noqa: E402
+from quadsim.core.types import HEIGHT_MODE_BASE_M, Twist, ZMode  # noqa: E402
+from quadsim.core.toml_compat import tomllib  # noqa: E402
 
 
 class JoystickDevice(Protocol):

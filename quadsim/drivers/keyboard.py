@@ -17,7 +17,7 @@ os.environ.setdefault("PYGAME_HIDE_SUPPORT_PROMPT", "1")
 import pygame  # noqa: E402
 
 from quadsim.drivers import ASAP, NEVER  # noqa: E402
-from quadsim.messages import HEIGHT_MODE_BASE_M, Twist, ZMode  # noqa: E402
+from quadsim.core.types import HEIGHT_MODE_BASE_M, Twist, ZMode  # noqa: E402
 
 
 class Axis(enum.Enum):

@@ -5,7 +5,7 @@ from __future__ import annotations
 from typing import Any
 
 from quadsim.drivers import NEVER
-from quadsim.messages import Twist
+from quadsim.core.types import Twist
 
 
 class ProgrammaticDriver:

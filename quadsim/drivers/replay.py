@@ -6,7 +6,7 @@ from __future__ import annotations
 from typing import Any, Sequence
 
 from quadsim.drivers import NEVER
-from quadsim.messages import Twist
+from quadsim.core.types import Twist
 
 
 class ReplayDriver:

@@ -18,13 +18,13 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from importlib import resources
 from pathlib import Path
 from typing import Any
 
+from quadsim.assets import asset_path
 from quadsim.errors import ScriptError
 from quadsim.drivers import NEVER
-from quadsim.messages import Twist, ZMode
+from quadsim.core.types import Twist, ZMode
 
 _FIELDS = ("linear.x", "linear.y", "linear.z", "angular.x", "angular.y", "angular.z")
 
@@ -96,7 +96,7 @@ def _number(text: str, where: str, what: str) -> float:
 def builtin_scenarios() -> dict[str, str]:
     """Names of the shipped scenarios and their first comment line."""
     out = {}
-    for entry in sorted(resources.files("quadsim.scenarios").iterdir(), key=lambda e: e.name):
+    for entry in sorted(asset_path("scenarios").iterdir(), key=lambda e: e.name):
         if entry.name.endswith(".qscript"):
             first = entry.read_text().splitlines()[0].lstrip("# ").strip()
             out[entry.name[: -len(".qscript")]] = first
@@ -117,7 +117,7 @@ def load_script(name_or_path: str) -> Script:
     scenarios = builtin_scenarios()
     if name_or_path not in scenarios:
         raise ScriptError(f"unknown scenario {name_or_path!r}; built-in scenarios: {', '.join(scenarios)} (or give a script file path)")
-    text = resources.files("quadsim.scenarios").joinpath(name_or_path + ".qscript").read_text()
+    text = asset_path("scenarios", name_or_path + ".qscript").read_text()
     return parse_script(text, name_or_path)
 
 

@@ -1,0 +1,8 @@
+"""`python -m quadsim`: the command line."""
+
+import sys
+
+from quadsim.apps.cli import main
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,1 @@
+"""Applications: the command line, headless runs, the benchmark, evaluation, re-simulation and exports."""

@@ -1,0 +1,398 @@
+"""The benchmark behind `python main.py bench`: ratios against a baseline measured in the same run.
+
+Flight core:
+  baseline   the bare PyBullet loop for this URDF and world: four applyExternalForce + stepSimulation
+  physics    quadsim's PhysicsWorld.step alone (motor lag, forces, yaw torque, drag, state read)
+  full loop  SimLoop at 240 Hz physics and 240 Hz control: driver polling, command gate,
+             controller, physics and state publishing, hovering at 2 m
+Each figure is the best of several repeats (the least disturbed by other work on the machine).
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+from typing import Callable
+
+from quadsim.physics.pybullet_quiet import pb
+
+from quadsim.control import ControllerKind
+from quadsim.sim.config import Rates
+from quadsim.sim.loop import StateLog
+from quadsim.core.types import Twist, ZMode
+from quadsim.physics.pybullet_world import PhysicsWorld
+from quadsim.sim.config import SimConfig
+from quadsim.sim.simulator import Simulator
+
+
+@dataclass(frozen=True)
+class Figure:
+    name: str
+    seconds_per_step: float
+    physics_hz: int
+
+    @property
+    def steps_per_s(self) -> float:
+        return 1.0 / self.seconds_per_step
+
+    @property
+    def real_time_factor(self) -> float:
+        return self.steps_per_s / self.physics_hz
+
+
+def _best_of(repeats: int, steps: int, run: Callable[[int], None]) -> float:
+    """Seconds per step, best of `repeats` timed runs of `steps` steps."""
+    best = float("inf")
+    for _ in range(repeats):
+        t0 = time.perf_counter()
+        run(steps)
+        best = min(best, (time.perf_counter() - t0) / steps)
+    return best
+
+
+def bare_pybullet_loop(steps: int, repeats: int, physics_hz: int = 240) -> Figure:
+    """The baseline: this URDF and world in PyBullet, four forces and one step, nothing else."""
+    sim = Simulator(SimConfig(rates=Rates(physics_hz=physics_hz, control_hz=physics_hz, state_hz=physics_hz // 4)))
+    phys = sim.physics
+    body, cid = phys.body_id, phys.client_id
+    rotors = [phys.link_index[r.link_name] for r in sim.vehicle.rotors]
+    hover = sim.vehicle.hover_thrust_per_rotor_n
+    pb.resetBasePositionAndOrientation(body, (0, 0, 2.0), (0, 0, 0, 1), physicsClientId=cid)
+
+    def run(n: int) -> None:
+        force = (0.0, 0.0, hover)
+        origin = (0.0, 0.0, 0.0)
+        link_frame = pb.LINK_FRAME
+        for i in range(n):
+            if i % 240 == 0:  # keep it in the air: a free body drifts and tumbles slowly
+                pb.resetBasePositionAndOrientation(body, (0, 0, 2.0), (0, 0, 0, 1), physicsClientId=cid)
+                pb.resetBaseVelocity(body, (0, 0, 0), (0, 0, 0), physicsClientId=cid)
+            for link in rotors:
+                pb.applyExternalForce(body, link, force, origin, link_frame, physicsClientId=cid)
+            pb.stepSimulation(physicsClientId=cid)
+
+    try:
+        return Figure("bare PyBullet loop (baseline)", _best_of(repeats, steps, run), physics_hz)
+    finally:
+        sim.close()
+
+
+def _hovering_sim(controller: ControllerKind, rates: Rates) -> Simulator:
+    sim = Simulator(SimConfig(controller=controller, z_mode=ZMode.HEIGHT, rates=rates))
+    sim.send(Twist())  # height mode, linear.z = 0: hold 2.0 m
+    sim.add_sink(StateLog())
+    sim.run_for(3.0)  # take off and settle before timing
+    return sim
+
+
+def physics_only(steps: int, repeats: int) -> Figure:
+    sim = _hovering_sim(ControllerKind.CASCADE, Rates())
+    phys: PhysicsWorld = sim.physics
+    body, cid = phys.body_id, phys.client_id
+    hover = sim.vehicle.hover_thrust_per_rotor_n
+    command = (hover, hover, hover, hover)
+
+    def run(n: int) -> None:
+        step = phys.step
+        for i in range(n):
+            if i % 240 == 0:  # as the baseline: keep the uncontrolled body in the air
+                pb.resetBasePositionAndOrientation(body, (0, 0, 2.0), (0, 0, 0, 1), physicsClientId=cid)
+                pb.resetBaseVelocity(body, (0, 0, 0), (0, 0, 0), physicsClientId=cid)
+            step(command)
+
+    try:
+        return Figure("PhysicsWorld.step (motors, forces, drag)", _best_of(repeats, steps, run), 240)
+    finally:
+        sim.close()
+
+
+def controller_only(steps: int, repeats: int, controller: ControllerKind) -> Figure:
+    """One controller update per step on a recorded hover state (no physics at all)."""
+    sim = _hovering_sim(controller, Rates())
+    state, active, ctrl = sim.state, sim.gate.active(sim.step_count), sim.controller
+
+    def run(n: int) -> None:
+        update = ctrl.update
+        for _ in range(n):
+            update(state, active, 1.0 / 240.0)
+
+    try:
+        return Figure(f"{controller.value} controller update alone", _best_of(repeats, steps, run), 240)
+    finally:
+        sim.close()
+
+
+def full_loop(steps: int, repeats: int, controller: ControllerKind = ControllerKind.CASCADE) -> Figure:
+    sim = _hovering_sim(controller, Rates(physics_hz=240, control_hz=240, state_hz=60, input_hz=20))
+    try:
+        return Figure(f"full loop, {controller.value} controller @240 Hz", _best_of(repeats, steps, sim.step), 240)
+    finally:
+        sim.close()
+
+
+def run_flight_core_bench(steps: int = 24000, repeats: int = 3, out: Callable[[str], None] = print) -> dict[str, Figure]:
+    out(f"quadsim bench: flight core ({steps} steps per run, best of {repeats}; 240 Hz physics)")
+    base = bare_pybullet_loop(steps, repeats)
+    figures = {
+        "bare": base,
+        "physics": physics_only(steps, repeats),
+        "cascade_update": controller_only(steps, repeats, ControllerKind.CASCADE),
+        "cascade": full_loop(steps, repeats, ControllerKind.CASCADE),
+        "seed": full_loop(steps, repeats, ControllerKind.SEED),
+    }
+    out(f"  {'':46s} {'us/step':>8s} {'steps/s':>9s} {'x real time':>11s} {'x baseline':>10s}")
+    for fig in figures.values():
+        ratio = fig.seconds_per_step / base.seconds_per_step
+        out(f"  {fig.name:46s} {fig.seconds_per_step * 1e6:8.1f} {fig.steps_per_s:9.0f} "
+            f"{fig.real_time_factor:10.1f}x {ratio:9.2f}x")
+    cascade = figures["cascade"]
+    ok_rt = cascade.real_time_factor >= 100.0
+    ok_ratio = cascade.seconds_per_step <= 3.0 * base.seconds_per_step
+    out(f"  target: full loop >= 100x real time [{'met' if ok_rt else 'MISSED'}], "
+        f"within 3x of the baseline [{'met' if ok_ratio else 'MISSED'}]")
+    return figures
+
+
+# --- cameras and recording ---------------------------------------------------------------------
+
+def _camera_client(sim: Simulator):
+    """The cameras' view from a vehicle hovering at 2 m in the default world."""
+    from quadsim.sensors.camera import camera_pose, default_cameras, projection_matrix, view_matrix
+
+    cams = default_cameras()
+    state = sim.state
+    views = {c.name: view_matrix(camera_pose(sim.vehicle.camera_mount(c.link_name), state.position_m,
+                                             state.orientation_xyzw)) for c in cams}
+    return cams, views, {c.name: projection_matrix(c) for c in cams}
+
+
+def camera_costs(frames: int, repeats: int, out: Callable[[str], None]) -> dict[str, float]:
+    """Per-frame cost of the bare getCameraImage call and of quadsim's whole camera pipeline."""
+    import tempfile
+    from pathlib import Path
+
+    from quadsim.sensors.camera import RendererKind
+    from quadsim.sensors.rig import CameraRig
+    from quadsim.recording.writer import McapRecorder
+
+    sim = _hovering_sim(ControllerKind.CASCADE, Rates())
+    cams, views, projs = _camera_client(sim)
+    cid = sim.physics.client_id
+    results: dict[str, float] = {}
+    state = sim.state
+    rig = CameraRig(sim.vehicle, cams, RendererKind.TINY, cid, None)
+    with tempfile.TemporaryDirectory() as tmp:
+        rec = McapRecorder(Path(tmp) / "bench.mcap", sim, cams)
+        for cam in cams:
+            def bare(n: int, cam=cam) -> None:
+                for _ in range(n):
+                    pb.getCameraImage(cam.width_px, cam.height_px, views[cam.name], projs[cam.name],
+                                      renderer=pb.ER_TINY_RENDERER, physicsClientId=cid)
+
+            def pipeline(n: int, cam=cam) -> None:
+                for i in range(n):
+                    for frame in rig.render((cam.name,), i, state.position_m, state.orientation_xyzw):
+                        rec.on_camera_frame(frame)
+
+            results[f"bare_{cam.name}"] = _best_of(repeats, frames, bare)
+            results[f"pipeline_{cam.name}"] = _best_of(repeats, frames, pipeline)
+        rec.close()
+    sim.close()
+    out(f"  per frame, {cams[0].width_px}x{cams[0].height_px}, TinyRenderer   {'ms':>8s} {'x baseline':>11s}")
+    for cam in cams:
+        b, p = results[f"bare_{cam.name}"], results[f"pipeline_{cam.name}"]
+        out(f"  {cam.name:5s} bare getCameraImage (baseline)      {b * 1e3:8.2f} {1.0:10.2f}x")
+        out(f"  {cam.name:5s} render+encode+serialise+write      {p * 1e3:8.2f} {p / b:10.2f}x")
+    worst = max(results[f"pipeline_{c.name}"] / results[f"bare_{c.name}"] for c in cams)
+    out(f"  target: pipeline <= 1.2x the bare render [{'met' if worst <= 1.2 else 'MISSED'}: worst {worst:.2f}x]")
+    return results
+
+
+def recorded_flight(duration_s: float, cameras: bool, workers: int) -> tuple[float, int]:
+    """(real-time factor, bytes written) of the square scenario flown headless and recorded."""
+    import tempfile
+    from pathlib import Path
+
+    from quadsim.sensors.camera import default_cameras
+    from quadsim.drivers.scripted import ScriptedDriver, load_script
+    from quadsim.apps.outputs import OutputOptions, RecordedRun
+
+    script = load_script("square")
+    with tempfile.TemporaryDirectory() as tmp:
+        path = Path(tmp) / "bench.mcap"
+        with Simulator(SimConfig(z_mode=ZMode.HEIGHT), ScriptedDriver(script)) as sim:
+            options = OutputOptions(out=path, cameras=default_cameras() if cameras else (), render_workers=workers)
+            run = RecordedRun(sim, options, "bench")  # workers start before the clock does
+            t0 = time.perf_counter()
+            try:
+                sim.run_for(duration_s)
+            finally:
+                run.close()
+            wall = time.perf_counter() - t0
+        return duration_s / wall, path.stat().st_size
+
+
+def run_recording_bench(out: Callable[[str], None] = print, flight_s: float = 20.0) -> None:
+    out("quadsim bench: cameras and recording")
+    camera_costs(frames=30, repeats=3, out=out)
+    core = full_loop(12000, 3)
+    rtf_cam, size_cam = recorded_flight(flight_s, cameras=True, workers=2)
+    rtf_cam1, _ = recorded_flight(flight_s, cameras=True, workers=0)
+    rtf_nocam, size_nocam = recorded_flight(60.0, cameras=False, workers=0)
+    out(f"  headless flight ('square', {flight_s:.0f} s sim), recorded:        {'x real time':>12s}")
+    out(f"  both cameras 320x240@30Hz, 2 render workers          {rtf_cam:11.2f}x")
+    out(f"  both cameras 320x240@30Hz, rendered in-process      {rtf_cam1:11.2f}x")
+    out(f"  no cameras (flight core alone: {core.real_time_factor:.0f}x)               {rtf_nocam:11.1f}x")
+    out(f"  target: with cameras >= 1.5x [{'met' if rtf_cam >= 1.5 else 'MISSED'}]; "
+        f"without cameras >= 100x [{'met' if rtf_nocam >= 100 else 'MISSED'}]")
+    out(f"  one minute of recording: {size_cam / flight_s * 60 / 1e6:.1f} MB with both cameras, "
+        f"{size_nocam / 1e6:.2f} MB without")
+
+
+# --- the interactive window ---------------------------------------------------------------------
+
+class _Timer:
+    """Wraps a method of an object so the time spent in it is added up under a name."""
+
+    def __init__(self) -> None:
+        self.seconds: dict[str, float] = {}
+
+    def wrap(self, obj: object, method: str, name: str) -> None:
+        inner = getattr(obj, method)
+
+        def timed(*args, **kwargs):
+            t0 = time.perf_counter()
+            try:
+                return inner(*args, **kwargs)
+            finally:
+                self.seconds[name] = self.seconds.get(name, 0.0) + time.perf_counter() - t0
+
+        setattr(obj, method, timed)
+
+
+def run_interactive_bench(out: Callable[[str], None] = print, wall_s: float = 10.0) -> None:
+    """The window headless (SDL dummy video), paced to real time, both cameras and recording on."""
+    import os
+    import tempfile
+    from pathlib import Path
+
+    os.environ["SDL_VIDEODRIVER"] = "dummy"
+    import pygame
+
+    from quadsim.apps.outputs import OutputOptions
+    from quadsim.apps.window.teleop import TeleopApp, TeleopOptions
+
+    out("quadsim bench: interactive window (SDL dummy video, real-time pacing, 1280x720, "
+        "both cameras 320x240@30Hz, recording on)")
+    with tempfile.TemporaryDirectory() as tmp:
+        app = TeleopApp(SimConfig(z_mode=ZMode.HEIGHT), OutputOptions(out=Path(tmp)), TeleopOptions(input="keyboard"))
+        try:
+            timer = _Timer()
+            rec, cams = app.session.recorder, app.session.cameras
+            timer.wrap(app.sim.physics, "step", "physics")
+            timer.wrap(app.sim.controller, "update", "control")
+            for m in ("on_state", "on_command", "on_camera_frame"):
+                timer.wrap(rec, m, "recording")
+            timer.wrap(cams, "_capture", "cameras")
+            timer.wrap(cams, "poll", "cameras+")
+            timer.wrap(app.view, "draw", "drawing")
+            app.run(max_frames=30)  # warm up: take off, first frames
+            timer.seconds.clear()
+            frames0, steps0, t0 = app.frame_count, app.sim.step_count, time.perf_counter()
+            lagging = 0
+            while time.perf_counter() - t0 < wall_s:
+                app.frame()
+                lagging += app.pacer.lagging
+            wall = time.perf_counter() - t0
+            frames = app.frame_count - frames0
+            sim_s = (app.sim.step_count - steps0) / 240
+            shares = dict(timer.seconds)
+            # physics and the control it calls are nested in sim.step; the frames recorded inside
+            # poll() are counted under recording, so take them out of cameras
+            shares["cameras"] = shares.get("cameras", 0.0) + shares.pop("cameras+", 0.0)
+            busy = sum(shares.values())
+            out(f"  {frames / wall:.1f} frames/s over {wall:.1f} s (target >= 30), sim at {sim_s / wall:.2f}x real time, "
+                f"{lagging} frames behind real time")
+            out("  share of the frame time: " + ", ".join(
+                f"{k} {v / wall * 100:.1f}%" for k, v in sorted(shares.items(), key=lambda kv: -kv[1]))
+                + f", idle/other {max(0.0, wall - busy) / wall * 100:.1f}%")
+            out("  (cameras: submitting jobs to the render workers and taking frames back; the rendering itself "
+                "runs in the workers, on the other core)")
+
+            # key latency: from the key event to the first changed rotor command
+            log: list[tuple[int, tuple]] = []
+            update = app.sim.controller.update
+
+            def logged(state, command, dt):
+                forces = update(state, command, dt)
+                log.append((state.step, forces))
+                return forces
+
+            app.sim.controller.update = logged  # type: ignore[method-assign]
+            app.run(max_frames=app.frame_count + 5)
+            before = app.sim.loop.rotor_command_n
+            log.clear()
+            receive_before = app.sim.gate.last_receive_step
+            t_post = time.perf_counter()
+            pygame.event.post(pygame.event.Event(pygame.KEYDOWN, key=pygame.K_UP, mod=0, unicode="", scancode=0))
+            changed_wall = None
+            while changed_wall is None and time.perf_counter() - t_post < 2.0:
+                app.frame()
+                if any(f != before for _, f in log):
+                    changed_wall = time.perf_counter()
+            poll_step = app.sim.gate.last_receive_step
+            first_change = next((s for s, f in log if f != before), None)
+            if changed_wall is None or poll_step == receive_before or first_change is None:
+                out("  key latency: no change seen within 2 s")
+            else:
+                out(f"  key latency: the first changed rotor command came {first_change - poll_step} control step(s) "
+                    f"after the event was polled (target <= 1); {(changed_wall - t_post) * 1e3:.1f} ms from the "
+                    f"event to the end of the frame that applied it")
+        finally:
+            app.close()
+
+
+# --- replay ----------------------------------------------------------------------------------------
+
+def run_replay_bench(out: Callable[[str], None] = print, flight_s: float = 20.0) -> None:
+    """Headless playback read speed (recording with both cameras), and re-simulation speed
+    (recording without cameras) against the flight core measured in the same run."""
+    import tempfile
+    from pathlib import Path
+
+    from quadsim.sensors.camera import default_cameras
+    from quadsim.drivers.scripted import ScriptedDriver, load_script
+    from quadsim.recording.flight import load_flight
+    from quadsim.apps.replay_export import summary_lines
+    from quadsim.apps.resim import resimulate
+    from quadsim.apps.outputs import OutputOptions, RecordedRun
+
+    out("quadsim bench: replay")
+    script = load_script("square")
+    with tempfile.TemporaryDirectory() as tmp:
+        paths = {}
+        for name, cams in (("cams", default_cameras()), ("nocams", ())):
+            paths[name] = Path(tmp) / f"{name}.mcap"
+            with Simulator(SimConfig(z_mode=ZMode.HEIGHT), ScriptedDriver(script)) as sim:
+                with RecordedRun(sim, OutputOptions(out=paths[name], cameras=cams), name):
+                    sim.run_for(flight_s)
+        best = float("inf")
+        for _ in range(3):
+            t0 = time.perf_counter()
+            flight = load_flight(paths["cams"])
+            summary_lines(flight)
+            best = min(best, time.perf_counter() - t0)
+        size = paths["cams"].stat().st_size / 1e6
+        out(f"  headless playback of {flight_s:.0f} s with both cameras ({size:.1f} MB, "
+            f"{sum(flight.topics.values())} messages): {best:.2f} s, {flight_s / best:.0f}x real time (target >= 50x)")
+        core = full_loop(12000, 3)
+        flight = load_flight(paths["nocams"])
+        best, best_stepping = float("inf"), float("inf")
+        for _ in range(3):
+            t0 = time.perf_counter()
+            report = resimulate(flight, record=False)
+            best = min(best, time.perf_counter() - t0)
+            best_stepping = min(best_stepping, report.stepping_wall_s)
+        out(f"  re-simulation of {flight_s:.0f} s without cameras: flying {report.sim_time_s / best_stepping:.0f}x real "
+            f"time (flight core {core.real_time_factor:.0f}x in the same run); {flight_s / best:.0f}x including "
+            f"loading, building the world and comparing; max position error {report.position.max_error:g} m")

@@ -1,0 +1,157 @@
+"""Flight-quality metrics of the built-in scenarios, computed from a run's published states.
+
+The tests assert on these and `python main.py evaluate` prints them as the README's table, so
+the numbers in both places come from one piece of code.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Callable, Sequence
+
+from quadsim.control import ControllerKind
+from quadsim.drivers.scripted import ScriptedDriver, load_script
+from quadsim.sim.loop import StateLog
+from quadsim.core.types import VehicleState
+from quadsim.sim.config import SimConfig
+from quadsim.sim.simulator import Simulator
+
+
+@dataclass(frozen=True)
+class Flight:
+    """The published states of one scripted run, with time in seconds."""
+
+    scenario: str
+    controller: ControllerKind
+    states: tuple[VehicleState, ...]
+    physics_hz: int
+
+    def t(self, s: VehicleState) -> float:
+        return s.step / self.physics_hz
+
+    def between(self, t0: float, t1: float) -> list[VehicleState]:
+        return [s for s in self.states if t0 <= self.t(s) <= t1]
+
+    def at(self, t: float) -> VehicleState:
+        return min(self.states, key=lambda s: abs(self.t(s) - t))
+
+
+def fly(scenario: str, controller: ControllerKind = ControllerKind.CASCADE, config: SimConfig | None = None) -> Flight:
+    """Run a scenario headless and keep every published state."""
+    script = load_script(scenario)
+    base = config or SimConfig()
+    cfg = SimConfig(**{**base.__dict__, "controller": controller, "z_mode": script.z_mode or base.z_mode})
+    with Simulator(cfg, ScriptedDriver(script)) as sim:
+        log = StateLog()
+        sim.add_sink(log)
+        sim.run_for(script.duration_s)
+    return Flight(scenario, controller, tuple(log.states), cfg.rates.physics_hz)
+
+
+def _heading_velocity(s: VehicleState, yaw: float) -> tuple[float, float]:
+    vx, vy, _ = s.linear_velocity_mps
+    c, sn = math.cos(yaw), math.sin(yaw)
+    return c * vx + sn * vy, -sn * vx + c * vy
+
+
+# --- per-scenario metrics --------------------------------------------------------------------
+
+def takeoff_metrics(f: Flight, target_m: float = 2.0, band_m: float = 0.05) -> dict[str, float]:
+    z0 = f.states[0].position_m[2]
+    zs = [(f.t(s), s.position_m[2]) for s in f.states]
+    peak = max(z for _, z in zs)
+    settle = 0.0
+    for t, z in zs:
+        if abs(z - target_m) > band_m:
+            settle = t  # the last time outside the band
+    return {"settle_time_s": settle, "overshoot_pct": max(0.0, (peak - target_m) / (target_m - z0) * 100.0)}
+
+
+def hover_metrics(f: Flight, t0: float = 5.0, window_s: float = 30.0) -> dict[str, float]:
+    ref = f.at(t0).position_m
+    drift = max(math.dist(s.position_m, ref) for s in f.between(t0, t0 + window_s))
+    return {"drift_m": drift}
+
+
+def step_metrics(f: Flight, axis: int, t_step: float = 5.0, length_s: float = 5.0, target_mps: float = 1.0) -> dict[str, float]:
+    yaw = f.at(t_step).yaw_rad()
+    rise = math.inf
+    for s in f.between(t_step, t_step + length_s):
+        if _heading_velocity(s, yaw)[axis] >= 0.9 * target_mps:
+            rise = f.t(s) - t_step
+            break
+    tail = f.between(t_step + length_s - 1.0, t_step + length_s)
+    steady = max(abs(_heading_velocity(s, yaw)[axis] - target_mps) for s in tail) / target_mps
+    peak = max(_heading_velocity(s, yaw)[axis] for s in f.between(t_step, t_step + length_s))
+    return {"rise_90_s": rise, "steady_error_pct": steady * 100.0, "peak_mps": peak}
+
+
+def yaw_metrics(f: Flight, t_start: float = 5.0, length_s: float = 6.0, target_radps: float = 1.0) -> dict[str, float]:
+    held = f.between(t_start + 1.0, t_start + length_s)  # after the first second of the turn
+    rates = [s.angular_velocity_body_rps[2] for s in held]
+    worst = max(abs(r - target_radps) for r in rates) / target_radps
+    return {"rate_error_max_pct": worst * 100.0, "rate_mean_radps": sum(rates) / len(rates)}
+
+
+def return_metrics(f: Flight, t_start: float = 5.0) -> dict[str, float]:
+    start = f.at(t_start).position_m
+    end = f.states[-1].position_m
+    return {"return_error_m": math.dist(start[:2], end[:2])}
+
+
+def turn_metrics(f: Flight, t_start: float = 5.0, target_m: float = 2.0, speed_mps: float = 1.0) -> dict[str, float]:
+    """A coordinated turn (the figure-8's circles at 1 m/s): speed held along the heading, no
+    sideways slip, no sinking. Measured from 1 s into each circle (after the rise)."""
+    turning = f.between(t_start + 1.0, t_start + 8.0) + f.between(t_start + 9.0, t_start + 16.0)
+    along = [_heading_velocity(s, s.yaw_rad()) for s in turning]
+    return {
+        "turn_speed_error_max_pct": max(abs(v[0] - speed_mps) for v in along) / speed_mps * 100.0,
+        "turn_slip_max_mps": max(abs(v[1]) for v in along),
+        "altitude_error_max_m": max(abs(s.position_m[2] - target_m) for s in f.between(t_start, f.t(f.states[-1]))),
+    }
+
+
+def envelope_metrics(f: Flight) -> dict[str, float]:
+    """How wild the flight was: tilt and altitude extremes (for 'does not diverge')."""
+    tilt = max(math.acos(max(-1.0, min(1.0, _body_z_up(s)))) for s in f.states)
+    zs = [s.position_m[2] for s in f.states]
+    return {"max_tilt_deg": math.degrees(tilt), "min_z_m": min(zs), "max_z_m": max(zs)}
+
+
+def _body_z_up(s: VehicleState) -> float:
+    x, y, _, _ = s.orientation_xyzw
+    return 1.0 - 2.0 * (x * x + y * y)
+
+
+SCENARIO_METRICS: dict[str, Callable[[Flight], dict[str, float]]] = {
+    "takeoff": takeoff_metrics,
+    "hover": hover_metrics,
+    "step_forward": lambda f: step_metrics(f, 0),
+    "step_left": lambda f: step_metrics(f, 1),
+    "yaw": yaw_metrics,
+    "square": return_metrics,
+    "figure8": turn_metrics,
+}
+
+
+def evaluate(scenarios: Sequence[str] = tuple(SCENARIO_METRICS), controller: ControllerKind = ControllerKind.CASCADE) -> dict[str, dict[str, float]]:
+    out = {}
+    for name in scenarios:
+        flight = fly(name, controller)
+        out[name] = {**SCENARIO_METRICS[name](flight), **envelope_metrics(flight)}
+    return out
+
+
+#: The issue's targets for the cascade controller, as (scenario, metric, upper bound).
+TARGETS: tuple[tuple[str, str, float], ...] = (
+    ("takeoff", "settle_time_s", 3.0),
+    ("takeoff", "overshoot_pct", 10.0),
+    ("hover", "drift_m", 0.02),
+    ("step_forward", "rise_90_s", 1.5),
+    ("step_forward", "steady_error_pct", 5.0),
+    ("step_left", "rise_90_s", 1.5),
+    ("step_left", "steady_error_pct", 5.0),
+    ("yaw", "rate_error_max_pct", 10.0),
+    ("square", "return_error_m", 0.20),
+)

@@ -1,0 +1,99 @@
+"""Headless runs: fly a driver for a duration as fast as the machine allows, then summarise."""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass
+from typing import Callable
+
+from quadsim.sim.loop import StateLog
+from quadsim.core.types import VehicleState
+from quadsim.sim.simulator import Simulator
+
+#: Simulation time advanced between two progress updates.
+_CHUNK_S = 0.5
+
+
+@dataclass(frozen=True)
+class RunSummary:
+    sim_time_s: float
+    wall_time_s: float
+    final_state: VehicleState
+    distance_m: float
+    max_altitude_m: float
+    commands_received: int
+    commands_rejected: int
+
+    @property
+    def real_time_factor(self) -> float:
+        return self.sim_time_s / self.wall_time_s if self.wall_time_s > 0 else math.inf
+
+    def lines(self) -> list[str]:
+        s = self.final_state
+        x, y, z = s.position_m
+        roll, pitch = s.roll_pitch_rad()
+        return [
+            f"sim time        {self.sim_time_s:.2f} s",
+            f"wall time       {self.wall_time_s:.2f} s",
+            f"real-time factor {self.real_time_factor:.1f}x",
+            f"final pose      x={x:+.3f} m  y={y:+.3f} m  z={z:+.3f} m  "
+            f"yaw={math.degrees(s.yaw_rad()):+.1f} deg  roll={math.degrees(roll):+.1f}  pitch={math.degrees(pitch):+.1f}",
+            f"distance flown  {self.distance_m:.2f} m (max altitude {self.max_altitude_m:.2f} m)",
+            f"commands        {self.commands_received} received, {self.commands_rejected} rejected",
+        ]
+
+
+class _Odometer:
+    """A sink adding up the path length between published states."""
+
+    def __init__(self) -> None:
+        self.distance_m = 0.0
+        self.max_z_m = -math.inf
+        self.commands = 0
+        self._last: tuple[float, float, float] | None = None
+
+    def on_command(self, step: int, twist: object) -> None:
+        self.commands += 1
+
+    def on_state(self, state: VehicleState) -> None:
+        p = state.position_m
+        if self._last is not None:
+            self.distance_m += math.dist(p, self._last)
+        self._last = p
+        self.max_z_m = max(self.max_z_m, p[2])
+
+
+def run_headless(sim: Simulator, duration_s: float, progress: Callable[[float], None] | None = None,
+                 realtime: bool = False, log: StateLog | None = None) -> RunSummary:
+    """Advance `sim` by `duration_s`. `realtime` paces sim time to the wall clock (GUI viewing)."""
+    odo = _Odometer()
+    sim.add_sink(odo)
+    if log is not None:
+        sim.add_sink(log)
+    hz = sim.config.rates.physics_hz
+    total_steps = round(duration_s * hz)
+    chunk = max(1, round((1.0 / 60.0 if realtime else _CHUNK_S) * hz))
+    start_step = sim.step_count
+    t0 = time.perf_counter()
+    done = 0
+    while done < total_steps:
+        n = min(chunk, total_steps - done)
+        sim.step(n)
+        done += n
+        if realtime:
+            ahead = done / hz - (time.perf_counter() - t0)
+            if ahead > 0:
+                time.sleep(ahead)
+        if progress is not None:
+            progress(done / hz)
+    wall = time.perf_counter() - t0
+    return RunSummary(
+        sim_time_s=(sim.step_count - start_step) / hz,
+        wall_time_s=wall,
+        final_state=sim.state,
+        distance_m=odo.distance_m,
+        max_altitude_m=odo.max_z_m if odo.max_z_m > -math.inf else sim.state.position_m[2],
+        commands_received=odo.commands,
+        commands_rejected=sim.gate.rejected_count,
+    )

@@ -1,0 +1,111 @@
+"""A run's outputs around a Simulator: the camera pipeline and the MCAP recorder, opened
+together and always finished together (normal end, Ctrl-C, SIGTERM, an exception)."""
+
+from __future__ import annotations
+
+import signal
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from quadsim.sensors.camera import CameraSpec, RendererKind, default_cameras
+from quadsim.sensors.pipeline import CameraPipeline
+from quadsim.recording.writer import McapRecorder, check_writable, recording_path
+from quadsim.sim.simulator import Simulator
+
+
+@dataclass(frozen=True)
+class OutputOptions:
+    record: bool = True
+    out: Path | None = None  # a .mcap file, or a folder (default recordings/)
+    cameras: tuple[CameraSpec, ...] = field(default_factory=default_cameras)
+    renderer: RendererKind = RendererKind.TINY
+    render_workers: int = 2  # 0: render in this process
+    ordered_delivery: bool = True  # headless: frames in capture order at fixed points
+
+
+class Terminated(KeyboardInterrupt):
+    """SIGTERM, turned into an exception so the run unwinds and finishes its recording."""
+
+
+def raise_on_sigterm() -> None:
+    def handler(signum: int, frame: object) -> None:
+        raise Terminated()
+
+    signal.signal(signal.SIGTERM, handler)
+
+
+class RecordedRun:
+    """Cameras and recorder for one simulator. Use as a context manager; `close` is idempotent.
+
+    Recording can be stopped and started again (the window's key for it); each start makes a
+    new file."""
+
+    def __init__(self, sim: Simulator, options: OutputOptions, label: str, run_info: dict[str, Any] | None = None) -> None:
+        self.sim = sim
+        self.options = options
+        self.label = label
+        self.run_info = run_info or {}
+        self.recorder: McapRecorder | None = None
+        self.cameras: CameraPipeline | None = None
+        self.path: Path | None = None
+        try:
+            if options.cameras:
+                self.cameras = CameraPipeline(sim, options.cameras, options.renderer, options.render_workers,
+                                              options.ordered_delivery)
+            if options.record:
+                self.start_recording()
+        except BaseException:
+            self.close()
+            raise
+
+    @property
+    def recording(self) -> bool:
+        return self.recorder is not None and not self.recorder.closed
+
+    def start_recording(self) -> Path:
+        """Open a new recording file and start writing to it."""
+        if self.recording:
+            raise RuntimeError("already recording")
+        out = self.options.out
+        if out is not None and out.suffix == ".mcap" and self.path is not None:
+            out = out.parent  # --out FILE names the first recording; later ones go beside it
+        path = recording_path(out, self.label)
+        check_writable(path)
+        info = {**self.run_info, "start_step": self.sim.step_count}
+        recorder = McapRecorder(path, self.sim, self.options.cameras, info)
+        self.sim.add_sink(recorder)
+        if self.cameras is not None:
+            self.cameras.sinks.append(recorder)
+        self.recorder, self.path = recorder, path
+        return path
+
+    def stop_recording(self) -> None:
+        """Finish the current file (with the frames still being rendered)."""
+        rec = self.recorder
+        if rec is None or rec.closed:
+            return
+        if self.cameras is not None:
+            self.cameras.drain()
+            if rec in self.cameras.sinks:
+                self.cameras.sinks.remove(rec)
+        if rec in self.sim.loop.sinks:
+            self.sim.loop.sinks.remove(rec)
+        rec.close()
+
+    def close(self) -> None:
+        try:
+            if self.cameras is not None:
+                try:
+                    self.cameras.drain()  # the frames still being rendered belong in the file
+                finally:
+                    self.cameras.close()
+        finally:
+            if self.recorder is not None:
+                self.recorder.close()
+
+    def __enter__(self) -> "RecordedRun":
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()

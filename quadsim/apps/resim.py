@@ -1,0 +1,174 @@
+"""Re-simulation: fly a recording's commands again with the vehicle, controller and settings it
+was made with (from its metadata and attachments), and measure how far the new flight is from
+the recorded one."""
+
+from __future__ import annotations
+
+import math
+import tempfile
+import time
+from dataclasses import dataclass
+from pathlib import Path
+
+from quadsim.control import ControllerKind
+from quadsim.drivers.replay import ReplayDriver
+from quadsim.errors import QuadsimError
+from quadsim.sim.config import Rates
+from quadsim.sim.loop import StateLog
+from quadsim.core.types import VehicleState, ZMode
+from quadsim.core.types import StartPose
+from quadsim.recording.flight import RecordedFlight
+from quadsim.recording.contract import body_velocity
+from quadsim.apps.outputs import OutputOptions, RecordedRun
+from quadsim.sim.config import SimConfig
+from quadsim.sim.simulator import Simulator
+
+#: defaults for `check`: a recording re-flies when every state is within these of the recorded one
+POSITION_TOLERANCE_M = 1e-3
+ATTITUDE_TOLERANCE_RAD = 1e-3
+
+
+@dataclass(frozen=True)
+class Deviation:
+    """How far one quantity of the new flight is from the recording."""
+
+    topic: str
+    quantity: str
+    unit: str
+    max_error: float
+    rms_error: float
+    max_at_s: float
+    first_beyond_s: float | None  # first time beyond the tolerance, if any
+
+
+@dataclass(frozen=True)
+class ResimReport:
+    recording: Path
+    states_compared: int
+    position: Deviation
+    attitude: Deviation
+    velocity: Deviation
+    new_recording: Path | None
+    sim_time_s: float = 0.0
+    stepping_wall_s: float = 0.0  # wall time spent flying (not loading, building or comparing)
+
+    def within(self, position_m: float, attitude_rad: float) -> bool:
+        return self.position.max_error <= position_m and self.attitude.max_error <= attitude_rad
+
+    def lines(self) -> list[str]:
+        out = [f"re-flew {self.recording}: {self.states_compared} recorded states compared"]
+        for d in (self.position, self.attitude, self.velocity):
+            where = f", first beyond tolerance at t={d.first_beyond_s:.2f} s" if d.first_beyond_s is not None else ""
+            out.append(f"  {d.topic} {d.quantity}: max {d.max_error:.6g} {d.unit} at t={d.max_at_s:.2f} s, "
+                       f"RMS {d.rms_error:.6g} {d.unit}{where}")
+        if self.new_recording is not None:
+            out.append(f"  new flight recorded to {self.new_recording}")
+        return out
+
+
+def _config_from(flight: RecordedFlight, folder: Path) -> tuple[SimConfig, dict]:
+    p = flight.parameters
+    if p is None:
+        raise QuadsimError(f"{flight.path}: not a quadsim recording (no quadsim metadata): it cannot be re-flown")
+    if not flight.commands:
+        raise QuadsimError(f"{flight.path}: has no /quad_cmd_twist commands to re-fly")
+    if not flight.states:
+        raise QuadsimError(f"{flight.path}: has no /quad/pose states to compare with")
+    start_step = p.get("start_step", 0)
+    if start_step:
+        raise QuadsimError(f"{flight.path}: this recording was started mid-flight (at step {start_step}); "
+                           f"only recordings that start at the beginning of a flight can be re-flown")
+    names = {Path(p["vehicle"]["urdf"]).name, Path(p["vehicle"]["params"]).name}
+    missing = [n for n in names if n not in flight.attachments]
+    if missing:
+        raise QuadsimError(f"{flight.path}: attachment(s) {', '.join(missing)} missing: cannot rebuild the vehicle")
+    for name, data in flight.attachments.items():
+        (folder / name).write_bytes(data)
+    cfg = p["config"]
+    world_name = Path(cfg["world"]).name if cfg.get("world") else "default.toml"
+    world = folder / world_name if world_name in flight.attachments else None
+    start = cfg.get("start", {})
+    config = SimConfig(
+        urdf=folder / Path(p["vehicle"]["urdf"]).name,
+        vehicle_params=folder / Path(p["vehicle"]["params"]).name,
+        world=world,
+        controller=ControllerKind(p["controller"]["name"]),
+        z_mode=ZMode(cfg["z_mode"]),
+        rates=Rates(**cfg["rates"]),
+        command_timeout_s=cfg.get("command_timeout_s"),
+        start=StartPose(start.get("x_m", 0.0), start.get("y_m", 0.0), start.get("yaw_rad", 0.0)),
+    )
+    return config, p["controller"].get("gains") or {}
+
+
+def _angle_between(q1: tuple[float, ...], q2: tuple[float, ...]) -> float:
+    """Rotation angle from q1 to q2, exactly 0 for equal quaternions (acos of a dot product
+    is not: rounding leaves it near 1e-8)."""
+    x1, y1, z1, w1 = q1
+    x2, y2, z2, w2 = q2
+    # q = conj(q1) * q2
+    w = w1 * w2 + x1 * x2 + y1 * y2 + z1 * z2
+    x = w1 * x2 - x1 * w2 - y1 * z2 + z1 * y2
+    y = w1 * y2 - y1 * w2 - z1 * x2 + x1 * z2
+    z = w1 * z2 - z1 * w2 - x1 * y2 + y1 * x2
+    return 2.0 * math.atan2(math.sqrt(x * x + y * y + z * z), abs(w))
+
+
+def _deviation(topic: str, quantity: str, unit: str, errors: list[tuple[float, float]], tolerance: float) -> Deviation:
+    worst_t, worst = max(errors, key=lambda e: e[1])
+    rms = math.sqrt(sum(e * e for _, e in errors) / len(errors))
+    beyond = next((t for t, e in errors if e > tolerance), None)
+    return Deviation(topic, quantity, unit, worst, rms, worst_t, beyond)
+
+
+def resimulate(flight: RecordedFlight, out: Path | None = None, record: bool = True,
+               position_tolerance_m: float = POSITION_TOLERANCE_M,
+               attitude_tolerance_rad: float = ATTITUDE_TOLERANCE_RAD,
+               progress=None) -> ResimReport:
+    """Fly `flight`'s commands again; with `record`, the new flight is recorded (no cameras)."""
+    with tempfile.TemporaryDirectory(prefix="quadsim-resim-") as tmp:
+        config, gains = _config_from(flight, Path(tmp))
+        driver = ReplayDriver(flight.command_steps(), str(flight.path))
+        try:
+            sim = Simulator(config, driver, controller_gains=gains, texture_required=False)
+        except ValueError as exc:
+            raise QuadsimError(f"{flight.path}: cannot rebuild the controller: {exc}") from None
+        with sim:
+            log = StateLog()
+            sim.add_sink(log)
+            outputs = OutputOptions(record=record, out=out, cameras=())
+            label = f"resim_{flight.path.stem}"
+            with RecordedRun(sim, outputs, label, {"command": "replay --resim", "source": str(flight.path)}) as run:
+                end_step = flight.states[-1].step
+                t_fly = time.perf_counter()
+                z_events = sorted((step, ZMode(v)) for step, kind, v in flight.events if kind == "z_mode")
+                for step, mode in [*z_events, (end_step, None)]:
+                    if step > sim.step_count:
+                        while sim.step_count < min(step, end_step):
+                            sim.step(min(2400, min(step, end_step) - sim.step_count))
+                            if progress is not None:
+                                progress(sim.step_count / config.rates.physics_hz)
+                    if mode is not None:
+                        sim.set_z_mode(mode)
+                        if run.recorder is not None:
+                            run.recorder.note_event(sim.step_count, "z_mode", mode.value)
+                stepping_wall_s = time.perf_counter() - t_fly
+                new_path = run.path
+    new = {s.step: s for s in log.states}
+    pos, att, vel = [], [], []
+    for rec, rec_body_velocity in zip(flight.states, flight.body_velocities):
+        now: VehicleState | None = new.get(rec.step)
+        if now is None:
+            continue
+        t = rec.step / config.rates.physics_hz
+        pos.append((t, math.dist(now.position_m, rec.position_m)))
+        att.append((t, _angle_between(now.orientation_xyzw, rec.orientation_xyzw)))
+        vel.append((t, math.dist(body_velocity(now), rec_body_velocity)))  # as /quad/odom records it
+    if not pos:
+        raise QuadsimError(f"{flight.path}: its states are not at this simulation's state rate; nothing to compare")
+    return ResimReport(
+        flight.path, len(pos),
+        _deviation("/quad/pose", "position", "m", pos, position_tolerance_m),
+        _deviation("/quad/pose", "attitude", "rad", att, attitude_tolerance_rad),
+        _deviation("/quad/odom", "velocity", "m/s", vel, position_tolerance_m),
+        new_path, end_step / config.rates.physics_hz, stepping_wall_s)

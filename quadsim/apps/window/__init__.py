@@ -1,0 +1,1 @@
+"""The desktop window (pygame): teleop and replay share one view."""

@@ -1,0 +1,192 @@
+"""Playback of a recording in the teleop window: both cameras, the map with the whole track, the
+HUD from the recorded state; play/pause, seek (arrow keys, or a click on the timeline), speed
+0.25x to 16x, frame by frame, loop. `python main.py replay FILE.mcap`."""
+
+from __future__ import annotations
+
+import os
+import time
+from pathlib import Path
+
+os.environ.setdefault("PYGAME_HIDE_SUPPORT_PROMPT", "1")
+import pygame  # noqa: E402
+
+from quadsim.sensors.rig import CameraFrame  # noqa: E402
+from quadsim.core.types import Twist, VehicleState  # noqa: E402
+from quadsim.recording.flight import NS, RecordedFlight  # noqa: E402
+from quadsim.apps.window.view import TeleopView, ViewModel  # noqa: E402
+from quadsim.physics.world_spec import FloorSpec, WorldSpec, load_world  # noqa: E402
+
+SPEEDS = (0.25, 0.5, 1.0, 2.0, 4.0, 8.0, 16.0)
+SEEK_S = 5.0
+KEYS = [
+    "Space      play / pause",
+    "Left/Right seek 5 s back / ahead (or click the timeline)",
+    "Up/Down    faster / slower (0.25x to 16x)",
+    ". ,        one state forward / back (pauses)",
+    "L          loop on / off",
+    "Home/End   start / end",
+    "H, F1      this help;  Esc quit",
+]
+
+
+def _world_of(flight: RecordedFlight, folder: Path) -> WorldSpec:
+    """The world the recording was flown in (from its attachment), or an empty one."""
+    p = flight.parameters or {}
+    name = Path(p.get("config", {}).get("world") or "default.toml").name
+    data = flight.attachments.get(name)
+    if data:
+        path = folder / name
+        path.write_bytes(data)
+        try:
+            return load_world(path, texture_required=False)
+        except Exception:
+            pass
+    return WorldSpec(folder / "none.toml", FloorSpec(80.0, None, 4.0, 0.9), ())
+
+
+class ReplayApp:
+    def __init__(self, flight: RecordedFlight, window_size: tuple[int, int] = (1280, 720), speed: float = 1.0,
+                 loop: bool = False, frame_s: float | None = None) -> None:
+        """`frame_s`: advance playback by this much per frame instead of by the wall clock (tests)."""
+        import tempfile
+
+        pygame.display.init()
+        pygame.font.init()
+        self.screen = pygame.display.set_mode(window_size, pygame.RESIZABLE)
+        pygame.display.set_caption(f"quadsim replay: {flight.path.name}")
+        self.flight = flight
+        with tempfile.TemporaryDirectory() as tmp:
+            self.world = _world_of(flight, Path(tmp))
+        self.view = TeleopView()
+        self.t_ns = 0
+        self.end_ns = max(flight.end_ns, flight.state_ns[-1] if flight.state_ns else 0)
+        self.playing = True
+        self.speed = min(SPEEDS, key=lambda s: abs(s - speed))
+        self.loop = loop
+        self.show_help = False
+        self.quit = False
+        self.frame_count = 0
+        self._frame_s = frame_s
+        self._last_wall = time.perf_counter()
+        self._track = [s.position_m[:2] for s in flight.states[::6]]
+        self._walls: list[float] = []
+        self._clock = pygame.time.Clock()
+
+    # --- control ----------------------------------------------------------------------------
+
+    def seek(self, t_s: float) -> None:
+        self.t_ns = int(max(0.0, min(t_s * NS, self.end_ns)))
+
+    def step_state(self, direction: int) -> None:
+        self.playing = False
+        ns = self.flight.state_ns
+        if not ns:
+            return
+        from bisect import bisect_left, bisect_right
+
+        if direction > 0:
+            i = bisect_right(ns, self.t_ns)
+            self.t_ns = ns[min(i, len(ns) - 1)]
+        else:
+            i = bisect_left(ns, self.t_ns) - 1
+            self.t_ns = ns[max(i, 0)]
+
+    def handle_event(self, event: pygame.event.Event) -> None:
+        if event.type in (pygame.QUIT, pygame.WINDOWCLOSE):
+            self.quit = True
+        elif event.type == pygame.KEYDOWN:
+            k = event.key
+            i = SPEEDS.index(self.speed)
+            if k == pygame.K_ESCAPE:
+                self.quit = True
+            elif k == pygame.K_SPACE:
+                self.playing = not self.playing
+                if self.playing and self.t_ns >= self.end_ns:
+                    self.t_ns = 0
+            elif k == pygame.K_LEFT:
+                self.seek(self.t_ns / NS - SEEK_S)
+            elif k == pygame.K_RIGHT:
+                self.seek(self.t_ns / NS + SEEK_S)
+            elif k == pygame.K_UP:
+                self.speed = SPEEDS[min(i + 1, len(SPEEDS) - 1)]
+            elif k == pygame.K_DOWN:
+                self.speed = SPEEDS[max(i - 1, 0)]
+            elif k == pygame.K_PERIOD:
+                self.step_state(+1)
+            elif k == pygame.K_COMMA:
+                self.step_state(-1)
+            elif k == pygame.K_l:
+                self.loop = not self.loop
+            elif k == pygame.K_HOME:
+                self.seek(0.0)
+            elif k == pygame.K_END:
+                self.seek(self.end_ns / NS)
+            elif k in (pygame.K_h, pygame.K_F1):
+                self.show_help = not self.show_help
+        elif event.type == pygame.MOUSEBUTTONDOWN and event.button == 1:
+            bar = self.view.layout(self.screen.get_size())["timeline"].inflate(0, 16)
+            if bar.collidepoint(event.pos):
+                self.seek((event.pos[0] - bar.x) / bar.width * self.end_ns / NS)
+
+    # --- frames -----------------------------------------------------------------------------
+
+    def frame(self) -> None:
+        for event in pygame.event.get():
+            self.handle_event(event)
+        now = time.perf_counter()
+        dt = self._frame_s if self._frame_s is not None else now - self._last_wall
+        self._last_wall = now
+        if self.playing:
+            self.t_ns += int(dt * self.speed * NS)
+            if self.t_ns >= self.end_ns:
+                if self.loop:
+                    self.t_ns = 0
+                else:
+                    self.t_ns = self.end_ns
+                    self.playing = False
+        self.view.draw(self.screen, self.model())
+        pygame.display.flip()
+        self.frame_count += 1
+        self._walls = (self._walls + [now])[-30:]
+        if self._frame_s is None:
+            self._clock.tick(60)
+
+    def model(self) -> ViewModel:
+        f, t = self.flight, self.t_ns
+        state = f.state_at(t) or VehicleState(0, (0.0, 0.0, 0.0), (0.0, 0.0, 0.0, 1.0), (0.0, 0.0, 0.0),
+                                              (0.0, 0.0, 0.0), (0.0,) * 4, (0.0, 0.0, 0.0))  # type: ignore[arg-type]
+        command = f.command_at(t)
+        frames = {}
+        for cam in f.frames:
+            got = f.frame_at(cam, t)
+            if got is not None:
+                frames[cam] = CameraFrame(cam, got[0], got[1], 0, 0)
+        p = f.parameters or {}
+        state_word = "PLAYING" if self.playing else "paused"
+        warnings = [] if f.states else ["this file has no /quad/pose: nothing to show on the map or HUD"]
+        return ViewModel(
+            state=state, command=command or Twist(), command_held=False, armed=command is not None,
+            z_mode=p.get("config", {}).get("z_mode", "?"), controller=p.get("controller", {}).get("name", "?"),
+            input_status=f"replay of {p.get('driver', {}).get('name', 'another program')}",
+            recording_path=None, recording_error=None, paused=False, lagging=False,
+            fps=(len(self._walls) - 1) / (self._walls[-1] - self._walls[0]) if len(self._walls) > 1 and self._walls[-1] > self._walls[0] else 0.0,
+            real_time_factor=self.speed, sim_time_s=t / NS, frames=frames, track=self._track, world=self.world,
+            help_lines=KEYS, show_help=self.show_help, warnings=warnings,
+            playback=f"{state_word} {self.speed:g}x{'  loop' if self.loop else ''}   {f.path.name}",
+            timeline=(t / NS, self.end_ns / NS))
+
+    def run(self, max_frames: int | None = None, before_frame=None) -> None:
+        while not self.quit and (max_frames is None or self.frame_count < max_frames):
+            if before_frame is not None:
+                before_frame(self)
+            self.frame()
+
+    def close(self) -> None:
+        pygame.display.quit()
+
+    def __enter__(self) -> "ReplayApp":
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()

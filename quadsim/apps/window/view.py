@@ -1,0 +1,203 @@
+"""Drawing the teleop window: front camera large, floor camera inset, top-down map, HUD, help.
+
+Pure drawing from a ViewModel the app fills each frame; it reads nothing else.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+from dataclasses import dataclass, field
+
+os.environ.setdefault("PYGAME_HIDE_SUPPORT_PROMPT", "1")
+import cv2  # noqa: E402
+import numpy as np  # noqa: E402
+import pygame  # noqa: E402
+
+from quadsim.sensors.rig import CameraFrame  # noqa: E402
+from quadsim.core.types import Twist, VehicleState  # noqa: E402
+from quadsim.physics.world_spec import Shape, WorldSpec  # noqa: E402
+
+BACKGROUND = (24, 26, 30)
+PANEL = (0, 0, 0, 150)
+TEXT = (235, 235, 235)
+WARN = (255, 170, 60)
+ALERT = (255, 80, 80)
+OK = (120, 220, 120)
+
+
+@dataclass
+class ViewModel:
+    state: VehicleState
+    command: Twist
+    command_held: bool
+    armed: bool
+    z_mode: str
+    controller: str
+    input_status: str
+    recording_path: str | None
+    recording_error: str | None
+    paused: bool
+    lagging: bool
+    fps: float
+    real_time_factor: float
+    sim_time_s: float
+    frames: dict[str, CameraFrame]
+    track: list[tuple[float, float]]
+    world: WorldSpec
+    help_lines: list[str]
+    show_help: bool
+    notice: str = ""
+    warnings: list[str] = field(default_factory=list)
+    playback: str | None = None  # replay: shown instead of the recording state
+    timeline: tuple[float, float] | None = None  # replay: (time, duration) s, drawn as a clickable bar
+
+
+class TeleopView:
+    def __init__(self) -> None:
+        self.font = pygame.font.Font(None, 22)
+        self.big = pygame.font.Font(None, 34)
+        self._decoded: dict[str, tuple[int, pygame.Surface]] = {}
+        self._scaled: dict[str, tuple[int, tuple[int, int], pygame.Surface]] = {}
+
+    # --- layout -----------------------------------------------------------------------------
+
+    @staticmethod
+    def layout(size: tuple[int, int]) -> dict[str, pygame.Rect]:
+        w, h = size
+        side = max(200, min(int(w * 0.3), w // 2))
+        inset_h = side * 3 // 4
+        return {
+            "front": pygame.Rect(0, 0, w - side, h),
+            "floor": pygame.Rect(w - side, 0, side, inset_h),
+            "map": pygame.Rect(w - side, inset_h, side, max(60, h - inset_h)),
+            "timeline": pygame.Rect(16, h - 52, max(40, w - side - 32), 14),
+        }
+
+    # --- drawing ----------------------------------------------------------------------------
+
+    def draw(self, surface: pygame.Surface, m: ViewModel) -> None:
+        surface.fill(BACKGROUND)
+        rects = self.layout(surface.get_size())
+        self._camera(surface, rects["front"], m.frames.get("front"), "front camera")
+        self._camera(surface, rects["floor"], m.frames.get("floor"), "floor camera")
+        self._map(surface, rects["map"], m)
+        self._hud(surface, rects["front"], m)
+        if m.timeline is not None:
+            self._timeline(surface, rects["timeline"], *m.timeline)
+        if m.show_help:
+            self._help(surface, m.help_lines)
+
+    def _image(self, frame: CameraFrame) -> pygame.Surface:
+        cached = self._decoded.get(frame.camera)
+        if cached is None or cached[0] != frame.step:
+            bgr = cv2.imdecode(np.frombuffer(frame.jpeg, np.uint8), cv2.IMREAD_COLOR)
+            rgb = cv2.cvtColor(bgr, cv2.COLOR_BGR2RGB)
+            surf = pygame.image.frombuffer(rgb.tobytes(), (rgb.shape[1], rgb.shape[0]), "RGB")
+            self._decoded[frame.camera] = (frame.step, surf)
+            return surf
+        return cached[1]
+
+    def _camera(self, surface: pygame.Surface, rect: pygame.Rect, frame: CameraFrame | None, label: str) -> None:
+        pygame.draw.rect(surface, (10, 10, 12), rect)
+        if frame is not None:
+            img = self._image(frame)
+            iw, ih = img.get_size()
+            k = min(rect.width / iw, rect.height / ih)
+            size = (max(1, int(iw * k)), max(1, int(ih * k)))
+            cached = self._scaled.get(frame.camera)
+            if cached is None or cached[0] != frame.step or cached[1] != size:
+                cached = (frame.step, size, pygame.transform.scale(img, size))
+                self._scaled[frame.camera] = cached
+            surface.blit(cached[2], cached[2].get_rect(center=rect.center))
+        else:
+            self._text(surface, "no image yet", rect.center, TEXT, center=True)
+        pygame.draw.rect(surface, (70, 70, 80), rect, 1)
+        self._text(surface, label, (rect.x + 6, rect.bottom - 20), (200, 200, 200))
+
+    def _map(self, surface: pygame.Surface, rect: pygame.Rect, m: ViewModel) -> None:
+        pygame.draw.rect(surface, (34, 40, 36), rect)
+        x0, y0, _ = m.state.position_m
+        span_m = 24.0
+        k = min(rect.width, rect.height) / span_m
+
+        def px(x: float, y: float) -> tuple[int, int]:  # world x up the screen, world y to the left
+            return (int(rect.centerx - (y - y0) * k), int(rect.centery - (x - x0) * k))
+
+        clip = surface.get_clip()
+        surface.set_clip(rect)
+        for g in range(int(x0 - span_m), int(x0 + span_m) + 1, 2):
+            pygame.draw.line(surface, (48, 56, 50), px(g, y0 - span_m), px(g, y0 + span_m))
+        for g in range(int(y0 - span_m), int(y0 + span_m) + 1, 2):
+            pygame.draw.line(surface, (48, 56, 50), px(x0 - span_m, g), px(x0 + span_m, g))
+        for lm in m.world.landmarks:
+            color = tuple(int(255 * c) for c in lm.color_rgba[:3])
+            cx, cy = px(lm.position_m[0], lm.position_m[1])
+            if lm.shape is Shape.BOX:
+                w, h = lm.size_m[1] * k, lm.size_m[0] * k
+                pygame.draw.rect(surface, color, pygame.Rect(cx - w / 2, cy - h / 2, max(2, w), max(2, h)))
+            else:
+                pygame.draw.circle(surface, color, (cx, cy), max(2, int(lm.size_m[0] * k)))
+        if len(m.track) > 1:
+            pygame.draw.lines(surface, (255, 220, 80), False, [px(x, y) for x, y in m.track], 2)
+        yaw = m.state.yaw_rad()
+        nose = px(x0 + 0.9 * math.cos(yaw), y0 + 0.9 * math.sin(yaw))
+        left = px(x0 + 0.5 * math.cos(yaw + 2.5), y0 + 0.5 * math.sin(yaw + 2.5))
+        right = px(x0 + 0.5 * math.cos(yaw - 2.5), y0 + 0.5 * math.sin(yaw - 2.5))
+        pygame.draw.polygon(surface, (255, 70, 70), [nose, left, right])
+        surface.set_clip(clip)
+        pygame.draw.rect(surface, (70, 70, 80), rect, 1)
+        self._text(surface, f"map  {span_m:.0f} m across, up = world +x", (rect.x + 6, rect.bottom - 20), (200, 200, 200))
+
+    def _hud(self, surface: pygame.Surface, rect: pygame.Rect, m: ViewModel) -> None:
+        s, c = m.state, m.command
+        vx, vy, vz = s.linear_velocity_mps
+        rec = (f"REC {os.path.basename(m.recording_path)}" if m.recording_path and not m.recording_error
+               else ("recording stopped: " + m.recording_error if m.recording_error else "not recording (F5 starts)"))
+        if m.playback is not None:
+            rec = m.playback
+        cmd = "holding (no command)" if m.command_held else (
+            f"x {c.linear_x:+.2f}  y {c.linear_y:+.2f}  z {c.linear_z:+.2f}  yaw {c.angular_z:+.2f}" if m.armed else "idle: no command yet")
+        lines = [
+            (f"alt {s.position_m[2]:5.2f} m   speed {math.hypot(vx, vy):4.2f} m/s   climb {vz:+.2f} m/s   "
+             f"heading {math.degrees(s.yaw_rad()):+6.1f} deg", TEXT),
+            (f"command  {cmd}", TEXT),
+            (f"z-mode {m.z_mode}   controller {m.controller}   input {m.input_status}", TEXT),
+            (rec, ALERT if m.recording_error else (OK if m.recording_path or m.playback else WARN)),
+            (f"{m.fps:4.1f} fps   {m.real_time_factor:4.2f}x real time   sim {m.sim_time_s:7.2f} s   H/F1: help", TEXT),
+        ]
+        if m.paused:
+            lines.append(("PAUSED (P resumes)", WARN))
+        if m.lagging:
+            lines.append(("SLOW: this machine cannot keep real time; the simulation runs slower", ALERT))
+        lines += [(w, WARN) for w in m.warnings]
+        if m.notice:
+            lines.append((m.notice, OK))
+        height = 8 + 20 * len(lines)
+        panel = pygame.Surface((min(rect.width - 12, 760), height), pygame.SRCALPHA)
+        panel.fill(PANEL)
+        surface.blit(panel, (rect.x + 6, rect.y + 6))
+        for i, (text, color) in enumerate(lines):
+            self._text(surface, text, (rect.x + 12, rect.y + 10 + 20 * i), color)
+
+    def _timeline(self, surface: pygame.Surface, rect: pygame.Rect, t: float, duration: float) -> None:
+        pygame.draw.rect(surface, (20, 20, 24), rect.inflate(4, 4))
+        done = rect.copy()
+        done.width = int(rect.width * (t / duration if duration > 0 else 0.0))
+        pygame.draw.rect(surface, (90, 160, 240), done)
+        pygame.draw.rect(surface, (200, 200, 210), rect, 1)
+        self._text(surface, f"{t:6.2f} / {duration:.2f} s", (rect.x, rect.y - 20), TEXT)
+
+    def _help(self, surface: pygame.Surface, lines: list[str]) -> None:
+        w, h = surface.get_size()
+        panel = pygame.Surface((min(w - 40, 720), 40 + 22 * len(lines)), pygame.SRCALPHA)
+        panel.fill((0, 0, 0, 200))
+        rect = panel.get_rect(center=(w // 2, h // 2))
+        surface.blit(panel, rect)
+        self._text(surface, "quadsim keys", (rect.x + 16, rect.y + 10), WARN, font=self.big)
+        for i, line in enumerate(lines):
+            self._text(surface, line, (rect.x + 16, rect.y + 40 + 22 * i), TEXT)
+
+    def _text(self, surface: pygame.Surface, text: str, pos: tuple[int, int], color, center: bool = False, font=None) -> None:
+        img = (font or self.font).render(text, True, color)
+        surface.blit(img, img.get_rect(center=pos) if center else pos)

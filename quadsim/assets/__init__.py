@@ -1,0 +1,14 @@
+"""Data shipped with the package: vehicles (URDF + parameter files), worlds, textures, scenarios.
+
+Found through importlib.resources, so they are there from a clone, an editable install and an
+installed wheel alike."""
+
+from __future__ import annotations
+
+from importlib import resources
+from pathlib import Path
+
+
+def asset_path(*parts: str) -> Path:
+    """The file system path of a shipped asset (packages are installed unzipped)."""
+    return Path(str(resources.files(__name__).joinpath(*parts)))

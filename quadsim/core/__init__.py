@@ -1,0 +1,1 @@
+"""The flight's data types and kinematics helpers: plain Python, no pybullet, pygame or numpy."""

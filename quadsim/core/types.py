@@ -1,0 +1,95 @@
+"""Typed messages passed between drivers, the command gate, controllers and physics."""
+
+from __future__ import annotations
+
+import enum
+import math
+from dataclasses import dataclass
+from typing import NamedTuple
+
+
+class ZMode(enum.Enum):
+    """How `linear.z` of a Twist is read (see DESIGN.md, command semantics)."""
+
+    VELOCITY = "velocity"  # climb rate, m/s
+    HEIGHT = "height"  # altitude wanted = 2.0 + linear.z, m (the original V-REP semantics)
+
+
+#: Altitude the `height` z-mode adds `linear.z` to, as in the original V-REP script.
+HEIGHT_MODE_BASE_M = 2.0
+
+
+class Twist(NamedTuple):
+    """A geometry_msgs/Twist: linear velocity (m/s) in the heading frame and angular rate (rad/s).
+
+    `angular_x` and `angular_y` are carried (the ROS message has them) but ignored.
+    """
+
+    linear_x: float = 0.0
+    linear_y: float = 0.0
+    linear_z: float = 0.0
+    angular_x: float = 0.0
+    angular_y: float = 0.0
+    angular_z: float = 0.0
+
+    def is_finite(self) -> bool:
+        return all(math.isfinite(v) for v in self)
+
+    def is_zero_motion(self) -> bool:
+        """True when no horizontal, vertical or yaw motion is asked for."""
+        return self.linear_x == 0.0 and self.linear_y == 0.0 and self.angular_z == 0.0
+
+
+class ActiveCommand(NamedTuple):
+    """What the controller acts on at one control step, as decided by the command gate.
+
+    `armed` is False before the first command ever arrives (rotors idle on the ground).
+    `hold` is True when the dead-man timeout has expired: hold position, whatever `twist` says.
+    `twist` is already clamped to the vehicle's limits.
+    """
+
+    twist: Twist
+    z_mode: ZMode
+    armed: bool
+    hold: bool
+
+
+class VehicleState(NamedTuple):
+    """Rigid-body state of the vehicle at one simulation step (REP 103 frames, SI units).
+
+    position_m: base_link origin in `world`. orientation_xyzw: world <- base_link quaternion.
+    linear_velocity_mps: in `world`. angular_velocity_body_rps: body rates in `base_link`.
+    rotor_thrusts_n: the forces the four rotors produced during the last physics step.
+    specific_force_body_mps2: what an accelerometer at the base reads (acceleration minus
+    gravity, in base_link; +9.81 along z at rest), over the last physics step.
+    """
+
+    step: int
+    position_m: tuple[float, float, float]
+    orientation_xyzw: tuple[float, float, float, float]
+    linear_velocity_mps: tuple[float, float, float]
+    angular_velocity_body_rps: tuple[float, float, float]
+    rotor_thrusts_n: tuple[float, float, float, float]
+    specific_force_body_mps2: tuple[float, float, float]
+
+    def yaw_rad(self) -> float:
+        x, y, z, w = self.orientation_xyzw
+        return math.atan2(2.0 * (w * z + x * y), 1.0 - 2.0 * (y * y + z * z))
+
+    def roll_pitch_rad(self) -> tuple[float, float]:
+        x, y, z, w = self.orientation_xyzw
+        roll = math.atan2(2.0 * (w * x + y * z), 1.0 - 2.0 * (x * x + y * y))
+        pitch = math.asin(max(-1.0, min(1.0, 2.0 * (w * y - z * x))))
+        return roll, pitch
+
+
+RotorForces = tuple[float, float, float, float]
+
+
+@dataclass(frozen=True)
+class StartPose:
+    """Where a run starts: on the ground at (x, y), facing yaw (world frame, m and rad)."""
+
+    x_m: float = 0.0
+    y_m: float = 0.0
+    yaw_rad: float = 0.0

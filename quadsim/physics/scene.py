@@ -1,0 +1,73 @@
+"""Builds the world of a WorldSpec (floor, landmarks) and the vehicle body in a PyBullet client.
+
+Shared by the physics world and the render workers, so both hold the same scene.
+"""
+
+from __future__ import annotations
+
+from quadsim.errors import ConfigError
+from quadsim.physics.pybullet_quiet import pb
+from quadsim.vehicle.params import VehicleParams
+from quadsim.physics.world_spec import Shape, WorldSpec
+
+
+def _floor_mesh(size_m: float, tile_m: float) -> tuple[list, list, list]:
+    """A square grid of quads, one per texture tile (at most 40 x 40): TinyRenderer clips
+    large triangles that reach behind the camera poorly, and smaller ones render faster."""
+    n = max(1, min(40, round(size_m / tile_m)))
+    half, step = size_m / 2.0, size_m / n
+    vertices, uvs, indices = [], [], []
+    for i in range(n + 1):
+        for j in range(n + 1):
+            x, y = -half + j * step, -half + i * step
+            vertices.append((x, y, 0.0))
+            uvs.append(((x + half) / tile_m, (y + half) / tile_m))
+    for i in range(n):
+        for j in range(n):
+            a = i * (n + 1) + j
+            b, c = a + 1, a + n + 1
+            indices += [a, b, c + 1, a, c + 1, c]
+    return vertices, uvs, indices
+
+
+def build_world(world: WorldSpec, cid: int, collisions: bool = True) -> dict[str, int]:
+    """Create the floor and landmarks; returns body ids by name ('floor' and each landmark)."""
+    vertices, uvs, indices = _floor_mesh(world.floor.size_m, world.floor.texture_tile_m)
+    floor_vis = pb.createVisualShape(pb.GEOM_MESH, vertices=vertices, indices=indices, uvs=uvs,
+                                     normals=[(0.0, 0.0, 1.0)] * len(vertices), physicsClientId=cid)
+    floor_col = pb.createCollisionShape(pb.GEOM_PLANE, physicsClientId=cid) if collisions else -1
+    floor = pb.createMultiBody(0.0, floor_col, floor_vis, physicsClientId=cid)
+    pb.changeDynamics(floor, -1, lateralFriction=world.floor.friction, physicsClientId=cid)
+    if world.floor.texture_path is not None:
+        tex = pb.loadTexture(str(world.floor.texture_path), physicsClientId=cid)
+        pb.changeVisualShape(floor, -1, textureUniqueId=tex, rgbaColor=(1, 1, 1, 1), physicsClientId=cid)
+    ids = {"floor": floor}
+    for lm in world.landmarks:
+        sx, sy, sz = lm.size_m
+        collide = collisions and lm.collision
+        if lm.shape is Shape.BOX:
+            half = (sx / 2, sy / 2, sz / 2)
+            vis = pb.createVisualShape(pb.GEOM_BOX, halfExtents=half, rgbaColor=lm.color_rgba, physicsClientId=cid)
+            col = pb.createCollisionShape(pb.GEOM_BOX, halfExtents=half, physicsClientId=cid) if collide else -1
+        elif lm.shape is Shape.CYLINDER:
+            vis = pb.createVisualShape(pb.GEOM_CYLINDER, radius=sx, length=sz, rgbaColor=lm.color_rgba, physicsClientId=cid)
+            col = pb.createCollisionShape(pb.GEOM_CYLINDER, radius=sx, height=sz, physicsClientId=cid) if collide else -1
+        else:
+            vis = pb.createVisualShape(pb.GEOM_SPHERE, radius=sx, rgbaColor=lm.color_rgba, physicsClientId=cid)
+            col = pb.createCollisionShape(pb.GEOM_SPHERE, radius=sx, physicsClientId=cid) if collide else -1
+        ids[lm.name] = pb.createMultiBody(0.0, col, vis, basePosition=lm.position_m, physicsClientId=cid)
+    return ids
+
+
+def load_vehicle_body(vehicle: VehicleParams, cid: int, position: tuple[float, float, float],
+                      orientation: tuple[float, float, float, float]) -> int:
+    try:
+        body = pb.loadURDF(str(vehicle.urdf_path), position, orientation,
+                           flags=pb.URDF_USE_INERTIA_FROM_FILE, physicsClientId=cid)
+    except pb.error as exc:
+        raise ConfigError(f"PyBullet could not load {vehicle.urdf_path}: {exc}") from None
+    # PyBullet damps every link a little by default (0.04); the parameter file's drag is the
+    # only drag the vehicle should feel
+    for link in range(-1, pb.getNumJoints(body, physicsClientId=cid)):
+        pb.changeDynamics(body, link, linearDamping=0.0, angularDamping=0.0, physicsClientId=cid)
+    return body

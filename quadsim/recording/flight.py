@@ -1,0 +1,134 @@
+"""A recording loaded whole for playback and re-simulation: states, commands, camera frames,
+the run's parameters, events and attachments.
+
+Foreign files load too (playback shows what is there); damaged ones are refused with what is
+wrong and how to recover them.
+"""
+
+from __future__ import annotations
+
+from bisect import bisect_right
+from dataclasses import dataclass, field
+from functools import cached_property
+from pathlib import Path
+from typing import Any
+
+from quadsim.recording import contract as rm
+from quadsim.core.types import Twist, VehicleState
+from quadsim.recording.reader import RecordingReader
+from quadsim.core.kinematics import matrix_from_quaternion
+
+NS = 1_000_000_000
+
+
+@dataclass
+class RecordedFlight:
+    """Filled once by `load_flight`; its lookups index the loaded lists on first use."""
+
+    path: Path
+    parameters: dict[str, Any] | None
+    physics_hz: int
+    states: list[VehicleState] = field(default_factory=list)
+    state_ns: list[int] = field(default_factory=list)
+    body_velocities: list[tuple[float, float, float]] = field(default_factory=list)  # as /quad/odom has them
+    commands: list[tuple[int, Twist]] = field(default_factory=list)  # (log time ns, twist)
+    frames: dict[str, list[tuple[int, bytes]]] = field(default_factory=dict)  # camera -> (ns, jpeg)
+    events: list[tuple[int, str, str]] = field(default_factory=list)  # (step, kind, value)
+    attachments: dict[str, bytes] = field(default_factory=dict)
+    topics: dict[str, int] = field(default_factory=dict)  # topic -> message count
+    end_ns: int = 0
+
+    @property
+    def is_quadsim(self) -> bool:
+        return self.parameters is not None
+
+    @property
+    def duration_s(self) -> float:
+        return self.end_ns / NS
+
+    def step_of(self, ns: int) -> int:
+        """The physics step a log time was stamped at (stamps are floor(step * 1e9 / hz))."""
+        return round(ns * self.physics_hz / NS)
+
+    def command_steps(self) -> list[tuple[int, Twist]]:
+        return [(self.step_of(ns), t) for ns, t in self.commands]
+
+    def state_at(self, ns: int) -> VehicleState | None:
+        i = bisect_right(self.state_ns, ns) - 1
+        return self.states[i] if i >= 0 else None
+
+    @cached_property
+    def _command_ns(self) -> list[int]:
+        return [c[0] for c in self.commands]
+
+    @cached_property
+    def _frame_ns(self) -> dict[str, list[int]]:
+        return {cam: [f[0] for f in frames] for cam, frames in self.frames.items()}
+
+    def command_at(self, ns: int) -> Twist | None:
+        i = bisect_right(self._command_ns, ns) - 1
+        return self.commands[i][1] if i >= 0 else None
+
+    def frame_at(self, camera: str, ns: int) -> tuple[int, bytes] | None:
+        i = bisect_right(self._frame_ns.get(camera, []), ns) - 1
+        return self.frames[camera][i] if i >= 0 else None
+
+
+def load_flight(path: Path | str) -> RecordedFlight:
+    with RecordingReader(path, require_topics=False) as reader:
+        params = reader.parameters
+        hz = int(params["config"]["rates"]["physics_hz"]) if params else 240
+        flight = RecordedFlight(reader.path, params, hz)
+        flight.events = reader.events
+        flight.attachments = reader.attachments()
+        types, stats = reader.topics, reader.summary.statistics
+        if stats is not None:
+            flight.topics = {reader.summary.channels[c].topic: n for c, n in stats.channel_message_counts.items()}
+            flight.end_ns = stats.message_end_time
+        parts: dict[str, dict[int, Any]] = {rm.POSE.name: {}, rm.ODOM.name: {}, rm.IMU.name: {}, rm.ROTOR_THRUSTS.name: {}}
+        cameras = {t.split("/")[-3].removesuffix("_camera"): t for t in types
+                   if t.endswith("/image_raw/compressed") and types[t] == "sensor_msgs/msg/CompressedImage"}
+        wanted = [t for t in (*parts, rm.TWIST.name, *cameras.values())
+                  if t in types and types[t] == _expected_type(t)]
+        camera_of = {t: n for n, t in cameras.items()}
+        for topic, ns, msg in reader.raw_messages(wanted):
+            if topic in parts:
+                parts[topic][ns] = msg
+            elif topic == rm.TWIST.name:
+                flight.commands.append((ns, Twist(msg.linear.x, msg.linear.y, msg.linear.z,
+                                                  msg.angular.x, msg.angular.y, msg.angular.z)))
+            else:
+                flight.frames.setdefault(camera_of[topic], []).append((ns, bytes(msg.data)))
+    for ns in sorted(parts[rm.POSE.name]):
+        flight.state_ns.append(ns)
+        flight.states.append(_state(flight.step_of(ns), parts, ns))
+        odom = parts[rm.ODOM.name].get(ns)
+        b = odom.twist.twist.linear if odom is not None else None
+        flight.body_velocities.append((b.x, b.y, b.z) if b is not None else (0.0, 0.0, 0.0))
+    return flight
+
+
+def _expected_type(topic: str) -> str:
+    for t in (rm.TWIST, *rm.STATE_TOPICS):
+        if t.name == topic:
+            return t.type_name
+    return "sensor_msgs/msg/CompressedImage"
+
+
+def _state(step: int, parts: dict[str, dict[int, Any]], ns: int) -> VehicleState:
+    pose = parts[rm.POSE.name][ns].pose
+    q = (pose.orientation.x, pose.orientation.y, pose.orientation.z, pose.orientation.w)
+    odom = parts[rm.ODOM.name].get(ns)
+    imu = parts[rm.IMU.name].get(ns)
+    thrusts = parts[rm.ROTOR_THRUSTS.name].get(ns)
+    velocity, rates = (0.0, 0.0, 0.0), (0.0, 0.0, 0.0)
+    if odom is not None:
+        r = matrix_from_quaternion(q)
+        b = odom.twist.twist.linear
+        velocity = tuple(r[i][0] * b.x + r[i][1] * b.y + r[i][2] * b.z for i in range(3))  # type: ignore[assignment]
+        a = odom.twist.twist.angular
+        rates = (a.x, a.y, a.z)
+    force = (imu.linear_acceleration.x, imu.linear_acceleration.y, imu.linear_acceleration.z) if imu else (0.0, 0.0, 0.0)
+    rotor = tuple(float(v) for v in thrusts.data[:4]) if thrusts is not None and len(thrusts.data) >= 4 else (0.0,) * 4
+    return VehicleState(step, (pose.position.x, pose.position.y, pose.position.z), q, velocity, rates,
+                        rotor, force)  # type: ignore[arg-type]

@@ -1,0 +1,89 @@
+"""Reading recordings back: commands, states and camera frames, typed.
+
+Refuses, with a clear QuadsimError, files that are not MCAP, are damaged or cut short (see
+`quadsim recover`), or (unless `require_topics` is off, for playing other programs' files)
+lack the topics a quadsim recording has.
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from typing import Any, Iterator
+
+from mcap.reader import make_reader
+
+from quadsim.recording import contract as rm
+from quadsim.errors import QuadsimError
+from quadsim.recording.salvage import check_is_mcap, damage_report
+from quadsim.core.types import Twist
+from quadsim.recording.writer import EVENT_METADATA_NAME, METADATA_NAME
+
+
+class RecordingReader:
+    def __init__(self, path: Path | str, require_topics: bool = True) -> None:
+        self.path = Path(path)
+        check_is_mcap(self.path)
+        self._fh = open(self.path, "rb")
+        try:
+            self._reader = make_reader(self._fh)
+            self.header = self._reader.get_header()
+            summary = self._reader.get_summary()
+        except Exception:
+            summary = None
+        if summary is None:
+            self._fh.close()
+            raise QuadsimError(damage_report(self.path))
+        self.summary = summary
+        self.topics = {ch.topic: summary.schemas[ch.schema_id].name for ch in summary.channels.values()
+                       if ch.schema_id in summary.schemas}
+        missing = [t for t in rm.CORE_TOPICS if t not in self.topics]
+        if missing and require_topics:
+            self._fh.close()
+            raise QuadsimError(f"{self.path}: not a quadsim recording: missing topics {', '.join(missing)}")
+        records = list(self._reader.iter_metadata())
+        #: the run's record: version, wall-clock start, parameters (JSON); empty for other programs' files
+        self.quadsim_metadata: dict[str, str] = next((dict(m.metadata) for m in records if m.name == METADATA_NAME), {})
+        params = self.quadsim_metadata.get("parameters")
+        self.parameters: dict[str, Any] | None = json.loads(params) if params else None
+        #: (step, kind, value) of what happened besides the commands (z-mode switches)
+        self.events = sorted((int(m.metadata["step"]), m.metadata["kind"], m.metadata["value"])
+                             for m in records if m.name == EVENT_METADATA_NAME)
+
+    def attachments(self) -> dict[str, bytes]:
+        return {a.name: a.data for a in self._reader.iter_attachments()}
+
+    def raw_messages(self, topics: list[str]) -> Iterator[tuple[str, int, Any]]:
+        """(topic, log time ns, decoded message) of several topics, in log-time order."""
+        for _, channel, message in self._reader.iter_messages(topics=topics, log_time_order=True):
+            yield channel.topic, message.log_time, rm.TYPESTORE.deserialize_cdr(message.data, self.topics[channel.topic])
+
+    def messages(self, topic: str) -> Iterator[tuple[int, Any]]:
+        """(log time ns, decoded message) of one topic, in log-time order."""
+        type_name = self.topics.get(topic)
+        if type_name is None:
+            return
+        for _, _, message in self._reader.iter_messages(topics=[topic], log_time_order=True):
+            yield message.log_time, rm.TYPESTORE.deserialize_cdr(message.data, type_name)
+
+    def commands(self) -> Iterator[tuple[int, Twist]]:
+        for ns, m in self.messages(rm.TWIST.name):
+            yield ns, Twist(m.linear.x, m.linear.y, m.linear.z, m.angular.x, m.angular.y, m.angular.z)
+
+    def poses(self) -> Iterator[tuple[int, tuple[float, float, float], tuple[float, float, float, float]]]:
+        for ns, m in self.messages(rm.POSE.name):
+            p, q = m.pose.position, m.pose.orientation
+            yield ns, (p.x, p.y, p.z), (q.x, q.y, q.z, q.w)
+
+    def images(self, camera: str) -> Iterator[tuple[int, bytes]]:
+        for ns, m in self.messages(f"/quad/{camera}_camera/image_raw/compressed"):
+            yield ns, bytes(m.data)
+
+    def close(self) -> None:
+        self._fh.close()
+
+    def __enter__(self) -> "RecordingReader":
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()

@@ -1,0 +1,1 @@
+"""Sensors: the onboard cameras (specs, intrinsics, rendering, render workers)."""

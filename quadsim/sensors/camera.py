@@ -1,0 +1,161 @@
+"""Onboard cameras: settings, intrinsics (CameraInfo), the view from the body's pose, rendering.
+
+A camera link's x axis is the viewing direction and its z axis the image's up (REP 103 body
+axes). Images are published in the optical frame (x right, y down, z forward), which is the link
+frame turned by the fixed rotation below.
+"""
+
+from __future__ import annotations
+
+import enum
+import math
+from dataclasses import asdict, dataclass
+from typing import Any
+
+import cv2
+import numpy as np
+
+from quadsim.errors import ConfigError
+from quadsim.physics.pybullet_quiet import pb
+from quadsim.core.kinematics import Mat3, matrix_from_quaternion
+from quadsim.vehicle.params import CameraMount
+
+#: optical frame axes expressed in the camera link frame: x_opt = -y_link, y_opt = -z_link, z_opt = x_link
+LINK_FROM_OPTICAL: Mat3 = ((0.0, 0.0, 1.0), (-1.0, 0.0, 0.0), (0.0, -1.0, 0.0))
+
+
+class RendererKind(enum.Enum):
+    TINY = "tiny"  # PyBullet's TinyRenderer, on the CPU (always there)
+    EGL = "egl"  # PyBullet's EGL plugin: needs an EGL driver (a GPU, or Mesa's)
+
+
+@dataclass(frozen=True)
+class CameraSpec:
+    """One onboard camera. `name` makes the topics: /quad/<name>_camera/..."""
+
+    name: str
+    link_name: str
+    width_px: int = 320
+    height_px: int = 240
+    vertical_fov_deg: float = 60.0
+    rate_hz: int = 30
+    near_m: float = 0.05
+    far_m: float = 100.0
+    jpeg_quality: int = 85
+
+    def __post_init__(self) -> None:
+        if not (16 <= self.width_px <= 4096 and 16 <= self.height_px <= 4096):
+            raise ConfigError(f"camera {self.name}: size {self.width_px}x{self.height_px} must be within 16..4096 px")
+        if not 1.0 <= self.vertical_fov_deg <= 170.0:
+            raise ConfigError(f"camera {self.name}: field of view {self.vertical_fov_deg} deg must be within 1..170")
+        if not 1 <= self.jpeg_quality <= 100:
+            raise ConfigError(f"camera {self.name}: JPEG quality must be within 1..100")
+        if not 0 < self.near_m < self.far_m:
+            raise ConfigError(f"camera {self.name}: need 0 < near < far")
+
+    @property
+    def optical_frame(self) -> str:
+        return f"{self.name}_camera_optical"
+
+    @property
+    def topic_prefix(self) -> str:
+        return f"/quad/{self.name}_camera"
+
+    @property
+    def focal_px(self) -> float:
+        """fx = fy: square pixels, and the projection's aspect ratio is width / height."""
+        return (self.height_px / 2.0) / math.tan(math.radians(self.vertical_fov_deg) / 2.0)
+
+    @property
+    def principal_point_px(self) -> tuple[float, float]:
+        """(cx, cy) with pixel centres at integer coordinates, as CameraInfo has them."""
+        return ((self.width_px - 1) / 2.0, (self.height_px - 1) / 2.0)
+
+    def k_matrix(self) -> tuple[float, ...]:
+        f = self.focal_px
+        cx, cy = self.principal_point_px
+        return (f, 0.0, cx, 0.0, f, cy, 0.0, 0.0, 1.0)
+
+    def to_dict(self) -> dict[str, Any]:
+        return asdict(self)
+
+
+def default_cameras(width_px: int = 320, height_px: int = 240, rate_hz: int = 30) -> tuple[CameraSpec, CameraSpec]:
+    # the floor camera sits 3.4 cm above the skids' bottom: a near plane of 1 cm still sees the
+    # ground when the vehicle has landed
+    return (CameraSpec("front", "front_camera_link", width_px, height_px, 60.0, rate_hz),
+            CameraSpec("floor", "floor_camera_link", width_px, height_px, 60.0, rate_hz, near_m=0.01))
+
+
+@dataclass(frozen=True)
+class CameraPose:
+    """A camera's pose in the world: eye, viewing direction, image up."""
+
+    eye: tuple[float, float, float]
+    forward: tuple[float, float, float]
+    up: tuple[float, float, float]
+
+
+def camera_pose(mount: CameraMount, position: tuple[float, float, float],
+                orientation_xyzw: tuple[float, float, float, float]) -> CameraPose:
+    """The camera's pose for the body at (position, orientation)."""
+    r = matrix_from_quaternion(orientation_xyzw)
+    m = mount.rotation
+
+    def body_to_world(v: tuple[float, float, float]) -> tuple[float, float, float]:
+        return (r[0][0] * v[0] + r[0][1] * v[1] + r[0][2] * v[2],
+                r[1][0] * v[0] + r[1][1] * v[1] + r[1][2] * v[2],
+                r[2][0] * v[0] + r[2][1] * v[1] + r[2][2] * v[2])
+
+    offset = body_to_world(mount.position_m)
+    eye = (position[0] + offset[0], position[1] + offset[1], position[2] + offset[2])
+    forward = body_to_world((m[0][0], m[1][0], m[2][0]))  # the link's x axis
+    up = body_to_world((m[0][2], m[1][2], m[2][2]))  # the link's z axis
+    return CameraPose(eye, forward, up)
+
+
+def view_matrix(pose: CameraPose) -> tuple[float, ...]:
+    target = (pose.eye[0] + pose.forward[0], pose.eye[1] + pose.forward[1], pose.eye[2] + pose.forward[2])
+    return pb.computeViewMatrix(pose.eye, target, pose.up)
+
+
+def projection_matrix(spec: CameraSpec) -> tuple[float, ...]:
+    return pb.computeProjectionMatrixFOV(spec.vertical_fov_deg, spec.width_px / spec.height_px, spec.near_m, spec.far_m)
+
+
+def render_rgb(spec: CameraSpec, pose: CameraPose, cid: int, renderer: RendererKind = RendererKind.TINY,
+               projection: tuple[float, ...] | None = None) -> np.ndarray:
+    """Render one RGB image (height x width x 3, uint8, row 0 at the top). No segmentation mask."""
+    flags = pb.ER_NO_SEGMENTATION_MASK
+    engine = pb.ER_TINY_RENDERER if renderer is RendererKind.TINY else pb.ER_BULLET_HARDWARE_OPENGL
+    _, _, rgba, _, _ = pb.getCameraImage(
+        spec.width_px, spec.height_px, view_matrix(pose), projection or projection_matrix(spec),
+        renderer=engine, flags=flags, physicsClientId=cid)
+    return np.reshape(np.asarray(rgba, dtype=np.uint8), (spec.height_px, spec.width_px, 4))[:, :, :3]
+
+
+def encode_jpeg(rgb: np.ndarray, quality: int) -> bytes:
+    ok, buf = cv2.imencode(".jpg", cv2.cvtColor(rgb, cv2.COLOR_RGB2BGR), [cv2.IMWRITE_JPEG_QUALITY, quality])
+    if not ok:  # pragma: no cover - OpenCV fails only on invalid arrays
+        raise RuntimeError("JPEG encoding failed")
+    return buf.tobytes()
+
+
+def decode_jpeg(data: bytes) -> np.ndarray:
+    """JPEG bytes -> RGB array (for viewers and tests)."""
+    bgr = cv2.imdecode(np.frombuffer(data, np.uint8), cv2.IMREAD_COLOR)
+    if bgr is None:
+        raise ValueError("not a decodable JPEG image")
+    return cv2.cvtColor(bgr, cv2.COLOR_BGR2RGB)
+
+
+def enable_egl(cid: int) -> None:
+    """Load PyBullet's EGL renderer plugin into client `cid`, or raise ConfigError saying why not."""
+    import pkgutil
+
+    loader = pkgutil.get_loader("eglRenderer")
+    if loader is None:
+        raise ConfigError("--renderer egl: this pybullet build has no eglRenderer plugin; use --renderer tiny")
+    plugin = pb.loadPlugin(loader.get_filename(), "_eglRendererPlugin", physicsClientId=cid)  # type: ignore[union-attr]
+    if plugin < 0:
+        raise ConfigError("--renderer egl: the EGL plugin did not load (no EGL driver on this machine?); use --renderer tiny")

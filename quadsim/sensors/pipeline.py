@@ -1,0 +1,192 @@
+"""The camera pipeline: captures the onboard cameras at their rates and hands frames to sinks.
+
+Two back-ends with the same output:
+- in-process: render in the physics client at capture time (simple; one core);
+- workers: a pool of render processes, each with its own PyBullet client holding the same
+  scene, so rendering and JPEG encoding run on the other core while physics keeps stepping.
+  Jobs go round-robin; results come back in capture order. With `ordered_delivery` (headless
+  runs), frame j is handed on just before job j + in_flight is submitted, and the rest at the
+  end, so a recording's message order does not depend on timing.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import secrets
+import subprocess
+import sys
+import tempfile
+from collections import deque
+from multiprocessing.connection import Listener
+from typing import Protocol
+
+import quadsim
+from quadsim.sensors.camera import CameraSpec, RendererKind
+from quadsim.sensors.rig import CameraFrame, CameraRig
+from quadsim.errors import ConfigError, QuadsimError
+from quadsim.core.types import VehicleState
+from quadsim.sim.simulator import Simulator
+
+
+class FrameSink(Protocol):
+    def on_camera_frame(self, frame: CameraFrame) -> None:
+        """A rendered frame, stamped with its capture step."""
+
+
+def _worker_env() -> dict[str, str]:
+    """The workers import quadsim the way this process did, wherever it was found."""
+    env = dict(os.environ)
+    package_root = os.path.dirname(os.path.dirname(os.path.abspath(quadsim.__file__)))
+    env["PYTHONPATH"] = os.pathsep.join(p for p in (package_root, env.get("PYTHONPATH")) if p)
+    return env
+
+
+class CameraPipeline:
+    def __init__(self, sim: Simulator, specs: tuple[CameraSpec, ...], renderer: RendererKind = RendererKind.TINY,
+                 workers: int = 2, ordered_delivery: bool = True, worker_start_timeout_s: float = 60.0) -> None:
+        if len({s.name for s in specs}) != len(specs):
+            raise ConfigError("camera names must be unique")
+        rates = sim.config.rates
+        self.specs = specs
+        self.renderer = renderer
+        self.sinks: list[FrameSink] = []
+        self._every = {}
+        for spec in specs:
+            if rates.physics_hz % spec.rate_hz:
+                raise ConfigError(f"camera {spec.name}: rate {spec.rate_hz} Hz does not divide the physics rate {rates.physics_hz} Hz")
+            self._every[spec.name] = rates.every(spec.rate_hz)
+        self._tick = math.gcd(*self._every.values()) if specs else 1
+        self._ordered = ordered_delivery
+        self._seq = 0
+        self._pending: deque[tuple[int, int]] = deque()  # (seq, worker index)
+        self._procs: list = []
+        self._conns: list = []
+        self._rig: CameraRig | None = None
+        self.frames_delivered = 0
+        if not specs:
+            return
+        for spec in specs:
+            sim.vehicle.camera_mount(spec.link_name)  # a clear error for an unknown link, here
+        if workers <= 0:
+            if renderer is RendererKind.EGL:
+                from quadsim.sensors.camera import enable_egl
+
+                enable_egl(sim.physics.client_id)
+            self._rig = CameraRig(sim.vehicle, specs, renderer, sim.physics.client_id, None)
+        else:
+            self._start_workers(sim, workers, worker_start_timeout_s)
+        self._in_flight = 2 * max(1, workers)
+        sim.loop.add_tap(self._tick, self._capture)
+
+    # --- workers ----------------------------------------------------------------------------
+
+    def _start_workers(self, sim: Simulator, count: int, timeout_s: float) -> None:
+        v, world = sim.vehicle, sim.world
+        settings = {"urdf": str(v.urdf_path), "params": str(v.params_path), "world": str(world.path),
+                    "specs": self.specs, "renderer": self.renderer.value}
+        self._tmpdir = tempfile.TemporaryDirectory(prefix="quadsim-render-")
+        address = os.path.join(self._tmpdir.name, "socket")
+        authkey = secrets.token_bytes(16)
+        listener = Listener(address, family="AF_UNIX", authkey=authkey)
+        # Listener.accept() has no timeout of its own; a worker that dies before connecting must
+        # not hang the run, so time out its socket (an implementation detail, hence the guard)
+        sock = getattr(getattr(listener, "_listener", None), "_socket", None)
+        if sock is not None:
+            sock.settimeout(timeout_s)
+        try:
+            for _ in range(count):
+                proc = subprocess.Popen([sys.executable, "-m", "quadsim.sensors.render_worker", address],
+                                        stdin=subprocess.PIPE, env=_worker_env())
+                proc.stdin.write(authkey.hex().encode() + b"\n")  # type: ignore[union-attr]
+                proc.stdin.close()  # type: ignore[union-attr]
+                self._procs.append(proc)
+                try:
+                    conn = listener.accept()
+                except OSError:
+                    raise QuadsimError(f"a render worker did not start within {timeout_s:.0f} s") from None
+                conn.send(settings)
+                self._conns.append(conn)
+            for conn in self._conns:
+                if not conn.poll(timeout_s):
+                    raise QuadsimError(f"a render worker did not get ready within {timeout_s:.0f} s")
+                try:
+                    msg = conn.recv()
+                except EOFError:
+                    raise QuadsimError("a render worker exited during start-up") from None
+                if msg[0] == "error":
+                    raise QuadsimError(f"render worker failed to start: {msg[1]}")
+        except BaseException:
+            self.close()
+            raise
+        finally:
+            listener.close()
+
+    def _receive_oldest(self) -> None:
+        seq, index = self._pending.popleft()
+        conn = self._conns[index]
+        try:
+            msg = conn.recv()
+        except EOFError:
+            raise QuadsimError("a render worker exited unexpectedly") from None
+        if msg[0] == "error":
+            raise QuadsimError(f"render worker failed: {msg[1]}")
+        got_seq, frames = msg
+        assert got_seq == seq, "render results out of order"
+        self._deliver(frames)
+
+    # --- capture and delivery ---------------------------------------------------------------
+
+    def _capture(self, state: VehicleState) -> None:
+        step = state.step
+        names = tuple(s.name for s in self.specs if step % self._every[s.name] == 0)
+        if not names:
+            return
+        if self._rig is not None:
+            self._deliver(self._rig.render(names, step, state.position_m, state.orientation_xyzw))
+            return
+        while len(self._pending) >= self._in_flight:
+            self._receive_oldest()
+        if not self._ordered:
+            self.poll()
+        index = self._seq % len(self._conns)
+        self._conns[index].send((self._seq, step, names, state.position_m, state.orientation_xyzw))
+        self._pending.append((self._seq, index))
+        self._seq += 1
+
+    def poll(self) -> None:
+        """Hand on every frame that is ready, without waiting (for live viewers)."""
+        while self._pending and self._conns[self._pending[0][1]].poll():
+            self._receive_oldest()
+
+    def drain(self) -> None:
+        """Wait for every frame still being rendered and hand it on."""
+        while self._pending:
+            self._receive_oldest()
+
+    def _deliver(self, frames: list[CameraFrame]) -> None:
+        for frame in frames:
+            self.frames_delivered += 1
+            for sink in self.sinks:
+                sink.on_camera_frame(frame)
+
+    def close(self) -> None:
+        """Stop the workers (pending frames are dropped: call drain() first to keep them)."""
+        for conn in self._conns:
+            try:
+                conn.send(None)
+            except (BrokenPipeError, OSError):
+                pass
+        for proc in self._procs:
+            try:
+                proc.wait(timeout=5)
+            except subprocess.TimeoutExpired:
+                proc.kill()
+                proc.wait()
+        for conn in self._conns:
+            conn.close()
+        self._procs, self._conns = [], []
+        self._pending.clear()
+        if getattr(self, "_tmpdir", None) is not None:
+            self._tmpdir.cleanup()
+            self._tmpdir = None

@@ -1,0 +1,65 @@
+"""The render worker process: a CameraRig of its own, answering render jobs over a pipe.
+
+Started as `python -m quadsim.sensors.render_worker ADDRESS` (not through multiprocessing's spawn, which
+would re-run the user's __main__ module); it connects back to ADDRESS, a Unix socket, reads the
+authentication key as hex on stdin, then receives its settings as the first message.
+
+Protocol (parent -> worker): (seq, step, names, position, orientation), or None to stop.
+Worker -> parent: ("ready",) once set up, then (seq, [CameraFrame, ...]) per job, or
+("error", message) if it cannot go on.
+"""
+
+from __future__ import annotations
+
+import signal
+import sys
+import traceback
+from multiprocessing.connection import Client
+from pathlib import Path
+
+
+def worker_main(conn, urdf: str, params: str, world: str, specs: tuple, renderer_value: str) -> None:
+    try:
+        from quadsim.sensors.camera import RendererKind
+        from quadsim.sensors.rig import CameraRig
+        from quadsim.vehicle.params import load_vehicle
+        from quadsim.physics.world_spec import load_world
+
+        rig = CameraRig.standalone(load_vehicle(Path(urdf), Path(params)), load_world(Path(world)), specs,
+                                   RendererKind(renderer_value))
+    except Exception as exc:  # report, do not die silently
+        conn.send(("error", f"{type(exc).__name__}: {exc}"))
+        return
+    conn.send(("ready",))
+    try:
+        while True:
+            job = conn.recv()
+            if job is None:
+                break
+            seq, step, names, position, orientation = job
+            conn.send((seq, rig.render(names, step, position, orientation)))
+    except (EOFError, KeyboardInterrupt, BrokenPipeError):
+        pass  # the parent went away or was interrupted: nothing to report to
+    except Exception:
+        try:
+            conn.send(("error", traceback.format_exc(limit=3)))
+        except (BrokenPipeError, OSError):
+            pass
+    finally:
+        rig.close()
+
+
+def main() -> None:
+    # Ctrl-C reaches the whole process group: let the parent decide when the worker stops, so
+    # it can still collect the frames in flight and finish its recording
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    address = sys.argv[1]
+    authkey = bytes.fromhex(sys.stdin.readline().strip())
+    conn = Client(address, family="AF_UNIX", authkey=authkey)
+    settings = conn.recv()
+    worker_main(conn, settings["urdf"], settings["params"], settings["world"], settings["specs"], settings["renderer"])
+    conn.close()
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,66 @@
+"""A camera rig: renders and JPEG-encodes the onboard cameras for a body pose, in one client.
+
+Used in-process (rendering in the physics client) and inside each render worker process (in a
+client of its own holding the same scene).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from quadsim.sensors.camera import CameraSpec, RendererKind, camera_pose, enable_egl, encode_jpeg, projection_matrix, render_rgb
+from quadsim.physics.pybullet_quiet import pb
+from quadsim.physics.scene import build_world, load_vehicle_body
+from quadsim.vehicle.params import VehicleParams
+from quadsim.physics.world_spec import WorldSpec
+
+
+@dataclass(frozen=True)
+class CameraFrame:
+    """One encoded image, stamped with the simulation step at which it was captured."""
+
+    camera: str
+    step: int
+    jpeg: bytes
+    width_px: int
+    height_px: int
+
+
+class CameraRig:
+    def __init__(self, vehicle: VehicleParams, specs: tuple[CameraSpec, ...], renderer: RendererKind,
+                 cid: int, body_id: int | None) -> None:
+        """Render in client `cid`. With `body_id`, the rig moves that body to each pose it is
+        given (a client of its own); without, the body is where physics put it."""
+        self.specs = {s.name: s for s in specs}
+        self._mounts = {s.name: vehicle.camera_mount(s.link_name) for s in specs}
+        self._projections = {s.name: projection_matrix(s) for s in specs}
+        self._renderer = renderer
+        self._cid = cid
+        self._body = body_id
+
+    @classmethod
+    def standalone(cls, vehicle: VehicleParams, world: WorldSpec, specs: tuple[CameraSpec, ...],
+                   renderer: RendererKind) -> "CameraRig":
+        """A rig with a DIRECT client of its own holding the world and the vehicle (no physics)."""
+        cid = pb.connect(pb.DIRECT)
+        if renderer is RendererKind.EGL:
+            enable_egl(cid)
+        build_world(world, cid, collisions=False)
+        body = load_vehicle_body(vehicle, cid, (0.0, 0.0, 0.0), (0.0, 0.0, 0.0, 1.0))
+        return cls(vehicle, specs, renderer, cid, body)
+
+    def render(self, names: tuple[str, ...], step: int, position: tuple[float, float, float],
+               orientation: tuple[float, float, float, float]) -> list[CameraFrame]:
+        if self._body is not None:
+            pb.resetBasePositionAndOrientation(self._body, position, orientation, physicsClientId=self._cid)
+        frames = []
+        for name in names:
+            spec = self.specs[name]
+            pose = camera_pose(self._mounts[name], position, orientation)
+            rgb = render_rgb(spec, pose, self._cid, self._renderer, self._projections[name])
+            frames.append(CameraFrame(name, step, encode_jpeg(rgb, spec.jpeg_quality), spec.width_px, spec.height_px))
+        return frames
+
+    def close(self) -> None:
+        if self._body is not None:  # the client is ours
+            pb.disconnect(physicsClientId=self._cid)

@@ -1,0 +1,377 @@
+"""Vehicle parameters: read once from the URDF (mass, inertia, rotor and camera links) and the
+parameter file beside it (rotor coefficients, limits, drag), validated, frozen."""
+
+from __future__ import annotations
+
+import enum
+import math
+import xml.etree.ElementTree as ET
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from quadsim.assets import asset_path
+from quadsim.core.toml_compat import tomllib
+from quadsim.errors import ConfigError
+
+Vec3 = tuple[float, float, float]
+Mat3 = tuple[Vec3, Vec3, Vec3]
+
+#: The vehicle the project ships, used when no other URDF is given.
+DEFAULT_URDF = asset_path("urdf", "quadsim_x.urdf")
+
+
+class Spin(enum.Enum):
+    """Rotor spin seen from above. A CCW rotor pushes the body clockwise (negative yaw)."""
+
+    CCW = "ccw"
+    CW = "cw"
+
+    @property
+    def sign(self) -> int:
+        return 1 if self is Spin.CCW else -1
+
+
+@dataclass(frozen=True)
+class RotorSpec:
+    link_name: str
+    position_m: Vec3  # rotor origin relative to the vehicle's centre of mass, in base_link
+    spin: Spin
+
+
+@dataclass(frozen=True)
+class CameraMount:
+    """Where a camera link sits on the body: pose relative to the base_link origin.
+
+    The link's x axis is the viewing direction and its z axis the image's up."""
+
+    link_name: str
+    position_m: Vec3
+    rotation: Mat3  # base_link <- camera link
+
+
+@dataclass(frozen=True)
+class CommandLimits:
+    max_horizontal_speed_mps: float
+    max_climb_rate_mps: float
+    max_descent_rate_mps: float
+    max_yaw_rate_radps: float
+    min_altitude_m: float
+    max_altitude_m: float
+
+
+@dataclass(frozen=True)
+class VehicleParams:
+    """Everything physical about the vehicle, in SI units. Built by `load_vehicle`."""
+
+    name: str
+    urdf_path: Path
+    params_path: Path
+    mass_kg: float
+    inertia_kgm2: Mat3  # about the centre of mass, in base_link axes
+    com_m: Vec3  # centre of mass relative to the base_link origin
+    rotors: tuple[RotorSpec, ...]
+    thrust_coefficient_n_per_rad2s2: float
+    torque_coefficient_nm_per_rad2s2: float
+    max_thrust_n: float
+    motor_time_constant_s: float
+    drag_coefficients_ns_per_m: Vec3
+    limits: CommandLimits
+    camera_mounts: tuple[CameraMount, ...]
+    gravity_mps2: float = 9.81
+
+    @property
+    def camera_links(self) -> tuple[str, ...]:
+        return tuple(m.link_name for m in self.camera_mounts)
+
+    def camera_mount(self, link_name: str) -> CameraMount:
+        for mount in self.camera_mounts:
+            if mount.link_name == link_name:
+                return mount
+        raise ConfigError(f"{self.urdf_path.name}: no camera link named {link_name!r} (have {list(self.camera_links)})")
+
+    @property
+    def yaw_torque_per_thrust_m(self) -> float:
+        """Reaction torque per newton of thrust (k_m / k_f), m."""
+        return self.torque_coefficient_nm_per_rad2s2 / self.thrust_coefficient_n_per_rad2s2
+
+    @property
+    def weight_n(self) -> float:
+        return self.mass_kg * self.gravity_mps2
+
+    @property
+    def hover_thrust_per_rotor_n(self) -> float:
+        return self.weight_n / len(self.rotors)
+
+    def to_dict(self) -> dict[str, Any]:
+        """Plain data for recording metadata."""
+        return {
+            "name": self.name,
+            "urdf": str(self.urdf_path),
+            "params": str(self.params_path),
+            "mass_kg": self.mass_kg,
+            "inertia_kgm2": [list(r) for r in self.inertia_kgm2],
+            "com_m": list(self.com_m),
+            "rotors": [
+                {"link": r.link_name, "position_m": list(r.position_m), "spin": r.spin.value}
+                for r in self.rotors
+            ],
+            "thrust_coefficient_n_per_rad2s2": self.thrust_coefficient_n_per_rad2s2,
+            "torque_coefficient_nm_per_rad2s2": self.torque_coefficient_nm_per_rad2s2,
+            "max_thrust_n": self.max_thrust_n,
+            "motor_time_constant_s": self.motor_time_constant_s,
+            "drag_coefficients_ns_per_m": list(self.drag_coefficients_ns_per_m),
+            "limits": vars(self.limits).copy(),
+        }
+
+
+def default_params_path(urdf_path: Path) -> Path:
+    """The parameter file lives beside the URDF: NAME.urdf -> NAME.params.toml."""
+    return urdf_path.with_suffix(".params.toml")
+
+
+def load_vehicle(urdf_path: Path | str | None = None, params_path: Path | str | None = None) -> VehicleParams:
+    """Read and validate a vehicle. Raises ConfigError naming the file and field at fault."""
+    urdf = Path(urdf_path) if urdf_path is not None else DEFAULT_URDF
+    params = Path(params_path) if params_path is not None else default_params_path(urdf)
+    if not urdf.is_file():
+        raise ConfigError(f"vehicle URDF not found: {urdf}")
+    if not params.is_file():
+        raise ConfigError(f"vehicle parameter file not found: {params} (expected beside {urdf.name})")
+    links = _read_urdf(urdf)
+    table = _read_toml(params)
+    return _build(urdf, params, links, table)
+
+
+# --- URDF -----------------------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class _Link:
+    name: str
+    mass_kg: float
+    com_in_link_m: Vec3
+    inertia_in_link: Mat3  # about the link's CoM, in link axes (inertial rpy applied)
+    origin_in_base_m: Vec3  # link frame origin in base_link
+    rotation_in_base: Mat3  # base_link <- link
+
+
+def _floats(text: str | None, count: int, where: str) -> tuple[float, ...]:
+    try:
+        values = tuple(float(v) for v in (text or "").split())
+    except ValueError:
+        raise ConfigError(f"{where}: expected {count} numbers, got {text!r}") from None
+    if len(values) != count or not all(math.isfinite(v) for v in values):
+        raise ConfigError(f"{where}: expected {count} finite numbers, got {text!r}")
+    return values
+
+
+def _rpy_matrix(roll: float, pitch: float, yaw: float) -> Mat3:
+    cr, sr, cp, sp, cy, sy = (math.cos(roll), math.sin(roll), math.cos(pitch),
+                              math.sin(pitch), math.cos(yaw), math.sin(yaw))
+    return (
+        (cy * cp, cy * sp * sr - sy * cr, cy * sp * cr + sy * sr),
+        (sy * cp, sy * sp * sr + cy * cr, sy * sp * cr - cy * sr),
+        (-sp, cp * sr, cp * cr),
+    )
+
+
+def _matmul(a: Mat3, b: Mat3) -> Mat3:
+    return tuple(tuple(sum(a[i][k] * b[k][j] for k in range(3)) for j in range(3)) for i in range(3))  # type: ignore[return-value]
+
+
+def _transpose(a: Mat3) -> Mat3:
+    return tuple(tuple(a[j][i] for j in range(3)) for i in range(3))  # type: ignore[return-value]
+
+
+def _apply(a: Mat3, v: Vec3) -> Vec3:
+    return tuple(sum(a[i][k] * v[k] for k in range(3)) for i in range(3))  # type: ignore[return-value]
+
+
+def _origin(elem: ET.Element | None, where: str) -> tuple[Vec3, Mat3]:
+    if elem is None:
+        return (0.0, 0.0, 0.0), _rpy_matrix(0.0, 0.0, 0.0)
+    xyz = _floats(elem.get("xyz", "0 0 0"), 3, f"{where} origin xyz")
+    rpy = _floats(elem.get("rpy", "0 0 0"), 3, f"{where} origin rpy")
+    return xyz, _rpy_matrix(*rpy)  # type: ignore[return-value]
+
+
+def _read_urdf(path: Path) -> dict[str, _Link]:
+    try:
+        root = ET.parse(path).getroot()
+    except ET.ParseError as exc:
+        raise ConfigError(f"{path}: not valid XML ({exc})") from None
+    if root.tag != "robot":
+        raise ConfigError(f"{path}: root element is <{root.tag}>, expected <robot>")
+    raw: dict[str, tuple[float, Vec3, Mat3]] = {}
+    for link in root.findall("link"):
+        name = link.get("name", "")
+        inertial = link.find("inertial")
+        if inertial is None:
+            raw[name] = (0.0, (0.0, 0.0, 0.0), ((0.0,) * 3,) * 3)  # type: ignore[assignment]
+            continue
+        where = f"{path.name}: link {name!r} inertial"
+        mass_elem = inertial.find("mass")
+        if mass_elem is None:
+            raise ConfigError(f"{where}: missing <mass>")
+        (mass,) = _floats(mass_elem.get("value"), 1, f"{where} mass")
+        if mass <= 0.0:
+            raise ConfigError(f"{where}: mass must be > 0 kg, got {mass}")
+        com, rot = _origin(inertial.find("origin"), where)
+        ie = inertial.find("inertia")
+        if ie is None:
+            raise ConfigError(f"{where}: missing <inertia>")
+        vals = {}
+        for key in ("ixx", "ixy", "ixz", "iyy", "iyz", "izz"):
+            (vals[key],) = _floats(ie.get(key), 1, f"{where} inertia {key}")
+        inertia = (
+            (vals["ixx"], vals["ixy"], vals["ixz"]),
+            (vals["ixy"], vals["iyy"], vals["iyz"]),
+            (vals["ixz"], vals["iyz"], vals["izz"]),
+        )
+        if min(vals["ixx"], vals["iyy"], vals["izz"]) <= 0.0:
+            raise ConfigError(f"{where}: principal inertia must be > 0 kg m^2")
+        raw[name] = (mass, com, _matmul(_matmul(rot, inertia), _transpose(rot)))
+
+    # place every link in base_link through the fixed-joint tree
+    parent_of: dict[str, tuple[str, Vec3, Mat3]] = {}
+    for joint in root.findall("joint"):
+        jname = joint.get("name", "")
+        if joint.get("type") != "fixed":
+            raise ConfigError(f"{path.name}: joint {jname!r} is {joint.get('type')!r}; a quadrotor body uses fixed joints only")
+        parent = joint.find("parent")
+        child = joint.find("child")
+        if parent is None or child is None:
+            raise ConfigError(f"{path.name}: joint {jname!r} needs <parent> and <child>")
+        xyz, rot = _origin(joint.find("origin"), f"{path.name}: joint {jname!r}")
+        parent_of[child.get("link", "")] = (parent.get("link", ""), xyz, rot)
+    roots = [n for n in raw if n not in parent_of]
+    if roots != ["base_link"]:
+        raise ConfigError(f"{path.name}: expected one root link named 'base_link', found {roots}")
+
+    links: dict[str, _Link] = {}
+    for name, (mass, com, inertia) in raw.items():
+        pos: Vec3 = (0.0, 0.0, 0.0)
+        rot: Mat3 = _rpy_matrix(0.0, 0.0, 0.0)
+        node = name
+        while node in parent_of:  # compose child -> ... -> base_link
+            parent, xyz, jrot = parent_of[node]
+            rotated = _apply(jrot, pos)
+            pos = (rotated[0] + xyz[0], rotated[1] + xyz[1], rotated[2] + xyz[2])
+            rot = _matmul(jrot, rot)
+            node = parent
+        links[name] = _Link(name, mass, com, inertia, pos, rot)
+    return links
+
+
+def _composite_inertia(links: dict[str, _Link]) -> tuple[float, Vec3, Mat3]:
+    """Total mass, centre of mass and inertia about it (parallel-axis theorem), in base_link."""
+    total = sum(link.mass_kg for link in links.values())
+    centres = {}
+    for name, link in links.items():
+        c = _apply(link.rotation_in_base, link.com_in_link_m)
+        centres[name] = (c[0] + link.origin_in_base_m[0], c[1] + link.origin_in_base_m[1], c[2] + link.origin_in_base_m[2])
+    com = tuple(sum(links[n].mass_kg * centres[n][i] for n in links) / total for i in range(3))
+    inertia = [[0.0] * 3 for _ in range(3)]
+    for name, link in links.items():
+        rot = link.rotation_in_base
+        local = _matmul(_matmul(rot, link.inertia_in_link), _transpose(rot))
+        d = tuple(centres[name][i] - com[i] for i in range(3))
+        d2 = d[0] ** 2 + d[1] ** 2 + d[2] ** 2
+        for i in range(3):
+            for j in range(3):
+                inertia[i][j] += local[i][j] + link.mass_kg * ((d2 if i == j else 0.0) - d[i] * d[j])
+    return total, com, tuple(tuple(r) for r in inertia)  # type: ignore[return-value]
+
+
+# --- parameter file -------------------------------------------------------------------------
+
+
+def _read_toml(path: Path) -> dict[str, Any]:
+    try:
+        with path.open("rb") as fh:
+            return tomllib.load(fh)
+    except tomllib.TOMLDecodeError as exc:
+        raise ConfigError(f"{path}: not valid TOML ({exc})") from None
+
+
+def _number(table: dict[str, Any], section: str, key: str, path: Path, *, low: float, high: float) -> float:
+    sec = table.get(section)
+    if not isinstance(sec, dict) or key not in sec:
+        raise ConfigError(f"{path}: missing [{section}] {key}")
+    value = sec[key]
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+        raise ConfigError(f"{path}: [{section}] {key} must be a number, got {value!r}")
+    if not low <= value <= high:
+        raise ConfigError(f"{path}: [{section}] {key} = {value} is outside the sensible range [{low}, {high}]")
+    return float(value)
+
+
+def _build(urdf: Path, params: Path, links: dict[str, _Link], table: dict[str, Any]) -> VehicleParams:
+    mass, com, inertia = _composite_inertia(links)
+    rotor_names = sorted(n for n in links if n.startswith("rotor_"))
+    if len(rotor_names) != 4:
+        raise ConfigError(f"{urdf.name}: expected 4 rotor links named rotor_1..rotor_4, found {rotor_names}")
+    spins = table.get("rotors", {}).get("spin")
+    if not isinstance(spins, dict):
+        raise ConfigError(f"{params}: missing [rotors] spin = {{ rotor_1 = \"ccw\", ... }}")
+    rotors = []
+    for name in rotor_names:
+        spin_text = spins.get(name)
+        try:
+            spin = Spin(str(spin_text).lower())
+        except ValueError:
+            raise ConfigError(f"{params}: [rotors] spin.{name} must be \"ccw\" or \"cw\", got {spin_text!r}") from None
+        axis = _apply(links[name].rotation_in_base, (0.0, 0.0, 1.0))
+        if axis[2] < 0.999:
+            raise ConfigError(f"{urdf.name}: link {name!r} must be level (its z axis along base_link z)")
+        o = links[name].origin_in_base_m
+        rotors.append(RotorSpec(name, (o[0] - com[0], o[1] - com[1], o[2] - com[2]), spin))
+    if sum(r.spin.sign for r in rotors) != 0:
+        raise ConfigError(f"{params}: [rotors] spin must have two ccw and two cw rotors")
+
+    kf = _number(table, "rotors", "thrust_coefficient_n_per_rad2s2", params, low=1e-9, high=1.0)
+    km = _number(table, "rotors", "torque_coefficient_nm_per_rad2s2", params, low=1e-12, high=1.0)
+    max_thrust = _number(table, "rotors", "max_thrust_n", params, low=1e-3, high=1e4)
+    tau = _number(table, "rotors", "motor_time_constant_s", params, low=0.0, high=1.0)
+    weight = mass * 9.81
+    if 4 * max_thrust < 1.2 * weight:
+        raise ConfigError(
+            f"{params}: [rotors] max_thrust_n = {max_thrust} gives {4 * max_thrust:.2f} N in all, "
+            f"too little to fly a {weight:.2f} N vehicle (need at least 1.2x its weight)"
+        )
+    drag = table.get("drag", {}).get("linear_coefficients_ns_per_m")
+    if (not isinstance(drag, list) or len(drag) != 3
+            or not all(isinstance(v, (int, float)) and not isinstance(v, bool) and 0.0 <= v < 100.0 for v in drag)):
+        raise ConfigError(f"{params}: [drag] linear_coefficients_ns_per_m must be 3 numbers in [0, 100), got {drag!r}")
+    limits = CommandLimits(
+        max_horizontal_speed_mps=_number(table, "limits", "max_horizontal_speed_mps", params, low=0.1, high=50.0),
+        max_climb_rate_mps=_number(table, "limits", "max_climb_rate_mps", params, low=0.1, high=20.0),
+        max_descent_rate_mps=_number(table, "limits", "max_descent_rate_mps", params, low=0.1, high=20.0),
+        max_yaw_rate_radps=_number(table, "limits", "max_yaw_rate_radps", params, low=0.1, high=20.0),
+        min_altitude_m=_number(table, "limits", "min_altitude_m", params, low=0.0, high=10.0),
+        max_altitude_m=_number(table, "limits", "max_altitude_m", params, low=0.5, high=10000.0),
+    )
+    if limits.min_altitude_m >= limits.max_altitude_m:
+        raise ConfigError(f"{params}: [limits] min_altitude_m must be below max_altitude_m")
+    if any(abs(v) > 1e-9 for v in links["base_link"].com_in_link_m):
+        # PyBullet reports the base's pose at its inertial origin; keep that the link origin
+        raise ConfigError(f"{urdf.name}: base_link's <inertial> origin must be at the link origin (0 0 0)")
+    cameras = tuple(CameraMount(n, links[n].origin_in_base_m, links[n].rotation_in_base)
+                    for n in sorted(n for n in links if n.endswith("_camera_link")))
+    return VehicleParams(
+        name=urdf.stem,
+        urdf_path=urdf,
+        params_path=params,
+        mass_kg=mass,
+        inertia_kgm2=inertia,
+        com_m=com,  # type: ignore[arg-type]
+        rotors=tuple(rotors),
+        thrust_coefficient_n_per_rad2s2=kf,
+        torque_coefficient_nm_per_rad2s2=km,
+        max_thrust_n=max_thrust,
+        motor_time_constant_s=tau,
+        drag_coefficients_ns_per_m=(float(drag[0]), float(drag[1]), float(drag[2])),
+        limits=limits,
+        camera_mounts=cameras,
+    )
