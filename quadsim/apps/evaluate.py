@@ -13,6 +13,7 @@ from typing import Callable, Sequence
 from quadsim.control import ControllerKind
 from quadsim.drivers.scripted import ScriptedDriver, load_script
 from quadsim.sim.loop import StateLog
+from quadsim.core.kinematics import clamp
 from quadsim.core.types import VehicleState
 from quadsim.sim.config import SimConfig
 from quadsim.sim.simulator import Simulator
@@ -114,7 +115,7 @@ def turn_metrics(f: Flight, t_start: float = 5.0, target_m: float = 2.0, speed_m
 
 def envelope_metrics(f: Flight) -> dict[str, float]:
     """How wild the flight was: tilt and altitude extremes (for 'does not diverge')."""
-    tilt = max(math.acos(max(-1.0, min(1.0, _body_z_up(s)))) for s in f.states)
+    tilt = max(math.acos(clamp(_body_z_up(s), -1.0, 1.0)) for s in f.states)
     zs = [s.position_m[2] for s in f.states]
     return {"max_tilt_deg": math.degrees(tilt), "min_z_m": min(zs), "max_z_m": max(zs)}
 

@@ -18,7 +18,7 @@ from quadsim.sim.loop import StateLog
 from quadsim.core.types import VehicleState, ZMode
 from quadsim.core.types import StartPose
 from quadsim.recording.flight import RecordedFlight
-from quadsim.recording.contract import body_velocity
+from quadsim.core.kinematics import body_velocity
 from quadsim.apps.outputs import OutputOptions, RecordedRun
 from quadsim.sim.config import SimConfig
 from quadsim.sim.simulator import Simulator
@@ -163,7 +163,7 @@ def resimulate(flight: RecordedFlight, out: Path | None = None, record: bool = T
         t = rec.step / config.rates.physics_hz
         pos.append((t, math.dist(now.position_m, rec.position_m)))
         att.append((t, _angle_between(now.orientation_xyzw, rec.orientation_xyzw)))
-        vel.append((t, math.dist(body_velocity(now), rec_body_velocity)))  # as /quad/odom records it
+        vel.append((t, math.dist(body_velocity(now.orientation_xyzw, now.linear_velocity_mps), rec_body_velocity)))  # as /quad/odom records it
     if not pos:
         raise QuadsimError(f"{flight.path}: its states are not at this simulation's state rate; nothing to compare")
     return ResimReport(

@@ -17,7 +17,7 @@ from typing import Any
 from quadsim.control import ControllerKind
 from quadsim.core.types import HEIGHT_MODE_BASE_M, ActiveCommand, RotorForces, VehicleState, ZMode
 from quadsim.vehicle.mixer import Mixer
-from quadsim.core.kinematics import matrix_from_quaternion
+from quadsim.core.kinematics import clamp, matrix_from_quaternion
 from quadsim.vehicle.params import VehicleParams
 
 _IDLE: RotorForces = (0.0, 0.0, 0.0, 0.0)
@@ -179,10 +179,10 @@ class CascadeController:
         # (a transient's large error would otherwise wind the integrator up and overshoot)
         ilim, band = g.velocity_i_limit_mps2, g.velocity_i_band_mps
         if not sat_xy and -band < ex < band and -band < ey < band:
-            self._ix = max(-ilim, min(ilim, self._ix + g.velocity_i_xy_per_s2 * ex * dt_s))
-            self._iy = max(-ilim, min(ilim, self._iy + g.velocity_i_xy_per_s2 * ey * dt_s))
+            self._ix = clamp(self._ix + g.velocity_i_xy_per_s2 * ex * dt_s, -ilim, ilim)
+            self._iy = clamp(self._iy + g.velocity_i_xy_per_s2 * ey * dt_s, -ilim, ilim)
         if not sat_z and -band < ez < band:
-            self._iz = max(-ilim, min(ilim, self._iz + g.velocity_i_z_per_s2 * ez * dt_s))
+            self._iz = clamp(self._iz + g.velocity_i_z_per_s2 * ez * dt_s, -ilim, ilim)
 
         # thrust vector -> collective thrust along the current body z, and the wanted body z
         m = self._mass
@@ -200,10 +200,10 @@ class CascadeController:
         k_att = g.attitude_p_per_s * (math.atan2(sin_t, dz) / sin_t if sin_t > 1e-9 else 1.0)
         ps, qs = -k_att * dy, k_att * dx
         mr = g.max_rate_rp_radps
-        ps = -mr if ps < -mr else (mr if ps > mr else ps)
-        qs = -mr if qs < -mr else (mr if qs > mr else qs)
+        ps = clamp(ps, -mr, mr)
+        qs = clamp(qs, -mr, mr)
         my = lim.max_yaw_rate_radps
-        rs = -my if rs < -my else (my if rs > my else rs)
+        rs = clamp(rs, -my, my)
 
         # rate loop -> body torques (with the gyroscopic term), then the mixer
         ap = g.rate_p_rp_per_s * (ps - wp)

@@ -9,16 +9,13 @@ from __future__ import annotations
 import logging
 import math
 
+from quadsim.core.kinematics import clamp
 from quadsim.core.types import HEIGHT_MODE_BASE_M, ActiveCommand, Twist, ZMode
 from quadsim.vehicle.params import CommandLimits
 
 log = logging.getLogger(__name__)
 
 _ZERO = Twist()
-
-
-def _clamp(value: float, low: float, high: float) -> float:
-    return low if value < low else (high if value > high else value)
 
 
 class CommandGate:
@@ -73,10 +70,10 @@ class CommandGate:
             k = lim.max_horizontal_speed_mps / speed
             vx, vy = vx * k, vy * k
         if self.z_mode is ZMode.VELOCITY:
-            vz = _clamp(twist.linear_z, -lim.max_descent_rate_mps, lim.max_climb_rate_mps)
+            vz = clamp(twist.linear_z, -lim.max_descent_rate_mps, lim.max_climb_rate_mps)
         else:
-            vz = _clamp(twist.linear_z, lim.min_altitude_m - HEIGHT_MODE_BASE_M, lim.max_altitude_m - HEIGHT_MODE_BASE_M)
-        wz = _clamp(twist.angular_z, -lim.max_yaw_rate_radps, lim.max_yaw_rate_radps)
+            vz = clamp(twist.linear_z, lim.min_altitude_m - HEIGHT_MODE_BASE_M, lim.max_altitude_m - HEIGHT_MODE_BASE_M)
+        wz = clamp(twist.angular_z, -lim.max_yaw_rate_radps, lim.max_yaw_rate_radps)
         return Twist(vx, vy, vz, twist.angular_x, twist.angular_y, wz)
 
     def set_z_mode(self, z_mode: ZMode) -> None:

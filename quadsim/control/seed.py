@@ -36,7 +36,7 @@ from typing import Any
 from quadsim.control import ControllerKind
 from quadsim.errors import ConfigError
 from quadsim.core.types import HEIGHT_MODE_BASE_M, ActiveCommand, RotorForces, VehicleState, ZMode
-from quadsim.core.kinematics import matrix_from_quaternion
+from quadsim.core.kinematics import clamp, matrix_from_quaternion
 from quadsim.vehicle.params import Spin, VehicleParams
 
 DT_REF_S = 0.05  # the V-REP simulation step the original's difference terms assumed
@@ -123,7 +123,7 @@ class SeedController:
         m12 = -sg * r02 + cg * r12
         m22 = r22
         alpha = math.atan2(-m12, m22)
-        beta = math.asin(-1.0 if m02 < -1.0 else (1.0 if m02 > 1.0 else m02))
+        beta = math.asin(clamp(m02, -1.0, 1.0))
         wz_world = r20 * bp + r21 * bq + r22 * br  # V-REP's vel_ang[3] is in the world frame
 
         if command.hold:
@@ -136,7 +136,7 @@ class SeedController:
             else:
                 lim = self.vehicle.limits
                 h = self._height + tw.linear_z * dt_s  # type: ignore[operator]
-                self._height = max(lim.min_altitude_m, min(lim.max_altitude_m, h)) if tw.linear_z else h
+                self._height = clamp(h, lim.min_altitude_m, lim.max_altitude_m) if tw.linear_z else h
         height = self._height
 
         # vertical control
@@ -166,9 +166,4 @@ class SeedController:
         m2 = thrust * (1.0 - alpha_corr - beta_corr - rot_corr) * scale
         m3 = thrust * (1.0 + alpha_corr - beta_corr + rot_corr) * scale
         m4 = thrust * (1.0 + alpha_corr + beta_corr - rot_corr) * scale
-        return (
-            0.0 if m1 < 0.0 else (top if m1 > top else m1),
-            0.0 if m2 < 0.0 else (top if m2 > top else m2),
-            0.0 if m3 < 0.0 else (top if m3 > top else m3),
-            0.0 if m4 < 0.0 else (top if m4 > top else m4),
-        )
+        return (clamp(m1, 0.0, top), clamp(m2, 0.0, top), clamp(m3, 0.0, top), clamp(m4, 0.0, top))

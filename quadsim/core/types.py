@@ -7,6 +7,8 @@ import math
 from dataclasses import dataclass
 from typing import NamedTuple
 
+from quadsim.core.kinematics import clamp
+
 
 class ZMode(enum.Enum):
     """How `linear.z` of a Twist is read (see DESIGN.md, command semantics)."""
@@ -79,7 +81,7 @@ class VehicleState(NamedTuple):
     def roll_pitch_rad(self) -> tuple[float, float]:
         x, y, z, w = self.orientation_xyzw
         roll = math.atan2(2.0 * (w * x + y * z), 1.0 - 2.0 * (x * x + y * y))
-        pitch = math.asin(max(-1.0, min(1.0, 2.0 * (w * y - z * x))))
+        pitch = math.asin(clamp(2.0 * (w * y - z * x), -1.0, 1.0))
         return roll, pitch
 
 

@@ -16,6 +16,7 @@ from typing import Any
 os.environ.setdefault("PYGAME_HIDE_SUPPORT_PROMPT", "1")
 import pygame  # noqa: E402
 
+from quadsim.core.kinematics import clamp  # noqa: E402
 from quadsim.drivers import ASAP, NEVER  # noqa: E402
 from quadsim.core.types import HEIGHT_MODE_BASE_M, Twist, ZMode  # noqa: E402
 
@@ -174,7 +175,7 @@ class KeyboardDriver:
         for b in self.layout.bindings:
             if b.key in self.held:
                 units[b.axis] += b.sign
-        return {a: max(-1.0, min(1.0, v)) for a, v in units.items()}
+        return {a: clamp(v, -1.0, 1.0) for a, v in units.items()}
 
     def poll(self, step: int, time_s: float) -> Twist:
         self.next_poll_step = NEVER

@@ -15,7 +15,7 @@ from rosbags.typesys import Stores, get_typestore
 from quadsim.sensors.camera import LINK_FROM_OPTICAL, CameraSpec
 from quadsim.sensors.rig import CameraFrame
 from quadsim.core.types import Twist, VehicleState
-from quadsim.core.kinematics import Mat3, matrix_from_quaternion
+from quadsim.core.kinematics import Mat3, body_velocity, mat_mul, quaternion_from_matrix
 from quadsim.vehicle.params import CameraMount
 
 TYPESTORE = get_typestore(Stores.ROS2_HUMBLE)
@@ -112,15 +112,8 @@ def pose_msg(s: VehicleState, ns: int):
     return _T["geometry_msgs/msg/PoseStamped"](header=header(ns, WORLD_FRAME), pose=_pose(s))
 
 
-def body_velocity(s: VehicleState) -> tuple[float, float, float]:
-    """World-frame linear velocity expressed in base_link."""
-    r = matrix_from_quaternion(s.orientation_xyzw)
-    v = s.linear_velocity_mps
-    return tuple(r[0][i] * v[0] + r[1][i] * v[1] + r[2][i] * v[2] for i in range(3))  # type: ignore[return-value]
-
-
 def odom_msg(s: VehicleState, ns: int):
-    twist = _T["geometry_msgs/msg/Twist"](linear=_vec(body_velocity(s)), angular=_vec(s.angular_velocity_body_rps))
+    twist = _T["geometry_msgs/msg/Twist"](linear=_vec(body_velocity(s.orientation_xyzw, s.linear_velocity_mps)), angular=_vec(s.angular_velocity_body_rps))
     return _T["nav_msgs/msg/Odometry"](
         header=header(ns, WORLD_FRAME), child_frame_id=BODY_FRAME,
         pose=_T["geometry_msgs/msg/PoseWithCovariance"](pose=_pose(s), covariance=_ZERO36),
@@ -150,26 +143,9 @@ def tf_msg(s: VehicleState, ns: int):
     return _T["tf2_msgs/msg/TFMessage"](transforms=[_transform(ns, WORLD_FRAME, BODY_FRAME, s.position_m, s.orientation_xyzw)])
 
 
-def quaternion_from_matrix(m: Mat3) -> tuple[float, float, float, float]:
-    """(x, y, z, w) of a rotation matrix (Shepperd's method, numerically safe)."""
-    tr = m[0][0] + m[1][1] + m[2][2]
-    if tr > 0:
-        s = (tr + 1.0) ** 0.5 * 2
-        return ((m[2][1] - m[1][2]) / s, (m[0][2] - m[2][0]) / s, (m[1][0] - m[0][1]) / s, 0.25 * s)
-    if m[0][0] > m[1][1] and m[0][0] > m[2][2]:
-        s = (1.0 + m[0][0] - m[1][1] - m[2][2]) ** 0.5 * 2
-        return (0.25 * s, (m[0][1] + m[1][0]) / s, (m[0][2] + m[2][0]) / s, (m[2][1] - m[1][2]) / s)
-    if m[1][1] > m[2][2]:
-        s = (1.0 + m[1][1] - m[0][0] - m[2][2]) ** 0.5 * 2
-        return ((m[0][1] + m[1][0]) / s, 0.25 * s, (m[1][2] + m[2][1]) / s, (m[0][2] - m[2][0]) / s)
-    s = (1.0 + m[2][2] - m[0][0] - m[1][1]) ** 0.5 * 2
-    return ((m[0][2] + m[2][0]) / s, (m[1][2] + m[2][1]) / s, 0.25 * s, (m[1][0] - m[0][1]) / s)
-
-
 def optical_rotation(mount: CameraMount) -> Mat3:
     """base_link <- optical frame of a camera."""
-    a, b = mount.rotation, LINK_FROM_OPTICAL
-    return tuple(tuple(sum(a[i][k] * b[k][j] for k in range(3)) for j in range(3)) for i in range(3))  # type: ignore[return-value]
+    return mat_mul(mount.rotation, LINK_FROM_OPTICAL)
 
 
 def tf_static_msg(cameras: tuple[tuple[CameraSpec, CameraMount], ...]):

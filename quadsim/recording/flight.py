@@ -16,7 +16,7 @@ from typing import Any
 from quadsim.recording import contract as rm
 from quadsim.core.types import Twist, VehicleState
 from quadsim.recording.reader import RecordingReader
-from quadsim.core.kinematics import matrix_from_quaternion
+from quadsim.core.kinematics import matrix_from_quaternion, rotate
 
 NS = 1_000_000_000
 
@@ -123,9 +123,8 @@ def _state(step: int, parts: dict[str, dict[int, Any]], ns: int) -> VehicleState
     thrusts = parts[rm.ROTOR_THRUSTS.name].get(ns)
     velocity, rates = (0.0, 0.0, 0.0), (0.0, 0.0, 0.0)
     if odom is not None:
-        r = matrix_from_quaternion(q)
         b = odom.twist.twist.linear
-        velocity = tuple(r[i][0] * b.x + r[i][1] * b.y + r[i][2] * b.z for i in range(3))  # type: ignore[assignment]
+        velocity = rotate(matrix_from_quaternion(q), (b.x, b.y, b.z))
         a = odom.twist.twist.angular
         rates = (a.x, a.y, a.z)
     force = (imu.linear_acceleration.x, imu.linear_acceleration.y, imu.linear_acceleration.z) if imu else (0.0, 0.0, 0.0)

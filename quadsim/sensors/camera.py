@@ -17,7 +17,7 @@ import numpy as np
 
 from quadsim.errors import ConfigError
 from quadsim.physics.pybullet_quiet import pb
-from quadsim.core.kinematics import Mat3, matrix_from_quaternion
+from quadsim.core.kinematics import Mat3, matrix_from_quaternion, rotate
 from quadsim.vehicle.params import CameraMount
 
 #: optical frame axes expressed in the camera link frame: x_opt = -y_link, y_opt = -z_link, z_opt = x_link
@@ -101,16 +101,10 @@ def camera_pose(mount: CameraMount, position: tuple[float, float, float],
     """The camera's pose for the body at (position, orientation)."""
     r = matrix_from_quaternion(orientation_xyzw)
     m = mount.rotation
-
-    def body_to_world(v: tuple[float, float, float]) -> tuple[float, float, float]:
-        return (r[0][0] * v[0] + r[0][1] * v[1] + r[0][2] * v[2],
-                r[1][0] * v[0] + r[1][1] * v[1] + r[1][2] * v[2],
-                r[2][0] * v[0] + r[2][1] * v[1] + r[2][2] * v[2])
-
-    offset = body_to_world(mount.position_m)
+    offset = rotate(r, mount.position_m)
     eye = (position[0] + offset[0], position[1] + offset[1], position[2] + offset[2])
-    forward = body_to_world((m[0][0], m[1][0], m[2][0]))  # the link's x axis
-    up = body_to_world((m[0][2], m[1][2], m[2][2]))  # the link's z axis
+    forward = rotate(r, (m[0][0], m[1][0], m[2][0]))  # the link's x axis
+    up = rotate(r, (m[0][2], m[1][2], m[2][2]))  # the link's z axis
     return CameraPose(eye, forward, up)
 
 

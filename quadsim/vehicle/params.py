@@ -11,11 +11,9 @@ from pathlib import Path
 from typing import Any
 
 from quadsim.assets import asset_path
+from quadsim.core.kinematics import IDENTITY, Mat3, Vec3, mat_mul, matrix_from_rpy, rotate, transpose
 from quadsim.core.toml_compat import tomllib
 from quadsim.errors import ConfigError
-
-Vec3 = tuple[float, float, float]
-Mat3 = tuple[Vec3, Vec3, Vec3]
 
 #: The vehicle the project ships, used when no other URDF is given.
 DEFAULT_URDF = asset_path("urdf", "quadsim_x.urdf")
@@ -166,34 +164,12 @@ def _floats(text: str | None, count: int, where: str) -> tuple[float, ...]:
     return values
 
 
-def _rpy_matrix(roll: float, pitch: float, yaw: float) -> Mat3:
-    cr, sr, cp, sp, cy, sy = (math.cos(roll), math.sin(roll), math.cos(pitch),
-                              math.sin(pitch), math.cos(yaw), math.sin(yaw))
-    return (
-        (cy * cp, cy * sp * sr - sy * cr, cy * sp * cr + sy * sr),
-        (sy * cp, sy * sp * sr + cy * cr, sy * sp * cr - cy * sr),
-        (-sp, cp * sr, cp * cr),
-    )
-
-
-def _matmul(a: Mat3, b: Mat3) -> Mat3:
-    return tuple(tuple(sum(a[i][k] * b[k][j] for k in range(3)) for j in range(3)) for i in range(3))  # type: ignore[return-value]
-
-
-def _transpose(a: Mat3) -> Mat3:
-    return tuple(tuple(a[j][i] for j in range(3)) for i in range(3))  # type: ignore[return-value]
-
-
-def _apply(a: Mat3, v: Vec3) -> Vec3:
-    return tuple(sum(a[i][k] * v[k] for k in range(3)) for i in range(3))  # type: ignore[return-value]
-
-
 def _origin(elem: ET.Element | None, where: str) -> tuple[Vec3, Mat3]:
     if elem is None:
-        return (0.0, 0.0, 0.0), _rpy_matrix(0.0, 0.0, 0.0)
+        return (0.0, 0.0, 0.0), IDENTITY
     xyz = _floats(elem.get("xyz", "0 0 0"), 3, f"{where} origin xyz")
     rpy = _floats(elem.get("rpy", "0 0 0"), 3, f"{where} origin rpy")
-    return xyz, _rpy_matrix(*rpy)  # type: ignore[return-value]
+    return xyz, matrix_from_rpy(*rpy)  # type: ignore[return-value]
 
 
 def _read_urdf(path: Path) -> dict[str, _Link]:
@@ -231,7 +207,7 @@ def _read_urdf(path: Path) -> dict[str, _Link]:
         )
         if min(vals["ixx"], vals["iyy"], vals["izz"]) <= 0.0:
             raise ConfigError(f"{where}: principal inertia must be > 0 kg m^2")
-        raw[name] = (mass, com, _matmul(_matmul(rot, inertia), _transpose(rot)))
+        raw[name] = (mass, com, mat_mul(mat_mul(rot, inertia), transpose(rot)))
 
     # place every link in base_link through the fixed-joint tree
     parent_of: dict[str, tuple[str, Vec3, Mat3]] = {}
@@ -252,13 +228,13 @@ def _read_urdf(path: Path) -> dict[str, _Link]:
     links: dict[str, _Link] = {}
     for name, (mass, com, inertia) in raw.items():
         pos: Vec3 = (0.0, 0.0, 0.0)
-        rot: Mat3 = _rpy_matrix(0.0, 0.0, 0.0)
+        rot: Mat3 = IDENTITY
         node = name
         while node in parent_of:  # compose child -> ... -> base_link
             parent, xyz, jrot = parent_of[node]
-            rotated = _apply(jrot, pos)
+            rotated = rotate(jrot, pos)
             pos = (rotated[0] + xyz[0], rotated[1] + xyz[1], rotated[2] + xyz[2])
-            rot = _matmul(jrot, rot)
+            rot = mat_mul(jrot, rot)
             node = parent
         links[name] = _Link(name, mass, com, inertia, pos, rot)
     return links
@@ -269,13 +245,13 @@ def _composite_inertia(links: dict[str, _Link]) -> tuple[float, Vec3, Mat3]:
     total = sum(link.mass_kg for link in links.values())
     centres = {}
     for name, link in links.items():
-        c = _apply(link.rotation_in_base, link.com_in_link_m)
+        c = rotate(link.rotation_in_base, link.com_in_link_m)
         centres[name] = (c[0] + link.origin_in_base_m[0], c[1] + link.origin_in_base_m[1], c[2] + link.origin_in_base_m[2])
     com = tuple(sum(links[n].mass_kg * centres[n][i] for n in links) / total for i in range(3))
     inertia = [[0.0] * 3 for _ in range(3)]
     for name, link in links.items():
         rot = link.rotation_in_base
-        local = _matmul(_matmul(rot, link.inertia_in_link), _transpose(rot))
+        local = mat_mul(mat_mul(rot, link.inertia_in_link), transpose(rot))
         d = tuple(centres[name][i] - com[i] for i in range(3))
         d2 = d[0] ** 2 + d[1] ** 2 + d[2] ** 2
         for i in range(3):
@@ -322,7 +298,7 @@ def _build(urdf: Path, params: Path, links: dict[str, _Link], table: dict[str, A
             spin = Spin(str(spin_text).lower())
         except ValueError:
             raise ConfigError(f"{params}: [rotors] spin.{name} must be \"ccw\" or \"cw\", got {spin_text!r}") from None
-        axis = _apply(links[name].rotation_in_base, (0.0, 0.0, 1.0))
+        axis = rotate(links[name].rotation_in_base, (0.0, 0.0, 1.0))
         if axis[2] < 0.999:
             raise ConfigError(f"{urdf.name}: link {name!r} must be level (its z axis along base_link z)")
         o = links[name].origin_in_base_m

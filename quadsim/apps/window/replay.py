@@ -12,6 +12,7 @@ os.environ.setdefault("PYGAME_HIDE_SUPPORT_PROMPT", "1")
 import pygame  # noqa: E402
 
 from quadsim.sensors.rig import CameraFrame  # noqa: E402
+from quadsim.core.kinematics import clamp  # noqa: E402
 from quadsim.core.types import Twist, VehicleState  # noqa: E402
 from quadsim.recording.flight import NS, RecordedFlight  # noqa: E402
 from quadsim.apps.window.view import TeleopView, ViewModel  # noqa: E402
@@ -76,7 +77,7 @@ class ReplayApp:
     # --- control ----------------------------------------------------------------------------
 
     def seek(self, t_s: float) -> None:
-        self.t_ns = int(max(0.0, min(t_s * NS, self.end_ns)))
+        self.t_ns = int(clamp(t_s * NS, 0.0, self.end_ns))
 
     def step_state(self, direction: int) -> None:
         self.playing = False
