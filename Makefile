@@ -4,7 +4,7 @@ VENV := .venv
 PY := $(VENV)/bin/python
 STAMP := $(VENV)/.installed
 
-.PHONY: fly test bench clean
+.PHONY: fly test lint bench clean
 
 $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
@@ -15,8 +15,14 @@ $(STAMP): pyproject.toml
 fly: $(STAMP)
 	$(PY) main.py fly
 
-## test: set up, then run the whole test suite headless
-test: $(STAMP)
+## lint: ruff (lint, import order, formatting) and mypy on the package
+lint: $(STAMP)
+	$(VENV)/bin/ruff check .
+	$(VENV)/bin/ruff format --check .
+	$(VENV)/bin/mypy
+
+## test: set up, lint, then run the whole test suite headless
+test: lint
 	SDL_VIDEODRIVER=dummy SDL_AUDIODRIVER=dummy $(PY) -m pytest
 
 bench: $(STAMP)

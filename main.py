@@ -1,4 +1,5 @@
 """quadsim command-line entry: `python main.py --help`."""
+
 import sys
 
 from quadsim.apps.cli import main

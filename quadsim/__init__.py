@@ -33,7 +33,22 @@ _PUBLIC = {
     "ZMode": "quadsim.core.types",
 }
 
-__all__ = [*sorted(_PUBLIC), "__version__"]
+__all__ = [
+    "ActiveCommand",
+    "ConfigError",
+    "ControllerKind",
+    "QuadsimError",
+    "Rates",
+    "ScriptError",
+    "SimConfig",
+    "Simulator",
+    "StartPose",
+    "StateLog",
+    "Twist",
+    "VehicleState",
+    "ZMode",
+    "__version__",
+]
 
 
 def __getattr__(name: str) -> Any:

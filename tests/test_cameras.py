@@ -8,13 +8,14 @@ import numpy as np
 import pytest
 
 from quadsim import SimConfig, Simulator, StartPose, Twist, ZMode
-from quadsim.sensors.camera import CameraSpec, RendererKind, decode_jpeg, default_cameras
-from quadsim.sensors.pipeline import CameraPipeline
-from quadsim.sensors.rig import CameraRig
-from quadsim.recording.contract import optical_rotation
 from quadsim.core.kinematics import matrix_from_quaternion
-from quadsim.vehicle.params import load_vehicle
 from quadsim.physics.world_spec import load_world
+from quadsim.recording.contract import optical_rotation
+from quadsim.sensors.camera import CameraSpec, RendererKind, default_cameras
+from quadsim.sensors.pipeline import CameraPipeline
+from quadsim.sensors.rendering import decode_jpeg
+from quadsim.sensors.rig import CameraRig
+from quadsim.vehicle.params import load_vehicle
 
 
 class Frames:
@@ -90,9 +91,10 @@ def test_camera_info_matches_the_rendered_projection(tmp_path):
     # optical frame of /tf_static must put it where the renderer drew it
     world = tmp_path / "marker.toml"
     world.write_text(
-        '[floor]\nsize_m = 40.0\ntexture_tile_m = 4.0\n'
+        "[floor]\nsize_m = 40.0\ntexture_tile_m = 4.0\n"
         '[[landmark]]\nname = "ball"\nshape = "sphere"\nposition_m = [4.0, 0.9, 2.7]\n'
-        'size_m = [0.12, 0.12, 0.12]\ncolor_rgba = [1.0, 0.0, 1.0, 1.0]\n')
+        "size_m = [0.12, 0.12, 0.12]\ncolor_rgba = [1.0, 0.0, 1.0, 1.0]\n"
+    )
     vehicle = load_vehicle()
     spec = CameraSpec("front", "front_camera_link", 320, 240, 60.0, 30)
     rig = CameraRig.standalone(vehicle, load_world(world), (spec,), RendererKind.TINY)

@@ -49,8 +49,13 @@ def _make(kind: str, folder: Path, good: Path) -> Path:
 
 
 def cli(*args):
-    return subprocess.run([sys.executable, str(ROOT / "main.py"), *map(str, args)], capture_output=True, text=True,
-                          cwd=ROOT, env={"PATH": "/usr/bin:/bin", "PYTHONPATH": str(ROOT)})
+    return subprocess.run(
+        [sys.executable, str(ROOT / "main.py"), *map(str, args)],
+        capture_output=True,
+        text=True,
+        cwd=ROOT,
+        env={"PATH": "/usr/bin:/bin", "PYTHONPATH": str(ROOT)},
+    )
 
 
 EXPECTED = {
@@ -81,7 +86,7 @@ def test_recover_refuses_what_it_cannot_use(kind, tmp_path, good):
     src = _make(kind, tmp_path, good)
     out = cli("recover", src)
     assert out.returncode == 2 and "Traceback" not in out.stderr
-    assert len([l for l in out.stderr.splitlines() if l.strip()]) == 1
+    assert len([line for line in out.stderr.splitlines() if line.strip()]) == 1
     assert not list(tmp_path.glob("*.recovered.mcap"))
 
 

@@ -6,8 +6,8 @@ import subprocess
 import sys
 from pathlib import Path
 
-from quadsim.control import ControllerKind
 from quadsim.apps.evaluate import fly
+from quadsim.control import ControllerKind
 
 ROOT = Path(__file__).resolve().parent.parent
 
@@ -16,7 +16,13 @@ def digest(states) -> str:
     h = hashlib.sha256()
     for s in states:
         h.update(struct.pack("<q", s.step))
-        for group in (s.position_m, s.orientation_xyzw, s.linear_velocity_mps, s.angular_velocity_body_rps, s.rotor_thrusts_n):
+        for group in (
+            s.position_m,
+            s.orientation_xyzw,
+            s.linear_velocity_mps,
+            s.angular_velocity_body_rps,
+            s.rotor_thrusts_n,
+        ):
             h.update(struct.pack(f"<{len(group)}d", *group))
     return h.hexdigest()
 
@@ -32,8 +38,14 @@ def test_seed_controller_is_deterministic_too():
 
 
 def test_two_processes_give_the_same_states():
-    code = ("import sys; sys.path.insert(0, %r); from tests.test_determinism import digest; "
-            "from quadsim.apps.evaluate import fly; print(digest(fly('square').states))") % str(ROOT)
-    outs = [subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True, cwd=ROOT).stdout.strip()
-            for _ in range(2)]
+    code = (
+        f"import sys; sys.path.insert(0, {str(ROOT)!r}); from tests.test_determinism import digest; "
+        "from quadsim.apps.evaluate import fly; print(digest(fly('square').states))"
+    )
+    outs = [
+        subprocess.run(
+            [sys.executable, "-c", code], capture_output=True, text=True, check=True, cwd=ROOT
+        ).stdout.strip()
+        for _ in range(2)
+    ]
     assert outs[0] == outs[1] == digest(fly("square").states)

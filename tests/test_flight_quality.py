@@ -4,8 +4,8 @@ import math
 
 import pytest
 
-from quadsim.control import ControllerKind
 from quadsim.apps.evaluate import SCENARIO_METRICS, TARGETS, envelope_metrics, fly
+from quadsim.control import ControllerKind
 
 
 @pytest.fixture(scope="module")

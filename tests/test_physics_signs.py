@@ -2,10 +2,10 @@
 
 import math
 
-from quadsim.physics.pybullet_quiet import pb
 import pytest
 
 from quadsim import SimConfig, Simulator, StartPose, Twist, ZMode
+from quadsim.physics.pybullet_quiet import pb
 
 
 def _hovering(start=StartPose(), z_mode=ZMode.HEIGHT) -> Simulator:
@@ -70,8 +70,9 @@ def test_plus_yaw_command_turns_counter_clockwise():
 def _spin_up(yaw_imbalance_n: float, hover_n: float) -> tuple[float, float, float]:
     with Simulator(SimConfig()) as sim:
         phys = sim.physics
-        pb.resetBasePositionAndOrientation(phys.body_id, (0, 0, 5), pb.getQuaternionFromEuler((0.5236, 0, 0)),
-                                           physicsClientId=phys.client_id)
+        pb.resetBasePositionAndOrientation(
+            phys.body_id, (0, 0, 5), pb.getQuaternionFromEuler((0.5236, 0, 0)), physicsClientId=phys.client_id
+        )
         forces = (hover_n, hover_n + yaw_imbalance_n, hover_n, hover_n + yaw_imbalance_n)
         phys.motors.reset(forces)
         for _ in range(24):

@@ -70,7 +70,11 @@ def test_stamps_equal_log_time_and_frames(recorded):
     for topic, msg, dec in decoded:
         assert msg.publish_time == msg.log_time
         assert msg.log_time % 1 == 0 and msg.log_time <= DURATION_S * 1e9
-        headers = [t.header for t in dec.transforms] if topic.startswith("/tf") else ([dec.header] if hasattr(dec, "header") else [])
+        headers = (
+            [t.header for t in dec.transforms]
+            if topic.startswith("/tf")
+            else ([dec.header] if hasattr(dec, "header") else [])
+        )
         for h in headers:
             assert h.stamp.sec * 1_000_000_000 + h.stamp.nanosec == msg.log_time, topic
         if topic.startswith("/tf"):
@@ -81,7 +85,9 @@ def test_stamps_equal_log_time_and_frames(recorded):
             assert dec.child_frame_id == "base_link"
     assert frames["/tf"] == {("world", "base_link")}
     assert frames["/tf_static"] == {("base_link", "front_camera_optical"), ("base_link", "floor_camera_optical")}
-    assert frames["/quad/pose"] == {"world"} and frames["/quad/odom"] == {"world"} and frames["/quad/imu"] == {"base_link"}
+    assert (
+        frames["/quad/pose"] == {"world"} and frames["/quad/odom"] == {"world"} and frames["/quad/imu"] == {"base_link"}
+    )
     assert frames["/quad/front_camera/image_raw/compressed"] == {"front_camera_optical"}
     assert frames["/quad/floor_camera/camera_info"] == {"floor_camera_optical"}
 

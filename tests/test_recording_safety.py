@@ -12,9 +12,9 @@ import pytest
 from mcap.reader import make_reader
 
 from quadsim import QuadsimError, SimConfig, Simulator, Twist, ZMode
+from quadsim.apps.outputs import OutputOptions, RecordedRun
 from quadsim.recording.salvage import scan
 from quadsim.recording.writer import McapRecorder, check_writable
-from quadsim.apps.outputs import OutputOptions, RecordedRun
 from tests.recording_helpers import record_flight
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -84,8 +84,22 @@ def test_refuses_to_start_where_it_cannot_write(tmp_path):
 def test_cli_refuses_unwritable_out_with_exit_2(tmp_path):
     blocker = tmp_path / "a_file"
     blocker.write_text("x")
-    out = subprocess.run([sys.executable, str(ROOT / "main.py"), "run", "--script", "hover", "--cameras", "none",
-                          "--out", str(blocker / "dir")], capture_output=True, text=True, cwd=ROOT)
+    out = subprocess.run(
+        [
+            sys.executable,
+            str(ROOT / "main.py"),
+            "run",
+            "--script",
+            "hover",
+            "--cameras",
+            "none",
+            "--out",
+            str(blocker / "dir"),
+        ],
+        capture_output=True,
+        text=True,
+        cwd=ROOT,
+    )
     assert out.returncode == 2 and "Traceback" not in out.stderr and "recording folder" in out.stderr
 
 
@@ -99,12 +113,11 @@ def test_exception_in_the_loop_still_finishes_the_file(tmp_path):
                 raise RuntimeError("a bug in some sink")
 
     path = tmp_path / "boom.mcap"
-    with pytest.raises(RuntimeError, match="a bug"):
-        with Simulator(SimConfig()) as sim:
-            with RecordedRun(sim, OutputOptions(out=path, cameras=()), "boom"):
-                sim.add_sink(Boom())
-                sim.send(Twist(linear_z=0.5))
-                sim.run_for(5.0)
+    with pytest.raises(RuntimeError, match="a bug"), Simulator(SimConfig()) as sim:
+        with RecordedRun(sim, OutputOptions(out=path, cameras=()), "boom"):
+            sim.add_sink(Boom())
+            sim.send(Twist(linear_z=0.5))
+            sim.run_for(5.0)
     counts = _summary_ok(path)  # finished properly: summary and index present
     assert counts["/quad/pose"] >= 119
 
@@ -124,9 +137,25 @@ def test_two_recorded_runs_give_identical_messages(tmp_path):
 
 def _start_recording(tmp_path: Path, *extra: str) -> tuple[subprocess.Popen, Path, float]:
     out = tmp_path / "killed.mcap"
-    proc = subprocess.Popen([sys.executable, str(ROOT / "main.py"), "run", "--script", "hover", "--realtime",
-                             "--cameras", "none", "--out", str(out), *extra],
-                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, cwd=ROOT)
+    proc = subprocess.Popen(
+        [
+            sys.executable,
+            str(ROOT / "main.py"),
+            "run",
+            "--script",
+            "hover",
+            "--realtime",
+            "--cameras",
+            "none",
+            "--out",
+            str(out),
+            *extra,
+        ],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+        cwd=ROOT,
+    )
     deadline = time.monotonic() + 60
     while time.monotonic() < deadline:
         line = proc.stdout.readline()
@@ -145,8 +174,9 @@ def test_sigkill_mid_run_recovers_all_but_the_last_second(tmp_path):
     killed_after = time.monotonic() - started
     proc.wait()
     assert not scan(out).complete  # cut short, as a crash leaves it: no footer
-    result = subprocess.run([sys.executable, str(ROOT / "main.py"), "recover", str(out)],
-                            capture_output=True, text=True, cwd=ROOT)
+    result = subprocess.run(
+        [sys.executable, str(ROOT / "main.py"), "recover", str(out)], capture_output=True, text=True, cwd=ROOT
+    )
     assert result.returncode == 0, result.stderr
     recovered = out.with_name("killed.recovered.mcap")
     counts = _summary_ok(recovered)

@@ -11,12 +11,12 @@ from mcap.reader import make_reader
 from mcap.writer import Writer
 
 from quadsim import QuadsimError, SimConfig
-from quadsim.apps.window.pacing import FixedStepPacer
-from quadsim.recording.flight import load_flight
-from quadsim.apps.window.replay import ReplayApp
-from quadsim.apps.resim import ATTITUDE_TOLERANCE_RAD, POSITION_TOLERANCE_M, resimulate
 from quadsim.apps.outputs import OutputOptions
+from quadsim.apps.resim import ATTITUDE_TOLERANCE_RAD, POSITION_TOLERANCE_M, resimulate
+from quadsim.apps.window.pacing import FixedStepPacer
+from quadsim.apps.window.replay import ReplayApp
 from quadsim.apps.window.teleop import TeleopApp, TeleopOptions
+from quadsim.recording.flight import load_flight
 from tests.recording_helpers import record_flight
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -24,11 +24,17 @@ RECORDINGS = sorted((ROOT / "tests" / "recordings").glob("*.mcap"))
 
 
 def cli(*args):
-    return subprocess.run([sys.executable, str(ROOT / "main.py"), *map(str, args)], capture_output=True, text=True,
-                          cwd=ROOT, env={"PATH": "/usr/bin:/bin", "PYTHONPATH": str(ROOT), "SDL_VIDEODRIVER": "dummy"})
+    return subprocess.run(
+        [sys.executable, str(ROOT / "main.py"), *map(str, args)],
+        capture_output=True,
+        text=True,
+        cwd=ROOT,
+        env={"PATH": "/usr/bin:/bin", "PYTHONPATH": str(ROOT), "SDL_VIDEODRIVER": "dummy"},
+    )
 
 
 # --- recordings as regression tests --------------------------------------------------------------
+
 
 def test_shipped_recordings_are_small_and_cover_both_controllers_and_teleop():
     assert len(RECORDINGS) >= 3
@@ -46,13 +52,16 @@ def test_recording_still_reflies(path):
 
 
 def test_fresh_interactive_recording_reflies_to_zero(tmp_path):
-    app = TeleopApp(SimConfig(), OutputOptions(out=tmp_path, cameras=()), TeleopOptions(),
-                    pacer=FixedStepPacer(240, 1 / 30))
+    app = TeleopApp(
+        SimConfig(), OutputOptions(out=tmp_path, cameras=()), TeleopOptions(), pacer=FixedStepPacer(240, 1 / 30)
+    )
     plan = {2: pygame.K_w, 40: pygame.K_TAB, 50: pygame.K_UP, 51: pygame.K_d}
 
     def events(a):
         if a.frame_count in plan:
-            pygame.event.post(pygame.event.Event(pygame.KEYDOWN, key=plan[a.frame_count], mod=0, unicode="", scancode=0))
+            pygame.event.post(
+                pygame.event.Event(pygame.KEYDOWN, key=plan[a.frame_count], mod=0, unicode="", scancode=0)
+            )
 
     app.run(max_frames=120, before_frame=events)
     app.close()
@@ -73,8 +82,10 @@ def _with_changed_attachment(src: Path, dst: Path, name: str, edit) -> None:
             w = Writer(out)
             w.start(header.profile, header.library)
             sids = {i: w.register_schema(s.name, s.encoding, s.data) for i, s in summary.schemas.items()}
-            cids = {i: w.register_channel(c.topic, c.message_encoding, sids[c.schema_id], c.metadata)
-                    for i, c in summary.channels.items()}
+            cids = {
+                i: w.register_channel(c.topic, c.message_encoding, sids[c.schema_id], c.metadata)
+                for i, c in summary.channels.items()
+            }
             for m in reader.iter_metadata():
                 w.add_metadata(m.name, m.metadata)
             for a in reader.iter_attachments():
@@ -90,8 +101,12 @@ def test_check_passes_then_fails_with_a_readable_report(tmp_path):
     assert out.returncode == 0, out.stdout + out.stderr
     assert f"{len(RECORDINGS)} of {len(RECORDINGS)} recordings re-fly" in out.stdout
     changed = tmp_path / "heavier_drag.mcap"
-    _with_changed_attachment(ROOT / "tests" / "recordings" / "square_cascade.mcap", changed, "quadsim_x.params.toml",
-                             lambda d: d.replace(b"[0.12, 0.12, 0.20]", b"[0.30, 0.30, 0.20]"))
+    _with_changed_attachment(
+        ROOT / "tests" / "recordings" / "square_cascade.mcap",
+        changed,
+        "quadsim_x.params.toml",
+        lambda d: d.replace(b"[0.12, 0.12, 0.20]", b"[0.30, 0.30, 0.20]"),
+    )
     out = cli("check", changed)
     assert out.returncode == 1
     assert "FAIL" in out.stdout and "/quad/pose position: max" in out.stdout
@@ -108,6 +123,7 @@ def test_check_on_unusable_files_exits_2(tmp_path):
 
 
 # --- re-simulation refuses what it cannot fly --------------------------------------------------------
+
 
 def _foreign(path: Path) -> Path:
     with open(path, "wb") as fh:
@@ -127,8 +143,12 @@ def test_resim_refuses_clearly(tmp_path):
     record_flight(path, cameras=False, script="silence 1.0\n")
     with pytest.raises(QuadsimError, match="no /quad_cmd_twist commands"):
         resimulate(load_flight(path))
-    app = TeleopApp(SimConfig(), OutputOptions(out=tmp_path / "mid", record=False, cameras=()), TeleopOptions(),
-                    pacer=FixedStepPacer(240, 1 / 30))
+    app = TeleopApp(
+        SimConfig(),
+        OutputOptions(out=tmp_path / "mid", record=False, cameras=()),
+        TeleopOptions(),
+        pacer=FixedStepPacer(240, 1 / 30),
+    )
     app.run(max_frames=10)
     app.toggle_recording()  # started mid-flight
     app.run(max_frames=20)
@@ -146,6 +166,7 @@ def test_cli_resim_on_damaged_file(tmp_path):
 
 
 # --- headless playback ------------------------------------------------------------------------------
+
 
 @pytest.fixture(scope="module")
 def with_cameras(tmp_path_factory):
@@ -183,6 +204,7 @@ def test_playback_of_a_foreign_file_shows_what_is_there(tmp_path):
 
 # --- the playback window ---------------------------------------------------------------------------
 
+
 def key(k):
     pygame.event.post(pygame.event.Event(pygame.KEYDOWN, key=k, mod=0, unicode="", scancode=0))
 
@@ -208,7 +230,9 @@ def test_playback_window_controls(with_cameras):
     assert app.speed == 0.25
     # a click on the timeline seeks there
     bar = app.view.layout(app.screen.get_size())["timeline"]
-    pygame.event.post(pygame.event.Event(pygame.MOUSEBUTTONDOWN, button=1, pos=(bar.x + bar.width * 3 // 4, bar.centery)))
+    pygame.event.post(
+        pygame.event.Event(pygame.MOUSEBUTTONDOWN, button=1, pos=(bar.x + bar.width * 3 // 4, bar.centery))
+    )
     app.run(max_frames=14)
     assert app.t_ns / 1e9 == pytest.approx(0.75 * 3.0, abs=0.05)
     key(pygame.K_LEFT)  # 5 s back: clamps at the start

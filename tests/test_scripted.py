@@ -7,7 +7,9 @@ from quadsim.drivers.scripted import ScriptedDriver, builtin_scenarios, load_scr
 
 
 def test_parse_segments_and_z_mode():
-    script = parse_script("# demo\nz_mode height\n2.0 linear.z=0.5  # up\n1.5 linear.x=1 angular.z=-0.5\n1\nsilence 2\n")
+    script = parse_script(
+        "# demo\nz_mode height\n2.0 linear.z=0.5  # up\n1.5 linear.x=1 angular.z=-0.5\n1\nsilence 2\n"
+    )
     assert script.z_mode is ZMode.HEIGHT
     assert [s.duration_s for s in script.segments] == [2.0, 1.5, 1.0, 2.0]
     assert script.segments[1].twist == Twist(linear_x=1.0, angular_z=-0.5)
@@ -15,13 +17,16 @@ def test_parse_segments_and_z_mode():
     assert script.duration_s == 6.5
 
 
-@pytest.mark.parametrize("text,line,words", [
-    ("1.0 linear.x=1\nfast linear.x=2\n", 2, "duration must be a number"),
-    ("1.0\n\n2.0 linear.q=1\n", 3, "FIELD=VALUE"),
-    ("z_mode sideways\n", 1, "z_mode"),
-    ("-1.0\n", 1, "> 0"),
-    ("1.0 linear.x=nan\n", 1, "finite"),
-])
+@pytest.mark.parametrize(
+    "text,line,words",
+    [
+        ("1.0 linear.x=1\nfast linear.x=2\n", 2, "duration must be a number"),
+        ("1.0\n\n2.0 linear.q=1\n", 3, "FIELD=VALUE"),
+        ("z_mode sideways\n", 1, "z_mode"),
+        ("-1.0\n", 1, "> 0"),
+        ("1.0 linear.x=nan\n", 1, "finite"),
+    ],
+)
 def test_errors_name_the_line(text, line, words):
     with pytest.raises(ScriptError) as err:
         parse_script(text, "my.qscript")

@@ -8,17 +8,22 @@ from mcap.reader import make_reader
 from mcap_ros2.decoder import DecoderFactory
 
 from quadsim import SimConfig, ZMode
-from quadsim.drivers.joystick import JoystickMapping, apply_deadzone
-from quadsim.apps.window.pacing import FixedStepPacer
 from quadsim.apps.outputs import OutputOptions
+from quadsim.apps.window.pacing import FixedStepPacer
 from quadsim.apps.window.teleop import TeleopApp, TeleopOptions
+from quadsim.drivers.joystick import JoystickMapping, apply_deadzone
 
 FPS = 30  # each frame advances 1/30 s of simulation time
 
 
 def make_app(tmp_path: Path, cameras=(), options=TeleopOptions(), config=SimConfig(), **kw) -> TeleopApp:
-    return TeleopApp(config, OutputOptions(out=tmp_path, cameras=cameras, render_workers=0), options,
-                     pacer=FixedStepPacer(240, 1 / FPS), **kw)
+    return TeleopApp(
+        config,
+        OutputOptions(out=tmp_path, cameras=cameras, render_workers=0),
+        options,
+        pacer=FixedStepPacer(240, 1 / FPS),
+        **kw,
+    )
 
 
 def post(kind, **fields):
@@ -48,10 +53,16 @@ def twist_messages(path: Path):
 
 def test_keys_fly_where_they_say_and_are_recorded(tmp_path):
     app = make_app(tmp_path)
-    run_with(app, 150, {
-        0: [lambda: key(pygame.K_w)], 60: [lambda: key(pygame.K_w, False)],      # climb 2 s
-        75: [lambda: key(pygame.K_UP)], 135: [lambda: key(pygame.K_UP, False)],  # forward 2 s
-    })
+    run_with(
+        app,
+        150,
+        {
+            0: [lambda: key(pygame.K_w)],
+            60: [lambda: key(pygame.K_w, False)],  # climb 2 s
+            75: [lambda: key(pygame.K_UP)],
+            135: [lambda: key(pygame.K_UP, False)],  # forward 2 s
+        },
+    )
     x, y, z = app.sim.state.position_m
     assert 1.3 < z < 1.8  # 2 s at 0.8 m/s
     assert x > 1.2 and abs(y) < 0.05
@@ -127,8 +138,9 @@ def test_pause_reset_zmode_and_recording_keys(tmp_path):
 
 
 def test_speed_keys_and_teleop_twist_layout(tmp_path):
-    app = make_app(tmp_path, options=TeleopOptions(keyboard_layout="teleop_twist_keyboard"),
-                   config=SimConfig(z_mode=ZMode.HEIGHT))
+    app = make_app(
+        tmp_path, options=TeleopOptions(keyboard_layout="teleop_twist_keyboard"), config=SimConfig(z_mode=ZMode.HEIGHT)
+    )
     run_with(app, 40, {5: [lambda: key(pygame.K_q)], 10: [lambda: key(pygame.K_i)]})
     assert app.sim.gate.last_command.linear_x == pytest.approx(1.1)
     run_with(app, 5, {0: [lambda: key(pygame.K_k)]})  # k: stop
@@ -146,10 +158,10 @@ def test_window_shows_both_cameras_map_and_hud(tmp_path):
     rects = app.view.layout(app.screen.get_size())
     for name in ("front", "floor"):
         r = rects[name]
-        region = pixels[r.top + 30:r.bottom - 30, r.left + 10:r.right - 10]
+        region = pixels[r.top + 30 : r.bottom - 30, r.left + 10 : r.right - 10]
         assert region.std() > 20, f"{name} camera area is flat"
     m = rects["map"]
-    colours = {tuple(c) for c in pixels[m.top:m.bottom, m.left:m.right].reshape(-1, 3)}
+    colours = {tuple(c) for c in pixels[m.top : m.bottom, m.left : m.right].reshape(-1, 3)}
     assert (255, 70, 70) in colours  # the vehicle's arrow
     assert (216, 30, 25) in colours and (38, 76, 216) in colours  # the red tower, the blue block
     front = rects["front"]
@@ -171,12 +183,23 @@ class FakeJoystick:
         self.buttons = [0] * 11
         self.instance_id = instance_id
 
-    def get_name(self): return "Fake Pad"
-    def get_instance_id(self): return self.instance_id
-    def get_numaxes(self): return len(self.axes)
-    def get_axis(self, i): return self.axes[i]
-    def get_numbuttons(self): return len(self.buttons)
-    def get_button(self, i): return self.buttons[i]
+    def get_name(self):
+        return "Fake Pad"
+
+    def get_instance_id(self):
+        return self.instance_id
+
+    def get_numaxes(self):
+        return len(self.axes)
+
+    def get_axis(self, i):
+        return self.axes[i]
+
+    def get_numbuttons(self):
+        return len(self.buttons)
+
+    def get_button(self, i):
+        return self.buttons[i]
 
 
 def test_deadzone_is_rescaled_and_continuous():
@@ -188,15 +211,19 @@ def test_deadzone_is_rescaled_and_continuous():
 
 def test_joystick_mode2_mapping_unplug_replug(tmp_path):
     pad = FakeJoystick()
-    app = make_app(tmp_path, options=TeleopOptions(input="joystick"), config=SimConfig(z_mode=ZMode.VELOCITY),
-                   device_factory=lambda index: pad)
+    app = make_app(
+        tmp_path,
+        options=TeleopOptions(input="joystick"),
+        config=SimConfig(z_mode=ZMode.VELOCITY),
+        device_factory=lambda index: pad,
+    )
     assert app.driver is app.joystick
     run_with(app, 2, {0: [lambda: post(pygame.JOYDEVICEADDED, device_index=0)]})
     assert app.joystick.device is pad
     pad.axes[1] = -0.55  # left stick up: climb
     pad.axes[4] = -0.55  # right stick up: forward
-    pad.axes[3] = 0.05   # right stick x inside the deadzone: nothing sideways
-    pad.axes[0] = -1.0   # left stick full left: yaw counter-clockwise
+    pad.axes[3] = 0.05  # right stick x inside the deadzone: nothing sideways
+    pad.axes[0] = -1.0  # left stick full left: yaw counter-clockwise
     run_with(app, 60)
     c = app.sim.gate.last_command
     assert c.linear_z == pytest.approx(0.5 * 1.0) and c.linear_x == pytest.approx(0.5 * 1.5)
@@ -221,8 +248,9 @@ def test_joystick_mode2_mapping_unplug_replug(tmp_path):
 def test_enable_and_turbo_buttons_gate_motion(tmp_path):
     pad = FakeJoystick()
     mapping = JoystickMapping(enable_button=4, turbo_button=5)
-    app = make_app(tmp_path, options=TeleopOptions(input="joystick", joystick_mapping=mapping),
-                   device_factory=lambda index: pad)
+    app = make_app(
+        tmp_path, options=TeleopOptions(input="joystick", joystick_mapping=mapping), device_factory=lambda index: pad
+    )
     run_with(app, 2, {0: [lambda: post(pygame.JOYDEVICEADDED, device_index=0)]})
     pad.axes[4] = -1.0
     run_with(app, 10)

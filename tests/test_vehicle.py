@@ -80,5 +80,5 @@ def test_missing_files_are_named(tmp_path):
         load_vehicle(tmp_path / "nope.urdf")
     urdf = tmp_path / "lonely.urdf"
     shutil.copy(DEFAULT_URDF, urdf)
-    with pytest.raises(ConfigError, match="lonely.params.toml"):
+    with pytest.raises(ConfigError, match=r"lonely\.params\.toml"):
         load_vehicle(urdf)

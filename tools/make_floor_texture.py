@@ -19,7 +19,7 @@ def main() -> None:
     palette = [(96, 140, 92), (120, 150, 100), (88, 128, 110), (130, 138, 96)]  # grass-like, BGR
     for i in range(4):
         for j in range(4):
-            img[i * per_m:(i + 1) * per_m, j * per_m:(j + 1) * per_m] = palette[(i + 2 * j) % 4]
+            img[i * per_m : (i + 1) * per_m, j * per_m : (j + 1) * per_m] = palette[(i + 2 * j) % 4]
     for k in range(0, PIXELS, per_m // 4):
         cv2.line(img, (k, 0), (k, PIXELS - 1), (70, 90, 70), 1)
         cv2.line(img, (0, k), (PIXELS - 1, k), (70, 90, 70), 1)

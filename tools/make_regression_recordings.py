@@ -17,10 +17,10 @@ os.environ.setdefault("PYGAME_HIDE_SUPPORT_PROMPT", "1")
 import pygame  # noqa: E402
 
 from quadsim import ControllerKind, SimConfig, Simulator, ZMode  # noqa: E402
-from quadsim.drivers.scripted import ScriptedDriver, load_script  # noqa: E402
-from quadsim.apps.window.pacing import FixedStepPacer  # noqa: E402
 from quadsim.apps.outputs import OutputOptions, RecordedRun  # noqa: E402
+from quadsim.apps.window.pacing import FixedStepPacer  # noqa: E402
 from quadsim.apps.window.teleop import TeleopApp, TeleopOptions  # noqa: E402
+from quadsim.drivers.scripted import ScriptedDriver, load_script  # noqa: E402
 
 OUT = ROOT / "tests" / "recordings"
 
@@ -40,18 +40,34 @@ def keyboard_session() -> Path:
     """An interactive session flown with synthetic key events, switching z-mode on the way."""
     path = OUT / "keyboard_session_cascade.mcap"
     path.unlink(missing_ok=True)
-    app = TeleopApp(SimConfig(), OutputOptions(out=path, cameras=()), TeleopOptions(input="keyboard"),
-                    pacer=FixedStepPacer(240, 1 / 30))
-    plan = {3: (pygame.K_w, True), 70: (pygame.K_w, False), 80: (pygame.K_UP, True), 95: (pygame.K_a, True),
-            140: (pygame.K_a, False), 170: (pygame.K_UP, False), 180: (pygame.K_TAB, True),
-            200: (pygame.K_LEFT, True), 215: (pygame.K_w, True), 240: (pygame.K_w, False),
-            250: (pygame.K_LEFT, False), 260: (pygame.K_SPACE, True), 270: (pygame.K_SPACE, False)}
+    app = TeleopApp(
+        SimConfig(),
+        OutputOptions(out=path, cameras=()),
+        TeleopOptions(input="keyboard"),
+        pacer=FixedStepPacer(240, 1 / 30),
+    )
+    plan = {
+        3: (pygame.K_w, True),
+        70: (pygame.K_w, False),
+        80: (pygame.K_UP, True),
+        95: (pygame.K_a, True),
+        140: (pygame.K_a, False),
+        170: (pygame.K_UP, False),
+        180: (pygame.K_TAB, True),
+        200: (pygame.K_LEFT, True),
+        215: (pygame.K_w, True),
+        240: (pygame.K_w, False),
+        250: (pygame.K_LEFT, False),
+        260: (pygame.K_SPACE, True),
+        270: (pygame.K_SPACE, False),
+    }
 
     def events(a: TeleopApp) -> None:
         if a.frame_count in plan:
             key, down = plan[a.frame_count]
-            pygame.event.post(pygame.event.Event(pygame.KEYDOWN if down else pygame.KEYUP, key=key, mod=0,
-                                                 unicode="", scancode=0))
+            pygame.event.post(
+                pygame.event.Event(pygame.KEYDOWN if down else pygame.KEYUP, key=key, mod=0, unicode="", scancode=0)
+            )
 
     app.run(max_frames=330, before_frame=events)
     app.close()
@@ -60,6 +76,10 @@ def keyboard_session() -> Path:
 
 if __name__ == "__main__":
     OUT.mkdir(parents=True, exist_ok=True)
-    for made in (scripted("square", ControllerKind.CASCADE), scripted("figure8", ControllerKind.SEED),
-                 scripted("climb", ControllerKind.CASCADE), keyboard_session()):
+    for made in (
+        scripted("square", ControllerKind.CASCADE),
+        scripted("figure8", ControllerKind.SEED),
+        scripted("climb", ControllerKind.CASCADE),
+        keyboard_session(),
+    ):
         print(f"{made.relative_to(ROOT)}: {made.stat().st_size / 1e3:.0f} kB")

@@ -11,17 +11,15 @@ Each figure is the best of several repeats (the least disturbed by other work on
 from __future__ import annotations
 
 import time
+from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Callable
-
-from quadsim.physics.pybullet_quiet import pb
 
 from quadsim.control import ControllerKind
-from quadsim.sim.config import Rates
-from quadsim.sim.loop import StateLog
 from quadsim.core.types import Twist, ZMode
+from quadsim.physics.pybullet_quiet import pb
 from quadsim.physics.pybullet_world import PhysicsWorld
-from quadsim.sim.config import SimConfig
+from quadsim.sim.config import Rates, SimConfig
+from quadsim.sim.loop import StateLog
 from quadsim.sim.simulator import Simulator
 
 
@@ -40,7 +38,7 @@ class Figure:
         return self.steps_per_s / self.physics_hz
 
 
-def _best_of(repeats: int, steps: int, run: Callable[[int], None]) -> float:
+def _best_of(repeats: int, steps: int, run: Callable[[int], object]) -> float:
     """Seconds per step, best of `repeats` timed runs of `steps` steps."""
     best = float("inf")
     for _ in range(repeats):
@@ -130,7 +128,9 @@ def full_loop(steps: int, repeats: int, controller: ControllerKind = ControllerK
         sim.close()
 
 
-def run_flight_core_bench(steps: int = 24000, repeats: int = 3, out: Callable[[str], None] = print) -> dict[str, Figure]:
+def run_flight_core_bench(
+    steps: int = 24000, repeats: int = 3, out: Callable[[str], None] = print
+) -> dict[str, Figure]:
     out(f"quadsim bench: flight core ({steps} steps per run, best of {repeats}; 240 Hz physics)")
     base = bare_pybullet_loop(steps, repeats)
     figures = {
@@ -143,26 +143,36 @@ def run_flight_core_bench(steps: int = 24000, repeats: int = 3, out: Callable[[s
     out(f"  {'':46s} {'us/step':>8s} {'steps/s':>9s} {'x real time':>11s} {'x baseline':>10s}")
     for fig in figures.values():
         ratio = fig.seconds_per_step / base.seconds_per_step
-        out(f"  {fig.name:46s} {fig.seconds_per_step * 1e6:8.1f} {fig.steps_per_s:9.0f} "
-            f"{fig.real_time_factor:10.1f}x {ratio:9.2f}x")
+        out(
+            f"  {fig.name:46s} {fig.seconds_per_step * 1e6:8.1f} {fig.steps_per_s:9.0f} "
+            f"{fig.real_time_factor:10.1f}x {ratio:9.2f}x"
+        )
     cascade = figures["cascade"]
     ok_rt = cascade.real_time_factor >= 100.0
     ok_ratio = cascade.seconds_per_step <= 3.0 * base.seconds_per_step
-    out(f"  target: full loop >= 100x real time [{'met' if ok_rt else 'MISSED'}], "
-        f"within 3x of the baseline [{'met' if ok_ratio else 'MISSED'}]")
+    out(
+        f"  target: full loop >= 100x real time [{'met' if ok_rt else 'MISSED'}], "
+        f"within 3x of the baseline [{'met' if ok_ratio else 'MISSED'}]"
+    )
     return figures
 
 
 # --- cameras and recording ---------------------------------------------------------------------
 
+
 def _camera_client(sim: Simulator):
     """The cameras' view from a vehicle hovering at 2 m in the default world."""
-    from quadsim.sensors.camera import camera_pose, default_cameras, projection_matrix, view_matrix
+    from quadsim.sensors.camera import camera_pose, default_cameras
+    from quadsim.sensors.rendering import projection_matrix, view_matrix
 
     cams = default_cameras()
     state = sim.state
-    views = {c.name: view_matrix(camera_pose(sim.vehicle.camera_mount(c.link_name), state.position_m,
-                                             state.orientation_xyzw)) for c in cams}
+    views = {
+        c.name: view_matrix(
+            camera_pose(sim.vehicle.camera_mount(c.link_name), state.position_m, state.orientation_xyzw)
+        )
+        for c in cams
+    }
     return cams, views, {c.name: projection_matrix(c) for c in cams}
 
 
@@ -171,9 +181,9 @@ def camera_costs(frames: int, repeats: int, out: Callable[[str], None]) -> dict[
     import tempfile
     from pathlib import Path
 
+    from quadsim.recording.writer import McapRecorder
     from quadsim.sensors.camera import RendererKind
     from quadsim.sensors.rig import CameraRig
-    from quadsim.recording.writer import McapRecorder
 
     sim = _hovering_sim(ControllerKind.CASCADE, Rates())
     cams, views, projs = _camera_client(sim)
@@ -184,10 +194,17 @@ def camera_costs(frames: int, repeats: int, out: Callable[[str], None]) -> dict[
     with tempfile.TemporaryDirectory() as tmp:
         rec = McapRecorder(Path(tmp) / "bench.mcap", sim, cams)
         for cam in cams:
+
             def bare(n: int, cam=cam) -> None:
                 for _ in range(n):
-                    pb.getCameraImage(cam.width_px, cam.height_px, views[cam.name], projs[cam.name],
-                                      renderer=pb.ER_TINY_RENDERER, physicsClientId=cid)
+                    pb.getCameraImage(
+                        cam.width_px,
+                        cam.height_px,
+                        views[cam.name],
+                        projs[cam.name],
+                        renderer=pb.ER_TINY_RENDERER,
+                        physicsClientId=cid,
+                    )
 
             def pipeline(n: int, cam=cam) -> None:
                 for i in range(n):
@@ -213,9 +230,9 @@ def recorded_flight(duration_s: float, cameras: bool, workers: int) -> tuple[flo
     import tempfile
     from pathlib import Path
 
-    from quadsim.sensors.camera import default_cameras
-    from quadsim.drivers.scripted import ScriptedDriver, load_script
     from quadsim.apps.outputs import OutputOptions, RecordedRun
+    from quadsim.drivers.scripted import ScriptedDriver, load_script
+    from quadsim.sensors.camera import default_cameras
 
     script = load_script("square")
     with tempfile.TemporaryDirectory() as tmp:
@@ -243,13 +260,18 @@ def run_recording_bench(out: Callable[[str], None] = print, flight_s: float = 20
     out(f"  both cameras 320x240@30Hz, 2 render workers          {rtf_cam:11.2f}x")
     out(f"  both cameras 320x240@30Hz, rendered in-process      {rtf_cam1:11.2f}x")
     out(f"  no cameras (flight core alone: {core.real_time_factor:.0f}x)               {rtf_nocam:11.1f}x")
-    out(f"  target: with cameras >= 1.5x [{'met' if rtf_cam >= 1.5 else 'MISSED'}]; "
-        f"without cameras >= 100x [{'met' if rtf_nocam >= 100 else 'MISSED'}]")
-    out(f"  one minute of recording: {size_cam / flight_s * 60 / 1e6:.1f} MB with both cameras, "
-        f"{size_nocam / 1e6:.2f} MB without")
+    out(
+        f"  target: with cameras >= 1.5x [{'met' if rtf_cam >= 1.5 else 'MISSED'}]; "
+        f"without cameras >= 100x [{'met' if rtf_nocam >= 100 else 'MISSED'}]"
+    )
+    out(
+        f"  one minute of recording: {size_cam / flight_s * 60 / 1e6:.1f} MB with both cameras, "
+        f"{size_nocam / 1e6:.2f} MB without"
+    )
 
 
 # --- the interactive window ---------------------------------------------------------------------
+
 
 class _Timer:
     """Wraps a method of an object so the time spent in it is added up under a name."""
@@ -282,8 +304,10 @@ def run_interactive_bench(out: Callable[[str], None] = print, wall_s: float = 10
     from quadsim.apps.outputs import OutputOptions
     from quadsim.apps.window.teleop import TeleopApp, TeleopOptions
 
-    out("quadsim bench: interactive window (SDL dummy video, real-time pacing, 1280x720, "
-        "both cameras 320x240@30Hz, recording on)")
+    out(
+        "quadsim bench: interactive window (SDL dummy video, real-time pacing, 1280x720, "
+        "both cameras 320x240@30Hz, recording on)"
+    )
     with tempfile.TemporaryDirectory() as tmp:
         app = TeleopApp(SimConfig(z_mode=ZMode.HEIGHT), OutputOptions(out=Path(tmp)), TeleopOptions(input="keyboard"))
         try:
@@ -311,13 +335,19 @@ def run_interactive_bench(out: Callable[[str], None] = print, wall_s: float = 10
             # poll() are counted under recording, so take them out of cameras
             shares["cameras"] = shares.get("cameras", 0.0) + shares.pop("cameras+", 0.0)
             busy = sum(shares.values())
-            out(f"  {frames / wall:.1f} frames/s over {wall:.1f} s (target >= 30), sim at {sim_s / wall:.2f}x real time, "
-                f"{lagging} frames behind real time")
-            out("  share of the frame time: " + ", ".join(
-                f"{k} {v / wall * 100:.1f}%" for k, v in sorted(shares.items(), key=lambda kv: -kv[1]))
-                + f", idle/other {max(0.0, wall - busy) / wall * 100:.1f}%")
-            out("  (cameras: submitting jobs to the render workers and taking frames back; the rendering itself "
-                "runs in the workers, on the other core)")
+            out(
+                f"  {frames / wall:.1f} frames/s over {wall:.1f} s (target >= 30), sim at {sim_s / wall:.2f}x real time, "
+                f"{lagging} frames behind real time"
+            )
+            out(
+                "  share of the frame time: "
+                + ", ".join(f"{k} {v / wall * 100:.1f}%" for k, v in sorted(shares.items(), key=lambda kv: -kv[1]))
+                + f", idle/other {max(0.0, wall - busy) / wall * 100:.1f}%"
+            )
+            out(
+                "  (cameras: submitting jobs to the render workers and taking frames back; the rendering itself "
+                "runs in the workers, on the other core)"
+            )
 
             # key latency: from the key event to the first changed rotor command
             log: list[tuple[int, tuple]] = []
@@ -342,17 +372,20 @@ def run_interactive_bench(out: Callable[[str], None] = print, wall_s: float = 10
                     changed_wall = time.perf_counter()
             poll_step = app.sim.gate.last_receive_step
             first_change = next((s for s, f in log if f != before), None)
-            if changed_wall is None or poll_step == receive_before or first_change is None:
+            if changed_wall is None or poll_step is None or poll_step == receive_before or first_change is None:
                 out("  key latency: no change seen within 2 s")
             else:
-                out(f"  key latency: the first changed rotor command came {first_change - poll_step} control step(s) "
+                out(
+                    f"  key latency: the first changed rotor command came {first_change - poll_step} control step(s) "
                     f"after the event was polled (target <= 1); {(changed_wall - t_post) * 1e3:.1f} ms from the "
-                    f"event to the end of the frame that applied it")
+                    f"event to the end of the frame that applied it"
+                )
         finally:
             app.close()
 
 
 # --- replay ----------------------------------------------------------------------------------------
+
 
 def run_replay_bench(out: Callable[[str], None] = print, flight_s: float = 20.0) -> None:
     """Headless playback read speed (recording with both cameras), and re-simulation speed
@@ -360,12 +393,12 @@ def run_replay_bench(out: Callable[[str], None] = print, flight_s: float = 20.0)
     import tempfile
     from pathlib import Path
 
-    from quadsim.sensors.camera import default_cameras
-    from quadsim.drivers.scripted import ScriptedDriver, load_script
-    from quadsim.recording.flight import load_flight
+    from quadsim.apps.outputs import OutputOptions, RecordedRun
     from quadsim.apps.replay_export import summary_lines
     from quadsim.apps.resim import resimulate
-    from quadsim.apps.outputs import OutputOptions, RecordedRun
+    from quadsim.drivers.scripted import ScriptedDriver, load_script
+    from quadsim.recording.flight import load_flight
+    from quadsim.sensors.camera import default_cameras
 
     out("quadsim bench: replay")
     script = load_script("square")
@@ -383,8 +416,10 @@ def run_replay_bench(out: Callable[[str], None] = print, flight_s: float = 20.0)
             summary_lines(flight)
             best = min(best, time.perf_counter() - t0)
         size = paths["cams"].stat().st_size / 1e6
-        out(f"  headless playback of {flight_s:.0f} s with both cameras ({size:.1f} MB, "
-            f"{sum(flight.topics.values())} messages): {best:.2f} s, {flight_s / best:.0f}x real time (target >= 50x)")
+        out(
+            f"  headless playback of {flight_s:.0f} s with both cameras ({size:.1f} MB, "
+            f"{sum(flight.topics.values())} messages): {best:.2f} s, {flight_s / best:.0f}x real time (target >= 50x)"
+        )
         core = full_loop(12000, 3)
         flight = load_flight(paths["nocams"])
         best, best_stepping = float("inf"), float("inf")
@@ -393,6 +428,8 @@ def run_replay_bench(out: Callable[[str], None] = print, flight_s: float = 20.0)
             report = resimulate(flight, record=False)
             best = min(best, time.perf_counter() - t0)
             best_stepping = min(best_stepping, report.stepping_wall_s)
-        out(f"  re-simulation of {flight_s:.0f} s without cameras: flying {report.sim_time_s / best_stepping:.0f}x real "
+        out(
+            f"  re-simulation of {flight_s:.0f} s without cameras: flying {report.sim_time_s / best_stepping:.0f}x real "
             f"time (flight core {core.real_time_factor:.0f}x in the same run); {flight_s / best:.0f}x including "
-            f"loading, building the world and comparing; max position error {report.position.max_error:g} m")
+            f"loading, building the world and comparing; max position error {report.position.max_error:g} m"
+        )

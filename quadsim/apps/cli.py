@@ -9,59 +9,106 @@ import sys
 from pathlib import Path
 
 from quadsim import __version__
-from quadsim.sensors.camera import RendererKind
 from quadsim.control import ControllerKind
+from quadsim.core.types import StartPose, ZMode
 from quadsim.errors import QuadsimError
+from quadsim.sensors.camera import RendererKind
 from quadsim.sim.config import Rates
-from quadsim.core.types import ZMode
-from quadsim.core.types import StartPose
 
 DEMO_SCENARIO = "figure8"
 
 
 def _add_sim_options(p: argparse.ArgumentParser) -> None:
     g = p.add_argument_group("simulation")
-    g.add_argument("--controller", choices=[c.value for c in ControllerKind], default=ControllerKind.CASCADE.value,
-                   help="cascade (default): velocity->attitude->rate; seed: port of the original V-REP controller")
-    g.add_argument("--z-mode", choices=[z.value for z in ZMode], default=None,
-                   help="how linear.z is read: velocity = climb rate m/s; height = altitude 2.0+z m "
-                        "(default: what the script says, else velocity)")
+    g.add_argument(
+        "--controller",
+        choices=[c.value for c in ControllerKind],
+        default=ControllerKind.CASCADE.value,
+        help="cascade (default): velocity->attitude->rate; seed: port of the original V-REP controller",
+    )
+    g.add_argument(
+        "--z-mode",
+        choices=[z.value for z in ZMode],
+        default=None,
+        help="how linear.z is read: velocity = climb rate m/s; height = altitude 2.0+z m "
+        "(default: what the script says, else velocity)",
+    )
     g.add_argument("--urdf", type=Path, default=None, help="vehicle URDF (default: assets/urdf/quadsim_x.urdf)")
     g.add_argument("--world", type=Path, default=None, help="world file (default: assets/worlds/default.toml)")
     g.add_argument("--physics-hz", type=int, default=240, help="physics rate (default 240)")
-    g.add_argument("--control-hz", type=int, default=240, help="controller rate; must divide the physics rate (default 240)")
-    g.add_argument("--state-hz", type=int, default=60, help="state publishing rate; must divide the physics rate (default 60)")
+    g.add_argument(
+        "--control-hz", type=int, default=240, help="controller rate; must divide the physics rate (default 240)"
+    )
+    g.add_argument(
+        "--state-hz", type=int, default=60, help="state publishing rate; must divide the physics rate (default 60)"
+    )
     g.add_argument("--input-hz", type=int, default=20, help="command publishing rate of the driver (default 20)")
-    g.add_argument("--timeout", type=float, default=0.5, metavar="S",
-                   help="dead-man timeout: hold position after S seconds without a command (default 0.5)")
+    g.add_argument(
+        "--timeout",
+        type=float,
+        default=0.5,
+        metavar="S",
+        help="dead-man timeout: hold position after S seconds without a command (default 0.5)",
+    )
     g.add_argument("--gui", action="store_true", help="also open PyBullet's own 3D window (needs a display)")
     o = p.add_argument_group("recording and cameras")
-    o.add_argument("--out", type=Path, default=None, metavar="DIR|FILE",
-                   help="where the MCAP recording goes: a folder (a dated name is made) or a .mcap file "
-                        "(default: recordings/)")
+    o.add_argument(
+        "--out",
+        type=Path,
+        default=None,
+        metavar="DIR|FILE",
+        help="where the MCAP recording goes: a folder (a dated name is made) or a .mcap file (default: recordings/)",
+    )
     o.add_argument("--no-record", action="store_true", help="do not record")
-    o.add_argument("--cameras", default="front,floor", metavar="LIST",
-                   help="onboard cameras to render: front,floor (default), front, floor or none")
-    o.add_argument("--camera-size", default="320x240", metavar="WxH", help="image size of each camera (default 320x240)")
-    o.add_argument("--camera-hz", type=int, default=30, help="frame rate of each camera; must divide the physics rate (default 30)")
-    o.add_argument("--renderer", choices=[r.value for r in RendererKind], default=RendererKind.TINY.value,
-                   help="tiny: PyBullet's CPU TinyRenderer (default); egl: PyBullet's EGL plugin, where a driver exists")
-    o.add_argument("--render-workers", type=int, default=2, metavar="N",
-                   help="render processes, so rendering uses other cores while physics steps (default 2; 0 = in-process)")
+    o.add_argument(
+        "--cameras",
+        default="front,floor",
+        metavar="LIST",
+        help="onboard cameras to render: front,floor (default), front, floor or none",
+    )
+    o.add_argument(
+        "--camera-size", default="320x240", metavar="WxH", help="image size of each camera (default 320x240)"
+    )
+    o.add_argument(
+        "--camera-hz", type=int, default=30, help="frame rate of each camera; must divide the physics rate (default 30)"
+    )
+    o.add_argument(
+        "--renderer",
+        choices=[r.value for r in RendererKind],
+        default=RendererKind.TINY.value,
+        help="tiny: PyBullet's CPU TinyRenderer (default); egl: PyBullet's EGL plugin, where a driver exists",
+    )
+    o.add_argument(
+        "--render-workers",
+        type=int,
+        default=2,
+        metavar="N",
+        help="render processes, so rendering uses other cores while physics steps (default 2; 0 = in-process)",
+    )
 
 
 def _config(args: argparse.Namespace, script_z_mode: ZMode | None):
     from quadsim.sim.config import SimConfig
 
     z_mode = ZMode(args.z_mode) if args.z_mode else (script_z_mode or ZMode.VELOCITY)
-    rates = Rates(physics_hz=args.physics_hz, control_hz=args.control_hz, state_hz=args.state_hz, input_hz=args.input_hz)
-    return SimConfig(urdf=args.urdf, world=args.world, controller=ControllerKind(args.controller), z_mode=z_mode,
-                     rates=rates, command_timeout_s=args.timeout, start=StartPose(), gui=args.gui)
+    rates = Rates(
+        physics_hz=args.physics_hz, control_hz=args.control_hz, state_hz=args.state_hz, input_hz=args.input_hz
+    )
+    return SimConfig(
+        urdf=args.urdf,
+        world=args.world,
+        controller=ControllerKind(args.controller),
+        z_mode=z_mode,
+        rates=rates,
+        command_timeout_s=args.timeout,
+        start=StartPose(),
+        gui=args.gui,
+    )
 
 
 def _outputs(args: argparse.Namespace):
-    from quadsim.sensors.camera import CameraSpec, default_cameras
     from quadsim.apps.outputs import OutputOptions
+    from quadsim.sensors.camera import CameraSpec, default_cameras
 
     try:
         width, height = (int(v) for v in args.camera_size.lower().split("x"))
@@ -77,15 +124,20 @@ def _outputs(args: argparse.Namespace):
     if args.render_workers < 0:
         raise QuadsimError("--render-workers must be 0 or more")
     cameras: tuple[CameraSpec, ...] = tuple(available[c] for c in wanted)
-    return OutputOptions(record=not args.no_record, out=args.out, cameras=cameras,
-                         renderer=RendererKind(args.renderer), render_workers=args.render_workers)
+    return OutputOptions(
+        record=not args.no_record,
+        out=args.out,
+        cameras=cameras,
+        renderer=RendererKind(args.renderer),
+        render_workers=args.render_workers,
+    )
 
 
 def _fly_script(args: argparse.Namespace, script_name: str, realtime: bool) -> int:
-    from quadsim.drivers.scripted import ScriptedDriver, load_script
     from quadsim.apps.headless import run_headless
-    from quadsim.apps.progress import ProgressBar
     from quadsim.apps.outputs import RecordedRun, Terminated, raise_on_sigterm
+    from quadsim.apps.progress import ProgressBar
+    from quadsim.drivers.scripted import ScriptedDriver, load_script
     from quadsim.sim.simulator import Simulator
 
     script = load_script(script_name)
@@ -95,9 +147,11 @@ def _fly_script(args: argparse.Namespace, script_name: str, realtime: bool) -> i
     if not duration > 0:
         raise QuadsimError(f"--duration must be > 0 s, got {duration}")
     cams = ", ".join(f"{c.name} {c.width_px}x{c.height_px}@{c.rate_hz}Hz" for c in outputs.cameras) or "none"
-    print(f"flying '{script.name}' for {duration:.1f} s: controller {config.controller.value}, "
-          f"z-mode {config.z_mode.value}, physics {config.rates.physics_hz} Hz, control {config.rates.control_hz} Hz, "
-          f"cameras {cams}")
+    print(
+        f"flying '{script.name}' for {duration:.1f} s: controller {config.controller.value}, "
+        f"z-mode {config.z_mode.value}, physics {config.rates.physics_hz} Hz, control {config.rates.control_hz} Hz, "
+        f"cameras {cams}"
+    )
     raise_on_sigterm()
     bar = ProgressBar(duration, "sim time")
     label = f"{Path(script.name).stem}_{config.controller.value}"
@@ -126,7 +180,9 @@ def _fly_script(args: argparse.Namespace, script_name: str, realtime: bool) -> i
             print(f"recording       {run.path} ({size:.1f} MB, {rec.message_count} messages)")
     if interrupted is not None:
         what = "terminated" if isinstance(interrupted, Terminated) else "interrupted"
-        saved = "; the recording is finished and readable" if run.recorder is not None and not run.recorder.error else ""
+        saved = (
+            "; the recording is finished and readable" if run.recorder is not None and not run.recorder.error else ""
+        )
         print(f"{what} at sim time {final_time:.2f} s{saved}", file=sys.stderr)
         return 143 if isinstance(interrupted, Terminated) else 130
     return 0
@@ -146,22 +202,27 @@ def has_display() -> bool:
 
 def cmd_fly(args: argparse.Namespace) -> int:
     if not has_display():
-        print(f"No display found: the teleop window cannot open. Recording the scripted demo '{DEMO_SCENARIO}' "
-              f"headless instead. (Headless flights: python main.py run --script NAME; list them with: "
-              f"python main.py scenarios)")
+        print(
+            f"No display found: the teleop window cannot open. Recording the scripted demo '{DEMO_SCENARIO}' "
+            f"headless instead. (Headless flights: python main.py run --script NAME; list them with: "
+            f"python main.py scenarios)"
+        )
         args.gui = False
         return _fly_script(args, DEMO_SCENARIO, realtime=False)
-    from quadsim.drivers.joystick import JoystickMapping, load_mapping
     from quadsim.apps.outputs import Terminated, raise_on_sigterm
     from quadsim.apps.window.teleop import TeleopApp, TeleopOptions
+    from quadsim.drivers.joystick import JoystickMapping, load_mapping
 
     try:
         width, height = (int(v) for v in args.window.lower().split("x"))
     except ValueError:
         raise QuadsimError(f"--window must look like 1280x720, got {args.window!r}") from None
-    options = TeleopOptions(input=args.input, keyboard_layout=args.keys,
-                            joystick_mapping=load_mapping(args.joy_map) if args.joy_map else JoystickMapping(),
-                            window_size=(width, height))
+    options = TeleopOptions(
+        input=args.input,
+        keyboard_layout=args.keys,
+        joystick_mapping=load_mapping(args.joy_map) if args.joy_map else JoystickMapping(),
+        window_size=(width, height),
+    )
     config = _config(args, None)
     outputs = _outputs(args)
     raise_on_sigterm()
@@ -193,8 +254,12 @@ def cmd_evaluate(args: argparse.Namespace) -> int:
 
     controllers = [ControllerKind(c) for c in args.controller] if args.controller else list(ControllerKind)
     results = {c: evaluate(controller=c) for c in controllers}
-    rows = [(s, m) for s, fn in SCENARIO_METRICS.items() for m in results[controllers[0]][s]
-            if m not in ("max_tilt_deg", "min_z_m", "max_z_m", "rate_mean_radps", "peak_mps")]
+    rows = [
+        (s, m)
+        for s, fn in SCENARIO_METRICS.items()
+        for m in results[controllers[0]][s]
+        if m not in ("max_tilt_deg", "min_z_m", "max_z_m", "rate_mean_radps", "peak_mps")
+    ]
     targets = {(s, m): bound for s, m, bound in TARGETS}
     header = "| scenario | metric | target (cascade) | " + " | ".join(c.value for c in controllers) + " |"
     print(header)
@@ -203,7 +268,14 @@ def cmd_evaluate(args: argparse.Namespace) -> int:
         bound = targets.get((s, m))
         cells = " | ".join(f"{results[c][s][m]:.3f}" for c in controllers)
         print(f"| {s} | {m} | {'< ' + format(bound, 'g') if bound is not None else ''} | {cells} |")
-    print("| " + " | ".join(["all", "max tilt (deg)", ""] + [f"{max(r['max_tilt_deg'] for r in results[c].values()):.1f}" for c in controllers]) + " |")
+    print(
+        "| "
+        + " | ".join(
+            ["all", "max tilt (deg)", ""]
+            + [f"{max(r['max_tilt_deg'] for r in results[c].values()):.1f}" for c in controllers]
+        )
+        + " |"
+    )
     return 0
 
 
@@ -228,8 +300,10 @@ def cmd_recover(args: argparse.Namespace) -> int:
     if result.was_complete:
         print(f"{args.file} was complete; its {result.messages} messages were copied to {result.path}")
     else:
-        print(f"recovered {result.messages} messages on {result.topics} topics from {result.chunks} complete chunks, "
-              f"covering {t0:.2f} .. {t1:.2f} s of simulation time")
+        print(
+            f"recovered {result.messages} messages on {result.topics} topics from {result.chunks} complete chunks, "
+            f"covering {t0:.2f} .. {t1:.2f} s of simulation time"
+        )
         print(f"what was lost: {result.note or 'nothing readable after the last chunk'}")
         print(f"written to {result.path}")
     return 0
@@ -251,8 +325,10 @@ def cmd_replay(args: argparse.Namespace) -> int:
         return 0
     headless = args.headless or args.mp4 is not None or args.plot is not None
     if not headless and not has_display():
-        print("No display found: printing the summary instead (use --headless, --mp4 DIR or --plot FILE.png "
-              "for pictures, or --resim to fly it again).")
+        print(
+            "No display found: printing the summary instead (use --headless, --mp4 DIR or --plot FILE.png "
+            "for pictures, or --resim to fly it again)."
+        )
         headless = True
     if headless:
         from quadsim.apps.replay_export import export_mp4, export_plot, summary_lines
@@ -275,8 +351,8 @@ def cmd_replay(args: argparse.Namespace) -> int:
 
 
 def cmd_check(args: argparse.Namespace) -> int:
-    from quadsim.recording.flight import load_flight
     from quadsim.apps.resim import resimulate
+    from quadsim.recording.flight import load_flight
 
     files: list[Path] = []
     for path in args.paths:
@@ -290,22 +366,32 @@ def cmd_check(args: argparse.Namespace) -> int:
     failed, unusable = 0, 0
     for path in files:
         try:
-            report = resimulate(load_flight(path), record=False, position_tolerance_m=args.tolerance_m,
-                                attitude_tolerance_rad=args.tolerance_rad)
+            report = resimulate(
+                load_flight(path),
+                record=False,
+                position_tolerance_m=args.tolerance_m,
+                attitude_tolerance_rad=args.tolerance_rad,
+            )
         except QuadsimError as exc:
             unusable += 1
             print(f"ERROR {path}: {exc}")
             continue
         ok = report.within(args.tolerance_m, args.tolerance_rad)
         failed += not ok
-        print(f"{'ok   ' if ok else 'FAIL '} {path}: position off by up to {report.position.max_error:.3g} m, "
-              f"attitude by up to {report.attitude.max_error:.3g} rad")
+        print(
+            f"{'ok   ' if ok else 'FAIL '} {path}: position off by up to {report.position.max_error:.3g} m, "
+            f"attitude by up to {report.attitude.max_error:.3g} rad"
+        )
         if not ok:
             for line in report.lines()[1:]:
                 print("     " + line)
     total = len(files)
-    print(f"{total - failed - unusable} of {total} recordings re-fly within {args.tolerance_m:g} m and "
-          f"{args.tolerance_rad:g} rad" + (f"; {failed} changed" if failed else "") + (f"; {unusable} unusable" if unusable else ""))
+    print(
+        f"{total - failed - unusable} of {total} recordings re-fly within {args.tolerance_m:g} m and "
+        f"{args.tolerance_rad:g} rad"
+        + (f"; {failed} changed" if failed else "")
+        + (f"; {unusable} unusable" if unusable else "")
+    )
     return 2 if unusable else (1 if failed else 0)
 
 
@@ -331,37 +417,72 @@ def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog="quadsim",
         description="Quadrotor teleop simulator: PyBullet physics flying Twist commands (/quad_cmd_twist semantics).",
-        epilog="Run 'python main.py COMMAND --help' for each command's options.")
+        epilog="Run 'python main.py COMMAND --help' for each command's options.",
+    )
     parser.add_argument("--version", action="version", version=f"quadsim {__version__}")
     parser.add_argument("-v", "--verbose", action="store_true", help="log more")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
 
-    p = sub.add_parser("run", help="fly a scripted flight headless, as fast as possible, and summarise it",
-                       description="Fly a built-in scenario or a script file headless as fast as the machine allows, "
-                                   "showing progress, then print sim time, wall time, real-time factor, final pose "
-                                   "and distance flown. Script format: see README (or quadsim/drivers/scripted.py).")
-    p.add_argument("--script", required=True, metavar="NAME|FILE",
-                   help="a built-in scenario (python main.py scenarios lists them) or a script file")
-    p.add_argument("--duration", type=float, default=None, metavar="S",
-                   help="seconds of sim time (default: the script's length; beyond it the vehicle holds)")
+    p = sub.add_parser(
+        "run",
+        help="fly a scripted flight headless, as fast as possible, and summarise it",
+        description="Fly a built-in scenario or a script file headless as fast as the machine allows, "
+        "showing progress, then print sim time, wall time, real-time factor, final pose "
+        "and distance flown. Script format: see README (or quadsim/drivers/scripted.py).",
+    )
+    p.add_argument(
+        "--script",
+        required=True,
+        metavar="NAME|FILE",
+        help="a built-in scenario (python main.py scenarios lists them) or a script file",
+    )
+    p.add_argument(
+        "--duration",
+        type=float,
+        default=None,
+        metavar="S",
+        help="seconds of sim time (default: the script's length; beyond it the vehicle holds)",
+    )
     p.add_argument("--realtime", action="store_true", help="pace simulation time to the wall clock (as --gui does)")
     _add_sim_options(p)
     p.set_defaults(func=cmd_run)
 
-    p = sub.add_parser("fly", aliases=["demo"], help="fly with keyboard or gamepad in a window (no display: a demo)",
-                       description="Open the teleop window: fly with the keyboard or a gamepad, see the front and floor "
-                                   "cameras, a map and a HUD; the flight is recorded. With no display, record the "
-                                   "scripted demo flight headless instead, and say so.")
-    p.add_argument("--duration", type=float, default=None, metavar="S",
-                   help="seconds of sim time for the demo flown when there is no display")
+    p = sub.add_parser(
+        "fly",
+        aliases=["demo"],
+        help="fly with keyboard or gamepad in a window (no display: a demo)",
+        description="Open the teleop window: fly with the keyboard or a gamepad, see the front and floor "
+        "cameras, a map and a HUD; the flight is recorded. With no display, record the "
+        "scripted demo flight headless instead, and say so.",
+    )
+    p.add_argument(
+        "--duration",
+        type=float,
+        default=None,
+        metavar="S",
+        help="seconds of sim time for the demo flown when there is no display",
+    )
     t = p.add_argument_group("teleop window")
-    t.add_argument("--input", choices=["auto", "keyboard", "joystick"], default="auto",
-                   help="auto (default): a joystick if one is plugged in, else the keyboard")
-    t.add_argument("--keys", choices=["default", "teleop_twist_keyboard"], default="default",
-                   help="keyboard layout: default (arrows move, W/S climb, A/D yaw, Space stop) or "
-                        "teleop_twist_keyboard (i/,/j/l, u/o/m/., t/b, k stop, q/z speed)")
-    t.add_argument("--joy-map", type=Path, default=None, metavar="FILE.toml",
-                   help="joystick mapping file (axes, buttons, deadzone, scales); see README")
+    t.add_argument(
+        "--input",
+        choices=["auto", "keyboard", "joystick"],
+        default="auto",
+        help="auto (default): a joystick if one is plugged in, else the keyboard",
+    )
+    t.add_argument(
+        "--keys",
+        choices=["default", "teleop_twist_keyboard"],
+        default="default",
+        help="keyboard layout: default (arrows move, W/S climb, A/D yaw, Space stop) or "
+        "teleop_twist_keyboard (i/,/j/l, u/o/m/., t/b, k stop, q/z speed)",
+    )
+    t.add_argument(
+        "--joy-map",
+        type=Path,
+        default=None,
+        metavar="FILE.toml",
+        help="joystick mapping file (axes, buttons, deadzone, scales); see README",
+    )
     t.add_argument("--window", default="1280x720", metavar="WxH", help="initial window size (default 1280x720)")
     _add_sim_options(p)
     p.set_defaults(func=cmd_fly)
@@ -369,65 +490,106 @@ def build_parser() -> argparse.ArgumentParser:
     p = sub.add_parser("scenarios", help="list the built-in scripted scenarios")
     p.set_defaults(func=cmd_scenarios)
 
-    p = sub.add_parser("evaluate", help="fly the scenarios with each controller and print the flight-quality table",
-                       description="Fly every measured scenario and print its metrics as a Markdown table "
-                                   "(the README's table comes from here).")
-    p.add_argument("--controller", action="append", choices=[c.value for c in ControllerKind],
-                   help="only this controller (repeatable; default: all)")
+    p = sub.add_parser(
+        "evaluate",
+        help="fly the scenarios with each controller and print the flight-quality table",
+        description="Fly every measured scenario and print its metrics as a Markdown table "
+        "(the README's table comes from here).",
+    )
+    p.add_argument(
+        "--controller",
+        action="append",
+        choices=[c.value for c in ControllerKind],
+        help="only this controller (repeatable; default: all)",
+    )
     p.set_defaults(func=cmd_evaluate)
 
-    p = sub.add_parser("info", help="describe a recording: duration, topics, rates, run parameters",
-                       description="Describe an MCAP recording. On a damaged file, say what is wrong and how much "
-                                   "is readable (exit code 2).")
+    p = sub.add_parser(
+        "info",
+        help="describe a recording: duration, topics, rates, run parameters",
+        description="Describe an MCAP recording. On a damaged file, say what is wrong and how much "
+        "is readable (exit code 2).",
+    )
     p.add_argument("file", type=Path, metavar="FILE.mcap")
     p.set_defaults(func=cmd_info)
 
-    p = sub.add_parser("recover", help="salvage a recording cut short (killed process, power loss)",
-                       description="Read every complete chunk of a damaged or cut-short MCAP file and write its "
-                                   "messages, schemas, metadata and attachments to a new, valid, indexed MCAP.")
+    p = sub.add_parser(
+        "recover",
+        help="salvage a recording cut short (killed process, power loss)",
+        description="Read every complete chunk of a damaged or cut-short MCAP file and write its "
+        "messages, schemas, metadata and attachments to a new, valid, indexed MCAP.",
+    )
     p.add_argument("file", type=Path, metavar="DAMAGED.mcap")
-    p.add_argument("-o", "--output", type=Path, default=None, metavar="OUT.mcap",
-                   help="where to write (default: DAMAGED.recovered.mcap beside the input)")
+    p.add_argument(
+        "-o",
+        "--output",
+        type=Path,
+        default=None,
+        metavar="OUT.mcap",
+        help="where to write (default: DAMAGED.recovered.mcap beside the input)",
+    )
     p.set_defaults(func=cmd_recover)
 
-    p = sub.add_parser("replay", help="play a recording back (window, or --headless summary, MP4, plot), "
-                                      "or fly it again (--resim)",
-                       description="Play a recording back in the teleop window (both cameras, the map with the whole "
-                                   "track, the HUD; Space play/pause, arrows seek and speed, click the timeline). "
-                                   "--headless prints a summary and can export MP4 videos and a plot. --resim rebuilds "
-                                   "the vehicle, controller and settings from the recording, flies its commands again, "
-                                   "records the new flight and reports how far it is from the recorded one.")
+    p = sub.add_parser(
+        "replay",
+        help="play a recording back (window, or --headless summary, MP4, plot), or fly it again (--resim)",
+        description="Play a recording back in the teleop window (both cameras, the map with the whole "
+        "track, the HUD; Space play/pause, arrows seek and speed, click the timeline). "
+        "--headless prints a summary and can export MP4 videos and a plot. --resim rebuilds "
+        "the vehicle, controller and settings from the recording, flies its commands again, "
+        "records the new flight and reports how far it is from the recorded one.",
+    )
     p.add_argument("file", type=Path, metavar="FILE.mcap")
     p.add_argument("--headless", action="store_true", help="no window: print a summary")
     p.add_argument("--mp4", type=Path, default=None, metavar="DIR", help="export each camera stream to DIR as MP4")
-    p.add_argument("--plot", type=Path, default=None, metavar="FILE.png",
-                   help="draw the track and the commands against the state to a PNG")
+    p.add_argument(
+        "--plot",
+        type=Path,
+        default=None,
+        metavar="FILE.png",
+        help="draw the track and the commands against the state to a PNG",
+    )
     p.add_argument("--resim", action="store_true", help="fly the recorded commands again and compare")
-    p.add_argument("--out", type=Path, default=None, metavar="DIR|FILE",
-                   help="with --resim: where the new flight is recorded (default recordings/)")
+    p.add_argument(
+        "--out",
+        type=Path,
+        default=None,
+        metavar="DIR|FILE",
+        help="with --resim: where the new flight is recorded (default recordings/)",
+    )
     p.add_argument("--no-record", action="store_true", help="with --resim: do not record the new flight")
     p.add_argument("--speed", type=float, default=1.0, help="playback speed, 0.25 to 16 (default 1)")
     p.add_argument("--loop", action="store_true", help="start again at the end")
     p.add_argument("--window", default="1280x720", metavar="WxH", help="initial window size")
     p.set_defaults(func=cmd_replay)
 
-    p = sub.add_parser("check", help="re-fly recordings as regression tests (exit 1 when one changed)",
-                       description="Fly each recording's commands again and compare with what it recorded. Exit code "
-                                   "0 when every recording re-flies within the tolerances, 1 when one no longer does "
-                                   "(with a report: which topic, when, how far), 2 when a file cannot be used.")
+    p = sub.add_parser(
+        "check",
+        help="re-fly recordings as regression tests (exit 1 when one changed)",
+        description="Fly each recording's commands again and compare with what it recorded. Exit code "
+        "0 when every recording re-flies within the tolerances, 1 when one no longer does "
+        "(with a report: which topic, when, how far), 2 when a file cannot be used.",
+    )
     p.add_argument("paths", type=Path, nargs="+", metavar="DIR|FILE", help="recordings, or folders of them")
     p.add_argument("--tolerance-m", type=float, default=1e-3, help="position tolerance (default 0.001 m)")
     p.add_argument("--tolerance-rad", type=float, default=1e-3, help="attitude tolerance (default 0.001 rad)")
     p.set_defaults(func=cmd_check)
 
-    p = sub.add_parser("bench", help="measure speed against a bare-PyBullet baseline run in the same process",
-                       description="Benchmark. Every figure is given as steps/s, real-time factor and a ratio to a "
-                                   "baseline measured in the same run; best of --repeats.")
+    p = sub.add_parser(
+        "bench",
+        help="measure speed against a bare-PyBullet baseline run in the same process",
+        description="Benchmark. Every figure is given as steps/s, real-time factor and a ratio to a "
+        "baseline measured in the same run; best of --repeats.",
+    )
     p.add_argument("--steps", type=int, default=24000, help="physics steps per timed run (default 24000 = 100 s sim)")
     p.add_argument("--repeats", type=int, default=3, help="timed runs per figure; the best is kept (default 3)")
-    p.add_argument("--section", choices=["all", "flight", "recording", "window", "replay"], default="all",
-                   help="flight: the flight core; recording: cameras and recording; window: the teleop "
-                        "window headless; replay: playback and re-simulation (default: all)")
+    p.add_argument(
+        "--section",
+        choices=["all", "flight", "recording", "window", "replay"],
+        default="all",
+        help="flight: the flight core; recording: cameras and recording; window: the teleop "
+        "window headless; replay: playback and re-simulation (default: all)",
+    )
     p.set_defaults(func=cmd_bench)
     return parser
 
@@ -435,7 +597,9 @@ def build_parser() -> argparse.ArgumentParser:
 def main(argv: list[str] | None = None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
-    logging.basicConfig(level=logging.DEBUG if args.verbose else logging.WARNING, format="quadsim: %(levelname)s: %(message)s")
+    logging.basicConfig(
+        level=logging.DEBUG if args.verbose else logging.WARNING, format="quadsim: %(levelname)s: %(message)s"
+    )
     if not getattr(args, "func", None):
         parser.print_help()
         return 2

@@ -7,15 +7,15 @@ the numbers in both places come from one piece of code.
 from __future__ import annotations
 
 import math
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
-from typing import Callable, Sequence
 
 from quadsim.control import ControllerKind
-from quadsim.drivers.scripted import ScriptedDriver, load_script
-from quadsim.sim.loop import StateLog
 from quadsim.core.kinematics import clamp
 from quadsim.core.types import VehicleState
+from quadsim.drivers.scripted import ScriptedDriver, load_script
 from quadsim.sim.config import SimConfig
+from quadsim.sim.loop import StateLog
 from quadsim.sim.simulator import Simulator
 
 
@@ -58,6 +58,7 @@ def _heading_velocity(s: VehicleState, yaw: float) -> tuple[float, float]:
 
 # --- per-scenario metrics --------------------------------------------------------------------
 
+
 def takeoff_metrics(f: Flight, target_m: float = 2.0, band_m: float = 0.05) -> dict[str, float]:
     z0 = f.states[0].position_m[2]
     zs = [(f.t(s), s.position_m[2]) for s in f.states]
@@ -75,7 +76,9 @@ def hover_metrics(f: Flight, t0: float = 5.0, window_s: float = 30.0) -> dict[st
     return {"drift_m": drift}
 
 
-def step_metrics(f: Flight, axis: int, t_step: float = 5.0, length_s: float = 5.0, target_mps: float = 1.0) -> dict[str, float]:
+def step_metrics(
+    f: Flight, axis: int, t_step: float = 5.0, length_s: float = 5.0, target_mps: float = 1.0
+) -> dict[str, float]:
     yaw = f.at(t_step).yaw_rad()
     rise = math.inf
     for s in f.between(t_step, t_step + length_s):
@@ -136,7 +139,9 @@ SCENARIO_METRICS: dict[str, Callable[[Flight], dict[str, float]]] = {
 }
 
 
-def evaluate(scenarios: Sequence[str] = tuple(SCENARIO_METRICS), controller: ControllerKind = ControllerKind.CASCADE) -> dict[str, dict[str, float]]:
+def evaluate(
+    scenarios: Sequence[str] = tuple(SCENARIO_METRICS), controller: ControllerKind = ControllerKind.CASCADE
+) -> dict[str, dict[str, float]]:
     out = {}
     for name in scenarios:
         flight = fly(name, controller)

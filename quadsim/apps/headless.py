@@ -4,11 +4,11 @@ from __future__ import annotations
 
 import math
 import time
+from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Callable
 
-from quadsim.sim.loop import StateLog
 from quadsim.core.types import VehicleState
+from quadsim.sim.loop import StateLog
 from quadsim.sim.simulator import Simulator
 
 #: Simulation time advanced between two progress updates.
@@ -64,8 +64,13 @@ class _Odometer:
         self.max_z_m = max(self.max_z_m, p[2])
 
 
-def run_headless(sim: Simulator, duration_s: float, progress: Callable[[float], None] | None = None,
-                 realtime: bool = False, log: StateLog | None = None) -> RunSummary:
+def run_headless(
+    sim: Simulator,
+    duration_s: float,
+    progress: Callable[[float], None] | None = None,
+    realtime: bool = False,
+    log: StateLog | None = None,
+) -> RunSummary:
     """Advance `sim` by `duration_s`. `realtime` paces sim time to the wall clock (GUI viewing)."""
     odo = _Odometer()
     sim.add_sink(odo)

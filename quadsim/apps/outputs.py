@@ -8,9 +8,9 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from quadsim.recording.writer import McapRecorder, check_writable, recording_path
 from quadsim.sensors.camera import CameraSpec, RendererKind, default_cameras
 from quadsim.sensors.pipeline import CameraPipeline
-from quadsim.recording.writer import McapRecorder, check_writable, recording_path
 from quadsim.sim.simulator import Simulator
 
 
@@ -41,7 +41,9 @@ class RecordedRun:
     Recording can be stopped and started again (the window's key for it); each start makes a
     new file."""
 
-    def __init__(self, sim: Simulator, options: OutputOptions, label: str, run_info: dict[str, Any] | None = None) -> None:
+    def __init__(
+        self, sim: Simulator, options: OutputOptions, label: str, run_info: dict[str, Any] | None = None
+    ) -> None:
         self.sim = sim
         self.options = options
         self.label = label
@@ -51,8 +53,9 @@ class RecordedRun:
         self.path: Path | None = None
         try:
             if options.cameras:
-                self.cameras = CameraPipeline(sim, options.cameras, options.renderer, options.render_workers,
-                                              options.ordered_delivery)
+                self.cameras = CameraPipeline(
+                    sim, options.cameras, options.renderer, options.render_workers, options.ordered_delivery
+                )
             if options.record:
                 self.start_recording()
         except BaseException:
@@ -104,7 +107,7 @@ class RecordedRun:
             if self.recorder is not None:
                 self.recorder.close()
 
-    def __enter__(self) -> "RecordedRun":
+    def __enter__(self) -> RecordedRun:
         return self
 
     def __exit__(self, *exc: object) -> None:

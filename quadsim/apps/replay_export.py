@@ -9,8 +9,8 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from quadsim.errors import QuadsimError
 from quadsim.core.types import HEIGHT_MODE_BASE_M, VehicleState
+from quadsim.errors import QuadsimError
 from quadsim.recording.flight import NS, RecordedFlight
 
 
@@ -20,10 +20,13 @@ def summary_lines(f: RecordedFlight) -> list[str]:
         dist = sum(math.dist(a.position_m, b.position_m) for a, b in zip(f.states, f.states[1:]))
         top = max(math.hypot(*s.linear_velocity_mps[:2]) for s in f.states)
         last = f.states[-1]
-        out += [f"flown       {dist:.2f} m, max altitude {max(s.position_m[2] for s in f.states):.2f} m, "
-                f"top speed {top:.2f} m/s",
-                "final pose  x={:+.2f} y={:+.2f} z={:+.2f} m, yaw {:+.1f} deg".format(
-                    *last.position_m, math.degrees(last.yaw_rad()))]
+        out += [
+            f"flown       {dist:.2f} m, max altitude {max(s.position_m[2] for s in f.states):.2f} m, "
+            f"top speed {top:.2f} m/s",
+            "final pose  x={:+.2f} y={:+.2f} z={:+.2f} m, yaw {:+.1f} deg".format(
+                *last.position_m, math.degrees(last.yaw_rad())
+            ),
+        ]
     else:
         out.append("states      none (no /quad/pose in this file)")
     out.append(f"commands    {len(f.commands)} on /quad_cmd_twist")
@@ -31,8 +34,10 @@ def summary_lines(f: RecordedFlight) -> list[str]:
         out.append(f"camera      {cam}: {len(frames)} frames")
     if f.parameters:
         p = f.parameters
-        out.append(f"flown with  {p['controller']['name']} controller, z-mode {p['config']['z_mode']}, "
-                   f"{p.get('driver', {}).get('name', '?')} input")
+        out.append(
+            f"flown with  {p['controller']['name']} controller, z-mode {p['config']['z_mode']}, "
+            f"{p.get('driver', {}).get('name', '?')} input"
+        )
     else:
         out.append("flown with  (no quadsim metadata: recorded by another program)")
     return out
@@ -51,11 +56,13 @@ def export_mp4(f: RecordedFlight, folder: Path) -> list[Path]:
         span = (frames[-1][0] - frames[0][0]) / NS
         fps = (len(frames) - 1) / span if span > 0 else 30.0
         path = folder / f"{f.path.stem}_{cam}.mp4"
-        writer = cv2.VideoWriter(str(path), cv2.VideoWriter_fourcc(*"mp4v"), fps, (first.shape[1], first.shape[0]))
+        writer = cv2.VideoWriter(str(path), cv2.VideoWriter.fourcc(*"mp4v"), fps, (first.shape[1], first.shape[0]))
         if not writer.isOpened():
             raise QuadsimError(f"OpenCV cannot write MP4 files here ({path})")
         for _, jpeg in frames:
-            writer.write(cv2.imdecode(np.frombuffer(jpeg, np.uint8), cv2.IMREAD_COLOR))
+            image = cv2.imdecode(np.frombuffer(jpeg, np.uint8), cv2.IMREAD_COLOR)
+            if image is not None:
+                writer.write(image)
         writer.release()
         written.append(path)
     return written
@@ -73,8 +80,14 @@ def _heading_velocity(s: VehicleState) -> tuple[float, float]:
     return math.cos(yaw) * vx + math.sin(yaw) * vy, -math.sin(yaw) * vx + math.cos(yaw) * vy
 
 
-def _panel(img: np.ndarray, box: tuple[int, int, int, int], title: str, t_end: float,
-           series: list[tuple[list, tuple[int, int, int], str]], unit: str) -> None:
+def _panel(
+    img: np.ndarray,
+    box: tuple[int, int, int, int],
+    title: str,
+    t_end: float,
+    series: list[tuple[list, tuple[int, int, int], str]],
+    unit: str,
+) -> None:
     x, y, w, h = box
     cv2.rectangle(img, (x, y), (x + w, y + h), GREY, 1)
     values = [p[1] for pts, _, _ in series for p in pts if p is not None] or [0.0]
@@ -124,7 +137,7 @@ def export_plot(f: RecordedFlight, path: Path) -> Path:
         return int(box[0] + box[2] / 2 - (y - cy) * k), int(box[1] + box[3] / 2 - (x - cx) * k)
 
     step = 1.0 if span < 20 else 5.0
-    area = img[box[1]:box[1] + box[3], box[0]:box[0] + box[2]]  # a view: the grid stays inside the box
+    area = img[box[1] : box[1] + box[3], box[0] : box[0] + box[2]]  # a view: the grid stays inside the box
     for g in np.arange(math.floor((cx - span) / step) * step, cx + span, step):
         a, b = tp(g, cy - span), tp(g, cy + span)
         cv2.line(area, (a[0] - box[0], a[1] - box[1]), (b[0] - box[0], b[1] - box[1]), (235, 235, 235), 1)
@@ -136,8 +149,16 @@ def export_plot(f: RecordedFlight, path: Path) -> Path:
     cv2.polylines(img, [pts], False, ACTUAL, 2, cv2.LINE_AA)
     cv2.circle(img, tuple(pts[0]), 6, (60, 160, 60), -1)
     cv2.circle(img, tuple(pts[-1]), 6, (30, 30, 200), -1)
-    cv2.putText(img, f"track from above, grid {step:g} m (start green, end red; up = world +x)",
-                (box[0], box[1] - 12), cv2.FONT_HERSHEY_SIMPLEX, 0.5, BLACK, 1, cv2.LINE_AA)
+    cv2.putText(
+        img,
+        f"track from above, grid {step:g} m (start green, end red; up = world +x)",
+        (box[0], box[1] - 12),
+        cv2.FONT_HERSHEY_SIMPLEX,
+        0.5,
+        BLACK,
+        1,
+        cv2.LINE_AA,
+    )
     cv2.putText(img, f.path.name, (box[0], box[1] + box[3] + 30), cv2.FONT_HERSHEY_SIMPLEX, 0.5, BLACK, 1, cv2.LINE_AA)
     # time series: commanded vs flown
     t_end = f.duration_s
@@ -176,23 +197,47 @@ def export_plot(f: RecordedFlight, path: Path) -> Path:
     state_t = [s.step / f.physics_hz for s in f.states]
     hv = [_heading_velocity(s) for s in f.states]
     if any_height:
-        z_panel = ("altitude" + (" (height z-mode parts)" if switches else ""), "m",
-                   cmd(lambda t: t.linear_z + HEIGHT_MODE_BASE_M, "height"),
-                   list(zip(state_t, (s.position_m[2] for s in f.states))))
+        z_panel = (
+            "altitude" + (" (height z-mode parts)" if switches else ""),
+            "m",
+            cmd(lambda t: t.linear_z + HEIGHT_MODE_BASE_M, "height"),
+            list(zip(state_t, (s.position_m[2] for s in f.states))),
+        )
     else:
-        z_panel = ("climb rate", "m/s", cmd(lambda t: t.linear_z),
-                   list(zip(state_t, (s.linear_velocity_mps[2] for s in f.states))))
+        z_panel = (
+            "climb rate",
+            "m/s",
+            cmd(lambda t: t.linear_z),
+            list(zip(state_t, (s.linear_velocity_mps[2] for s in f.states))),
+        )
     panels = [
         ("forward speed", "m/s", cmd(lambda t: t.linear_x), list(zip(state_t, (v[0] for v in hv)))),
         ("sideways speed (left +)", "m/s", cmd(lambda t: t.linear_y), list(zip(state_t, (v[1] for v in hv)))),
         z_panel,
-        ("yaw rate (ccw +)", "rad/s", cmd(lambda t: t.angular_z), list(zip(state_t, (s.angular_velocity_body_rps[2] for s in f.states)))),
+        (
+            "yaw rate (ccw +)",
+            "rad/s",
+            cmd(lambda t: t.angular_z),
+            list(zip(state_t, (s.angular_velocity_body_rps[2] for s in f.states))),
+        ),
     ]
     x0, w, h, gap = 660, 700, 170, 40
-    for i, (title, unit, c, a) in enumerate(panels):
-        _panel(img, (x0, 60 + i * (h + gap), w, h), title, t_end, [(c, COMMAND, "command"), (a, ACTUAL, "flown")], unit)
-    cv2.putText(img, f"time (s), 0 .. {t_end:.1f}", (x0 + w // 2 - 60, 60 + 4 * (h + gap) - 15),
-                cv2.FONT_HERSHEY_SIMPLEX, 0.5, BLACK, 1, cv2.LINE_AA)
+    for i, (title, unit, commanded, flown) in enumerate(panels):
+        series: list[tuple[list, tuple[int, int, int], str]] = [
+            (commanded, COMMAND, "command"),
+            (flown, ACTUAL, "flown"),
+        ]
+        _panel(img, (x0, 60 + i * (h + gap), w, h), title, t_end, series, unit)
+    cv2.putText(
+        img,
+        f"time (s), 0 .. {t_end:.1f}",
+        (x0 + w // 2 - 60, 60 + 4 * (h + gap) - 15),
+        cv2.FONT_HERSHEY_SIMPLEX,
+        0.5,
+        BLACK,
+        1,
+        cv2.LINE_AA,
+    )
     path.parent.mkdir(parents=True, exist_ok=True)
     if not cv2.imwrite(str(path), img):
         raise QuadsimError(f"cannot write {path}")

@@ -10,17 +10,15 @@ import time
 from dataclasses import dataclass
 from pathlib import Path
 
+from quadsim.apps.outputs import OutputOptions, RecordedRun
 from quadsim.control import ControllerKind
+from quadsim.core.kinematics import body_velocity
+from quadsim.core.types import StartPose, VehicleState, ZMode
 from quadsim.drivers.replay import ReplayDriver
 from quadsim.errors import QuadsimError
-from quadsim.sim.config import Rates
-from quadsim.sim.loop import StateLog
-from quadsim.core.types import VehicleState, ZMode
-from quadsim.core.types import StartPose
 from quadsim.recording.flight import RecordedFlight
-from quadsim.core.kinematics import body_velocity
-from quadsim.apps.outputs import OutputOptions, RecordedRun
-from quadsim.sim.config import SimConfig
+from quadsim.sim.config import Rates, SimConfig
+from quadsim.sim.loop import StateLog
 from quadsim.sim.simulator import Simulator
 
 #: defaults for `check`: a recording re-flies when every state is within these of the recorded one
@@ -59,8 +57,10 @@ class ResimReport:
         out = [f"re-flew {self.recording}: {self.states_compared} recorded states compared"]
         for d in (self.position, self.attitude, self.velocity):
             where = f", first beyond tolerance at t={d.first_beyond_s:.2f} s" if d.first_beyond_s is not None else ""
-            out.append(f"  {d.topic} {d.quantity}: max {d.max_error:.6g} {d.unit} at t={d.max_at_s:.2f} s, "
-                       f"RMS {d.rms_error:.6g} {d.unit}{where}")
+            out.append(
+                f"  {d.topic} {d.quantity}: max {d.max_error:.6g} {d.unit} at t={d.max_at_s:.2f} s, "
+                f"RMS {d.rms_error:.6g} {d.unit}{where}"
+            )
         if self.new_recording is not None:
             out.append(f"  new flight recorded to {self.new_recording}")
         return out
@@ -76,8 +76,10 @@ def _config_from(flight: RecordedFlight, folder: Path) -> tuple[SimConfig, dict]
         raise QuadsimError(f"{flight.path}: has no /quad/pose states to compare with")
     start_step = p.get("start_step", 0)
     if start_step:
-        raise QuadsimError(f"{flight.path}: this recording was started mid-flight (at step {start_step}); "
-                           f"only recordings that start at the beginning of a flight can be re-flown")
+        raise QuadsimError(
+            f"{flight.path}: this recording was started mid-flight (at step {start_step}); "
+            f"only recordings that start at the beginning of a flight can be re-flown"
+        )
     names = {Path(p["vehicle"]["urdf"]).name, Path(p["vehicle"]["params"]).name}
     missing = [n for n in names if n not in flight.attachments]
     if missing:
@@ -121,10 +123,14 @@ def _deviation(topic: str, quantity: str, unit: str, errors: list[tuple[float, f
     return Deviation(topic, quantity, unit, worst, rms, worst_t, beyond)
 
 
-def resimulate(flight: RecordedFlight, out: Path | None = None, record: bool = True,
-               position_tolerance_m: float = POSITION_TOLERANCE_M,
-               attitude_tolerance_rad: float = ATTITUDE_TOLERANCE_RAD,
-               progress=None) -> ResimReport:
+def resimulate(
+    flight: RecordedFlight,
+    out: Path | None = None,
+    record: bool = True,
+    position_tolerance_m: float = POSITION_TOLERANCE_M,
+    attitude_tolerance_rad: float = ATTITUDE_TOLERANCE_RAD,
+    progress=None,
+) -> ResimReport:
     """Fly `flight`'s commands again; with `record`, the new flight is recorded (no cameras)."""
     with tempfile.TemporaryDirectory(prefix="quadsim-resim-") as tmp:
         config, gains = _config_from(flight, Path(tmp))
@@ -163,12 +169,18 @@ def resimulate(flight: RecordedFlight, out: Path | None = None, record: bool = T
         t = rec.step / config.rates.physics_hz
         pos.append((t, math.dist(now.position_m, rec.position_m)))
         att.append((t, _angle_between(now.orientation_xyzw, rec.orientation_xyzw)))
-        vel.append((t, math.dist(body_velocity(now.orientation_xyzw, now.linear_velocity_mps), rec_body_velocity)))  # as /quad/odom records it
+        vel.append(
+            (t, math.dist(body_velocity(now.orientation_xyzw, now.linear_velocity_mps), rec_body_velocity))
+        )  # as /quad/odom records it
     if not pos:
         raise QuadsimError(f"{flight.path}: its states are not at this simulation's state rate; nothing to compare")
     return ResimReport(
-        flight.path, len(pos),
+        flight.path,
+        len(pos),
         _deviation("/quad/pose", "position", "m", pos, position_tolerance_m),
         _deviation("/quad/pose", "attitude", "rad", att, attitude_tolerance_rad),
         _deviation("/quad/odom", "velocity", "m/s", vel, position_tolerance_m),
-        new_path, end_step / config.rates.physics_hz, stepping_wall_s)
+        new_path,
+        end_step / config.rates.physics_hz,
+        stepping_wall_s,
+    )

@@ -15,9 +15,9 @@ from dataclasses import asdict, dataclass
 from typing import Any
 
 from quadsim.control import ControllerKind
+from quadsim.core.kinematics import clamp, matrix_from_quaternion
 from quadsim.core.types import HEIGHT_MODE_BASE_M, ActiveCommand, RotorForces, VehicleState, ZMode
 from quadsim.vehicle.mixer import Mixer
-from quadsim.core.kinematics import clamp, matrix_from_quaternion
 from quadsim.vehicle.params import VehicleParams
 
 _IDLE: RotorForces = (0.0, 0.0, 0.0, 0.0)

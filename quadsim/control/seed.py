@@ -34,9 +34,9 @@ from dataclasses import asdict, dataclass
 from typing import Any
 
 from quadsim.control import ControllerKind
-from quadsim.errors import ConfigError
-from quadsim.core.types import HEIGHT_MODE_BASE_M, ActiveCommand, RotorForces, VehicleState, ZMode
 from quadsim.core.kinematics import clamp, matrix_from_quaternion
+from quadsim.core.types import HEIGHT_MODE_BASE_M, ActiveCommand, RotorForces, VehicleState, ZMode
+from quadsim.errors import ConfigError
 from quadsim.vehicle.params import Spin, VehicleParams
 
 DT_REF_S = 0.05  # the V-REP simulation step the original's difference terms assumed
@@ -69,7 +69,8 @@ def _check_layout(vehicle: VehicleParams) -> None:
             raise ConfigError(
                 f"{vehicle.params_path}: the seed controller needs the original rotor layout "
                 f"(1 front-left ccw, 2 rear-left cw, 3 rear-right ccw, 4 front-right cw); "
-                f"{rotor.link_name} is at x={x:.3f}, y={y:.3f}, {rotor.spin.value}")
+                f"{rotor.link_name} is at x={x:.3f}, y={y:.3f}, {rotor.spin.value}"
+            )
 
 
 class SeedController:
@@ -84,8 +85,13 @@ class SeedController:
         self.reset()
 
     def describe(self) -> dict[str, Any]:
-        return {"name": self.kind.value, "gains": asdict(self.gains), "dt_ref_s": DT_REF_S,
-                "hover_command": HOVER_COMMAND, "newton_per_command": self._newton_per_command}
+        return {
+            "name": self.kind.value,
+            "gains": asdict(self.gains),
+            "dt_ref_s": DT_REF_S,
+            "hover_command": HOVER_COMMAND,
+            "newton_per_command": self._newton_per_command,
+        }
 
     def reset(self) -> None:
         self._armed = False

@@ -10,17 +10,18 @@ Unplugged, the driver publishes nothing: the dead-man timeout then holds positio
 from __future__ import annotations
 
 import os
+from collections.abc import Callable
 from dataclasses import asdict, dataclass
 from pathlib import Path
-from typing import Any, Callable, Protocol
+from typing import Any, Protocol
 
 os.environ.setdefault("PYGAME_HIDE_SUPPORT_PROMPT", "1")
-import pygame  # noqa: E402
+import pygame
 
-from quadsim.errors import ConfigError  # noqa: E402
-from quadsim.drivers import ASAP, NEVER  # noqa: E402
-from quadsim.core.types import HEIGHT_MODE_BASE_M, Twist, ZMode  # noqa: E402
-from quadsim.core.toml_compat import tomllib  # noqa: E402
+from quadsim.core.toml_compat import tomllib
+from quadsim.core.types import HEIGHT_MODE_BASE_M, Twist, ZMode
+from quadsim.drivers import ASAP, NEVER
+from quadsim.errors import ConfigError
 
 
 class JoystickDevice(Protocol):
@@ -103,8 +104,12 @@ def _pygame_device(index: int) -> JoystickDevice:
 class JoystickDriver:
     name = "joystick"
 
-    def __init__(self, mapping: JoystickMapping = JoystickMapping(), z_mode: ZMode = ZMode.VELOCITY,
-                 device_factory: Callable[[int], JoystickDevice] = _pygame_device) -> None:
+    def __init__(
+        self,
+        mapping: JoystickMapping = JoystickMapping(),
+        z_mode: ZMode = ZMode.VELOCITY,
+        device_factory: Callable[[int], JoystickDevice] = _pygame_device,
+    ) -> None:
         self.mapping = mapping
         self.z_mode = z_mode
         self.device: JoystickDevice | None = None
@@ -143,8 +148,10 @@ class JoystickDriver:
         d = self.device
         if d is None:
             return (), ()
-        return (tuple(d.get_axis(i) for i in range(d.get_numaxes())),
-                tuple(d.get_button(i) for i in range(d.get_numbuttons())))
+        return (
+            tuple(d.get_axis(i) for i in range(d.get_numaxes())),
+            tuple(d.get_button(i) for i in range(d.get_numbuttons())),
+        )
 
     def twist_from(self, axes: tuple[float, ...], buttons: tuple[int, ...], dt_s: float) -> Twist:
         m = self.mapping
@@ -161,8 +168,12 @@ class JoystickDriver:
         if self.z_mode is ZMode.HEIGHT:
             self._height_offset_m += up * dt_s
             up = self._height_offset_m
-        return Twist(linear_x=axis(m.forward) * m.linear_mps * k, linear_y=axis(m.left) * m.linear_mps * k,
-                     linear_z=up, angular_z=axis(m.yaw) * m.yaw_radps * k)
+        return Twist(
+            linear_x=axis(m.forward) * m.linear_mps * k,
+            linear_y=axis(m.left) * m.linear_mps * k,
+            linear_z=up,
+            angular_z=axis(m.yaw) * m.yaw_radps * k,
+        )
 
     def poll(self, step: int, time_s: float) -> Twist | None:
         self.next_poll_step = NEVER
@@ -189,5 +200,8 @@ class JoystickDriver:
         return False
 
     def describe(self) -> dict[str, Any]:
-        return {"name": self.name, "mapping": self.mapping.to_dict(),
-                "device": self.device.get_name() if self.device is not None else None}
+        return {
+            "name": self.name,
+            "mapping": self.mapping.to_dict(),
+            "device": self.device.get_name() if self.device is not None else None,
+        }

@@ -14,11 +14,11 @@ from dataclasses import dataclass
 from typing import Any
 
 os.environ.setdefault("PYGAME_HIDE_SUPPORT_PROMPT", "1")
-import pygame  # noqa: E402
+import pygame
 
-from quadsim.core.kinematics import clamp  # noqa: E402
-from quadsim.drivers import ASAP, NEVER  # noqa: E402
-from quadsim.core.types import HEIGHT_MODE_BASE_M, Twist, ZMode  # noqa: E402
+from quadsim.core.kinematics import clamp
+from quadsim.core.types import HEIGHT_MODE_BASE_M, Twist, ZMode
+from quadsim.drivers import ASAP, NEVER
 
 
 class Axis(enum.Enum):
@@ -50,8 +50,13 @@ class KeyLayout:
             keys = [b for b in self.bindings if b.axis is axis]
             out.append(f"{axis.value:10s} " + ", ".join(f"{pygame.key.name(b.key)} {b.label}" for b in keys))
         out.append("stop       " + ", ".join(pygame.key.name(k) for k in self.stop_keys))
-        out.append("speed      " + ", ".join(pygame.key.name(k) for k in self.faster_keys) + " faster, "
-                   + ", ".join(pygame.key.name(k) for k in self.slower_keys) + " slower (10% a press)")
+        out.append(
+            "speed      "
+            + ", ".join(pygame.key.name(k) for k in self.faster_keys)
+            + " faster, "
+            + ", ".join(pygame.key.name(k) for k in self.slower_keys)
+            + " slower (10% a press)"
+        )
         return out
 
 
@@ -113,8 +118,9 @@ class KeyboardDriver:
 
     name = "keyboard"
 
-    def __init__(self, layout: KeyLayout = DEFAULT_LAYOUT, speeds: Speeds = Speeds(),
-                 z_mode: ZMode = ZMode.VELOCITY) -> None:
+    def __init__(
+        self, layout: KeyLayout = DEFAULT_LAYOUT, speeds: Speeds = Speeds(), z_mode: ZMode = ZMode.VELOCITY
+    ) -> None:
         self.layout = layout
         self.speeds = speeds
         self.scale = 1.0
@@ -145,7 +151,8 @@ class KeyboardDriver:
             self.next_poll_step = ASAP
             return True
         elif event.type == pygame.WINDOWFOCUSLOST or (
-                event.type == pygame.ACTIVEEVENT and getattr(event, "gain", 1) == 0 and getattr(event, "state", 0) & 2):
+            event.type == pygame.ACTIVEEVENT and getattr(event, "gain", 1) == 0 and getattr(event, "state", 0) & 2
+        ):
             self.clear()
             return True
         return False
@@ -189,8 +196,12 @@ class KeyboardDriver:
             z = self._height_offset_m
         else:
             z = u[Axis.UP] * s.climb_mps * k
-        return Twist(linear_x=u[Axis.FORWARD] * s.linear_mps * k, linear_y=u[Axis.LEFT] * s.linear_mps * k,
-                     linear_z=z, angular_z=u[Axis.YAW] * s.yaw_radps * k)
+        return Twist(
+            linear_x=u[Axis.FORWARD] * s.linear_mps * k,
+            linear_y=u[Axis.LEFT] * s.linear_mps * k,
+            linear_z=z,
+            angular_z=u[Axis.YAW] * s.yaw_radps * k,
+        )
 
     @property
     def finished(self) -> bool:

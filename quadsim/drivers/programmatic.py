@@ -4,8 +4,8 @@ from __future__ import annotations
 
 from typing import Any
 
-from quadsim.drivers import NEVER
 from quadsim.core.types import Twist
+from quadsim.drivers import NEVER
 
 
 class ProgrammaticDriver:

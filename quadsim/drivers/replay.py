@@ -3,10 +3,11 @@ controller received them when the recording was made."""
 
 from __future__ import annotations
 
-from typing import Any, Sequence
+from collections.abc import Sequence
+from typing import Any
 
-from quadsim.drivers import NEVER
 from quadsim.core.types import Twist
+from quadsim.drivers import NEVER
 
 
 class ReplayDriver:

@@ -22,9 +22,9 @@ from pathlib import Path
 from typing import Any
 
 from quadsim.assets import asset_path
-from quadsim.errors import ScriptError
-from quadsim.drivers import NEVER
 from quadsim.core.types import Twist, ZMode
+from quadsim.drivers import NEVER
+from quadsim.errors import ScriptError
 
 _FIELDS = ("linear.x", "linear.y", "linear.z", "angular.x", "angular.y", "angular.z")
 
@@ -116,7 +116,9 @@ def load_script(name_or_path: str) -> Script:
         return parse_script(text, str(path))
     scenarios = builtin_scenarios()
     if name_or_path not in scenarios:
-        raise ScriptError(f"unknown scenario {name_or_path!r}; built-in scenarios: {', '.join(scenarios)} (or give a script file path)")
+        raise ScriptError(
+            f"unknown scenario {name_or_path!r}; built-in scenarios: {', '.join(scenarios)} (or give a script file path)"
+        )
     text = asset_path("scenarios", name_or_path + ".qscript").read_text()
     return parse_script(text, name_or_path)
 
@@ -152,5 +154,9 @@ class ScriptedDriver:
         return self._finished
 
     def describe(self) -> dict[str, Any]:
-        return {"name": self.name, "script": self.script.name, "source": self.script.source,
-                "z_mode": self.script.z_mode.value if self.script.z_mode else None}
+        return {
+            "name": self.name,
+            "script": self.script.name,
+            "source": self.script.source,
+            "z_mode": self.script.z_mode.value if self.script.z_mode else None,
+        }

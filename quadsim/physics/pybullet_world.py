@@ -8,15 +8,14 @@ from __future__ import annotations
 
 import os
 
-from quadsim.physics.pybullet_quiet import pb
-
-from quadsim.errors import QuadsimError
-from quadsim.core.types import RotorForces, StartPose, VehicleState
-from quadsim.vehicle.motors import MotorBank
 from quadsim.core.kinematics import matrix_from_quaternion
-from quadsim.vehicle.params import VehicleParams
+from quadsim.core.types import RotorForces, StartPose, VehicleState
+from quadsim.errors import QuadsimError
+from quadsim.physics.pybullet_quiet import pb
 from quadsim.physics.scene import build_world, load_vehicle_body
 from quadsim.physics.world_spec import WorldSpec
+from quadsim.vehicle.motors import MotorBank
+from quadsim.vehicle.params import VehicleParams
 
 #: Clearance above the ground the vehicle is placed at, so it starts just resting on the floor.
 _SPAWN_CLEARANCE_M = 0.001
@@ -32,8 +31,14 @@ class PhysicsWorld:
     `stepSimulation`. PyBullet clears external forces after each step, so all are re-applied.
     """
 
-    def __init__(self, vehicle: VehicleParams, world: WorldSpec, physics_hz: int,
-                 start: StartPose = StartPose(), gui: bool = False) -> None:
+    def __init__(
+        self,
+        vehicle: VehicleParams,
+        world: WorldSpec,
+        physics_hz: int,
+        start: StartPose = StartPose(),
+        gui: bool = False,
+    ) -> None:
         if gui and not os.environ.get("DISPLAY") and os.name != "nt":
             raise QuadsimError("--gui needs a display (DISPLAY is not set); run without --gui")
         self.vehicle = vehicle
@@ -51,8 +56,10 @@ class PhysicsWorld:
         self.landmark_ids = build_world(world, cid)
         self.start = start
         self.body_id = load_vehicle_body(vehicle, cid, self._spawn_position(), self._spawn_orientation())
-        links = {pb.getJointInfo(self.body_id, i, physicsClientId=cid)[12].decode(): i
-                 for i in range(pb.getNumJoints(self.body_id, physicsClientId=cid))}
+        links = {
+            pb.getJointInfo(self.body_id, i, physicsClientId=cid)[12].decode(): i
+            for i in range(pb.getNumJoints(self.body_id, physicsClientId=cid))
+        }
         self.link_index = links
         self._rotor_links = tuple(links[r.link_name] for r in vehicle.rotors)
         # reaction torque per newton on each rotor, about body z (CCW rotor -> negative yaw)
@@ -71,15 +78,18 @@ class PhysicsWorld:
         return (self.start.x_m, self.start.y_m, aabb_min_z + _SPAWN_CLEARANCE_M)
 
     def _spawn_orientation(self) -> tuple[float, float, float, float]:
-        return tuple(pb.getQuaternionFromEuler((0.0, 0.0, self.start.yaw_rad)))  # type: ignore[return-value]
+        x, y, z, w = pb.getQuaternionFromEuler((0.0, 0.0, self.start.yaw_rad))
+        return (x, y, z, w)
 
     def _resting_height(self) -> float:
         """Height of base_link above the floor when the vehicle rests on its collision shape."""
         if not hasattr(self, "_rest_z"):
             probe = pb.loadURDF(str(self.vehicle.urdf_path), (0, 0, 10.0), physicsClientId=self._cid)
-            lo = min(pb.getAABB(probe, i, physicsClientId=self._cid)[0][2]
-                     for i in range(-1, pb.getNumJoints(probe, physicsClientId=self._cid))
-                     if pb.getCollisionShapeData(probe, i, physicsClientId=self._cid))
+            lo = min(
+                pb.getAABB(probe, i, physicsClientId=self._cid)[0][2]
+                for i in range(-1, pb.getNumJoints(probe, physicsClientId=self._cid))
+                if pb.getCollisionShapeData(probe, i, physicsClientId=self._cid)
+            )
             pb.removeBody(probe, physicsClientId=self._cid)
             self._rest_z = 10.0 - lo
         return self._rest_z
@@ -88,7 +98,9 @@ class PhysicsWorld:
 
     def reset(self) -> None:
         """Put the vehicle back at its start pose, at rest, rotors stopped."""
-        pb.resetBasePositionAndOrientation(self.body_id, self._spawn_position(), self._spawn_orientation(), physicsClientId=self._cid)
+        pb.resetBasePositionAndOrientation(
+            self.body_id, self._spawn_position(), self._spawn_orientation(), physicsClientId=self._cid
+        )
         pb.resetBaseVelocity(self.body_id, (0.0, 0.0, 0.0), (0.0, 0.0, 0.0), physicsClientId=self._cid)
         self.motors.reset()
         self.step_count = 0
@@ -108,18 +120,25 @@ class PhysicsWorld:
         pb.applyExternalForce(body, r3, (0.0, 0.0, f[3]), origin, link_frame, physicsClientId=cid)
         y0, y1, y2, y3 = self._yaw_per_n
         # the rotor links share base_link's axes, so a torque about rotor z is one about body z
-        pb.applyExternalTorque(body, r0, (0.0, 0.0, y0 * f[0] + y1 * f[1] + y2 * f[2] + y3 * f[3]),
-                               link_frame, physicsClientId=cid)
+        pb.applyExternalTorque(
+            body, r0, (0.0, 0.0, y0 * f[0] + y1 * f[1] + y2 * f[2] + y3 * f[3]), link_frame, physicsClientId=cid
+        )
         # drag: velocity into base_link, -c v per axis, applied at the base in its own frame
         (m00, m01, m02), (m10, m11, m12), (m20, m21, m22) = self._rotation
         vx, vy, vz = self._linear_velocity
         cx, cy, cz = self._drag
         pb.applyExternalForce(
-            body, -1,
-            (-cx * (m00 * vx + m10 * vy + m20 * vz),
-             -cy * (m01 * vx + m11 * vy + m21 * vz),
-             -cz * (m02 * vx + m12 * vy + m22 * vz)),
-            origin, link_frame, physicsClientId=cid)
+            body,
+            -1,
+            (
+                -cx * (m00 * vx + m10 * vy + m20 * vz),
+                -cy * (m01 * vx + m11 * vy + m21 * vz),
+                -cz * (m02 * vx + m12 * vy + m22 * vz),
+            ),
+            origin,
+            link_frame,
+            physicsClientId=cid,
+        )
         pb.stepSimulation(physicsClientId=cid)
         self.step_count += 1
         self._previous_velocity = self._linear_velocity
@@ -164,7 +183,7 @@ class PhysicsWorld:
                 pass
             self._cid = -1
 
-    def __enter__(self) -> "PhysicsWorld":
+    def __enter__(self) -> PhysicsWorld:
         return self
 
     def __exit__(self, *exc: object) -> None:

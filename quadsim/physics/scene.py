@@ -7,8 +7,8 @@ from __future__ import annotations
 
 from quadsim.errors import ConfigError
 from quadsim.physics.pybullet_quiet import pb
-from quadsim.vehicle.params import VehicleParams
 from quadsim.physics.world_spec import Shape, WorldSpec
+from quadsim.vehicle.params import VehicleParams
 
 
 def _floor_mesh(size_m: float, tile_m: float) -> tuple[list, list, list]:
@@ -33,8 +33,14 @@ def _floor_mesh(size_m: float, tile_m: float) -> tuple[list, list, list]:
 def build_world(world: WorldSpec, cid: int, collisions: bool = True) -> dict[str, int]:
     """Create the floor and landmarks; returns body ids by name ('floor' and each landmark)."""
     vertices, uvs, indices = _floor_mesh(world.floor.size_m, world.floor.texture_tile_m)
-    floor_vis = pb.createVisualShape(pb.GEOM_MESH, vertices=vertices, indices=indices, uvs=uvs,
-                                     normals=[(0.0, 0.0, 1.0)] * len(vertices), physicsClientId=cid)
+    floor_vis = pb.createVisualShape(
+        pb.GEOM_MESH,
+        vertices=vertices,
+        indices=indices,
+        uvs=uvs,
+        normals=[(0.0, 0.0, 1.0)] * len(vertices),
+        physicsClientId=cid,
+    )
     floor_col = pb.createCollisionShape(pb.GEOM_PLANE, physicsClientId=cid) if collisions else -1
     floor = pb.createMultiBody(0.0, floor_col, floor_vis, physicsClientId=cid)
     pb.changeDynamics(floor, -1, lateralFriction=world.floor.friction, physicsClientId=cid)
@@ -50,8 +56,12 @@ def build_world(world: WorldSpec, cid: int, collisions: bool = True) -> dict[str
             vis = pb.createVisualShape(pb.GEOM_BOX, halfExtents=half, rgbaColor=lm.color_rgba, physicsClientId=cid)
             col = pb.createCollisionShape(pb.GEOM_BOX, halfExtents=half, physicsClientId=cid) if collide else -1
         elif lm.shape is Shape.CYLINDER:
-            vis = pb.createVisualShape(pb.GEOM_CYLINDER, radius=sx, length=sz, rgbaColor=lm.color_rgba, physicsClientId=cid)
-            col = pb.createCollisionShape(pb.GEOM_CYLINDER, radius=sx, height=sz, physicsClientId=cid) if collide else -1
+            vis = pb.createVisualShape(
+                pb.GEOM_CYLINDER, radius=sx, length=sz, rgbaColor=lm.color_rgba, physicsClientId=cid
+            )
+            col = (
+                pb.createCollisionShape(pb.GEOM_CYLINDER, radius=sx, height=sz, physicsClientId=cid) if collide else -1
+            )
         else:
             vis = pb.createVisualShape(pb.GEOM_SPHERE, radius=sx, rgbaColor=lm.color_rgba, physicsClientId=cid)
             col = pb.createCollisionShape(pb.GEOM_SPHERE, radius=sx, physicsClientId=cid) if collide else -1
@@ -59,11 +69,16 @@ def build_world(world: WorldSpec, cid: int, collisions: bool = True) -> dict[str
     return ids
 
 
-def load_vehicle_body(vehicle: VehicleParams, cid: int, position: tuple[float, float, float],
-                      orientation: tuple[float, float, float, float]) -> int:
+def load_vehicle_body(
+    vehicle: VehicleParams,
+    cid: int,
+    position: tuple[float, float, float],
+    orientation: tuple[float, float, float, float],
+) -> int:
     try:
-        body = pb.loadURDF(str(vehicle.urdf_path), position, orientation,
-                           flags=pb.URDF_USE_INERTIA_FROM_FILE, physicsClientId=cid)
+        body = pb.loadURDF(
+            str(vehicle.urdf_path), position, orientation, flags=pb.URDF_USE_INERTIA_FROM_FILE, physicsClientId=cid
+        )
     except pb.error as exc:
         raise ConfigError(f"PyBullet could not load {vehicle.urdf_path}: {exc}") from None
     # PyBullet damps every link a little by default (0.04); the parameter file's drag is the

@@ -9,8 +9,8 @@ from pathlib import Path
 from typing import Any
 
 from quadsim.assets import asset_path
-from quadsim.errors import ConfigError
 from quadsim.core.toml_compat import tomllib
+from quadsim.errors import ConfigError
 
 DEFAULT_WORLD = asset_path("worlds", "default.toml")
 
@@ -48,8 +48,11 @@ class WorldSpec:
 
 def _vector(entry: dict[str, Any], key: str, n: int, where: str) -> tuple[float, ...]:
     value = entry.get(key)
-    if (not isinstance(value, list) or len(value) != n
-            or not all(isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v) for v in value)):
+    if (
+        not isinstance(value, list)
+        or len(value) != n
+        or not all(isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v) for v in value)
+    ):
         raise ConfigError(f"{where}: {key} must be a list of {n} numbers, got {value!r}")
     return tuple(float(v) for v in value)
 
@@ -92,12 +95,14 @@ def load_world(path: Path | str | None = None, texture_required: bool = True) ->
         size = _vector(entry, "size_m", 3, where)
         if min(size) <= 0:
             raise ConfigError(f"{where}: size_m must be > 0")
-        landmarks.append(Landmark(
-            name=str(entry.get("name", f"landmark_{i + 1}")),
-            shape=shape,
-            position_m=_vector(entry, "position_m", 3, where),  # type: ignore[arg-type]
-            size_m=size,  # type: ignore[arg-type]
-            color_rgba=_vector(entry, "color_rgba", 4, where),  # type: ignore[arg-type]
-            collision=bool(entry.get("collision", True)),
-        ))
+        landmarks.append(
+            Landmark(
+                name=str(entry.get("name", f"landmark_{i + 1}")),
+                shape=shape,
+                position_m=_vector(entry, "position_m", 3, where),  # type: ignore[arg-type]
+                size_m=size,  # type: ignore[arg-type]
+                color_rgba=_vector(entry, "color_rgba", 4, where),  # type: ignore[arg-type]
+                collision=bool(entry.get("collision", True)),
+            )
+        )
     return WorldSpec(world_path, floor, tuple(landmarks))

@@ -13,10 +13,10 @@ from functools import cached_property
 from pathlib import Path
 from typing import Any
 
-from quadsim.recording import contract as rm
-from quadsim.core.types import Twist, VehicleState
-from quadsim.recording.reader import RecordingReader
 from quadsim.core.kinematics import matrix_from_quaternion, rotate
+from quadsim.core.types import Twist, VehicleState
+from quadsim.recording import contract as rm
+from quadsim.recording.reader import RecordingReader
 
 NS = 1_000_000_000
 
@@ -85,18 +85,26 @@ def load_flight(path: Path | str) -> RecordedFlight:
         if stats is not None:
             flight.topics = {reader.summary.channels[c].topic: n for c, n in stats.channel_message_counts.items()}
             flight.end_ns = stats.message_end_time
-        parts: dict[str, dict[int, Any]] = {rm.POSE.name: {}, rm.ODOM.name: {}, rm.IMU.name: {}, rm.ROTOR_THRUSTS.name: {}}
-        cameras = {t.split("/")[-3].removesuffix("_camera"): t for t in types
-                   if t.endswith("/image_raw/compressed") and types[t] == "sensor_msgs/msg/CompressedImage"}
-        wanted = [t for t in (*parts, rm.TWIST.name, *cameras.values())
-                  if t in types and types[t] == _expected_type(t)]
+        parts: dict[str, dict[int, Any]] = {
+            rm.POSE.name: {},
+            rm.ODOM.name: {},
+            rm.IMU.name: {},
+            rm.ROTOR_THRUSTS.name: {},
+        }
+        cameras = {
+            t.split("/")[-3].removesuffix("_camera"): t
+            for t in types
+            if t.endswith("/image_raw/compressed") and types[t] == "sensor_msgs/msg/CompressedImage"
+        }
+        wanted = [t for t in (*parts, rm.TWIST.name, *cameras.values()) if t in types and types[t] == _expected_type(t)]
         camera_of = {t: n for n, t in cameras.items()}
         for topic, ns, msg in reader.raw_messages(wanted):
             if topic in parts:
                 parts[topic][ns] = msg
             elif topic == rm.TWIST.name:
-                flight.commands.append((ns, Twist(msg.linear.x, msg.linear.y, msg.linear.z,
-                                                  msg.angular.x, msg.angular.y, msg.angular.z)))
+                flight.commands.append(
+                    (ns, Twist(msg.linear.x, msg.linear.y, msg.linear.z, msg.angular.x, msg.angular.y, msg.angular.z))
+                )
             else:
                 flight.frames.setdefault(camera_of[topic], []).append((ns, bytes(msg.data)))
     for ns in sorted(parts[rm.POSE.name]):
@@ -127,7 +135,8 @@ def _state(step: int, parts: dict[str, dict[int, Any]], ns: int) -> VehicleState
         velocity = rotate(matrix_from_quaternion(q), (b.x, b.y, b.z))
         a = odom.twist.twist.angular
         rates = (a.x, a.y, a.z)
-    force = (imu.linear_acceleration.x, imu.linear_acceleration.y, imu.linear_acceleration.z) if imu else (0.0, 0.0, 0.0)
+    force = (
+        (imu.linear_acceleration.x, imu.linear_acceleration.y, imu.linear_acceleration.z) if imu else (0.0, 0.0, 0.0)
+    )
     rotor = tuple(float(v) for v in thrusts.data[:4]) if thrusts is not None and len(thrusts.data) >= 4 else (0.0,) * 4
-    return VehicleState(step, (pose.position.x, pose.position.y, pose.position.z), q, velocity, rates,
-                        rotor, force)  # type: ignore[arg-type]
+    return VehicleState(step, (pose.position.x, pose.position.y, pose.position.z), q, velocity, rates, rotor, force)  # type: ignore[arg-type]

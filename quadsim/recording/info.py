@@ -7,9 +7,10 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from quadsim.errors import QuadsimError
-from quadsim.recording.salvage import damage_report
-from quadsim.recording.reader import RecordingReader
 from quadsim.recording.contract import CORE_TOPICS
+from quadsim.recording.reader import RecordingReader
+from quadsim.recording.salvage import damage_report
+
 
 @dataclass(frozen=True)
 class TopicInfo:
@@ -59,15 +60,21 @@ class RecordingInfo:
             cfg = p.get("config", {})
             rates = cfg.get("rates", {})
             out.append("run parameters:")
-            out.append(f"  controller {p.get('controller', {}).get('name', '?')}, z-mode {cfg.get('z_mode', '?')}, "
-                       f"driver {p.get('driver', {}).get('name', '?')}"
-                       + (f" ({p['driver'].get('script')})" if p.get("driver", {}).get("script") else ""))
+            out.append(
+                f"  controller {p.get('controller', {}).get('name', '?')}, z-mode {cfg.get('z_mode', '?')}, "
+                f"driver {p.get('driver', {}).get('name', '?')}"
+                + (f" ({p['driver'].get('script')})" if p.get("driver", {}).get("script") else "")
+            )
             out.append("  rates " + ", ".join(f"{k.replace('_hz', '')} {v} Hz" for k, v in rates.items()))
-            out.append(f"  vehicle {p.get('vehicle', {}).get('name', '?')}, mass {p.get('vehicle', {}).get('mass_kg', 0):.3f} kg, "
-                       f"command timeout {cfg.get('command_timeout_s')} s")
+            out.append(
+                f"  vehicle {p.get('vehicle', {}).get('name', '?')}, mass {p.get('vehicle', {}).get('mass_kg', 0):.3f} kg, "
+                f"command timeout {cfg.get('command_timeout_s')} s"
+            )
             for cam in p.get("cameras", []):
-                out.append(f"  camera {cam['name']}: {cam['width_px']}x{cam['height_px']} @ {cam['rate_hz']} Hz, "
-                           f"vertical FOV {cam['vertical_fov_deg']} deg, JPEG quality {cam['jpeg_quality']}")
+                out.append(
+                    f"  camera {cam['name']}: {cam['width_px']}x{cam['height_px']} @ {cam['rate_hz']} Hz, "
+                    f"vertical FOV {cam['vertical_fov_deg']} deg, JPEG quality {cam['jpeg_quality']}"
+                )
         else:
             out.append("run parameters: none (not recorded by quadsim)")
         return out
@@ -87,6 +94,18 @@ def read_info(path: Path) -> RecordingInfo:
     for cid, ch in sorted(summary.channels.items()):
         schema = summary.schemas.get(ch.schema_id)
         count = stats.channel_message_counts.get(cid, 0)
-        topics.append(TopicInfo(ch.topic, schema.name if schema else "?", count, (count - 1) / duration if count > 1 else 0.0))
-    return RecordingInfo(path, path.stat().st_size, header.profile, header.library, start, end, tuple(topics),
-                         reader.parameters, ours, attachments)
+        topics.append(
+            TopicInfo(ch.topic, schema.name if schema else "?", count, (count - 1) / duration if count > 1 else 0.0)
+        )
+    return RecordingInfo(
+        path,
+        path.stat().st_size,
+        header.profile,
+        header.library,
+        start,
+        end,
+        tuple(topics),
+        reader.parameters,
+        ours,
+        attachments,
+    )

@@ -8,15 +8,16 @@ lack the topics a quadsim recording has.
 from __future__ import annotations
 
 import json
+from collections.abc import Iterator
 from pathlib import Path
-from typing import Any, Iterator
+from typing import Any
 
 from mcap.reader import make_reader
 
-from quadsim.recording import contract as rm
-from quadsim.errors import QuadsimError
-from quadsim.recording.salvage import check_is_mcap, damage_report
 from quadsim.core.types import Twist
+from quadsim.errors import QuadsimError
+from quadsim.recording import contract as rm
+from quadsim.recording.salvage import check_is_mcap, damage_report
 from quadsim.recording.writer import EVENT_METADATA_NAME, METADATA_NAME
 
 
@@ -35,8 +36,11 @@ class RecordingReader:
             self._fh.close()
             raise QuadsimError(damage_report(self.path))
         self.summary = summary
-        self.topics = {ch.topic: summary.schemas[ch.schema_id].name for ch in summary.channels.values()
-                       if ch.schema_id in summary.schemas}
+        self.topics = {
+            ch.topic: summary.schemas[ch.schema_id].name
+            for ch in summary.channels.values()
+            if ch.schema_id in summary.schemas
+        }
         missing = [t for t in rm.CORE_TOPICS if t not in self.topics]
         if missing and require_topics:
             self._fh.close()
@@ -47,8 +51,11 @@ class RecordingReader:
         params = self.quadsim_metadata.get("parameters")
         self.parameters: dict[str, Any] | None = json.loads(params) if params else None
         #: (step, kind, value) of what happened besides the commands (z-mode switches)
-        self.events = sorted((int(m.metadata["step"]), m.metadata["kind"], m.metadata["value"])
-                             for m in records if m.name == EVENT_METADATA_NAME)
+        self.events = sorted(
+            (int(m.metadata["step"]), m.metadata["kind"], m.metadata["value"])
+            for m in records
+            if m.name == EVENT_METADATA_NAME
+        )
 
     def attachments(self) -> dict[str, bytes]:
         return {a.name: a.data for a in self._reader.iter_attachments()}
@@ -56,7 +63,11 @@ class RecordingReader:
     def raw_messages(self, topics: list[str]) -> Iterator[tuple[str, int, Any]]:
         """(topic, log time ns, decoded message) of several topics, in log-time order."""
         for _, channel, message in self._reader.iter_messages(topics=topics, log_time_order=True):
-            yield channel.topic, message.log_time, rm.TYPESTORE.deserialize_cdr(message.data, self.topics[channel.topic])
+            yield (
+                channel.topic,
+                message.log_time,
+                rm.TYPESTORE.deserialize_cdr(message.data, self.topics[channel.topic]),
+            )
 
     def messages(self, topic: str) -> Iterator[tuple[int, Any]]:
         """(log time ns, decoded message) of one topic, in log-time order."""
@@ -82,7 +93,7 @@ class RecordingReader:
     def close(self) -> None:
         self._fh.close()
 
-    def __enter__(self) -> "RecordingReader":
+    def __enter__(self) -> RecordingReader:
         return self
 
     def __exit__(self, *exc: object) -> None:

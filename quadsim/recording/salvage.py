@@ -113,10 +113,12 @@ def damage_report(path: Path) -> str:
         return f"{path}: a complete MCAP file with no messages"
     t0, t1 = found.span_s
     why = found.stop_reason or "it has no summary section"
-    return (f"{path}: damaged or cut short: {why}. Readable: {len(found.messages)} messages in "
-            f"{found.complete_chunks} complete chunks, {t0:.2f} .. {t1:.2f} s"
-            + (f", {found.bad_chunks} damaged chunks skipped" if found.bad_chunks else "")
-            + f". Run 'quadsim recover {path}' to save them to an indexed file.")
+    return (
+        f"{path}: damaged or cut short: {why}. Readable: {len(found.messages)} messages in "
+        f"{found.complete_chunks} complete chunks, {t0:.2f} .. {t1:.2f} s"
+        + (f", {found.bad_chunks} damaged chunks skipped" if found.bad_chunks else "")
+        + f". Run 'quadsim recover {path}' to save them to an indexed file."
+    )
 
 
 @dataclass(frozen=True)
@@ -141,11 +143,15 @@ def recover(src: Path, dst: Path | None = None, required_topics: tuple[str, ...]
     if out.resolve() == src.resolve():
         raise QuadsimError("the output must be a different file from the input")
     if not found.messages:
-        raise QuadsimError(f"{src}: no complete message could be read ({found.stop_reason or 'no chunks'}); nothing to recover")
+        raise QuadsimError(
+            f"{src}: no complete message could be read ({found.stop_reason or 'no chunks'}); nothing to recover"
+        )
     topics = {ch.topic for ch in found.channels.values()}
     if required_topics and not topics & set(required_topics):
-        raise QuadsimError(f"{src}: has none of a quadsim recording's topics (found {', '.join(sorted(topics)) or 'none'}); "
-                           f"nothing written")
+        raise QuadsimError(
+            f"{src}: has none of a quadsim recording's topics (found {', '.join(sorted(topics)) or 'none'}); "
+            f"nothing written"
+        )
     try:
         fh = open(out, "xb")
     except OSError as exc:
@@ -156,7 +162,9 @@ def recover(src: Path, dst: Path | None = None, required_topics: tuple[str, ...]
         schema_ids = {sid: writer.register_schema(s.name, s.encoding, s.data) for sid, s in found.schemas.items()}
         channel_ids = {}
         for cid, ch in found.channels.items():
-            channel_ids[cid] = writer.register_channel(ch.topic, ch.message_encoding, schema_ids.get(ch.schema_id, 0), ch.metadata)
+            channel_ids[cid] = writer.register_channel(
+                ch.topic, ch.message_encoding, schema_ids.get(ch.schema_id, 0), ch.metadata
+            )
         for md in found.metadata:
             writer.add_metadata(md.name, md.metadata)
         for at in found.attachments:
@@ -167,5 +175,5 @@ def recover(src: Path, dst: Path | None = None, required_topics: tuple[str, ...]
                 writer.add_message(channel_ids[msg.channel_id], msg.log_time, msg.data, msg.publish_time, msg.sequence)
                 kept += 1
         writer.finish()
-    topics = len({found.channels[m.channel_id].topic for m in found.messages if m.channel_id in found.channels})
-    return Recovered(out, kept, topics, found.complete_chunks, found.span_s, found.complete, found.stop_reason)
+    topic_count = len({found.channels[m.channel_id].topic for m in found.messages if m.channel_id in found.channels})
+    return Recovered(out, kept, topic_count, found.complete_chunks, found.span_s, found.complete, found.stop_reason)

@@ -22,11 +22,10 @@ from typing import Any, BinaryIO
 from mcap.writer import CompressionType, Writer
 
 from quadsim import __version__
-from quadsim.sensors.camera import CameraSpec
-from quadsim.sensors.rig import CameraFrame
-from quadsim.errors import QuadsimError
 from quadsim.core.types import Twist, VehicleState
+from quadsim.errors import QuadsimError
 from quadsim.recording import contract as rm
+from quadsim.sensors.camera import CameraFrame, CameraSpec
 from quadsim.sim.simulator import Simulator
 
 log = logging.getLogger(__name__)
@@ -66,16 +65,24 @@ def check_writable(path: Path, min_free_bytes: int = MIN_FREE_BYTES) -> None:
         raise QuadsimError(f"cannot write recordings to {folder}: permission denied (use --out DIR or --no-record)")
     free = shutil.disk_usage(folder).free
     if free < min_free_bytes:
-        raise QuadsimError(f"only {free / 1e6:.0f} MB free in {folder}; recording needs at least "
-                           f"{min_free_bytes / 1e6:.0f} MB (free some space, use --out elsewhere, or --no-record)")
+        raise QuadsimError(
+            f"only {free / 1e6:.0f} MB free in {folder}; recording needs at least "
+            f"{min_free_bytes / 1e6:.0f} MB (free some space, use --out elsewhere, or --no-record)"
+        )
 
 
 class McapRecorder:
     """A loop sink (commands, states) and a camera-frame sink that writes one MCAP file."""
 
-    def __init__(self, path: Path, sim: Simulator, cameras: tuple[CameraSpec, ...] = (),
-                 run_info: dict[str, Any] | None = None, stream: BinaryIO | None = None,
-                 chunk_size: int = 4 * 1024 * 1024) -> None:
+    def __init__(
+        self,
+        path: Path,
+        sim: Simulator,
+        cameras: tuple[CameraSpec, ...] = (),
+        run_info: dict[str, Any] | None = None,
+        stream: BinaryIO | None = None,
+        chunk_size: int = 4 * 1024 * 1024,
+    ) -> None:
         self.path = path
         self._hz = sim.config.rates.physics_hz
         self._cameras = {c.name: c for c in cameras}
@@ -124,15 +131,21 @@ class McapRecorder:
 
     def _write_metadata(self, sim: Simulator, cameras: tuple[CameraSpec, ...], run_info: dict[str, Any]) -> None:
         params = {**sim.describe(), "cameras": [c.to_dict() for c in cameras], **run_info}
-        self._writer.add_metadata(METADATA_NAME, {
-            "quadsim_version": __version__,
-            "wall_clock_start_utc": dt.datetime.now(dt.timezone.utc).isoformat(timespec="seconds"),
-            "time_base": "simulation time, ns from 0 (log_time = publish_time = header.stamp)",
-            "parameters": json.dumps(params, sort_keys=True),
-        })
+        self._writer.add_metadata(
+            METADATA_NAME,
+            {
+                "quadsim_version": __version__,
+                "wall_clock_start_utc": dt.datetime.now(dt.timezone.utc).isoformat(timespec="seconds"),
+                "time_base": "simulation time, ns from 0 (log_time = publish_time = header.stamp)",
+                "parameters": json.dumps(params, sort_keys=True),
+            },
+        )
         v, world = sim.vehicle, sim.world
-        for path, media in ((v.urdf_path, "application/xml"), (v.params_path, "application/toml"),
-                            (world.path, "application/toml")):
+        for path, media in (
+            (v.urdf_path, "application/xml"),
+            (v.params_path, "application/toml"),
+            (world.path, "application/toml"),
+        ):
             self._writer.add_attachment(0, 0, path.name, media, path.read_bytes())
 
     # --- sinks ------------------------------------------------------------------------------
@@ -179,8 +192,9 @@ class McapRecorder:
             return
         try:
             count = self.counts[topic.name]
-            self._writer.add_message(self._channels[topic.name], log_time=ns, data=rm.serialize(msg),
-                                     publish_time=ns, sequence=count)
+            self._writer.add_message(
+                self._channels[topic.name], log_time=ns, data=rm.serialize(msg), publish_time=ns, sequence=count
+            )
             self.counts[topic.name] = count + 1
             if ns > self.last_log_time_ns:
                 self.last_log_time_ns = ns
@@ -202,8 +216,10 @@ class McapRecorder:
 
     def _fail(self, exc: OSError) -> None:
         reason = exc.strerror or str(exc)
-        self.error = (f"recording stopped at sim time {self.last_log_time_ns / 1e9:.2f} s: {reason}. "
-                      f"What was written is kept; run 'quadsim recover {self.path}' to index it")
+        self.error = (
+            f"recording stopped at sim time {self.last_log_time_ns / 1e9:.2f} s: {reason}. "
+            f"What was written is kept; run 'quadsim recover {self.path}' to index it"
+        )
         log.error("%s", self.error)
         try:
             self._stream.close() if self._own_stream else None

@@ -1,4 +1,4 @@
-"""Onboard cameras: settings, intrinsics (CameraInfo), the view from the body's pose, rendering.
+"""Onboard cameras as data: settings, intrinsics (CameraInfo), the view from the body's pose, frames.
 
 A camera link's x axis is the viewing direction and its z axis the image's up (REP 103 body
 axes). Images are published in the optical frame (x right, y down, z forward), which is the link
@@ -12,12 +12,8 @@ import math
 from dataclasses import asdict, dataclass
 from typing import Any
 
-import cv2
-import numpy as np
-
-from quadsim.errors import ConfigError
-from quadsim.physics.pybullet_quiet import pb
 from quadsim.core.kinematics import Mat3, matrix_from_quaternion, rotate
+from quadsim.errors import ConfigError
 from quadsim.vehicle.params import CameraMount
 
 #: optical frame axes expressed in the camera link frame: x_opt = -y_link, y_opt = -z_link, z_opt = x_link
@@ -83,8 +79,10 @@ class CameraSpec:
 def default_cameras(width_px: int = 320, height_px: int = 240, rate_hz: int = 30) -> tuple[CameraSpec, CameraSpec]:
     # the floor camera sits 3.4 cm above the skids' bottom: a near plane of 1 cm still sees the
     # ground when the vehicle has landed
-    return (CameraSpec("front", "front_camera_link", width_px, height_px, 60.0, rate_hz),
-            CameraSpec("floor", "floor_camera_link", width_px, height_px, 60.0, rate_hz, near_m=0.01))
+    return (
+        CameraSpec("front", "front_camera_link", width_px, height_px, 60.0, rate_hz),
+        CameraSpec("floor", "floor_camera_link", width_px, height_px, 60.0, rate_hz, near_m=0.01),
+    )
 
 
 @dataclass(frozen=True)
@@ -96,8 +94,9 @@ class CameraPose:
     up: tuple[float, float, float]
 
 
-def camera_pose(mount: CameraMount, position: tuple[float, float, float],
-                orientation_xyzw: tuple[float, float, float, float]) -> CameraPose:
+def camera_pose(
+    mount: CameraMount, position: tuple[float, float, float], orientation_xyzw: tuple[float, float, float, float]
+) -> CameraPose:
     """The camera's pose for the body at (position, orientation)."""
     r = matrix_from_quaternion(orientation_xyzw)
     m = mount.rotation
@@ -108,48 +107,12 @@ def camera_pose(mount: CameraMount, position: tuple[float, float, float],
     return CameraPose(eye, forward, up)
 
 
-def view_matrix(pose: CameraPose) -> tuple[float, ...]:
-    target = (pose.eye[0] + pose.forward[0], pose.eye[1] + pose.forward[1], pose.eye[2] + pose.forward[2])
-    return pb.computeViewMatrix(pose.eye, target, pose.up)
+@dataclass(frozen=True)
+class CameraFrame:
+    """One encoded image, stamped with the simulation step at which it was captured."""
 
-
-def projection_matrix(spec: CameraSpec) -> tuple[float, ...]:
-    return pb.computeProjectionMatrixFOV(spec.vertical_fov_deg, spec.width_px / spec.height_px, spec.near_m, spec.far_m)
-
-
-def render_rgb(spec: CameraSpec, pose: CameraPose, cid: int, renderer: RendererKind = RendererKind.TINY,
-               projection: tuple[float, ...] | None = None) -> np.ndarray:
-    """Render one RGB image (height x width x 3, uint8, row 0 at the top). No segmentation mask."""
-    flags = pb.ER_NO_SEGMENTATION_MASK
-    engine = pb.ER_TINY_RENDERER if renderer is RendererKind.TINY else pb.ER_BULLET_HARDWARE_OPENGL
-    _, _, rgba, _, _ = pb.getCameraImage(
-        spec.width_px, spec.height_px, view_matrix(pose), projection or projection_matrix(spec),
-        renderer=engine, flags=flags, physicsClientId=cid)
-    return np.reshape(np.asarray(rgba, dtype=np.uint8), (spec.height_px, spec.width_px, 4))[:, :, :3]
-
-
-def encode_jpeg(rgb: np.ndarray, quality: int) -> bytes:
-    ok, buf = cv2.imencode(".jpg", cv2.cvtColor(rgb, cv2.COLOR_RGB2BGR), [cv2.IMWRITE_JPEG_QUALITY, quality])
-    if not ok:  # pragma: no cover - OpenCV fails only on invalid arrays
-        raise RuntimeError("JPEG encoding failed")
-    return buf.tobytes()
-
-
-def decode_jpeg(data: bytes) -> np.ndarray:
-    """JPEG bytes -> RGB array (for viewers and tests)."""
-    bgr = cv2.imdecode(np.frombuffer(data, np.uint8), cv2.IMREAD_COLOR)
-    if bgr is None:
-        raise ValueError("not a decodable JPEG image")
-    return cv2.cvtColor(bgr, cv2.COLOR_BGR2RGB)
-
-
-def enable_egl(cid: int) -> None:
-    """Load PyBullet's EGL renderer plugin into client `cid`, or raise ConfigError saying why not."""
-    import pkgutil
-
-    loader = pkgutil.get_loader("eglRenderer")
-    if loader is None:
-        raise ConfigError("--renderer egl: this pybullet build has no eglRenderer plugin; use --renderer tiny")
-    plugin = pb.loadPlugin(loader.get_filename(), "_eglRendererPlugin", physicsClientId=cid)  # type: ignore[union-attr]
-    if plugin < 0:
-        raise ConfigError("--renderer egl: the EGL plugin did not load (no EGL driver on this machine?); use --renderer tiny")
+    camera: str
+    step: int
+    jpeg: bytes
+    width_px: int
+    height_px: int

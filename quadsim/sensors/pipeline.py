@@ -22,10 +22,10 @@ from multiprocessing.connection import Listener
 from typing import Protocol
 
 import quadsim
-from quadsim.sensors.camera import CameraSpec, RendererKind
-from quadsim.sensors.rig import CameraFrame, CameraRig
-from quadsim.errors import ConfigError, QuadsimError
 from quadsim.core.types import VehicleState
+from quadsim.errors import ConfigError, QuadsimError
+from quadsim.sensors.camera import CameraFrame, CameraSpec, RendererKind
+from quadsim.sensors.rig import CameraRig
 from quadsim.sim.simulator import Simulator
 
 
@@ -43,8 +43,15 @@ def _worker_env() -> dict[str, str]:
 
 
 class CameraPipeline:
-    def __init__(self, sim: Simulator, specs: tuple[CameraSpec, ...], renderer: RendererKind = RendererKind.TINY,
-                 workers: int = 2, ordered_delivery: bool = True, worker_start_timeout_s: float = 60.0) -> None:
+    def __init__(
+        self,
+        sim: Simulator,
+        specs: tuple[CameraSpec, ...],
+        renderer: RendererKind = RendererKind.TINY,
+        workers: int = 2,
+        ordered_delivery: bool = True,
+        worker_start_timeout_s: float = 60.0,
+    ) -> None:
         if len({s.name for s in specs}) != len(specs):
             raise ConfigError("camera names must be unique")
         rates = sim.config.rates
@@ -54,7 +61,9 @@ class CameraPipeline:
         self._every = {}
         for spec in specs:
             if rates.physics_hz % spec.rate_hz:
-                raise ConfigError(f"camera {spec.name}: rate {spec.rate_hz} Hz does not divide the physics rate {rates.physics_hz} Hz")
+                raise ConfigError(
+                    f"camera {spec.name}: rate {spec.rate_hz} Hz does not divide the physics rate {rates.physics_hz} Hz"
+                )
             self._every[spec.name] = rates.every(spec.rate_hz)
         self._tick = math.gcd(*self._every.values()) if specs else 1
         self._ordered = ordered_delivery
@@ -70,7 +79,7 @@ class CameraPipeline:
             sim.vehicle.camera_mount(spec.link_name)  # a clear error for an unknown link, here
         if workers <= 0:
             if renderer is RendererKind.EGL:
-                from quadsim.sensors.camera import enable_egl
+                from quadsim.sensors.rendering import enable_egl
 
                 enable_egl(sim.physics.client_id)
             self._rig = CameraRig(sim.vehicle, specs, renderer, sim.physics.client_id, None)
@@ -83,8 +92,13 @@ class CameraPipeline:
 
     def _start_workers(self, sim: Simulator, count: int, timeout_s: float) -> None:
         v, world = sim.vehicle, sim.world
-        settings = {"urdf": str(v.urdf_path), "params": str(v.params_path), "world": str(world.path),
-                    "specs": self.specs, "renderer": self.renderer.value}
+        settings = {
+            "urdf": str(v.urdf_path),
+            "params": str(v.params_path),
+            "world": str(world.path),
+            "specs": self.specs,
+            "renderer": self.renderer.value,
+        }
         self._tmpdir = tempfile.TemporaryDirectory(prefix="quadsim-render-")
         address = os.path.join(self._tmpdir.name, "socket")
         authkey = secrets.token_bytes(16)
@@ -96,8 +110,11 @@ class CameraPipeline:
             sock.settimeout(timeout_s)
         try:
             for _ in range(count):
-                proc = subprocess.Popen([sys.executable, "-m", "quadsim.sensors.render_worker", address],
-                                        stdin=subprocess.PIPE, env=_worker_env())
+                proc = subprocess.Popen(
+                    [sys.executable, "-m", "quadsim.sensors.render_worker", address],
+                    stdin=subprocess.PIPE,
+                    env=_worker_env(),
+                )
                 proc.stdin.write(authkey.hex().encode() + b"\n")  # type: ignore[union-attr]
                 proc.stdin.close()  # type: ignore[union-attr]
                 self._procs.append(proc)
@@ -187,6 +204,7 @@ class CameraPipeline:
             conn.close()
         self._procs, self._conns = [], []
         self._pending.clear()
-        if getattr(self, "_tmpdir", None) is not None:
-            self._tmpdir.cleanup()
-            self._tmpdir = None
+        tmpdir = getattr(self, "_tmpdir", None)
+        if tmpdir is not None:
+            tmpdir.cleanup()
+            del self._tmpdir

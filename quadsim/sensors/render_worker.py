@@ -20,13 +20,14 @@ from pathlib import Path
 
 def worker_main(conn, urdf: str, params: str, world: str, specs: tuple, renderer_value: str) -> None:
     try:
+        from quadsim.physics.world_spec import load_world
         from quadsim.sensors.camera import RendererKind
         from quadsim.sensors.rig import CameraRig
         from quadsim.vehicle.params import load_vehicle
-        from quadsim.physics.world_spec import load_world
 
-        rig = CameraRig.standalone(load_vehicle(Path(urdf), Path(params)), load_world(Path(world)), specs,
-                                   RendererKind(renderer_value))
+        rig = CameraRig.standalone(
+            load_vehicle(Path(urdf), Path(params)), load_world(Path(world)), specs, RendererKind(renderer_value)
+        )
     except Exception as exc:  # report, do not die silently
         conn.send(("error", f"{type(exc).__name__}: {exc}"))
         return

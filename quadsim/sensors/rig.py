@@ -6,29 +6,23 @@ client of its own holding the same scene).
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-
-from quadsim.sensors.camera import CameraSpec, RendererKind, camera_pose, enable_egl, encode_jpeg, projection_matrix, render_rgb
 from quadsim.physics.pybullet_quiet import pb
 from quadsim.physics.scene import build_world, load_vehicle_body
-from quadsim.vehicle.params import VehicleParams
 from quadsim.physics.world_spec import WorldSpec
-
-
-@dataclass(frozen=True)
-class CameraFrame:
-    """One encoded image, stamped with the simulation step at which it was captured."""
-
-    camera: str
-    step: int
-    jpeg: bytes
-    width_px: int
-    height_px: int
+from quadsim.sensors.camera import CameraFrame, CameraSpec, RendererKind, camera_pose
+from quadsim.sensors.rendering import enable_egl, encode_jpeg, projection_matrix, render_rgb
+from quadsim.vehicle.params import VehicleParams
 
 
 class CameraRig:
-    def __init__(self, vehicle: VehicleParams, specs: tuple[CameraSpec, ...], renderer: RendererKind,
-                 cid: int, body_id: int | None) -> None:
+    def __init__(
+        self,
+        vehicle: VehicleParams,
+        specs: tuple[CameraSpec, ...],
+        renderer: RendererKind,
+        cid: int,
+        body_id: int | None,
+    ) -> None:
         """Render in client `cid`. With `body_id`, the rig moves that body to each pose it is
         given (a client of its own); without, the body is where physics put it."""
         self.specs = {s.name: s for s in specs}
@@ -39,8 +33,9 @@ class CameraRig:
         self._body = body_id
 
     @classmethod
-    def standalone(cls, vehicle: VehicleParams, world: WorldSpec, specs: tuple[CameraSpec, ...],
-                   renderer: RendererKind) -> "CameraRig":
+    def standalone(
+        cls, vehicle: VehicleParams, world: WorldSpec, specs: tuple[CameraSpec, ...], renderer: RendererKind
+    ) -> CameraRig:
         """A rig with a DIRECT client of its own holding the world and the vehicle (no physics)."""
         cid = pb.connect(pb.DIRECT)
         if renderer is RendererKind.EGL:
@@ -49,8 +44,13 @@ class CameraRig:
         body = load_vehicle_body(vehicle, cid, (0.0, 0.0, 0.0), (0.0, 0.0, 0.0, 1.0))
         return cls(vehicle, specs, renderer, cid, body)
 
-    def render(self, names: tuple[str, ...], step: int, position: tuple[float, float, float],
-               orientation: tuple[float, float, float, float]) -> list[CameraFrame]:
+    def render(
+        self,
+        names: tuple[str, ...],
+        step: int,
+        position: tuple[float, float, float],
+        orientation: tuple[float, float, float, float],
+    ) -> list[CameraFrame]:
         if self._body is not None:
             pb.resetBasePositionAndOrientation(self._body, position, orientation, physicsClientId=self._cid)
         frames = []

@@ -29,7 +29,8 @@ class Rates:
                 divisors = [d for d in range(1, self.physics_hz + 1) if self.physics_hz % d == 0]
                 raise ConfigError(
                     f"rate {name}={value} Hz does not divide the physics rate {self.physics_hz} Hz; "
-                    f"choose one of {divisors}")
+                    f"choose one of {divisors}"
+                )
 
     def every(self, hz: int) -> int:
         """Physics steps between two events at `hz`."""

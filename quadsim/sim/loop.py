@@ -12,13 +12,14 @@ Nothing here reads the wall clock; only a window paces these steps to real time.
 
 from __future__ import annotations
 
-from typing import Any, Callable, Protocol
+from collections.abc import Callable
+from typing import Protocol
 
-from quadsim.control.gate import CommandGate
 from quadsim.control import Controller
+from quadsim.control.gate import CommandGate
+from quadsim.core.types import RotorForces, Twist, VehicleState
 from quadsim.drivers import InputDriver
 from quadsim.errors import ConfigError
-from quadsim.core.types import RotorForces, Twist, VehicleState
 from quadsim.physics.pybullet_world import PhysicsWorld
 from quadsim.sim.config import Rates
 
@@ -48,8 +49,14 @@ class StateLog:
 
 
 class SimLoop:
-    def __init__(self, physics: PhysicsWorld, controller: Controller, gate: CommandGate,
-                 rates: Rates, driver: InputDriver | None = None) -> None:
+    def __init__(
+        self,
+        physics: PhysicsWorld,
+        controller: Controller,
+        gate: CommandGate,
+        rates: Rates,
+        driver: InputDriver | None = None,
+    ) -> None:
         if abs(physics.dt_s * rates.physics_hz - 1.0) > 1e-12:
             raise ConfigError("the physics world and the loop disagree on the physics rate")
         self.physics = physics

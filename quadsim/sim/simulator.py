@@ -13,25 +13,29 @@ from __future__ import annotations
 
 from typing import Any
 
+from quadsim.control import make_controller
 from quadsim.control.gate import CommandGate
-from quadsim.control import ControllerKind, make_controller
+from quadsim.core.types import Twist, VehicleState, ZMode
 from quadsim.drivers import InputDriver
 from quadsim.drivers.programmatic import ProgrammaticDriver
 from quadsim.errors import ConfigError, QuadsimError
-from quadsim.sim.config import SimConfig
-from quadsim.sim.loop import Sink, SimLoop
-from quadsim.core.types import Twist, VehicleState, ZMode
-from quadsim.core.types import StartPose
 from quadsim.physics.pybullet_world import PhysicsWorld
-from quadsim.vehicle.params import load_vehicle
 from quadsim.physics.world_spec import load_world
+from quadsim.sim.config import SimConfig
+from quadsim.sim.loop import SimLoop, Sink
+from quadsim.vehicle.params import load_vehicle
 
 
 class Simulator:
     """One simulated vehicle in one world, stepped by a SimLoop that owns the clock."""
 
-    def __init__(self, config: SimConfig = SimConfig(), driver: InputDriver | None = None,
-                 controller_gains: dict[str, Any] | None = None, texture_required: bool = True) -> None:
+    def __init__(
+        self,
+        config: SimConfig = SimConfig(),
+        driver: InputDriver | None = None,
+        controller_gains: dict[str, Any] | None = None,
+        texture_required: bool = True,
+    ) -> None:
         self.config = config
         self.vehicle = load_vehicle(config.urdf, config.vehicle_params)
         self.world = load_world(config.world, texture_required)
@@ -40,8 +44,9 @@ class Simulator:
         if timeout is not None and not timeout > 0:
             raise ConfigError(f"command timeout must be > 0 s (or None to disable), got {timeout}")
         self.controller = make_controller(config.controller, self.vehicle, controller_gains)
-        self.gate = CommandGate(self.vehicle.limits, config.z_mode,
-                                None if timeout is None else round(timeout * rates.physics_hz))
+        self.gate = CommandGate(
+            self.vehicle.limits, config.z_mode, None if timeout is None else round(timeout * rates.physics_hz)
+        )
         self.driver: InputDriver = driver if driver is not None else ProgrammaticDriver()
         self.physics = PhysicsWorld(self.vehicle, self.world, rates.physics_hz, config.start, config.gui)
         self.loop = SimLoop(self.physics, self.controller, self.gate, rates, self.driver)
@@ -99,7 +104,7 @@ class Simulator:
     def close(self) -> None:
         self.physics.close()
 
-    def __enter__(self) -> "Simulator":
+    def __enter__(self) -> Simulator:
         return self
 
     def __exit__(self, *exc: object) -> None:

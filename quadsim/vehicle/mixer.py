@@ -4,8 +4,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from quadsim.errors import ConfigError
 from quadsim.core.types import RotorForces
+from quadsim.errors import ConfigError
 from quadsim.vehicle.params import VehicleParams
 
 
@@ -28,7 +28,9 @@ class Mixer:
         ]
         allocation = np.array(rows, dtype=float)
         if allocation.shape != (4, 4) or abs(np.linalg.det(allocation)) < 1e-12:
-            raise ConfigError(f"{vehicle.urdf_path.name}: rotor layout cannot produce independent roll, pitch and yaw torques")
+            raise ConfigError(
+                f"{vehicle.urdf_path.name}: rotor layout cannot produce independent roll, pitch and yaw torques"
+            )
         self.allocation = allocation
         inverse = np.linalg.inv(allocation)
         # plain tuples: the hot path below is scalar Python, faster than numpy for 4x4

@@ -111,8 +111,7 @@ class VehicleParams:
             "inertia_kgm2": [list(r) for r in self.inertia_kgm2],
             "com_m": list(self.com_m),
             "rotors": [
-                {"link": r.link_name, "position_m": list(r.position_m), "spin": r.spin.value}
-                for r in self.rotors
+                {"link": r.link_name, "position_m": list(r.position_m), "spin": r.spin.value} for r in self.rotors
             ],
             "thrust_coefficient_n_per_rad2s2": self.thrust_coefficient_n_per_rad2s2,
             "torque_coefficient_nm_per_rad2s2": self.torque_coefficient_nm_per_rad2s2,
@@ -184,7 +183,7 @@ def _read_urdf(path: Path) -> dict[str, _Link]:
         name = link.get("name", "")
         inertial = link.find("inertial")
         if inertial is None:
-            raw[name] = (0.0, (0.0, 0.0, 0.0), ((0.0,) * 3,) * 3)  # type: ignore[assignment]
+            raw[name] = (0.0, (0.0, 0.0, 0.0), ((0.0, 0.0, 0.0), (0.0, 0.0, 0.0), (0.0, 0.0, 0.0)))
             continue
         where = f"{path.name}: link {name!r} inertial"
         mass_elem = inertial.find("mass")
@@ -214,7 +213,9 @@ def _read_urdf(path: Path) -> dict[str, _Link]:
     for joint in root.findall("joint"):
         jname = joint.get("name", "")
         if joint.get("type") != "fixed":
-            raise ConfigError(f"{path.name}: joint {jname!r} is {joint.get('type')!r}; a quadrotor body uses fixed joints only")
+            raise ConfigError(
+                f"{path.name}: joint {jname!r} is {joint.get('type')!r}; a quadrotor body uses fixed joints only"
+            )
         parent = joint.find("parent")
         child = joint.find("child")
         if parent is None or child is None:
@@ -227,16 +228,16 @@ def _read_urdf(path: Path) -> dict[str, _Link]:
 
     links: dict[str, _Link] = {}
     for name, (mass, com, inertia) in raw.items():
-        pos: Vec3 = (0.0, 0.0, 0.0)
-        rot: Mat3 = IDENTITY
+        origin_in_base: Vec3 = (0.0, 0.0, 0.0)
+        rotation_in_base: Mat3 = IDENTITY
         node = name
         while node in parent_of:  # compose child -> ... -> base_link
-            parent, xyz, jrot = parent_of[node]
-            rotated = rotate(jrot, pos)
-            pos = (rotated[0] + xyz[0], rotated[1] + xyz[1], rotated[2] + xyz[2])
-            rot = mat_mul(jrot, rot)
-            node = parent
-        links[name] = _Link(name, mass, com, inertia, pos, rot)
+            parent_name, xyz, joint_rotation = parent_of[node]
+            rotated = rotate(joint_rotation, origin_in_base)
+            origin_in_base = (rotated[0] + xyz[0], rotated[1] + xyz[1], rotated[2] + xyz[2])
+            rotation_in_base = mat_mul(joint_rotation, rotation_in_base)
+            node = parent_name
+        links[name] = _Link(name, mass, com, inertia, origin_in_base, rotation_in_base)
     return links
 
 
@@ -246,7 +247,11 @@ def _composite_inertia(links: dict[str, _Link]) -> tuple[float, Vec3, Mat3]:
     centres = {}
     for name, link in links.items():
         c = rotate(link.rotation_in_base, link.com_in_link_m)
-        centres[name] = (c[0] + link.origin_in_base_m[0], c[1] + link.origin_in_base_m[1], c[2] + link.origin_in_base_m[2])
+        centres[name] = (
+            c[0] + link.origin_in_base_m[0],
+            c[1] + link.origin_in_base_m[1],
+            c[2] + link.origin_in_base_m[2],
+        )
     com = tuple(sum(links[n].mass_kg * centres[n][i] for n in links) / total for i in range(3))
     inertia = [[0.0] * 3 for _ in range(3)]
     for name, link in links.items():
@@ -290,14 +295,14 @@ def _build(urdf: Path, params: Path, links: dict[str, _Link], table: dict[str, A
         raise ConfigError(f"{urdf.name}: expected 4 rotor links named rotor_1..rotor_4, found {rotor_names}")
     spins = table.get("rotors", {}).get("spin")
     if not isinstance(spins, dict):
-        raise ConfigError(f"{params}: missing [rotors] spin = {{ rotor_1 = \"ccw\", ... }}")
+        raise ConfigError(f'{params}: missing [rotors] spin = {{ rotor_1 = "ccw", ... }}')
     rotors = []
     for name in rotor_names:
         spin_text = spins.get(name)
         try:
             spin = Spin(str(spin_text).lower())
         except ValueError:
-            raise ConfigError(f"{params}: [rotors] spin.{name} must be \"ccw\" or \"cw\", got {spin_text!r}") from None
+            raise ConfigError(f'{params}: [rotors] spin.{name} must be "ccw" or "cw", got {spin_text!r}') from None
         axis = rotate(links[name].rotation_in_base, (0.0, 0.0, 1.0))
         if axis[2] < 0.999:
             raise ConfigError(f"{urdf.name}: link {name!r} must be level (its z axis along base_link z)")
@@ -317,8 +322,11 @@ def _build(urdf: Path, params: Path, links: dict[str, _Link], table: dict[str, A
             f"too little to fly a {weight:.2f} N vehicle (need at least 1.2x its weight)"
         )
     drag = table.get("drag", {}).get("linear_coefficients_ns_per_m")
-    if (not isinstance(drag, list) or len(drag) != 3
-            or not all(isinstance(v, (int, float)) and not isinstance(v, bool) and 0.0 <= v < 100.0 for v in drag)):
+    if (
+        not isinstance(drag, list)
+        or len(drag) != 3
+        or not all(isinstance(v, (int, float)) and not isinstance(v, bool) and 0.0 <= v < 100.0 for v in drag)
+    ):
         raise ConfigError(f"{params}: [drag] linear_coefficients_ns_per_m must be 3 numbers in [0, 100), got {drag!r}")
     limits = CommandLimits(
         max_horizontal_speed_mps=_number(table, "limits", "max_horizontal_speed_mps", params, low=0.1, high=50.0),
@@ -333,15 +341,17 @@ def _build(urdf: Path, params: Path, links: dict[str, _Link], table: dict[str, A
     if any(abs(v) > 1e-9 for v in links["base_link"].com_in_link_m):
         # PyBullet reports the base's pose at its inertial origin; keep that the link origin
         raise ConfigError(f"{urdf.name}: base_link's <inertial> origin must be at the link origin (0 0 0)")
-    cameras = tuple(CameraMount(n, links[n].origin_in_base_m, links[n].rotation_in_base)
-                    for n in sorted(n for n in links if n.endswith("_camera_link")))
+    cameras = tuple(
+        CameraMount(n, links[n].origin_in_base_m, links[n].rotation_in_base)
+        for n in sorted(n for n in links if n.endswith("_camera_link"))
+    )
     return VehicleParams(
         name=urdf.stem,
         urdf_path=urdf,
         params_path=params,
         mass_kg=mass,
         inertia_kgm2=inertia,
-        com_m=com,  # type: ignore[arg-type]
+        com_m=com,
         rotors=tuple(rotors),
         thrust_coefficient_n_per_rad2s2=kf,
         torque_coefficient_nm_per_rad2s2=km,

@@ -9,14 +9,14 @@ import time
 from pathlib import Path
 
 os.environ.setdefault("PYGAME_HIDE_SUPPORT_PROMPT", "1")
-import pygame  # noqa: E402
+import pygame
 
-from quadsim.sensors.rig import CameraFrame  # noqa: E402
-from quadsim.core.kinematics import clamp  # noqa: E402
-from quadsim.core.types import Twist, VehicleState  # noqa: E402
-from quadsim.recording.flight import NS, RecordedFlight  # noqa: E402
-from quadsim.apps.window.view import TeleopView, ViewModel  # noqa: E402
-from quadsim.physics.world_spec import FloorSpec, WorldSpec, load_world  # noqa: E402
+from quadsim.apps.window.view import TeleopView, ViewModel
+from quadsim.core.kinematics import clamp
+from quadsim.core.types import Twist, VehicleState
+from quadsim.physics.world_spec import FloorSpec, WorldSpec, load_world
+from quadsim.recording.flight import NS, RecordedFlight
+from quadsim.sensors.camera import CameraFrame
 
 SPEEDS = (0.25, 0.5, 1.0, 2.0, 4.0, 8.0, 16.0)
 SEEK_S = 5.0
@@ -47,8 +47,14 @@ def _world_of(flight: RecordedFlight, folder: Path) -> WorldSpec:
 
 
 class ReplayApp:
-    def __init__(self, flight: RecordedFlight, window_size: tuple[int, int] = (1280, 720), speed: float = 1.0,
-                 loop: bool = False, frame_s: float | None = None) -> None:
+    def __init__(
+        self,
+        flight: RecordedFlight,
+        window_size: tuple[int, int] = (1280, 720),
+        speed: float = 1.0,
+        loop: bool = False,
+        frame_s: float | None = None,
+    ) -> None:
         """`frame_s`: advance playback by this much per frame instead of by the wall clock (tests)."""
         import tempfile
 
@@ -149,14 +155,15 @@ class ReplayApp:
         self.view.draw(self.screen, self.model())
         pygame.display.flip()
         self.frame_count += 1
-        self._walls = (self._walls + [now])[-30:]
+        self._walls = ([*self._walls, now])[-30:]
         if self._frame_s is None:
             self._clock.tick(60)
 
     def model(self) -> ViewModel:
         f, t = self.flight, self.t_ns
-        state = f.state_at(t) or VehicleState(0, (0.0, 0.0, 0.0), (0.0, 0.0, 0.0, 1.0), (0.0, 0.0, 0.0),
-                                              (0.0, 0.0, 0.0), (0.0,) * 4, (0.0, 0.0, 0.0))  # type: ignore[arg-type]
+        state = f.state_at(t) or VehicleState(
+            0, (0.0, 0.0, 0.0), (0.0, 0.0, 0.0, 1.0), (0.0, 0.0, 0.0), (0.0, 0.0, 0.0), (0.0,) * 4, (0.0, 0.0, 0.0)
+        )
         command = f.command_at(t)
         frames = {}
         for cam in f.frames:
@@ -167,15 +174,31 @@ class ReplayApp:
         state_word = "PLAYING" if self.playing else "paused"
         warnings = [] if f.states else ["this file has no /quad/pose: nothing to show on the map or HUD"]
         return ViewModel(
-            state=state, command=command or Twist(), command_held=False, armed=command is not None,
-            z_mode=p.get("config", {}).get("z_mode", "?"), controller=p.get("controller", {}).get("name", "?"),
+            state=state,
+            command=command or Twist(),
+            command_held=False,
+            armed=command is not None,
+            z_mode=p.get("config", {}).get("z_mode", "?"),
+            controller=p.get("controller", {}).get("name", "?"),
             input_status=f"replay of {p.get('driver', {}).get('name', 'another program')}",
-            recording_path=None, recording_error=None, paused=False, lagging=False,
-            fps=(len(self._walls) - 1) / (self._walls[-1] - self._walls[0]) if len(self._walls) > 1 and self._walls[-1] > self._walls[0] else 0.0,
-            real_time_factor=self.speed, sim_time_s=t / NS, frames=frames, track=self._track, world=self.world,
-            help_lines=KEYS, show_help=self.show_help, warnings=warnings,
+            recording_path=None,
+            recording_error=None,
+            paused=False,
+            lagging=False,
+            fps=(len(self._walls) - 1) / (self._walls[-1] - self._walls[0])
+            if len(self._walls) > 1 and self._walls[-1] > self._walls[0]
+            else 0.0,
+            real_time_factor=self.speed,
+            sim_time_s=t / NS,
+            frames=frames,
+            track=self._track,
+            world=self.world,
+            help_lines=KEYS,
+            show_help=self.show_help,
+            warnings=warnings,
             playback=f"{state_word} {self.speed:g}x{'  loop' if self.loop else ''}   {f.path.name}",
-            timeline=(t / NS, self.end_ns / NS))
+            timeline=(t / NS, self.end_ns / NS),
+        )
 
     def run(self, max_frames: int | None = None, before_frame=None) -> None:
         while not self.quit and (max_frames is None or self.frame_count < max_frames):
@@ -186,7 +209,7 @@ class ReplayApp:
     def close(self) -> None:
         pygame.display.quit()
 
-    def __enter__(self) -> "ReplayApp":
+    def __enter__(self) -> ReplayApp:
         return self
 
     def __exit__(self, *exc: object) -> None:

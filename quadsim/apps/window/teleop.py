@@ -12,23 +12,23 @@ from __future__ import annotations
 import os
 import time
 from collections import deque
+from collections.abc import Callable
 from dataclasses import dataclass, field, replace
 from pathlib import Path
-from typing import Callable
 
 os.environ.setdefault("PYGAME_HIDE_SUPPORT_PROMPT", "1")
-import pygame  # noqa: E402
+import pygame
 
-from quadsim.sensors.rig import CameraFrame  # noqa: E402
-from quadsim.drivers.joystick import JoystickDevice, JoystickDriver, JoystickMapping  # noqa: E402
-from quadsim.drivers.keyboard import LAYOUTS, KeyboardDriver  # noqa: E402
-from quadsim.errors import QuadsimError  # noqa: E402
-from quadsim.core.types import VehicleState, ZMode  # noqa: E402
-from quadsim.apps.window.pacing import FixedStepPacer, RealTimePacer  # noqa: E402
-from quadsim.apps.outputs import OutputOptions, RecordedRun  # noqa: E402
+from quadsim.apps.outputs import OutputOptions, RecordedRun
+from quadsim.apps.window.pacing import FixedStepPacer, RealTimePacer
+from quadsim.apps.window.view import TeleopView, ViewModel
+from quadsim.core.types import VehicleState, ZMode
+from quadsim.drivers.joystick import JoystickDevice, JoystickDriver, JoystickMapping
+from quadsim.drivers.keyboard import LAYOUTS, KeyboardDriver
+from quadsim.errors import QuadsimError
+from quadsim.sensors.camera import CameraFrame
 from quadsim.sim.config import SimConfig
-from quadsim.sim.simulator import Simulator  # noqa: E402
-from quadsim.apps.window.view import TeleopView, ViewModel  # noqa: E402
+from quadsim.sim.simulator import Simulator
 
 APP_KEYS = [
     "Esc        quit (the recording is finished properly)",
@@ -64,9 +64,14 @@ class _Track:
 
 
 class TeleopApp:
-    def __init__(self, config: SimConfig, outputs: OutputOptions, options: TeleopOptions = TeleopOptions(),
-                 pacer: RealTimePacer | FixedStepPacer | None = None,
-                 device_factory: Callable[[int], JoystickDevice] | None = None) -> None:
+    def __init__(
+        self,
+        config: SimConfig,
+        outputs: OutputOptions,
+        options: TeleopOptions = TeleopOptions(),
+        pacer: RealTimePacer | FixedStepPacer | None = None,
+        device_factory: Callable[[int], JoystickDevice] | None = None,
+    ) -> None:
         if options.keyboard_layout not in LAYOUTS:
             raise QuadsimError(f"unknown keyboard layout {options.keyboard_layout!r}; choose from {', '.join(LAYOUTS)}")
         if options.input not in ("auto", "keyboard", "joystick"):
@@ -78,8 +83,11 @@ class TeleopApp:
         pygame.display.set_caption("quadsim")
         self.options = options
         self.keyboard = KeyboardDriver(LAYOUTS[options.keyboard_layout], z_mode=config.z_mode)
-        self.joystick = JoystickDriver(options.joystick_mapping, config.z_mode, **(
-            {"device_factory": device_factory} if device_factory is not None else {}))
+        self.joystick = JoystickDriver(
+            options.joystick_mapping,
+            config.z_mode,
+            **({"device_factory": device_factory} if device_factory is not None else {}),
+        )
         use_joystick = options.input == "joystick" or (options.input == "auto" and pygame.joystick.get_count() > 0)
         if use_joystick and device_factory is None and pygame.joystick.get_count() > 0:
             self.joystick.attach(0)
@@ -90,8 +98,9 @@ class TeleopApp:
         self.frames: dict[str, CameraFrame] = {}
         try:
             self.outputs = replace(outputs, ordered_delivery=False)  # show frames as soon as they are ready
-            self.session = RecordedRun(self.sim, self.outputs, f"fly_{config.controller.value}",
-                                       {"command": "fly", "input": self.driver.name})
+            self.session = RecordedRun(
+                self.sim, self.outputs, f"fly_{config.controller.value}", {"command": "fly", "input": self.driver.name}
+            )
         except BaseException:
             self.sim.close()
             raise
@@ -107,7 +116,9 @@ class TeleopApp:
         self.quit = False
         self.frame_count = 0
         self._frame_walls: deque[tuple[float, int]] = deque(maxlen=60)
-        self._help_keys = {pygame.K_F1} | ({pygame.K_h} if pygame.K_h not in {b.key for b in self.keyboard.layout.bindings} else set())
+        self._help_keys = {pygame.K_F1} | (
+            {pygame.K_h} if pygame.K_h not in {b.key for b in self.keyboard.layout.bindings} else set()
+        )
         self._clock = pygame.time.Clock()
         self.recordings: list[Path] = [self.session.path] if self.session.path else []
 
@@ -234,18 +245,34 @@ class TeleopApp:
         if time.monotonic() > self._notice_until:
             self.notice = ""
         return ViewModel(
-            state=self.sim.state, command=gate.last_command, command_held=active.hold, armed=active.armed,
-            z_mode=gate.z_mode.value, controller=self.sim.config.controller.value,
-            input_status=(self.joystick.status if self.driver is self.joystick
-                          else f"keyboard ({self.keyboard.layout.name}, speed x{self.keyboard.scale:.2f})"),
+            state=self.sim.state,
+            command=gate.last_command,
+            command_held=active.hold,
+            armed=active.armed,
+            z_mode=gate.z_mode.value,
+            controller=self.sim.config.controller.value,
+            input_status=(
+                self.joystick.status
+                if self.driver is self.joystick
+                else f"keyboard ({self.keyboard.layout.name}, speed x{self.keyboard.scale:.2f})"
+            ),
             recording_path=str(self.session.path) if self.session.recording else None,
             recording_error=rec.error if rec is not None else None,
-            paused=self.paused, lagging=self.pacer.lagging, fps=fps, real_time_factor=rtf,
-            sim_time_s=self.sim.time_s, frames=self.frames, track=list(self.track.points), world=self.sim.world,
-            help_lines=self.keyboard.layout.help_lines() + [""] + APP_KEYS, show_help=self.show_help,
-            notice=self.notice, warnings=warnings)
+            paused=self.paused,
+            lagging=self.pacer.lagging,
+            fps=fps,
+            real_time_factor=rtf,
+            sim_time_s=self.sim.time_s,
+            frames=self.frames,
+            track=list(self.track.points),
+            world=self.sim.world,
+            help_lines=[*self.keyboard.layout.help_lines(), "", *APP_KEYS],
+            show_help=self.show_help,
+            notice=self.notice,
+            warnings=warnings,
+        )
 
-    def run(self, max_frames: int | None = None, before_frame: Callable[["TeleopApp"], None] | None = None) -> None:
+    def run(self, max_frames: int | None = None, before_frame: Callable[[TeleopApp], None] | None = None) -> None:
         """Run frames until quit (or `max_frames`); `before_frame` lets tests post events."""
         while not self.quit and (max_frames is None or self.frame_count < max_frames):
             if before_frame is not None:
@@ -259,7 +286,7 @@ class TeleopApp:
             self.sim.close()
             pygame.display.quit()
 
-    def __enter__(self) -> "TeleopApp":
+    def __enter__(self) -> TeleopApp:
         return self
 
     def __exit__(self, *exc: object) -> None:

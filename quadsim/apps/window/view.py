@@ -10,13 +10,12 @@ import os
 from dataclasses import dataclass, field
 
 os.environ.setdefault("PYGAME_HIDE_SUPPORT_PROMPT", "1")
-import cv2  # noqa: E402
-import numpy as np  # noqa: E402
-import pygame  # noqa: E402
+import pygame
 
-from quadsim.sensors.rig import CameraFrame  # noqa: E402
-from quadsim.core.types import Twist, VehicleState  # noqa: E402
-from quadsim.physics.world_spec import Shape, WorldSpec  # noqa: E402
+from quadsim.core.types import Twist, VehicleState
+from quadsim.physics.world_spec import Shape, WorldSpec
+from quadsim.sensors.camera import CameraFrame
+from quadsim.sensors.rendering import decode_jpeg
 
 BACKGROUND = (24, 26, 30)
 PANEL = (0, 0, 0, 150)
@@ -91,8 +90,7 @@ class TeleopView:
     def _image(self, frame: CameraFrame) -> pygame.Surface:
         cached = self._decoded.get(frame.camera)
         if cached is None or cached[0] != frame.step:
-            bgr = cv2.imdecode(np.frombuffer(frame.jpeg, np.uint8), cv2.IMREAD_COLOR)
-            rgb = cv2.cvtColor(bgr, cv2.COLOR_BGR2RGB)
+            rgb = decode_jpeg(frame.jpeg)
             surf = pygame.image.frombuffer(rgb.tobytes(), (rgb.shape[1], rgb.shape[0]), "RGB")
             self._decoded[frame.camera] = (frame.step, surf)
             return surf
@@ -147,20 +145,35 @@ class TeleopView:
         pygame.draw.polygon(surface, (255, 70, 70), [nose, left, right])
         surface.set_clip(clip)
         pygame.draw.rect(surface, (70, 70, 80), rect, 1)
-        self._text(surface, f"map  {span_m:.0f} m across, up = world +x", (rect.x + 6, rect.bottom - 20), (200, 200, 200))
+        self._text(
+            surface, f"map  {span_m:.0f} m across, up = world +x", (rect.x + 6, rect.bottom - 20), (200, 200, 200)
+        )
 
     def _hud(self, surface: pygame.Surface, rect: pygame.Rect, m: ViewModel) -> None:
         s, c = m.state, m.command
         vx, vy, vz = s.linear_velocity_mps
-        rec = (f"REC {os.path.basename(m.recording_path)}" if m.recording_path and not m.recording_error
-               else ("recording stopped: " + m.recording_error if m.recording_error else "not recording (F5 starts)"))
+        rec = (
+            f"REC {os.path.basename(m.recording_path)}"
+            if m.recording_path and not m.recording_error
+            else ("recording stopped: " + m.recording_error if m.recording_error else "not recording (F5 starts)")
+        )
         if m.playback is not None:
             rec = m.playback
-        cmd = "holding (no command)" if m.command_held else (
-            f"x {c.linear_x:+.2f}  y {c.linear_y:+.2f}  z {c.linear_z:+.2f}  yaw {c.angular_z:+.2f}" if m.armed else "idle: no command yet")
+        cmd = (
+            "holding (no command)"
+            if m.command_held
+            else (
+                f"x {c.linear_x:+.2f}  y {c.linear_y:+.2f}  z {c.linear_z:+.2f}  yaw {c.angular_z:+.2f}"
+                if m.armed
+                else "idle: no command yet"
+            )
+        )
         lines = [
-            (f"alt {s.position_m[2]:5.2f} m   speed {math.hypot(vx, vy):4.2f} m/s   climb {vz:+.2f} m/s   "
-             f"heading {math.degrees(s.yaw_rad()):+6.1f} deg", TEXT),
+            (
+                f"alt {s.position_m[2]:5.2f} m   speed {math.hypot(vx, vy):4.2f} m/s   climb {vz:+.2f} m/s   "
+                f"heading {math.degrees(s.yaw_rad()):+6.1f} deg",
+                TEXT,
+            ),
             (f"command  {cmd}", TEXT),
             (f"z-mode {m.z_mode}   controller {m.controller}   input {m.input_status}", TEXT),
             (rec, ALERT if m.recording_error else (OK if m.recording_path or m.playback else WARN)),
@@ -198,6 +211,8 @@ class TeleopView:
         for i, line in enumerate(lines):
             self._text(surface, line, (rect.x + 16, rect.y + 40 + 22 * i), TEXT)
 
-    def _text(self, surface: pygame.Surface, text: str, pos: tuple[int, int], color, center: bool = False, font=None) -> None:
+    def _text(
+        self, surface: pygame.Surface, text: str, pos: tuple[int, int], color, center: bool = False, font=None
+    ) -> None:
         img = (font or self.font).render(text, True, color)
         surface.blit(img, img.get_rect(center=pos) if center else pos)

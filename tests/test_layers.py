@@ -1,0 +1,96 @@
+"""The folder tree is the architecture: each layer imports only the layers below it.
+
+Walks every import statement of the package (module level and inside functions) and fails on
+one that reaches up. The order is DESIGN.md's diagram, bottom first."""
+
+from __future__ import annotations
+
+import ast
+from pathlib import Path
+
+import quadsim
+
+PACKAGE = Path(quadsim.__file__).parent
+
+#: bottom first; a module may import its own layer and any layer listed before it
+LAYERS = [
+    {"quadsim.errors", "quadsim.core", "quadsim.assets"},
+    {"quadsim.vehicle"},
+    {"quadsim.control", "quadsim.drivers"},
+    {"quadsim.physics"},
+    {"quadsim.sim"},
+    {"quadsim.sensors"},
+    {"quadsim.recording"},
+    {"quadsim.live"},
+    {"quadsim.apps"},
+]
+#: the package's front doors name the public API lazily and may point anywhere
+EXEMPT = {"quadsim", "quadsim.__main__"}
+
+
+def layer_of(module: str) -> int:
+    for index, members in enumerate(LAYERS):
+        if any(module == m or module.startswith(m + ".") for m in members):
+            return index
+    raise AssertionError(f"{module} belongs to no layer: add it to LAYERS in tests/test_layers.py")
+
+
+def package_modules() -> dict[str, Path]:
+    out = {}
+    for path in PACKAGE.rglob("*.py"):
+        parts = path.relative_to(PACKAGE.parent).with_suffix("").parts
+        if parts[-1] == "__init__":
+            parts = parts[:-1]
+        out[".".join(parts)] = path
+    return out
+
+
+def imported_modules(path: Path, module: str) -> list[tuple[int, str]]:
+    tree = ast.parse(path.read_text(), str(path))
+    is_package = path.name == "__init__.py"
+    found = []
+    for node in ast.walk(tree):
+        if isinstance(node, ast.Import):
+            found += [(node.lineno, alias.name) for alias in node.names if alias.name.startswith("quadsim")]
+        elif isinstance(node, ast.ImportFrom):
+            if node.level:  # relative: resolve against this module's package
+                base = module.split(".") if is_package else module.split(".")[:-1]
+                base = base[: len(base) - node.level + 1]
+                name = ".".join([*base, node.module] if node.module else base)
+            else:
+                name = node.module or ""
+            if name == "quadsim":  # `from quadsim import x`: x is a module or a public name
+                found += [(node.lineno, f"quadsim.{a.name}") for a in node.names]
+            elif name.startswith("quadsim."):
+                found.append((node.lineno, name))
+    return found
+
+
+def test_every_module_has_a_layer():
+    for module in package_modules():
+        if module not in EXEMPT:
+            layer_of(module)
+
+
+def test_no_layer_imports_a_layer_above_it():
+    modules = package_modules()
+    upward = []
+    for module, path in sorted(modules.items()):
+        if module in EXEMPT:
+            continue
+        own = layer_of(module)
+        for lineno, target in imported_modules(path, module):
+            if target in ("quadsim", "quadsim.__version__"):  # the lazy front door and the version
+                continue
+            if layer_of(target) > own:
+                upward.append(f"{path.relative_to(PACKAGE.parent)}:{lineno}: {module} imports {target}")
+    assert not upward, "imports reaching up a layer:\n" + "\n".join(upward)
+
+
+def test_the_checker_sees_an_upward_import(tmp_path):
+    """The walk must be able to fail: a physics module importing the recorder is caught."""
+    fake = tmp_path / "fake.py"
+    fake.write_text("def f():\n    from quadsim.recording.writer import McapRecorder\n")
+    targets = imported_modules(fake, "quadsim.physics.fake")
+    assert targets == [(2, "quadsim.recording.writer")]
+    assert layer_of(targets[0][1]) > layer_of("quadsim.physics.fake")
