@@ -31,7 +31,10 @@ class Frames:
 
 def _hovering_with_cameras(start=StartPose(), workers=0):
     sim = Simulator(SimConfig(z_mode=ZMode.HEIGHT, start=start))
-    pipe = CameraPipeline(sim, default_cameras(), workers=workers)
+    pipe = CameraPipeline(
+        sim.vehicle, sim.world, 240, default_cameras(), workers=workers, scene_client=sim.scene_client
+    )
+    sim.add_tap(pipe.tap_interval_steps, pipe.capture)
     keep = Frames()
     pipe.sinks.append(keep)
     sim.send(Twist())
@@ -139,6 +142,8 @@ def test_unknown_camera_link_is_a_clear_error():
 
     with Simulator(SimConfig()) as sim:
         with pytest.raises(ConfigError, match="no camera link named 'belly_camera_link'"):
-            CameraPipeline(sim, (CameraSpec("belly", "belly_camera_link"),), workers=0)
+            CameraPipeline(sim.vehicle, sim.world, 240, (CameraSpec("belly", "belly_camera_link"),), workers=0)
         with pytest.raises(ConfigError, match="does not divide"):
-            CameraPipeline(sim, (CameraSpec("front", "front_camera_link", rate_hz=25),), workers=0)
+            CameraPipeline(
+                sim.vehicle, sim.world, 240, (CameraSpec("front", "front_camera_link", rate_hz=25),), workers=0
+            )

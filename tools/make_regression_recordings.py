@@ -31,7 +31,9 @@ def scripted(name: str, controller: ControllerKind) -> Path:
     path.unlink(missing_ok=True)
     config = SimConfig(controller=controller, z_mode=script.z_mode or ZMode.VELOCITY)
     with Simulator(config, ScriptedDriver(script)) as sim:
-        with RecordedRun(sim, OutputOptions(out=path, cameras=()), name, {"command": "run", "script": name}):
+        with RecordedRun(
+            sim, sim.description(), OutputOptions(out=path, cameras=()), name, {"command": "run", "script": name}
+        ):
             sim.run_for(script.duration_s)
     return path
 

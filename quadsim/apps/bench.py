@@ -192,7 +192,7 @@ def camera_costs(frames: int, repeats: int, out: Callable[[str], None]) -> dict[
     state = sim.state
     rig = CameraRig(sim.vehicle, cams, RendererKind.TINY, cid, None)
     with tempfile.TemporaryDirectory() as tmp:
-        rec = McapRecorder(Path(tmp) / "bench.mcap", sim, cams)
+        rec = McapRecorder(Path(tmp) / "bench.mcap", sim.description().with_outputs(cams, 0))
         for cam in cams:
 
             def bare(n: int, cam=cam) -> None:
@@ -239,7 +239,7 @@ def recorded_flight(duration_s: float, cameras: bool, workers: int) -> tuple[flo
         path = Path(tmp) / "bench.mcap"
         with Simulator(SimConfig(z_mode=ZMode.HEIGHT), ScriptedDriver(script)) as sim:
             options = OutputOptions(out=path, cameras=default_cameras() if cameras else (), render_workers=workers)
-            run = RecordedRun(sim, options, "bench")  # workers start before the clock does
+            run = RecordedRun(sim, sim.description(), options, "bench")  # workers start before the clock does
             t0 = time.perf_counter()
             try:
                 sim.run_for(duration_s)
@@ -407,7 +407,7 @@ def run_replay_bench(out: Callable[[str], None] = print, flight_s: float = 20.0)
         for name, cams in (("cams", default_cameras()), ("nocams", ())):
             paths[name] = Path(tmp) / f"{name}.mcap"
             with Simulator(SimConfig(z_mode=ZMode.HEIGHT), ScriptedDriver(script)) as sim:
-                with RecordedRun(sim, OutputOptions(out=paths[name], cameras=cams), name):
+                with RecordedRun(sim, sim.description(), OutputOptions(out=paths[name], cameras=cams), name):
                     sim.run_for(flight_s)
         best = float("inf")
         for _ in range(3):

@@ -158,7 +158,7 @@ def _fly_script(args: argparse.Namespace, script_name: str, realtime: bool) -> i
     run_info = {"command": "run", "script": script.name, "duration_s": duration, "realtime": realtime}
     interrupted: KeyboardInterrupt | None = None
     with Simulator(config, ScriptedDriver(script)) as sim:
-        with RecordedRun(sim, outputs, label, run_info) as run:
+        with RecordedRun(sim, sim.description(), outputs, label, run_info) as run:
             if run.path is not None:
                 print(f"recording to {run.path}", flush=True)
             try:

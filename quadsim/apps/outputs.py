@@ -8,10 +8,12 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from quadsim.errors import QuadsimError
 from quadsim.recording.writer import McapRecorder, check_writable, recording_path
 from quadsim.sensors.camera import CameraSpec, RendererKind, default_cameras
 from quadsim.sensors.pipeline import CameraPipeline
-from quadsim.sim.simulator import Simulator
+from quadsim.sim.description import RunDescription
+from quadsim.sim.loop import OutputPort
 
 
 @dataclass(frozen=True)
@@ -42,9 +44,15 @@ class RecordedRun:
     new file."""
 
     def __init__(
-        self, sim: Simulator, options: OutputOptions, label: str, run_info: dict[str, Any] | None = None
+        self,
+        port: OutputPort,
+        description: RunDescription,
+        options: OutputOptions,
+        label: str,
+        run_info: dict[str, Any] | None = None,
     ) -> None:
-        self.sim = sim
+        self.port = port
+        self.description = description
         self.options = options
         self.label = label
         self.run_info = run_info or {}
@@ -53,9 +61,20 @@ class RecordedRun:
         self.path: Path | None = None
         try:
             if options.cameras:
+                vehicle, world = description.vehicle_model, description.world_model
+                if vehicle is None or world is None:
+                    raise QuadsimError("cameras need the description of a live run (with its vehicle and world)")
                 self.cameras = CameraPipeline(
-                    sim, options.cameras, options.renderer, options.render_workers, options.ordered_delivery
+                    vehicle,
+                    world,
+                    description.config.rates.physics_hz,
+                    options.cameras,
+                    options.renderer,
+                    options.render_workers,
+                    options.ordered_delivery,
+                    scene_client=port.scene_client,
                 )
+                port.add_tap(self.cameras.tap_interval_steps, self.cameras.capture)
             if options.record:
                 self.start_recording()
         except BaseException:
@@ -75,9 +94,9 @@ class RecordedRun:
             out = out.parent  # --out FILE names the first recording; later ones go beside it
         path = recording_path(out, self.label)
         check_writable(path)
-        info = {**self.run_info, "start_step": self.sim.step_count}
-        recorder = McapRecorder(path, self.sim, self.options.cameras, info)
-        self.sim.add_sink(recorder)
+        description = self.description.with_outputs(self.options.cameras, self.port.step_count, self.run_info)
+        recorder = McapRecorder(path, description)
+        self.port.add_sink(recorder)
         if self.cameras is not None:
             self.cameras.sinks.append(recorder)
         self.recorder, self.path = recorder, path
@@ -92,13 +111,13 @@ class RecordedRun:
             self.cameras.drain()
             if rec in self.cameras.sinks:
                 self.cameras.sinks.remove(rec)
-        if rec in self.sim.loop.sinks:
-            self.sim.loop.sinks.remove(rec)
+        self.port.remove_sink(rec)
         rec.close()
 
     def close(self) -> None:
         try:
             if self.cameras is not None:
+                self.port.remove_tap(self.cameras.capture)
                 try:
                     self.cameras.drain()  # the frames still being rendered belong in the file
                 finally:

@@ -144,7 +144,9 @@ def resimulate(
             sim.add_sink(log)
             outputs = OutputOptions(record=record, out=out, cameras=())
             label = f"resim_{flight.path.stem}"
-            with RecordedRun(sim, outputs, label, {"command": "replay --resim", "source": str(flight.path)}) as run:
+            with RecordedRun(
+                sim, sim.description(), outputs, label, {"command": "replay --resim", "source": str(flight.path)}
+            ) as run:
                 end_step = flight.states[-1].step
                 t_fly = time.perf_counter()
                 z_events = sorted((step, ZMode(v)) for step, kind, v in flight.events if kind == "z_mode")

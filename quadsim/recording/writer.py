@@ -17,7 +17,7 @@ import re
 import shutil
 import time
 from pathlib import Path
-from typing import Any, BinaryIO
+from typing import BinaryIO, TypeVar
 
 from mcap.writer import CompressionType, Writer
 
@@ -25,10 +25,12 @@ from quadsim import __version__
 from quadsim.core.types import Twist, VehicleState
 from quadsim.errors import QuadsimError
 from quadsim.recording import contract as rm
-from quadsim.sensors.camera import CameraFrame, CameraSpec
-from quadsim.sim.simulator import Simulator
+from quadsim.sensors.camera import CameraFrame
+from quadsim.sim.description import RunDescription
 
 log = logging.getLogger(__name__)
+
+T = TypeVar("T")
 
 #: refuse to start recording with less free space than this
 MIN_FREE_BYTES = 200 * 1024 * 1024
@@ -71,20 +73,25 @@ def check_writable(path: Path, min_free_bytes: int = MIN_FREE_BYTES) -> None:
         )
 
 
+def _live_model(model: T | None) -> T:
+    if model is None:
+        raise QuadsimError("a recording needs the description of a live run (with its vehicle and world)")
+    return model
+
+
 class McapRecorder:
     """A loop sink (commands, states) and a camera-frame sink that writes one MCAP file."""
 
     def __init__(
         self,
         path: Path,
-        sim: Simulator,
-        cameras: tuple[CameraSpec, ...] = (),
-        run_info: dict[str, Any] | None = None,
+        description: RunDescription,
         stream: BinaryIO | None = None,
         chunk_size: int = 4 * 1024 * 1024,
     ) -> None:
         self.path = path
-        self._hz = sim.config.rates.physics_hz
+        cameras = description.cameras
+        self._hz = description.config.rates.physics_hz
         self._cameras = {c.name: c for c in cameras}
         self._own_stream = stream is None
         if stream is None:
@@ -109,8 +116,9 @@ class McapRecorder:
                 topics += [rm.image_topic(spec), rm.camera_info_topic(spec)]
             for topic in topics:
                 self._register(topic)
-            self._write_metadata(sim, cameras, run_info or {})
-            mounts = tuple((spec, sim.vehicle.camera_mount(spec.link_name)) for spec in cameras)
+            self._write_metadata(description)
+            vehicle = _live_model(description.vehicle_model)
+            mounts = tuple((spec, vehicle.camera_mount(spec.link_name)) for spec in cameras)
             self._write(rm.TF_STATIC, 0, rm.tf_static_msg(mounts))
         except OSError as exc:
             self._fail(exc)
@@ -129,8 +137,8 @@ class McapRecorder:
         if rm.JOY.name not in self._channels and self.error is None:
             self._register(rm.JOY)
 
-    def _write_metadata(self, sim: Simulator, cameras: tuple[CameraSpec, ...], run_info: dict[str, Any]) -> None:
-        params = {**sim.describe(), "cameras": [c.to_dict() for c in cameras], **run_info}
+    def _write_metadata(self, description: RunDescription) -> None:
+        params = description.to_parameters()
         self._writer.add_metadata(
             METADATA_NAME,
             {
@@ -140,7 +148,7 @@ class McapRecorder:
                 "parameters": json.dumps(params, sort_keys=True),
             },
         )
-        v, world = sim.vehicle, sim.world
+        v, world = _live_model(description.vehicle_model), _live_model(description.world_model)
         for path, media in (
             (v.urdf_path, "application/xml"),
             (v.params_path, "application/toml"),

@@ -24,9 +24,10 @@ from typing import Protocol
 import quadsim
 from quadsim.core.types import VehicleState
 from quadsim.errors import ConfigError, QuadsimError
+from quadsim.physics.world_spec import WorldSpec
 from quadsim.sensors.camera import CameraFrame, CameraSpec, RendererKind
 from quadsim.sensors.rig import CameraRig
-from quadsim.sim.simulator import Simulator
+from quadsim.vehicle.params import VehicleParams
 
 
 class FrameSink(Protocol):
@@ -43,28 +44,37 @@ def _worker_env() -> dict[str, str]:
 
 
 class CameraPipeline:
+    """Renders `specs` of `vehicle` in `world`; it knows nothing of the simulator.
+
+    The owner registers `capture` as a loop tap every `tap_interval_steps` physics steps. With
+    `workers=0`, frames are rendered in `scene_client`, a PyBullet client that already holds
+    the scene (the physics world's); otherwise in worker processes building their own.
+    """
+
     def __init__(
         self,
-        sim: Simulator,
+        vehicle: VehicleParams,
+        world: WorldSpec,
+        physics_hz: int,
         specs: tuple[CameraSpec, ...],
         renderer: RendererKind = RendererKind.TINY,
         workers: int = 2,
         ordered_delivery: bool = True,
         worker_start_timeout_s: float = 60.0,
+        scene_client: int | None = None,
     ) -> None:
         if len({s.name for s in specs}) != len(specs):
             raise ConfigError("camera names must be unique")
-        rates = sim.config.rates
         self.specs = specs
         self.renderer = renderer
         self.sinks: list[FrameSink] = []
         self._every = {}
         for spec in specs:
-            if rates.physics_hz % spec.rate_hz:
+            if physics_hz % spec.rate_hz:
                 raise ConfigError(
-                    f"camera {spec.name}: rate {spec.rate_hz} Hz does not divide the physics rate {rates.physics_hz} Hz"
+                    f"camera {spec.name}: rate {spec.rate_hz} Hz does not divide the physics rate {physics_hz} Hz"
                 )
-            self._every[spec.name] = rates.every(spec.rate_hz)
+            self._every[spec.name] = physics_hz // spec.rate_hz
         self._tick = math.gcd(*self._every.values()) if specs else 1
         self._ordered = ordered_delivery
         self._seq = 0
@@ -76,22 +86,28 @@ class CameraPipeline:
         if not specs:
             return
         for spec in specs:
-            sim.vehicle.camera_mount(spec.link_name)  # a clear error for an unknown link, here
+            vehicle.camera_mount(spec.link_name)  # a clear error for an unknown link, here
         if workers <= 0:
-            if renderer is RendererKind.EGL:
-                from quadsim.sensors.rendering import enable_egl
+            if scene_client is None:
+                self._rig = CameraRig.standalone(vehicle, world, specs, renderer)
+            else:
+                if renderer is RendererKind.EGL:
+                    from quadsim.sensors.rendering import enable_egl
 
-                enable_egl(sim.physics.client_id)
-            self._rig = CameraRig(sim.vehicle, specs, renderer, sim.physics.client_id, None)
+                    enable_egl(scene_client)
+                self._rig = CameraRig(vehicle, specs, renderer, scene_client, None)
         else:
-            self._start_workers(sim, workers, worker_start_timeout_s)
+            self._start_workers(vehicle, world, workers, worker_start_timeout_s)
         self._in_flight = 2 * max(1, workers)
-        sim.loop.add_tap(self._tick, self._capture)
+
+    @property
+    def tap_interval_steps(self) -> int:
+        """Physics steps between two calls of `capture` the pipeline needs."""
+        return self._tick
 
     # --- workers ----------------------------------------------------------------------------
 
-    def _start_workers(self, sim: Simulator, count: int, timeout_s: float) -> None:
-        v, world = sim.vehicle, sim.world
+    def _start_workers(self, v: VehicleParams, world: WorldSpec, count: int, timeout_s: float) -> None:
         settings = {
             "urdf": str(v.urdf_path),
             "params": str(v.params_path),
@@ -154,7 +170,8 @@ class CameraPipeline:
 
     # --- capture and delivery ---------------------------------------------------------------
 
-    def _capture(self, state: VehicleState) -> None:
+    def capture(self, state: VehicleState) -> None:
+        """Render the cameras due at `state.step` (a loop tap)."""
         step = state.step
         names = tuple(s.name for s in self.specs if step % self._every[s.name] == 0)
         if not names:
@@ -204,6 +221,9 @@ class CameraPipeline:
             conn.close()
         self._procs, self._conns = [], []
         self._pending.clear()
+        if self._rig is not None:
+            self._rig.close()  # disconnects only a client of its own
+            self._rig = None
         tmpdir = getattr(self, "_tmpdir", None)
         if tmpdir is not None:
             tmpdir.cleanup()

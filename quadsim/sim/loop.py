@@ -34,6 +34,27 @@ class Sink(Protocol):
         """The vehicle's state, at the state rate."""
 
 
+class OutputPort(Protocol):
+    """Where outputs (recorder, cameras, bridges, the window) attach to a running simulation,
+    without holding the simulator itself. The Simulator is one."""
+
+    @property
+    def step_count(self) -> int:
+        """The loop's step count: simulation time in physics steps."""
+
+    @property
+    def scene_client(self) -> int | None:
+        """A PyBullet client holding the scene, for rendering in-process (None: there is none)."""
+
+    def add_sink(self, sink: Sink) -> None: ...
+
+    def remove_sink(self, sink: Sink) -> None: ...
+
+    def add_tap(self, every_steps: int, callback: Callable[[VehicleState], None]) -> None: ...
+
+    def remove_tap(self, callback: Callable[[VehicleState], None]) -> None: ...
+
+
 class StateLog:
     """A sink that keeps everything in memory: for tests, summaries and autonomy code."""
 
@@ -78,6 +99,10 @@ class SimLoop:
         if every_steps <= 0:
             raise ConfigError(f"a tap needs a positive step interval, got {every_steps}")
         self._taps.append((every_steps, callback))
+
+    def remove_tap(self, callback: Callable[[VehicleState], None]) -> None:
+        """Stop calling `callback` (no error if it was not registered)."""
+        self._taps = [(every, tap) for every, tap in self._taps if tap != callback]
 
     @property
     def time_s(self) -> float:

@@ -11,6 +11,7 @@ This is also the API for autonomy code:
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from typing import Any
 
 from quadsim.control import make_controller
@@ -22,6 +23,7 @@ from quadsim.errors import ConfigError, QuadsimError
 from quadsim.physics.pybullet_world import PhysicsWorld
 from quadsim.physics.world_spec import load_world
 from quadsim.sim.config import SimConfig
+from quadsim.sim.description import ControllerDescription, RunDescription, VehicleDescription
 from quadsim.sim.loop import SimLoop, Sink
 from quadsim.vehicle.params import load_vehicle
 
@@ -72,8 +74,27 @@ class Simulator:
         """Advance by `seconds` of simulation time (rounded to whole physics steps)."""
         return self.step(round(seconds * self.config.rates.physics_hz))
 
+    # --- where outputs attach (the OutputPort protocol) --------------------------------------
+
     def add_sink(self, sink: Sink) -> None:
+        """Receive every command (as the controller got it) and every published state."""
         self.loop.sinks.append(sink)
+
+    def remove_sink(self, sink: Sink) -> None:
+        if sink in self.loop.sinks:
+            self.loop.sinks.remove(sink)
+
+    def add_tap(self, every_steps: int, callback: Callable[[VehicleState], None]) -> None:
+        """Call `callback(state)` after every `every_steps`-th physics step (cameras use this)."""
+        self.loop.add_tap(every_steps, callback)
+
+    def remove_tap(self, callback: Callable[[VehicleState], None]) -> None:
+        self.loop.remove_tap(callback)
+
+    @property
+    def scene_client(self) -> int | None:
+        """The physics world's PyBullet client, which holds the scene (in-process rendering)."""
+        return self.physics.client_id
 
     def reset(self) -> None:
         self.loop.reset()
@@ -89,6 +110,20 @@ class Simulator:
     @property
     def time_s(self) -> float:
         return self.loop.time_s
+
+    def description(self) -> RunDescription:
+        """Everything this run is made with, typed (outputs complete it with their own part)."""
+        v, ctrl = self.vehicle, self.controller.describe()
+        return RunDescription(
+            config=self.config,
+            vehicle=VehicleDescription(
+                v.name, v.urdf_path.name, v.params_path.name, v.mass_kg, len(v.rotors), v.to_dict()
+            ),
+            controller=ControllerDescription(self.controller.kind, dict(ctrl.get("gains", {})), ctrl),
+            driver=self.driver.describe(),
+            vehicle_model=v,
+            world_model=self.world,
+        )
 
     def describe(self) -> dict[str, Any]:
         """Every parameter of the run, as plain data for a recording's metadata."""

@@ -99,7 +99,11 @@ class TeleopApp:
         try:
             self.outputs = replace(outputs, ordered_delivery=False)  # show frames as soon as they are ready
             self.session = RecordedRun(
-                self.sim, self.outputs, f"fly_{config.controller.value}", {"command": "fly", "input": self.driver.name}
+                self.sim,
+                self.sim.description(),
+                self.outputs,
+                f"fly_{config.controller.value}",
+                {"command": "fly", "input": self.driver.name},
             )
         except BaseException:
             self.sim.close()

@@ -1,0 +1,287 @@
+"""The run's typed description: everything a run was made with, written to a recording's
+metadata and read back from it with validation.
+
+One description serves every output (recorder, live bridges, the window) and every reader
+(`info`, `replay`, `replay --resim`, `check`): nobody digs through nested dicts. A value that is
+missing, of the wrong type or absurd in a recording is refused with a `QuadsimError` naming the
+field (`parameters.config.rates.physics_hz: expected a positive whole number, got 'abc'`).
+
+The JSON layout (`to_parameters`) is the one recordings have always carried, plus
+`schema_version`; files without it are version 1.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field, fields, replace
+from pathlib import Path
+from typing import Any
+
+from quadsim.control import ControllerKind
+from quadsim.core.types import StartPose, ZMode
+from quadsim.errors import QuadsimError
+from quadsim.physics.world_spec import WorldSpec
+from quadsim.sensors.camera import CameraSpec
+from quadsim.sim.config import Rates, SimConfig
+from quadsim.vehicle.params import VehicleParams
+
+#: the layout version of the parameters this code writes
+SCHEMA_VERSION = 1
+
+
+class DescriptionError(QuadsimError):
+    """A recording's parameters are missing, malformed or from an unknown layout."""
+
+
+@dataclass(frozen=True)
+class VehicleDescription:
+    """The vehicle a run flew: its files (attached to the recording) and headline figures."""
+
+    name: str
+    urdf_file: str  # file name of the URDF, as attached to the recording
+    params_file: str  # file name of the parameter file, as attached
+    mass_kg: float
+    rotor_count: int
+    details: dict[str, Any] = field(default_factory=dict, compare=False)  # VehicleParams.to_dict(), for people
+
+
+@dataclass(frozen=True)
+class ControllerDescription:
+    kind: ControllerKind
+    gains: dict[str, float]
+    details: dict[str, Any] = field(default_factory=dict, compare=False)  # the controller's describe()
+
+
+@dataclass(frozen=True)
+class RunDescription:
+    """Everything a run was made with. Built by `Simulator.description()`, completed by the
+    outputs (`with_outputs`), and read back from recordings by `from_parameters`."""
+
+    config: SimConfig
+    vehicle: VehicleDescription
+    controller: ControllerDescription
+    driver: dict[str, Any]  # the driver's definition (a script's text, a replay's source...)
+    cameras: tuple[CameraSpec, ...] = ()
+    start_step: int = 0  # the loop's step when recording began (0: from the start of the run)
+    extra: dict[str, Any] = field(default_factory=dict)  # what the app adds: command, script, duration
+    schema_version: int = SCHEMA_VERSION
+    #: the loaded models, for outputs of a live run (cameras render them, the recorder attaches
+    #: their files); None in a description read back from a recording
+    vehicle_model: VehicleParams | None = field(default=None, compare=False, repr=False)
+    world_model: WorldSpec | None = field(default=None, compare=False, repr=False)
+
+    @property
+    def driver_name(self) -> str:
+        return str(self.driver.get("name", "?"))
+
+    def with_outputs(
+        self, cameras: tuple[CameraSpec, ...], start_step: int, extra: dict[str, Any] | None = None
+    ) -> RunDescription:
+        """The same run, with what its outputs add."""
+        return replace(self, cameras=cameras, start_step=start_step, extra={**self.extra, **(extra or {})})
+
+    # --- writing ----------------------------------------------------------------------------
+
+    def to_parameters(self) -> dict[str, Any]:
+        """Plain JSON-able data, the layout recordings carry in their `quadsim` metadata."""
+        vehicle = {
+            **self.vehicle.details,
+            "name": self.vehicle.name,
+            "urdf": self.vehicle.urdf_file,
+            "params": self.vehicle.params_file,
+            "mass_kg": self.vehicle.mass_kg,
+        }
+        controller = {
+            **self.controller.details,
+            "name": self.controller.kind.value,
+            "gains": dict(self.controller.gains),
+        }
+        return {
+            **self.extra,
+            "schema_version": self.schema_version,
+            "config": self.config.to_dict(),
+            "vehicle": vehicle,
+            "controller": controller,
+            "driver": dict(self.driver),
+            "cameras": [c.to_dict() for c in self.cameras],
+            "start_step": self.start_step,
+        }
+
+    # --- reading ----------------------------------------------------------------------------
+
+    @classmethod
+    def from_parameters(cls, params: Any) -> RunDescription:
+        """Validate and type a recording's parameters; raises DescriptionError naming the field."""
+        p = _Fields(params, "parameters")
+        version = p.integer("schema_version", default=1, low=1)
+        if version > SCHEMA_VERSION:
+            raise DescriptionError(
+                f"parameters.schema_version {version}: written by a newer quadsim (this one reads up to "
+                f"{SCHEMA_VERSION}); upgrade quadsim to read it"
+            )
+        cfg = p.section("config")
+        rates_f = cfg.section("rates")
+        rates_kw = {f.name: rates_f.integer(f.name, low=1, high=1_000_000) for f in fields(Rates)}
+        start_f = cfg.section("start", optional=True)
+        config = SimConfig(
+            urdf=cfg.path("urdf"),
+            vehicle_params=cfg.path("vehicle_params"),
+            world=cfg.path("world"),
+            controller=cfg.choice("controller", ControllerKind),
+            z_mode=cfg.choice("z_mode", ZMode),
+            rates=_build(Rates, rates_kw, rates_f.where),
+            command_timeout_s=cfg.number("command_timeout_s", optional=True, low=1e-6, high=1e9),
+            start=StartPose(
+                start_f.number("x_m", default=0.0),
+                start_f.number("y_m", default=0.0),
+                start_f.number("yaw_rad", default=0.0),
+            ),
+        )
+        v = p.section("vehicle")
+        rotors = v.raw("rotors", default=[])
+        vehicle = VehicleDescription(
+            name=v.text("name"),
+            urdf_file=Path(v.text("urdf")).name,
+            params_file=Path(v.text("params")).name,
+            mass_kg=v.number("mass_kg", low=1e-6, high=1e6),
+            rotor_count=len(rotors) if isinstance(rotors, list) else 0,
+            details=dict(v.data),
+        )
+        c = p.section("controller")
+        gains_f = c.section("gains", optional=True)
+        gains = {key: gains_f.number(key) for key in gains_f.data}
+        controller = ControllerDescription(c.choice("name", ControllerKind), gains, dict(c.data))
+        driver = p.section("driver", optional=True)
+        cameras = p.raw("cameras", default=[])
+        if not isinstance(cameras, list):
+            raise DescriptionError(f"parameters.cameras: expected a list, got {type(cameras).__name__}")
+        specs = tuple(_camera(cam, f"parameters.cameras[{i}]") for i, cam in enumerate(cameras))
+        known = {"schema_version", "config", "vehicle", "controller", "driver", "cameras", "start_step"}
+        return cls(
+            config=config,
+            vehicle=vehicle,
+            controller=controller,
+            driver=dict(driver.data),
+            cameras=specs,
+            start_step=p.integer("start_step", default=0, low=0),
+            extra={k: v for k, v in p.data.items() if k not in known},
+            schema_version=version,
+        )
+
+
+# --- validation helpers ---------------------------------------------------------------------
+
+
+def _build(cls: Any, kwargs: dict[str, Any], where: str) -> Any:
+    try:
+        return cls(**kwargs)
+    except QuadsimError as exc:
+        raise DescriptionError(f"{where}: {exc}") from None
+
+
+def _camera(data: Any, where: str) -> CameraSpec:
+    f = _Fields(data, where)
+    kwargs: dict[str, Any] = {}
+    for spec_field in fields(CameraSpec):
+        if spec_field.name not in f.data:
+            continue
+        if spec_field.type in ("int", int):
+            kwargs[spec_field.name] = f.integer(spec_field.name)
+        elif spec_field.type in ("float", float):
+            kwargs[spec_field.name] = f.number(spec_field.name)
+        else:
+            kwargs[spec_field.name] = f.text(spec_field.name)
+    for required in ("name", "link_name"):
+        if required not in kwargs:
+            raise DescriptionError(f"{where}.{required}: missing")
+    spec: CameraSpec = _build(CameraSpec, kwargs, where)
+    return spec
+
+
+class _Fields:
+    """Typed access to one JSON object, with errors that name the field's path."""
+
+    def __init__(self, data: Any, where: str) -> None:
+        if not isinstance(data, dict):
+            raise DescriptionError(f"{where}: expected an object, got {type(data).__name__}")
+        self.data: dict[str, Any] = data
+        self.where = where
+
+    def _missing(self, key: str) -> DescriptionError:
+        return DescriptionError(f"{self.where}.{key}: missing")
+
+    def _wrong(self, key: str, expected: str, value: Any) -> DescriptionError:
+        shown = repr(value)
+        if len(shown) > 60:
+            shown = shown[:57] + "..."
+        return DescriptionError(f"{self.where}.{key}: expected {expected}, got {shown}")
+
+    def raw(self, key: str, default: Any = None) -> Any:
+        return self.data.get(key, default)
+
+    def section(self, key: str, optional: bool = False) -> _Fields:
+        value = self.data.get(key)
+        if value is None:
+            if optional:
+                return _Fields({}, f"{self.where}.{key}")
+            raise self._missing(key)
+        if not isinstance(value, dict):
+            raise self._wrong(key, "an object", value)
+        return _Fields(value, f"{self.where}.{key}")
+
+    def text(self, key: str) -> str:
+        value = self.data.get(key)
+        if value is None:
+            raise self._missing(key)
+        if not isinstance(value, str) or len(value) > 4096:
+            raise self._wrong(key, "a string", value)
+        return value
+
+    def path(self, key: str) -> Path | None:
+        value = self.data.get(key)
+        if value is None:
+            return None
+        if not isinstance(value, str) or not value or "\0" in value or len(value) > 4096:
+            raise self._wrong(key, "a file path", value)
+        return Path(value)
+
+    def number(
+        self,
+        key: str,
+        default: float | None = None,
+        optional: bool = False,
+        low: float = -math.inf,
+        high: float = math.inf,
+    ) -> Any:
+        value = self.data.get(key)
+        if value is None:
+            if optional:
+                return None
+            if default is not None:
+                return default
+            raise self._missing(key)
+        if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+            raise self._wrong(key, "a finite number", value)
+        if not low <= value <= high:
+            raise self._wrong(key, f"a number within [{low:g}, {high:g}]", value)
+        return float(value)
+
+    def integer(self, key: str, default: int | None = None, low: int = 0, high: int = 2**62) -> int:
+        value = self.data.get(key)
+        if value is None:
+            if default is not None:
+                return default
+            raise self._missing(key)
+        if isinstance(value, bool) or not isinstance(value, int) or not low <= value <= high:
+            raise self._wrong(key, f"a whole number within [{low}, {high}]", value)
+        return value
+
+    def choice(self, key: str, enum_type: Any) -> Any:
+        value = self.data.get(key)
+        if value is None:
+            raise self._missing(key)
+        try:
+            return enum_type(value)
+        except (ValueError, TypeError):
+            allowed = ", ".join(str(m.value) for m in enum_type)
+            raise self._wrong(key, f"one of {allowed}", value) from None
