@@ -148,5 +148,5 @@ def test_our_reader_gives_typed_data(recorded):
     with RecordingReader(path) as reader:
         poses = list(reader.poses())
         assert [p for _, p, _ in poses] == [s.position_m for s in log.states]
-        assert reader.parameters["driver"]["script"] == "test"
+        assert reader.description is not None and reader.description.driver["script"] == "test"
         assert len(list(reader.images("front"))) == 90

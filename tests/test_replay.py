@@ -39,8 +39,8 @@ def cli(*args):
 def test_shipped_recordings_are_small_and_cover_both_controllers_and_teleop():
     assert len(RECORDINGS) >= 3
     assert all(p.stat().st_size < 1_000_000 for p in RECORDINGS)
-    drivers = {load_flight(p).parameters["driver"]["name"] for p in RECORDINGS}
-    controllers = {load_flight(p).parameters["controller"]["name"] for p in RECORDINGS}
+    drivers = {load_flight(p).description.driver_name for p in RECORDINGS}
+    controllers = {load_flight(p).description.controller.kind.value for p in RECORDINGS}
     assert {"scripted", "keyboard"} <= drivers and {"cascade", "seed"} <= controllers
 
 

@@ -7,17 +7,16 @@ from __future__ import annotations
 import math
 import tempfile
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 from quadsim.apps.outputs import OutputOptions, RecordedRun
-from quadsim.control import ControllerKind
 from quadsim.core.kinematics import body_velocity
-from quadsim.core.types import StartPose, VehicleState, ZMode
+from quadsim.core.types import VehicleState, ZMode
 from quadsim.drivers.replay import ReplayDriver
 from quadsim.errors import QuadsimError
 from quadsim.recording.flight import RecordedFlight
-from quadsim.sim.config import Rates, SimConfig
+from quadsim.sim.config import SimConfig
 from quadsim.sim.loop import StateLog
 from quadsim.sim.simulator import Simulator
 
@@ -66,41 +65,38 @@ class ResimReport:
         return out
 
 
-def _config_from(flight: RecordedFlight, folder: Path) -> tuple[SimConfig, dict]:
-    p = flight.parameters
-    if p is None:
+def _config_from(flight: RecordedFlight, folder: Path) -> tuple[SimConfig, dict[str, float]]:
+    d = flight.description
+    if d is None:
+        if flight.description_error:
+            raise QuadsimError(f"{flight.description_error}: it cannot be re-flown")
         raise QuadsimError(f"{flight.path}: not a quadsim recording (no quadsim metadata): it cannot be re-flown")
     if not flight.commands:
         raise QuadsimError(f"{flight.path}: has no /quad_cmd_twist commands to re-fly")
     if not flight.states:
         raise QuadsimError(f"{flight.path}: has no /quad/pose states to compare with")
-    start_step = p.get("start_step", 0)
-    if start_step:
+    if d.start_step:
         raise QuadsimError(
-            f"{flight.path}: this recording was started mid-flight (at step {start_step}); "
+            f"{flight.path}: this recording was started mid-flight (at step {d.start_step}); "
             f"only recordings that start at the beginning of a flight can be re-flown"
         )
-    names = {Path(p["vehicle"]["urdf"]).name, Path(p["vehicle"]["params"]).name}
-    missing = [n for n in names if n not in flight.attachments]
+    names = {d.vehicle.urdf_file, d.vehicle.params_file}
+    missing = [n for n in sorted(names) if n not in flight.attachments]
     if missing:
         raise QuadsimError(f"{flight.path}: attachment(s) {', '.join(missing)} missing: cannot rebuild the vehicle")
     for name, data in flight.attachments.items():
-        (folder / name).write_bytes(data)
-    cfg = p["config"]
-    world_name = Path(cfg["world"]).name if cfg.get("world") else "default.toml"
+        if name == Path(name).name and not name.startswith("."):  # plain file names only, never a path
+            (folder / name).write_bytes(data)
+    world_name = d.config.world.name if d.config.world else "default.toml"
     world = folder / world_name if world_name in flight.attachments else None
-    start = cfg.get("start", {})
-    config = SimConfig(
-        urdf=folder / Path(p["vehicle"]["urdf"]).name,
-        vehicle_params=folder / Path(p["vehicle"]["params"]).name,
+    config = replace(
+        d.config,
+        urdf=folder / d.vehicle.urdf_file,
+        vehicle_params=folder / d.vehicle.params_file,
         world=world,
-        controller=ControllerKind(p["controller"]["name"]),
-        z_mode=ZMode(cfg["z_mode"]),
-        rates=Rates(**cfg["rates"]),
-        command_timeout_s=cfg.get("command_timeout_s"),
-        start=StartPose(start.get("x_m", 0.0), start.get("y_m", 0.0), start.get("yaw_rad", 0.0)),
+        gui=False,
     )
-    return config, p["controller"].get("gains") or {}
+    return config, d.controller.gains
 
 
 def _angle_between(q1: tuple[float, ...], q2: tuple[float, ...]) -> float:

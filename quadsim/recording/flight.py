@@ -17,6 +17,7 @@ from quadsim.core.kinematics import matrix_from_quaternion, rotate
 from quadsim.core.types import Twist, VehicleState
 from quadsim.recording import contract as rm
 from quadsim.recording.reader import RecordingReader
+from quadsim.sim.description import RunDescription
 
 NS = 1_000_000_000
 
@@ -26,7 +27,7 @@ class RecordedFlight:
     """Filled once by `load_flight`; its lookups index the loaded lists on first use."""
 
     path: Path
-    parameters: dict[str, Any] | None
+    description: RunDescription | None  # None: not a quadsim recording, or its parameters are unreadable
     physics_hz: int
     states: list[VehicleState] = field(default_factory=list)
     state_ns: list[int] = field(default_factory=list)
@@ -37,10 +38,11 @@ class RecordedFlight:
     attachments: dict[str, bytes] = field(default_factory=dict)
     topics: dict[str, int] = field(default_factory=dict)  # topic -> message count
     end_ns: int = 0
+    description_error: str | None = None  # why the run's parameters could not be read, if so
 
     @property
     def is_quadsim(self) -> bool:
-        return self.parameters is not None
+        return self.description is not None
 
     @property
     def duration_s(self) -> float:
@@ -76,9 +78,9 @@ class RecordedFlight:
 
 def load_flight(path: Path | str) -> RecordedFlight:
     with RecordingReader(path, require_topics=False) as reader:
-        params = reader.parameters
-        hz = int(params["config"]["rates"]["physics_hz"]) if params else 240
-        flight = RecordedFlight(reader.path, params, hz)
+        description = reader.description
+        hz = description.config.rates.physics_hz if description is not None else 240
+        flight = RecordedFlight(reader.path, description, hz, description_error=reader.description_error)
         flight.events = reader.events
         flight.attachments = reader.attachments()
         types, stats = reader.topics, reader.summary.statistics

@@ -10,6 +10,7 @@ from quadsim.errors import QuadsimError
 from quadsim.recording.contract import CORE_TOPICS
 from quadsim.recording.reader import RecordingReader
 from quadsim.recording.salvage import damage_report
+from quadsim.sim.description import RunDescription
 
 
 @dataclass(frozen=True)
@@ -29,7 +30,8 @@ class RecordingInfo:
     start_s: float
     end_s: float
     topics: tuple[TopicInfo, ...]
-    parameters: dict | None
+    description: RunDescription | None
+    description_error: str | None
     metadata: dict[str, str]
     attachments: tuple[str, ...]
 
@@ -55,26 +57,28 @@ class RecordingInfo:
             out.append(f"  {t.name:<{width}}  {t.type_name:<34} {t.count:7d} msgs  {t.rate_hz:6.1f} Hz")
         if self.attachments:
             out.append(f"attachments {', '.join(self.attachments)}")
-        p = self.parameters
-        if p:
-            cfg = p.get("config", {})
-            rates = cfg.get("rates", {})
+        d = self.description
+        if d is not None:
+            cfg = d.config
+            script = d.driver.get("script")
             out.append("run parameters:")
             out.append(
-                f"  controller {p.get('controller', {}).get('name', '?')}, z-mode {cfg.get('z_mode', '?')}, "
-                f"driver {p.get('driver', {}).get('name', '?')}"
-                + (f" ({p['driver'].get('script')})" if p.get("driver", {}).get("script") else "")
+                f"  controller {d.controller.kind.value}, z-mode {cfg.z_mode.value}, driver {d.driver_name}"
+                + (f" ({script})" if isinstance(script, str) and script else "")
             )
-            out.append("  rates " + ", ".join(f"{k.replace('_hz', '')} {v} Hz" for k, v in rates.items()))
+            out.append("  rates " + ", ".join(f"{k.replace('_hz', '')} {v} Hz" for k, v in cfg.rates.to_dict().items()))
+            timeout = "off" if cfg.command_timeout_s is None else f"{cfg.command_timeout_s} s"
             out.append(
-                f"  vehicle {p.get('vehicle', {}).get('name', '?')}, mass {p.get('vehicle', {}).get('mass_kg', 0):.3f} kg, "
-                f"command timeout {cfg.get('command_timeout_s')} s"
+                f"  vehicle {d.vehicle.name} ({d.vehicle.rotor_count} rotors), mass {d.vehicle.mass_kg:.3f} kg, "
+                f"command timeout {timeout}"
             )
-            for cam in p.get("cameras", []):
+            for cam in d.cameras:
                 out.append(
-                    f"  camera {cam['name']}: {cam['width_px']}x{cam['height_px']} @ {cam['rate_hz']} Hz, "
-                    f"vertical FOV {cam['vertical_fov_deg']} deg, JPEG quality {cam['jpeg_quality']}"
+                    f"  camera {cam.name}: {cam.width_px}x{cam.height_px} @ {cam.rate_hz} Hz, "
+                    f"vertical FOV {cam.vertical_fov_deg} deg, JPEG quality {cam.jpeg_quality}"
                 )
+        elif self.description_error:
+            out.append(f"run parameters: unreadable ({self.description_error})")
         else:
             out.append("run parameters: none (not recorded by quadsim)")
         return out
@@ -105,7 +109,8 @@ def read_info(path: Path) -> RecordingInfo:
         start,
         end,
         tuple(topics),
-        reader.parameters,
+        reader.description,
+        reader.description_error,
         ours,
         attachments,
     )

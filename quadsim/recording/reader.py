@@ -19,6 +19,15 @@ from quadsim.errors import QuadsimError
 from quadsim.recording import contract as rm
 from quadsim.recording.salvage import check_is_mcap, damage_report
 from quadsim.recording.writer import EVENT_METADATA_NAME, METADATA_NAME
+from quadsim.sim.description import DescriptionError, RunDescription
+
+
+def _event(metadata: dict[str, str]) -> tuple[int, str, str] | None:
+    """(step, kind, value) of an event record; None for a malformed one."""
+    try:
+        return int(metadata["step"]), str(metadata["kind"]), str(metadata["value"])
+    except (KeyError, ValueError, TypeError):
+        return None
 
 
 class RecordingReader:
@@ -48,14 +57,21 @@ class RecordingReader:
         records = list(self._reader.iter_metadata())
         #: the run's record: version, wall-clock start, parameters (JSON); empty for other programs' files
         self.quadsim_metadata: dict[str, str] = next((dict(m.metadata) for m in records if m.name == METADATA_NAME), {})
+        #: the run's typed description; None for other programs' files or when unreadable (then
+        #: `description_error` says why)
+        self.description: RunDescription | None = None
+        self.description_error: str | None = None
         params = self.quadsim_metadata.get("parameters")
-        self.parameters: dict[str, Any] | None = json.loads(params) if params else None
+        if params is not None:
+            try:
+                self.description = RunDescription.from_parameters(json.loads(params))
+            except (ValueError, RecursionError) as exc:  # json's errors are ValueErrors
+                self.description_error = f"{self.path}: the run parameters are not valid JSON ({exc})"
+            except DescriptionError as exc:
+                self.description_error = f"{self.path}: {exc}"
         #: (step, kind, value) of what happened besides the commands (z-mode switches)
-        self.events = sorted(
-            (int(m.metadata["step"]), m.metadata["kind"], m.metadata["value"])
-            for m in records
-            if m.name == EVENT_METADATA_NAME
-        )
+        found = (_event(m.metadata) for m in records if m.name == EVENT_METADATA_NAME)
+        self.events = sorted(e for e in found if e is not None)
 
     def attachments(self) -> dict[str, bytes]:
         return {a.name: a.data for a in self._reader.iter_attachments()}

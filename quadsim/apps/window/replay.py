@@ -33,8 +33,8 @@ KEYS = [
 
 def _world_of(flight: RecordedFlight, folder: Path) -> WorldSpec:
     """The world the recording was flown in (from its attachment), or an empty one."""
-    p = flight.parameters or {}
-    name = Path(p.get("config", {}).get("world") or "default.toml").name
+    d = flight.description
+    name = d.config.world.name if d is not None and d.config.world is not None else "default.toml"
     data = flight.attachments.get(name)
     if data:
         path = folder / name
@@ -170,7 +170,7 @@ class ReplayApp:
             got = f.frame_at(cam, t)
             if got is not None:
                 frames[cam] = CameraFrame(cam, got[0], got[1], 0, 0)
-        p = f.parameters or {}
+        d = f.description
         state_word = "PLAYING" if self.playing else "paused"
         warnings = [] if f.states else ["this file has no /quad/pose: nothing to show on the map or HUD"]
         return ViewModel(
@@ -178,9 +178,9 @@ class ReplayApp:
             command=command or Twist(),
             command_held=False,
             armed=command is not None,
-            z_mode=p.get("config", {}).get("z_mode", "?"),
-            controller=p.get("controller", {}).get("name", "?"),
-            input_status=f"replay of {p.get('driver', {}).get('name', 'another program')}",
+            z_mode=d.config.z_mode.value if d else "?",
+            controller=d.controller.kind.value if d else "?",
+            input_status=f"replay of {d.driver_name if d else 'another program'}",
             recording_path=None,
             recording_error=None,
             paused=False,
