@@ -35,6 +35,7 @@ class Twist(NamedTuple):
     angular_z: float = 0.0
 
     def is_finite(self) -> bool:
+        """True when no field is NaN or infinite (the gate rejects such commands)."""
         return all(math.isfinite(v) for v in self)
 
     def is_zero_motion(self) -> bool:
@@ -75,10 +76,12 @@ class VehicleState(NamedTuple):
     specific_force_body_mps2: tuple[float, float, float]
 
     def yaw_rad(self) -> float:
+        """Heading: rotation about world z, counter-clockwise from world x, in (-pi, pi]."""
         x, y, z, w = self.orientation_xyzw
         return math.atan2(2.0 * (w * z + x * y), 1.0 - 2.0 * (y * y + z * z))
 
     def roll_pitch_rad(self) -> tuple[float, float]:
+        """Roll and pitch of the ZYX Euler angles (rad)."""
         x, y, z, w = self.orientation_xyzw
         roll = math.atan2(2.0 * (w * x + y * z), 1.0 - 2.0 * (x * x + y * y))
         pitch = math.asin(clamp(2.0 * (w * y - z * x), -1.0, 1.0))

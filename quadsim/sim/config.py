@@ -37,6 +37,7 @@ class Rates:
         return self.physics_hz // hz
 
     def to_dict(self) -> dict[str, Any]:
+        """The rates as plain data, field name -> Hz."""
         return asdict(self)
 
 
@@ -55,6 +56,7 @@ class SimConfig:
     gui: bool = False
 
     def to_dict(self) -> dict[str, Any]:
+        """Plain JSON-able data (RunDescription reads it back with validation)."""
         return {
             "urdf": str(self.urdf) if self.urdf else None,
             "vehicle_params": str(self.vehicle_params) if self.vehicle_params else None,

@@ -63,9 +63,11 @@ class StateLog:
         self.commands: list[tuple[int, Twist]] = []
 
     def on_command(self, step: int, twist: Twist) -> None:
+        """Keep (step, command)."""
         self.commands.append((step, twist))
 
     def on_state(self, state: VehicleState) -> None:
+        """Keep the state."""
         self.states.append(state)
 
 

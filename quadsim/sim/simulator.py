@@ -62,11 +62,13 @@ class Simulator:
         self.driver.send(twist)
 
     def set_z_mode(self, z_mode: ZMode) -> None:
+        """How linear.z is read from now on (the standing command is re-clamped under the new mode)."""
         self.gate.set_z_mode(z_mode)
 
     # --- stepping ---------------------------------------------------------------------------
 
     def step(self, steps: int = 1) -> VehicleState:
+        """Advance `steps` physics steps through the loop (input, control, physics, outputs); the new state."""
         self.loop.run(steps)
         return self.state
 
@@ -81,6 +83,7 @@ class Simulator:
         self.loop.sinks.append(sink)
 
     def remove_sink(self, sink: Sink) -> None:
+        """Stop sending commands and states to `sink` (no error if it was not added)."""
         if sink in self.loop.sinks:
             self.loop.sinks.remove(sink)
 
@@ -89,6 +92,7 @@ class Simulator:
         self.loop.add_tap(every_steps, callback)
 
     def remove_tap(self, callback: Callable[[VehicleState], None]) -> None:
+        """Stop calling `callback` (no error if it was not added)."""
         self.loop.remove_tap(callback)
 
     @property
@@ -97,18 +101,22 @@ class Simulator:
         return self.physics.client_id
 
     def reset(self) -> None:
+        """Back to step 0: the vehicle at its start pose, rotors idle, controller and gate cleared."""
         self.loop.reset()
 
     @property
     def state(self) -> VehicleState:
+        """The vehicle's state after the last step (ground truth, REP 103 frames, SI units)."""
         return self.physics.state()
 
     @property
     def step_count(self) -> int:
+        """Simulation time in physics steps since the start (or the last reset)."""
         return self.loop.step_count
 
     @property
     def time_s(self) -> float:
+        """Simulation time in seconds (step_count / physics rate)."""
         return self.loop.time_s
 
     def description(self) -> RunDescription:
@@ -137,6 +145,7 @@ class Simulator:
     # --- lifetime ---------------------------------------------------------------------------
 
     def close(self) -> None:
+        """Disconnect PyBullet. The simulator cannot step afterwards; `with Simulator(...)` calls this."""
         self.physics.close()
 
     def __enter__(self) -> Simulator:
