@@ -3,6 +3,7 @@
 import pytest
 
 from quadsim import ConfigError, Rates, SimConfig, Simulator, StateLog, Twist, ZMode
+from quadsim.drivers import NEVER
 from quadsim.drivers.scripted import ScriptedDriver, parse_script
 
 
@@ -54,18 +55,47 @@ def test_silence_triggers_dead_man_hold():
         assert abs(later[0] - held[0]) < 0.01 and later[2] == pytest.approx(2.0, abs=0.02)
 
 
+class _SettableDriver:
+    """A driver publishing whatever it is set to, unchecked (as a live bridge might receive)."""
+
+    name = "settable"
+    next_poll_step = NEVER
+    finished = False
+
+    def __init__(self) -> None:
+        self.twist: Twist | None = None
+
+    def poll(self, step: int, time_s: float) -> Twist | None:
+        return self.twist
+
+    def describe(self) -> dict:
+        return {"name": self.name}
+
+
 def test_nan_command_keeps_last_good_one_until_the_timeout():
-    with Simulator(SimConfig(z_mode=ZMode.HEIGHT)) as sim:
-        sim.send(Twist())
+    driver = _SettableDriver()
+    with Simulator(SimConfig(z_mode=ZMode.HEIGHT), driver) as sim:
+        driver.twist = Twist()
         sim.run_for(4.0)
-        sim.send(Twist(linear_x=1.0))
+        driver.twist = Twist(linear_x=1.0)
         sim.run_for(1.5)
-        sim.send(Twist(linear_x=float("nan")))
+        driver.twist = Twist(linear_x=float("nan"))
         state = sim.run_for(0.4)  # rejected: the last good command (1 m/s forward) stands
         assert state.linear_velocity_mps[0] == pytest.approx(1.0, abs=0.05)
         assert sim.gate.rejected_count > 0
         state = sim.run_for(3.0)  # only rejected commands for longer than the timeout: hold
         assert abs(state.linear_velocity_mps[0]) < 0.05
+
+
+def test_send_checks_its_argument_at_once():
+    with Simulator(SimConfig()) as sim:
+        with pytest.raises(ValueError, match="linear_x must be finite"):
+            sim.send(Twist(linear_x=float("nan")))
+        with pytest.raises(TypeError, match=r"takes a quadsim\.Twist"):
+            sim.send((1.0, 0.0, 0.0, 0.0, 0.0, 0.0))  # type: ignore[arg-type]
+        with pytest.raises(TypeError, match="angular_z must be a number"):
+            sim.send(Twist(angular_z="0.5"))  # type: ignore[arg-type]
+        assert sim.step(24).position_m[2] < 0.1  # nothing was taken: still on the ground
 
 
 def test_reset_returns_to_start():

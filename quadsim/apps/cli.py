@@ -3,10 +3,14 @@
 from __future__ import annotations
 
 import argparse
+import errno
 import logging
+import math
 import os
 import sys
+from collections.abc import Callable
 from pathlib import Path
+from typing import NoReturn
 
 from quadsim import __version__
 from quadsim.control import ControllerKind
@@ -16,6 +20,47 @@ from quadsim.sensors.camera import RendererKind
 from quadsim.sim.config import Rates
 
 DEMO_SCENARIO = "figure8"
+
+
+class _Parser(argparse.ArgumentParser):
+    """argparse, but a usage error is one line (and exit code 2), like every other error here."""
+
+    def error(self, message: str) -> NoReturn:
+        self.exit(2, f"{self.prog}: error: {message} (see {self.prog} --help)\n")
+
+
+def _number(low: float, high: float, what: str = "a number") -> Callable[[str], float]:
+    """An argparse type: a finite float within [low, high]."""
+
+    def parse(text: str) -> float:
+        try:
+            value = float(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"expected {what}, got {text!r}") from None
+        if not math.isfinite(value) or not low <= value <= high:
+            raise argparse.ArgumentTypeError(f"expected {what} within {low:g}..{high:g}, got {text}")
+        return value
+
+    return parse
+
+
+def _whole(low: int, high: int) -> Callable[[str], int]:
+    """An argparse type: an integer within [low, high]."""
+
+    def parse(text: str) -> int:
+        try:
+            value = int(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"expected a whole number, got {text!r}") from None
+        if not low <= value <= high:
+            raise argparse.ArgumentTypeError(f"expected a whole number within {low}..{high}, got {value}")
+        return value
+
+    return parse
+
+
+#: sim time a single run may cover: a week (a longer run is surely a typo)
+MAX_DURATION_S = 7 * 24 * 3600.0
 
 
 def _add_sim_options(p: argparse.ArgumentParser) -> None:
@@ -35,17 +80,25 @@ def _add_sim_options(p: argparse.ArgumentParser) -> None:
     )
     g.add_argument("--urdf", type=Path, default=None, help="vehicle URDF (default: assets/urdf/quadsim_x.urdf)")
     g.add_argument("--world", type=Path, default=None, help="world file (default: assets/worlds/default.toml)")
-    g.add_argument("--physics-hz", type=int, default=240, help="physics rate (default 240)")
+    g.add_argument("--physics-hz", type=_whole(1, 100_000), default=240, help="physics rate (default 240)")
     g.add_argument(
-        "--control-hz", type=int, default=240, help="controller rate; must divide the physics rate (default 240)"
+        "--control-hz",
+        type=_whole(1, 100_000),
+        default=240,
+        help="controller rate; must divide the physics rate (default 240)",
     )
     g.add_argument(
-        "--state-hz", type=int, default=60, help="state publishing rate; must divide the physics rate (default 60)"
+        "--state-hz",
+        type=_whole(1, 100_000),
+        default=60,
+        help="state publishing rate; must divide the physics rate (default 60)",
     )
-    g.add_argument("--input-hz", type=int, default=20, help="command publishing rate of the driver (default 20)")
+    g.add_argument(
+        "--input-hz", type=_whole(1, 100_000), default=20, help="command publishing rate of the driver (default 20)"
+    )
     g.add_argument(
         "--timeout",
-        type=float,
+        type=_number(1e-3, 3600.0, "seconds"),
         default=0.5,
         metavar="S",
         help="dead-man timeout: hold position after S seconds without a command (default 0.5)",
@@ -70,7 +123,10 @@ def _add_sim_options(p: argparse.ArgumentParser) -> None:
         "--camera-size", default="320x240", metavar="WxH", help="image size of each camera (default 320x240)"
     )
     o.add_argument(
-        "--camera-hz", type=int, default=30, help="frame rate of each camera; must divide the physics rate (default 30)"
+        "--camera-hz",
+        type=_whole(1, 1000),
+        default=30,
+        help="frame rate of each camera; must divide the physics rate (default 30)",
     )
     o.add_argument(
         "--renderer",
@@ -80,7 +136,7 @@ def _add_sim_options(p: argparse.ArgumentParser) -> None:
     )
     o.add_argument(
         "--render-workers",
-        type=int,
+        type=_whole(0, 16),
         default=2,
         metavar="N",
         help="render processes, so rendering uses other cores while physics steps (default 2; 0 = in-process)",
@@ -185,6 +241,9 @@ def _fly_script(args: argparse.Namespace, script_name: str, realtime: bool) -> i
         )
         print(f"{what} at sim time {final_time:.2f} s{saved}", file=sys.stderr)
         return 143 if isinstance(interrupted, Terminated) else 130
+    if run.recorder is not None and run.recorder.error:
+        print("quadsim: error: the flight finished but its recording did not (see above)", file=sys.stderr)
+        return 1
     return 0
 
 
@@ -201,6 +260,8 @@ def has_display() -> bool:
 
 
 def cmd_fly(args: argparse.Namespace) -> int:
+    if args.gui and not has_display():
+        raise QuadsimError("--gui needs a display (DISPLAY is not set); run without --gui")
     if not has_display():
         print(
             f"No display found: the teleop window cannot open. Recording the scripted demo '{DEMO_SCENARIO}' "
@@ -309,9 +370,41 @@ def cmd_recover(args: argparse.Namespace) -> int:
     return 0
 
 
+PLOT_SUFFIXES = (".png", ".jpg", ".jpeg", ".pdf", ".svg")
+
+
+def _check_output_file(option: str, path: Path, suffixes: tuple[str, ...]) -> None:
+    """Refuse an output file that cannot be written, before any work is done."""
+    if path.is_dir():
+        raise QuadsimError(f"{option} {path}: is a folder; give a file name ending in {', '.join(suffixes)}")
+    if path.suffix.lower() not in suffixes:
+        raise QuadsimError(
+            f"{option} {path}: unknown image type {path.suffix or '(none)'!r}; use {', '.join(suffixes)}"
+        )
+    _check_output_dir(option, path.parent, create=False)
+    if len(path.name.encode()) > 255:
+        raise QuadsimError(f"{option}: the file name is too long ({len(path.name.encode())} bytes; at most 255)")
+
+
+def _check_output_dir(option: str, folder: Path, create: bool = True) -> None:
+    try:
+        if create:
+            folder.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise QuadsimError(f"{option} {folder}: cannot create the folder ({exc.strerror})") from None
+    if not folder.is_dir():
+        raise QuadsimError(f"{option} {folder}: no such folder")
+    if not os.access(folder, os.W_OK):
+        raise QuadsimError(f"{option} {folder}: permission denied")
+
+
 def cmd_replay(args: argparse.Namespace) -> int:
     from quadsim.recording.flight import load_flight
 
+    if args.plot is not None:
+        _check_output_file("--plot", args.plot, PLOT_SUFFIXES)
+    if args.mp4 is not None:
+        _check_output_dir("--mp4", args.mp4)
     flight = load_flight(args.file)
     if args.resim:
         from quadsim.apps.progress import ProgressBar
@@ -414,7 +507,7 @@ def cmd_bench(args: argparse.Namespace) -> int:
 
 
 def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(
+    parser = _Parser(
         prog="quadsim",
         description="Quadrotor teleop simulator: PyBullet physics flying Twist commands (/quad_cmd_twist semantics).",
         epilog="Run 'python main.py COMMAND --help' for each command's options.",
@@ -438,7 +531,7 @@ def build_parser() -> argparse.ArgumentParser:
     )
     p.add_argument(
         "--duration",
-        type=float,
+        type=_number(1e-3, MAX_DURATION_S, "seconds"),
         default=None,
         metavar="S",
         help="seconds of sim time (default: the script's length; beyond it the vehicle holds)",
@@ -457,7 +550,7 @@ def build_parser() -> argparse.ArgumentParser:
     )
     p.add_argument(
         "--duration",
-        type=float,
+        type=_number(1e-3, MAX_DURATION_S, "seconds"),
         default=None,
         metavar="S",
         help="seconds of sim time for the demo flown when there is no display",
@@ -558,7 +651,12 @@ def build_parser() -> argparse.ArgumentParser:
         help="with --resim: where the new flight is recorded (default recordings/)",
     )
     p.add_argument("--no-record", action="store_true", help="with --resim: do not record the new flight")
-    p.add_argument("--speed", type=float, default=1.0, help="playback speed, 0.25 to 16 (default 1)")
+    p.add_argument(
+        "--speed",
+        type=_number(0.25, 16.0, "a speed factor"),
+        default=1.0,
+        help="playback speed, 0.25 to 16 (default 1)",
+    )
     p.add_argument("--loop", action="store_true", help="start again at the end")
     p.add_argument("--window", default="1280x720", metavar="WxH", help="initial window size")
     p.set_defaults(func=cmd_replay)
@@ -571,8 +669,15 @@ def build_parser() -> argparse.ArgumentParser:
         "(with a report: which topic, when, how far), 2 when a file cannot be used.",
     )
     p.add_argument("paths", type=Path, nargs="+", metavar="DIR|FILE", help="recordings, or folders of them")
-    p.add_argument("--tolerance-m", type=float, default=1e-3, help="position tolerance (default 0.001 m)")
-    p.add_argument("--tolerance-rad", type=float, default=1e-3, help="attitude tolerance (default 0.001 rad)")
+    p.add_argument(
+        "--tolerance-m", type=_number(0.0, 1e6, "metres"), default=1e-3, help="position tolerance (default 0.001 m)"
+    )
+    p.add_argument(
+        "--tolerance-rad",
+        type=_number(0.0, math.pi, "radians"),
+        default=1e-3,
+        help="attitude tolerance (default 0.001 rad)",
+    )
     p.set_defaults(func=cmd_check)
 
     p = sub.add_parser(
@@ -581,8 +686,15 @@ def build_parser() -> argparse.ArgumentParser:
         description="Benchmark. Every figure is given as steps/s, real-time factor and a ratio to a "
         "baseline measured in the same run; best of --repeats.",
     )
-    p.add_argument("--steps", type=int, default=24000, help="physics steps per timed run (default 24000 = 100 s sim)")
-    p.add_argument("--repeats", type=int, default=3, help="timed runs per figure; the best is kept (default 3)")
+    p.add_argument(
+        "--steps",
+        type=_whole(1, 10_000_000),
+        default=24000,
+        help="physics steps per timed run (default 24000 = 100 s sim)",
+    )
+    p.add_argument(
+        "--repeats", type=_whole(1, 100), default=3, help="timed runs per figure; the best is kept (default 3)"
+    )
     p.add_argument(
         "--section",
         choices=["all", "flight", "recording", "window", "replay"],
@@ -604,7 +716,17 @@ def main(argv: list[str] | None = None) -> int:
         parser.print_help()
         return 2
     try:
-        return args.func(args)
+        return int(args.func(args))
     except QuadsimError as exc:
         print(f"quadsim: error: {exc}", file=sys.stderr)
         return 2
+    except BrokenPipeError:
+        # the reader went away (`quadsim info X | head`): stop quietly, as Unix tools do
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, sys.stdout.fileno())
+        return 141
+    except OSError as exc:
+        if exc.errno in (errno.ENOSPC, errno.EDQUOT):
+            print(f"quadsim: error: the disk is full ({exc.filename or 'writing'})", file=sys.stderr)
+            return 2
+        raise

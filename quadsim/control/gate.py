@@ -67,6 +67,10 @@ class CommandGate:
         vx, vy = twist.linear_x, twist.linear_y
         speed = math.hypot(vx, vy)
         if speed > lim.max_horizontal_speed_mps:
+            if math.isinf(speed):  # both near the float limit: scale down first, keep the direction
+                big = max(abs(vx), abs(vy))
+                vx, vy = vx / big, vy / big
+                speed = math.hypot(vx, vy)
             k = lim.max_horizontal_speed_mps / speed
             vx, vy = vx * k, vy * k
         if self.z_mode is ZMode.VELOCITY:

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from typing import Any
 
 from quadsim.core.types import Twist
@@ -23,7 +24,15 @@ class ProgrammaticDriver:
         self._twist: Twist | None = None
 
     def send(self, twist: Twist) -> None:
-        self._twist = twist
+        """Publish `twist` from the next poll on. Checked here, so a mistake shows at its source."""
+        if not isinstance(twist, Twist):
+            raise TypeError(f"send() takes a quadsim.Twist, got {type(twist).__name__}: {twist!r}")
+        for name, value in zip(Twist._fields, twist):
+            if isinstance(value, bool) or not isinstance(value, (int, float)):
+                raise TypeError(f"Twist.{name} must be a number, got {type(value).__name__}: {value!r}")
+            if not math.isfinite(value):
+                raise ValueError(f"Twist.{name} must be finite, got {value}")
+        self._twist = Twist(*(float(v) for v in twist))
 
     def stop(self) -> None:
         self._twist = None

@@ -51,6 +51,7 @@ def parse_script(text: str, name: str = "<script>") -> Script:
     """Parse the script format; raises ScriptError naming the line at fault."""
     segments: list[Segment] = []
     z_mode: ZMode | None = None
+    text = text.removeprefix("\ufeff")  # a byte-order mark is not a command
     for lineno, raw in enumerate(text.splitlines(), start=1):
         line = raw.split("#", 1)[0].strip()
         if not line:
@@ -110,7 +111,7 @@ def load_script(name_or_path: str) -> Script:
         if not path.is_file():
             raise ScriptError(f"script file not found: {name_or_path}")
         try:
-            text = path.read_text()
+            text = path.read_text(encoding="utf-8-sig")  # a BOM from a Windows editor is not a command
         except (OSError, UnicodeDecodeError) as exc:
             raise ScriptError(f"cannot read script {name_or_path}: {exc}") from None
         return parse_script(text, str(path))

@@ -13,6 +13,8 @@ from quadsim.core.toml_compat import tomllib
 from quadsim.errors import ConfigError
 
 DEFAULT_WORLD = asset_path("worlds", "default.toml")
+#: the largest world accepted: 10 km (a floor of 1e30 m is a typo, and hangs the renderer)
+MAX_FLOOR_SIZE_M = 10_000.0
 
 
 class Shape(enum.Enum):
@@ -57,6 +59,21 @@ def _vector(entry: dict[str, Any], key: str, n: int, where: str) -> tuple[float,
     return tuple(float(v) for v in value)
 
 
+def _scalar(table: dict[str, Any], key: str, default: float, low: float, high: float, where: str) -> float:
+    value = table.get(key, default)
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+        raise ConfigError(f"{where}: {key} must be a number, got {value!r}")
+    if not low <= value <= high:
+        raise ConfigError(f"{where}: {key} = {value} is outside the sensible range [{low:g}, {high:g}]")
+    return float(value)
+
+
+def _table(value: Any, where: str) -> dict[str, Any]:
+    if not isinstance(value, dict):
+        raise ConfigError(f"{where} must be a table, got {value!r}")
+    return value
+
+
 def load_world(path: Path | str | None = None, texture_required: bool = True) -> WorldSpec:
     """Read and validate a world file; raises ConfigError naming the file and entry.
 
@@ -70,39 +87,55 @@ def load_world(path: Path | str | None = None, texture_required: bool = True) ->
             table = tomllib.load(fh)
     except tomllib.TOMLDecodeError as exc:
         raise ConfigError(f"{world_path}: not valid TOML ({exc})") from None
-    floor_t = table.get("floor", {})
+    except UnicodeDecodeError:
+        raise ConfigError(f"{world_path}: not a UTF-8 text file") from None
+    floor_t = _table(table.get("floor", {}), f"{world_path}: [floor]")
     texture = floor_t.get("texture")
+    if texture is not None and (not isinstance(texture, str) or not texture or "\0" in texture):
+        raise ConfigError(f"{world_path}: [floor] texture must be a file name, got {texture!r}")
     texture_path = (world_path.parent / texture).resolve() if texture else None
     if texture_path is not None and not texture_path.is_file():
         if texture_required:
             raise ConfigError(f"{world_path}: [floor] texture not found: {texture_path}")
         texture_path = None
+    where = f"{world_path}: [floor]"
     floor = FloorSpec(
-        size_m=float(floor_t.get("size_m", 80.0)),
+        size_m=_scalar(floor_t, "size_m", 80.0, 1.0, MAX_FLOOR_SIZE_M, where),
         texture_path=texture_path,
-        texture_tile_m=float(floor_t.get("texture_tile_m", 4.0)),
-        friction=float(floor_t.get("friction", 0.9)),
+        texture_tile_m=_scalar(floor_t, "texture_tile_m", 4.0, 0.01, MAX_FLOOR_SIZE_M, where),
+        friction=_scalar(floor_t, "friction", 0.9, 0.0, 10.0, where),
     )
-    if floor.size_m <= 0 or floor.texture_tile_m <= 0:
-        raise ConfigError(f"{world_path}: [floor] size_m and texture_tile_m must be > 0")
     landmarks = []
-    for i, entry in enumerate(table.get("landmark", [])):
+    entries = table.get("landmark", [])
+    if not isinstance(entries, list):
+        raise ConfigError(f"{world_path}: landmark must be an array of tables ([[landmark]]), got {entries!r}")
+    for i, raw in enumerate(entries):
+        entry = _table(raw, f"{world_path}: landmark {i + 1}")
         where = f"{world_path}: landmark {i + 1} ({entry.get('name', '?')})"
         try:
             shape = Shape(entry.get("shape"))
-        except ValueError:
+        except (ValueError, TypeError):
             raise ConfigError(f"{where}: shape must be one of {[s.value for s in Shape]}") from None
         size = _vector(entry, "size_m", 3, where)
-        if min(size) <= 0:
-            raise ConfigError(f"{where}: size_m must be > 0")
+        if min(size) <= 0 or max(size) > MAX_FLOOR_SIZE_M:
+            raise ConfigError(f"{where}: size_m must be > 0 and at most {MAX_FLOOR_SIZE_M:g} m")
+        position = _vector(entry, "position_m", 3, where)
+        if max(abs(v) for v in position) > MAX_FLOOR_SIZE_M:
+            raise ConfigError(f"{where}: position_m must be within {MAX_FLOOR_SIZE_M:g} m of the origin")
+        color = _vector(entry, "color_rgba", 4, where)
+        if not all(0.0 <= c <= 1.0 for c in color):
+            raise ConfigError(f"{where}: color_rgba values must be within 0..1")
+        collision = entry.get("collision", True)
+        if not isinstance(collision, bool):
+            raise ConfigError(f"{where}: collision must be true or false, got {collision!r}")
         landmarks.append(
             Landmark(
                 name=str(entry.get("name", f"landmark_{i + 1}")),
                 shape=shape,
-                position_m=_vector(entry, "position_m", 3, where),  # type: ignore[arg-type]
+                position_m=position,  # type: ignore[arg-type]
                 size_m=size,  # type: ignore[arg-type]
-                color_rgba=_vector(entry, "color_rgba", 4, where),  # type: ignore[arg-type]
-                collision=bool(entry.get("collision", True)),
+                color_rgba=color,  # type: ignore[arg-type]
+                collision=collision,
             )
         )
     return WorldSpec(world_path, floor, tuple(landmarks))

@@ -57,10 +57,14 @@ def recording_path(out: Path | None, label: str, now: dt.datetime | None = None)
 def check_writable(path: Path, min_free_bytes: int = MIN_FREE_BYTES) -> None:
     """Refuse early, with a clear message, when a recording could not be written."""
     folder = path.parent
+    if len(path.name.encode()) > 255:
+        raise QuadsimError(f"the recording's file name is too long ({len(path.name.encode())} bytes; at most 255)")
     try:
         folder.mkdir(parents=True, exist_ok=True)
     except OSError as exc:
         raise QuadsimError(f"cannot create the recording folder {folder}: {exc.strerror}") from None
+    if not folder.is_dir():
+        raise QuadsimError(f"cannot write recordings to {folder}: not a folder")
     if path.exists():
         raise QuadsimError(f"{path} already exists; choose another --out (nothing is overwritten)")
     if not os.access(folder, os.W_OK):

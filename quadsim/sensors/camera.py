@@ -46,8 +46,12 @@ class CameraSpec:
             raise ConfigError(f"camera {self.name}: field of view {self.vertical_fov_deg} deg must be within 1..170")
         if not 1 <= self.jpeg_quality <= 100:
             raise ConfigError(f"camera {self.name}: JPEG quality must be within 1..100")
-        if not 0 < self.near_m < self.far_m:
-            raise ConfigError(f"camera {self.name}: need 0 < near < far")
+        if not 0 < self.near_m < self.far_m <= 1e5:
+            raise ConfigError(f"camera {self.name}: need 0 < near < far <= 100 km")
+        if isinstance(self.rate_hz, bool) or not isinstance(self.rate_hz, int) or not 1 <= self.rate_hz <= 1000:
+            raise ConfigError(
+                f"camera {self.name}: rate must be a whole number of Hz within 1..1000, got {self.rate_hz!r}"
+            )
 
     @property
     def optical_frame(self) -> str:

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any
@@ -9,6 +10,11 @@ from typing import Any
 from quadsim.control import ControllerKind
 from quadsim.core.types import StartPose, ZMode
 from quadsim.errors import ConfigError
+
+#: the highest physics rate accepted (PyBullet steps get unreasonably slow past this)
+MAX_PHYSICS_HZ = 10_000
+#: the longest dead-man timeout accepted; None disables the dead-man switch altogether
+MAX_COMMAND_TIMEOUT_S = 3600.0
 
 
 @dataclass(frozen=True)
@@ -24,12 +30,15 @@ class Rates:
         for name, value in asdict(self).items():
             if isinstance(value, bool) or not isinstance(value, int) or value <= 0:
                 raise ConfigError(f"rate {name} must be a positive whole number of Hz, got {value!r}")
+        if self.physics_hz > MAX_PHYSICS_HZ:
+            raise ConfigError(f"physics rate {self.physics_hz} Hz is beyond {MAX_PHYSICS_HZ} Hz; 240 Hz is the default")
         for name, value in asdict(self).items():
             if self.physics_hz % value:
                 divisors = [d for d in range(1, self.physics_hz + 1) if self.physics_hz % d == 0]
+                shown = ", ".join(map(str, divisors[:12])) + (", ..." if len(divisors) > 12 else "")
                 raise ConfigError(
                     f"rate {name}={value} Hz does not divide the physics rate {self.physics_hz} Hz; "
-                    f"choose one of {divisors}"
+                    f"choose a divisor of it ({shown})"
                 )
 
     def every(self, hz: int) -> int:
@@ -54,6 +63,29 @@ class SimConfig:
     command_timeout_s: float | None = 0.5  # dead-man switch; None disables it
     start: StartPose = field(default_factory=StartPose)
     gui: bool = False
+
+    def __post_init__(self) -> None:
+        timeout = self.command_timeout_s
+        if timeout is None:
+            return
+        if isinstance(timeout, bool) or not isinstance(timeout, (int, float)) or not math.isfinite(timeout):
+            raise ConfigError(
+                f"command timeout must be a finite number of seconds (or None to disable), got {timeout!r}"
+            )
+        input_period_s = 1.0 / self.rates.input_hz
+        if round(timeout * self.rates.physics_hz) < self.rates.every(self.rates.input_hz):
+            raise ConfigError(
+                f"command timeout {timeout:g} s is shorter than the input period {input_period_s:g} s "
+                f"({self.rates.input_hz} Hz): every command would expire before the next one arrives"
+            )
+        if timeout > MAX_COMMAND_TIMEOUT_S:
+            raise ConfigError(
+                f"command timeout {timeout:g} s is beyond {MAX_COMMAND_TIMEOUT_S:g} s; use None to disable the dead-man switch"
+            )
+        for name in ("x_m", "y_m", "yaw_rad"):
+            value = getattr(self.start, name)
+            if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+                raise ConfigError(f"start pose {name} must be a finite number, got {value!r}")
 
     def to_dict(self) -> dict[str, Any]:
         """Plain JSON-able data (RunDescription reads it back with validation)."""

@@ -178,6 +178,12 @@ def _read_urdf(path: Path) -> dict[str, _Link]:
         raise ConfigError(f"{path}: not valid XML ({exc})") from None
     if root.tag != "robot":
         raise ConfigError(f"{path}: root element is <{root.tag}>, expected <robot>")
+    for mesh in root.iter("mesh"):
+        name = mesh.get("filename", "")
+        if "://" in name:
+            raise ConfigError(f"{path.name}: mesh {name!r}: URLs are not supported; give a path relative to the URDF")
+        if not name or not (path.parent / name).is_file():
+            raise ConfigError(f"{path.name}: mesh file not found: {name!r} (looked in {path.parent})")
     raw: dict[str, tuple[float, Vec3, Mat3]] = {}
     for link in root.findall("link"):
         name = link.get("name", "")
@@ -274,6 +280,8 @@ def _read_toml(path: Path) -> dict[str, Any]:
             return tomllib.load(fh)
     except tomllib.TOMLDecodeError as exc:
         raise ConfigError(f"{path}: not valid TOML ({exc})") from None
+    except UnicodeDecodeError:
+        raise ConfigError(f"{path}: not a UTF-8 text file") from None
 
 
 def _number(table: dict[str, Any], section: str, key: str, path: Path, *, low: float, high: float) -> float:
