@@ -25,6 +25,7 @@ from quadsim import __version__
 from quadsim.core.types import Twist, VehicleState
 from quadsim.errors import QuadsimError
 from quadsim.recording import contract as rm
+from quadsim.recording.paths import default_recordings_dir
 from quadsim.sensors.camera import CameraFrame, CameraSpec
 from quadsim.sim.simulator import Simulator
 
@@ -41,7 +42,7 @@ def recording_path(out: Path | None, label: str, now: dt.datetime | None = None)
     """Where a run lands: `--out FILE.mcap`, or a dated name in `--out DIR` (default recordings/)."""
     if out is not None and out.suffix == ".mcap":
         return out
-    folder = out if out is not None else DEFAULT_DIR
+    folder = out if out is not None else default_recordings_dir()
     stamp = (now or dt.datetime.now()).strftime("%Y-%m-%d_%H-%M-%S")
     safe = re.sub(r"[^A-Za-z0-9_.-]+", "-", label).strip("-") or "run"
     path = folder / f"{stamp}_{safe}.mcap"
