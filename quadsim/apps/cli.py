@@ -16,6 +16,8 @@ from quadsim import __version__
 from quadsim.control import ControllerKind
 from quadsim.core.types import StartPose, ZMode
 from quadsim.errors import QuadsimError
+from quadsim.recording.paths import ENV_VAR as RECORDINGS_ENV_VAR
+from quadsim.recording.paths import default_recordings_dir
 from quadsim.sensors.camera import RendererKind
 from quadsim.sim.config import Rates
 
@@ -61,6 +63,12 @@ def _whole(low: int, high: int) -> Callable[[str], int]:
 
 #: sim time a single run may cover: a week (a longer run is surely a typo)
 MAX_DURATION_S = 7 * 24 * 3600.0
+
+
+def _recordings_default() -> str:
+    """The default recordings folder for a help text, and how to change it."""
+    folder = str(default_recordings_dir()).replace("%", "%%")  # argparse %-formats help texts
+    return f"{folder}; set {RECORDINGS_ENV_VAR} to change it"
 
 
 def _add_sim_options(p: argparse.ArgumentParser) -> None:
@@ -110,7 +118,8 @@ def _add_sim_options(p: argparse.ArgumentParser) -> None:
         type=Path,
         default=None,
         metavar="DIR|FILE",
-        help="where the MCAP recording goes: a folder (a dated name is made) or a .mcap file (default: recordings/)",
+        help="where the MCAP recording goes: a folder (a dated name is made) or a .mcap file "
+        f"(default: {_recordings_default()})",
     )
     o.add_argument("--no-record", action="store_true", help="do not record")
     o.add_argument(
@@ -648,7 +657,7 @@ def build_parser() -> argparse.ArgumentParser:
         type=Path,
         default=None,
         metavar="DIR|FILE",
-        help="with --resim: where the new flight is recorded (default recordings/)",
+        help=f"with --resim: where the new flight is recorded (default: {_recordings_default()})",
     )
     p.add_argument("--no-record", action="store_true", help="with --resim: do not record the new flight")
     p.add_argument(

@@ -19,7 +19,7 @@ from quadsim.sim.loop import OutputPort
 @dataclass(frozen=True)
 class OutputOptions:
     record: bool = True
-    out: Path | None = None  # a .mcap file, or a folder (default recordings/)
+    out: Path | None = None  # a .mcap file, or a folder (default: quadsim.recording.paths.default_recordings_dir())
     cameras: tuple[CameraSpec, ...] = field(default_factory=default_cameras)
     renderer: RendererKind = RendererKind.TINY
     render_workers: int = 2  # 0: render in this process

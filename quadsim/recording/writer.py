@@ -25,6 +25,7 @@ from quadsim import __version__
 from quadsim.core.types import Twist, VehicleState
 from quadsim.errors import QuadsimError
 from quadsim.recording import contract as rm
+from quadsim.recording.paths import default_recordings_dir
 from quadsim.sensors.camera import CameraFrame
 from quadsim.sim.description import RunDescription
 
@@ -34,16 +35,15 @@ T = TypeVar("T")
 
 #: refuse to start recording with less free space than this
 MIN_FREE_BYTES = 200 * 1024 * 1024
-DEFAULT_DIR = Path("recordings")
 METADATA_NAME = "quadsim"
 EVENT_METADATA_NAME = "quadsim_event"  # one record per event, written when it happens
 
 
 def recording_path(out: Path | None, label: str, now: dt.datetime | None = None) -> Path:
-    """Where a run lands: `--out FILE.mcap`, or a dated name in `--out DIR` (default recordings/)."""
+    """Where a run lands: `--out FILE.mcap`, or a dated name in `--out DIR` (default: `default_recordings_dir()`)."""
     if out is not None and out.suffix == ".mcap":
         return out
-    folder = out if out is not None else DEFAULT_DIR
+    folder = out if out is not None else default_recordings_dir()
     stamp = (now or dt.datetime.now()).strftime("%Y-%m-%d_%H-%M-%S")
     safe = re.sub(r"[^A-Za-z0-9_.-]+", "-", label).strip("-") or "run"
     path = folder / f"{stamp}_{safe}.mcap"
