@@ -725,7 +725,9 @@ def main(argv: list[str] | None = None) -> int:
         parser.print_help()
         return 2
     try:
-        return int(args.func(args))
+        code = int(args.func(args))
+        sys.stdout.flush()  # inside the try: a closed pipe shows here, not at interpreter exit
+        return code
     except QuadsimError as exc:
         print(f"quadsim: error: {exc}", file=sys.stderr)
         return 2

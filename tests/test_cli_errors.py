@@ -1,0 +1,204 @@
+"""Bad command lines and files: one line on stderr, exit code 2, never a traceback.
+
+Each case is a mistake a user makes; most run in-process through the CLI's `main` (fast), a
+few in a real process where the process itself matters (a closed pipe)."""
+
+from __future__ import annotations
+
+import math
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from quadsim.apps.cli import main
+from quadsim.control.gate import CommandGate
+from quadsim.core.types import Twist, ZMode
+from quadsim.vehicle.params import DEFAULT_URDF, load_vehicle
+
+ROOT = Path(__file__).resolve().parent.parent
+QUICK = ["--cameras", "none", "--no-record"]
+
+
+def run_cli(capsys, *argv: str) -> tuple[int, str, str]:
+    try:
+        code = main(list(argv))
+    except SystemExit as exc:  # argparse's own exit
+        code = exc.code if isinstance(exc.code, int) else 1
+    out, err = capsys.readouterr()
+    return code, out, err
+
+
+def assert_one_line_error(code: int, err: str, *expected: str) -> None:
+    lines = [line for line in err.splitlines() if line.strip()]
+    assert code == 2, err
+    assert len(lines) == 1, f"expected one line, got:\n{err}"
+    assert "Traceback" not in err
+    for word in expected:
+        assert word in lines[0], lines[0]
+
+
+@pytest.fixture
+def world_file(tmp_path):
+    def make(floor: str, landmark: str = "") -> Path:
+        path = tmp_path / "w.toml"
+        if landmark.startswith("landmark ="):  # a top-level key: before the [floor] table
+            path.write_text(f"{landmark}\n[floor]\n{floor}\n")
+        else:
+            path.write_text(f"[floor]\n{floor}\n{landmark}")
+        return path
+
+    return make
+
+
+@pytest.mark.parametrize(
+    ("argv", "expected"),
+    [
+        (["run", "--script", "hover", "--timeout", "inf"], "--timeout"),
+        (["run", "--script", "hover", "--timeout", "1e308"], "--timeout"),
+        (["run", "--script", "hover", "--duration", "inf"], "--duration"),
+        (["run", "--script", "hover", "--duration", "nan"], "--duration"),
+        (["run", "--script", "hover", "--camera-hz", "0"], "--camera-hz"),
+        (["run", "--script", "hover", "--camera-hz", "-30"], "--camera-hz"),
+        (["run", "--script", "hover", "--timeout", "0.01", *QUICK], "shorter than the input period"),
+        (["run", "--script", "hover", "--physics-hz", "99999999"], "--physics-hz"),
+        (["run", "--script", "hover", "--physics-hz", "9973", *QUICK], "does not divide"),
+        (["run", "--script", "hover", "--render-workers", "-1"], "--render-workers"),
+        (["bench", "--steps", "0"], "--steps"),
+        (["bench", "--steps", "-5"], "--steps"),
+        (["bench", "--repeats", "0"], "--repeats"),
+        (["replay", "x.mcap", "--speed", "100"], "--speed"),
+        (["replay", "x.mcap", "--speed", "0.1"], "--speed"),
+        (["check", "x.mcap", "--tolerance-m", "-1"], "--tolerance-m"),
+        (["check", "x.mcap", "--tolerance-m", "nan"], "--tolerance-m"),
+        (["run", "--script", "nosuchscenario"], "unknown scenario"),
+    ],
+)
+def test_bad_option_values(capsys, argv, expected):
+    code, _, err = run_cli(capsys, *argv)
+    assert_one_line_error(code, err, expected)
+    assert len(err) < 400  # a short message, not a list of every divisor
+
+
+@pytest.mark.parametrize(
+    ("floor", "landmark", "expected"),
+    [
+        ("size_m = 1e30", "", "size_m"),
+        ("size_m = nan", "", "size_m"),
+        ('size_m = "big"', "", "size_m"),
+        ("friction = -1", "", "friction"),
+        (
+            "size_m = 40.0",
+            '[[landmark]]\nname = "x"\nshape = "box"\nposition_m = [1, 0, 1]\nsize_m = [1, 1, nan]\ncolor_rgba = [1, 0, 0, 1]',
+            "size_m",
+        ),
+        (
+            "size_m = 40.0",
+            '[[landmark]]\nname = "x"\nshape = "box"\nposition_m = ["a", 0, 1]\nsize_m = [1, 1, 1]\ncolor_rgba = [1, 0, 0, 1]',
+            "position_m",
+        ),
+        ("size_m = 40.0", "landmark = 5", "landmark"),
+    ],
+)
+def test_bad_world_files(capsys, world_file, floor, landmark, expected):
+    code, _, err = run_cli(capsys, "run", "--script", "hover", "--world", str(world_file(floor, landmark)), *QUICK)
+    assert_one_line_error(code, err, expected)
+
+
+def test_a_world_file_that_is_not_utf8(capsys, tmp_path):
+    path = tmp_path / "latin1.toml"
+    path.write_bytes("[floor]\n# caf\xe9\nsize_m = 40.0\n".encode("latin-1"))
+    code, _, err = run_cli(capsys, "run", "--script", "hover", "--world", str(path), *QUICK)
+    assert_one_line_error(code, err, "UTF-8")
+
+
+def _vehicle_copy(tmp_path: Path, urdf_edit=None, params_edit=None) -> Path:
+    urdf = tmp_path / "v.urdf"
+    params = tmp_path / "v.params.toml"
+    text = DEFAULT_URDF.read_text()
+    urdf.write_text(urdf_edit(text) if urdf_edit else text)
+    ptext = DEFAULT_URDF.with_suffix(".params.toml").read_text()
+    params.write_text(params_edit(ptext) if params_edit else ptext)
+    return urdf
+
+
+def test_a_urdf_with_a_missing_mesh(capsys, tmp_path):
+    urdf = _vehicle_copy(
+        tmp_path,
+        urdf_edit=lambda t: t.replace(
+            "<visual>", '<visual><geometry><mesh filename="meshes/nope.stl"/></geometry></visual><visual>', 1
+        ),
+    )
+    code, _, err = run_cli(capsys, "run", "--script", "hover", "--urdf", str(urdf), *QUICK)
+    assert_one_line_error(code, err, "mesh file not found", "nope.stl")
+
+
+def test_bad_types_in_the_vehicle_parameters(capsys, tmp_path):
+    urdf = _vehicle_copy(tmp_path, params_edit=lambda t: t.replace("max_thrust_n = ", 'max_thrust_n = "x" # ', 1))
+    code, _, err = run_cli(capsys, "run", "--script", "hover", "--urdf", str(urdf), *QUICK)
+    assert_one_line_error(code, err, "max_thrust_n")
+    urdf.with_suffix(".params.toml").write_bytes(b"[rotors]\n# \xff\xfe\n")
+    code, _, err = run_cli(capsys, "run", "--script", "hover", "--urdf", str(urdf), *QUICK)
+    assert_one_line_error(code, err, "UTF-8")
+
+
+def test_a_script_with_a_byte_order_mark_flies(capsys, tmp_path):
+    script = tmp_path / "bom.qscript"
+    script.write_bytes("\ufeffz_mode height\n1.0 linear.z=0\n".encode())
+    code, out, err = run_cli(capsys, "run", "--script", str(script), *QUICK)
+    assert code == 0, err
+    assert "z-mode height" in out  # the first line was read as the z-mode, not refused
+
+
+@pytest.mark.parametrize("name", ["plot.txt", "plot"])
+def test_plot_to_a_file_without_an_image_type(capsys, tmp_path, name):
+    code, _, err = run_cli(capsys, "replay", "x.mcap", "--plot", str(tmp_path / name))
+    assert_one_line_error(code, err, "--plot")
+
+
+def test_plot_to_a_folder(capsys, tmp_path):
+    code, _, err = run_cli(capsys, "replay", "x.mcap", "--plot", str(tmp_path))
+    assert_one_line_error(code, err, "is a folder")
+
+
+def test_outputs_where_nothing_can_be_written(capsys, tmp_path):
+    code, _, err = run_cli(capsys, "replay", "x.mcap", "--mp4", "/proc/quadsim-videos")
+    assert_one_line_error(code, err, "--mp4")
+    code, _, err = run_cli(capsys, "run", "--script", "hover", "--cameras", "none", "--out", "/proc/quadsim-rec")
+    assert_one_line_error(code, err, "/proc/quadsim-rec")
+    long_name = tmp_path / ("x" * 300 + ".mcap")
+    code, _, err = run_cli(capsys, "run", "--script", "hover", "--cameras", "none", "--out", str(long_name))
+    assert_one_line_error(code, err, "too long")
+
+
+def test_fly_gui_without_a_display(capsys, monkeypatch):
+    monkeypatch.delenv("DISPLAY", raising=False)
+    monkeypatch.delenv("WAYLAND_DISPLAY", raising=False)
+    code, _, err = run_cli(capsys, "fly", "--gui")
+    assert_one_line_error(code, err, "--gui needs a display")
+
+
+@pytest.mark.parametrize("reader", ["head -n 1", "true"])
+def test_output_piped_into_a_reader_that_stops_is_quiet(reader):
+    """`quadsim scenarios | head -n 1`: the closed pipe ends the program quietly."""
+    proc = subprocess.run(
+        f"{sys.executable} {ROOT / 'main.py'} scenarios | {reader}",
+        shell=True,
+        capture_output=True,
+        text=True,
+        cwd=ROOT,
+    )
+    assert "Traceback" not in proc.stderr and "BrokenPipe" not in proc.stderr, proc.stderr
+    assert proc.stderr == ""
+
+
+def test_clamping_does_not_overflow():
+    gate = CommandGate(load_vehicle().limits, ZMode.VELOCITY, None)
+    limit = gate.limits.max_horizontal_speed_mps
+    clamped = gate.clamp(Twist(linear_x=1.7e308, linear_y=1.7e308))
+    assert clamped.linear_x == pytest.approx(limit / math.sqrt(2)) and clamped.linear_y == pytest.approx(
+        limit / math.sqrt(2)
+    )
+    clamped = gate.clamp(Twist(linear_x=-1.7e308, linear_y=1e-300))
+    assert clamped.linear_x == pytest.approx(-limit) and abs(clamped.linear_y) < 1e-6
