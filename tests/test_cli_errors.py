@@ -202,3 +202,40 @@ def test_clamping_does_not_overflow():
     )
     clamped = gate.clamp(Twist(linear_x=-1.7e308, linear_y=1e-300))
     assert clamped.linear_x == pytest.approx(-limit) and abs(clamped.linear_y) < 1e-6
+
+
+def test_a_z_mode_override_that_cannot_take_off_is_refused(capsys):
+    code, _, err = run_cli(capsys, "run", "--script", "square", "--z-mode", "velocity", *QUICK)
+    assert_one_line_error(code, err, "never take off")
+
+
+def test_a_z_mode_override_that_flies_is_warned_about(capsys):
+    code, out, err = run_cli(capsys, "run", "--script", "climb", "--z-mode", "height", "--duration", "1", *QUICK)
+    assert code == 0 and "written for velocity z-mode" in err and "z-mode height" in out
+
+
+def test_the_api_takes_the_scripts_z_mode():
+    """`Simulator(SimConfig(), ScriptedDriver(script))`: the script's z_mode line is obeyed."""
+    from quadsim import SimConfig, Simulator
+    from quadsim.drivers.scripted import ScriptedDriver, load_script
+
+    with Simulator(SimConfig(), ScriptedDriver(load_script("hover"))) as sim:
+        assert sim.gate.z_mode is ZMode.HEIGHT
+        state = sim.run_for(6.0)
+        assert abs(state.position_m[2] - 2.0) < 0.1  # height mode, linear.z = 0: hold 2 m
+    with Simulator(SimConfig(z_mode=ZMode.VELOCITY), ScriptedDriver(load_script("climb"))) as sim:
+        assert sim.gate.z_mode is ZMode.VELOCITY  # an explicit setting wins
+
+
+def test_an_unrecorded_headless_run_renders_no_camera(capsys, monkeypatch):
+    from quadsim.sensors import rig
+
+    def no_rendering(*args, **kwargs):
+        raise AssertionError("rendered a frame nobody consumes")
+
+    monkeypatch.setattr(rig.CameraRig, "render", no_rendering)
+    code, out, err = run_cli(
+        capsys, "run", "--script", "hover", "--no-record", "--render-workers", "0", "--duration", "1"
+    )
+    assert code == 0, err
+    assert "cameras none" in out

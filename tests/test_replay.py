@@ -248,3 +248,18 @@ def test_playback_window_controls(with_cameras):
     assert set(model.frames) == {"front", "floor"} and len(model.track) > 10
     pygame.image.save(app.screen, "/tmp/quadsim_replay_test.png")
     app.close()
+
+
+def test_the_replay_hud_shows_the_z_mode_in_effect():
+    """The keyboard session switches to height mode part-way: the HUD follows the switch."""
+
+    flight = load_flight(ROOT / "tests" / "recordings" / "keyboard_session_cascade.mcap")
+    (switch_step,) = [step for step, kind, _ in flight.events if kind == "z_mode"]
+    switch_ns = switch_step * 1_000_000_000 // flight.physics_hz
+    assert flight.z_mode_at(switch_ns - 1_000_000).value == "velocity"
+    assert flight.z_mode_at(switch_ns + 1_000_000).value == "height"
+    with ReplayApp(flight, (640, 360)) as app:
+        app.t_ns = switch_ns - 50_000_000
+        assert app.model().z_mode == "velocity"
+        app.t_ns = switch_ns + 50_000_000
+        assert app.model().z_mode == "height"

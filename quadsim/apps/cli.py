@@ -9,8 +9,9 @@ import math
 import os
 import sys
 from collections.abc import Callable
+from dataclasses import replace
 from pathlib import Path
-from typing import NoReturn
+from typing import TYPE_CHECKING, NoReturn
 
 from quadsim import __version__
 from quadsim.control import ControllerKind
@@ -20,6 +21,9 @@ from quadsim.recording.paths import ENV_VAR as RECORDINGS_ENV_VAR
 from quadsim.recording.paths import default_recordings_dir
 from quadsim.sensors.camera import RendererKind
 from quadsim.sim.config import Rates
+
+if TYPE_CHECKING:
+    from quadsim.drivers.scripted import Script
 
 DEMO_SCENARIO = "figure8"
 
@@ -198,6 +202,26 @@ def _outputs(args: argparse.Namespace):
     )
 
 
+def _check_z_mode_override(script: Script, z_mode_option: str | None) -> None:
+    """A script's own z-mode wins; overriding it is refused where the vehicle could never take
+    off, and warned about otherwise."""
+    written_for = script.z_mode or ZMode.VELOCITY
+    if z_mode_option is None or ZMode(z_mode_option) is written_for:
+        return
+    wanted = ZMode(z_mode_option)
+    climbs = any(seg.twist is not None and seg.twist.linear_z > 0 for seg in script.segments)
+    if wanted is ZMode.VELOCITY and not climbs:
+        raise QuadsimError(
+            f"--z-mode velocity: '{script.name}' is written for height z-mode; read as climb rates its "
+            f"linear.z never asks to climb, so the vehicle would never take off (drop --z-mode to fly it as written)"
+        )
+    print(
+        f"quadsim: warning: '{script.name}' is written for {written_for.value} z-mode; "
+        f"--z-mode {wanted.value} reads its linear.z differently",
+        file=sys.stderr,
+    )
+
+
 def _fly_script(args: argparse.Namespace, script_name: str, realtime: bool) -> int:
     from quadsim.apps.headless import run_headless
     from quadsim.apps.outputs import RecordedRun, Terminated, raise_on_sigterm
@@ -206,8 +230,11 @@ def _fly_script(args: argparse.Namespace, script_name: str, realtime: bool) -> i
     from quadsim.sim.simulator import Simulator
 
     script = load_script(script_name)
+    _check_z_mode_override(script, args.z_mode)
     config = _config(args, script.z_mode)
     outputs = _outputs(args)
+    if not outputs.record and outputs.cameras:  # headless and unrecorded: nobody would see a frame
+        outputs = replace(outputs, cameras=())
     duration = args.duration if args.duration is not None else script.duration_s
     if not duration > 0:
         raise QuadsimError(f"--duration must be > 0 s, got {duration}")

@@ -34,9 +34,7 @@ def summary_lines(f: RecordedFlight) -> list[str]:
         out.append(f"camera      {cam}: {len(frames)} frames")
     if f.description is not None:
         d = f.description
-        out.append(
-            f"flown with  {d.controller.kind.value} controller, z-mode {d.config.z_mode.value}, {d.driver_name} input"
-        )
+        out.append(f"flown with  {d.controller.kind.value} controller, z-mode {d.z_mode.value}, {d.driver_name} input")
     elif f.description_error:
         out.append(f"flown with  (run parameters unreadable: {f.description_error})")
     else:
@@ -163,7 +161,7 @@ def export_plot(f: RecordedFlight, path: Path) -> Path:
     cv2.putText(img, f.path.name, (box[0], box[1] + box[3] + 30), cv2.FONT_HERSHEY_SIMPLEX, 0.5, BLACK, 1, cv2.LINE_AA)
     # time series: commanded vs flown
     t_end = f.duration_s
-    initial = f.description.config.z_mode.value if f.description else "velocity"
+    initial = f.description.z_mode.value if f.description else "velocity"
     switches = [(step / f.physics_hz, value) for step, kind, value in f.events if kind == "z_mode"]
 
     def z_mode_at(t: float) -> str:

@@ -34,3 +34,6 @@ class InputDriver(Protocol):
 
     def describe(self) -> dict[str, Any]:
         """The driver's definition, as plain data for recordings."""
+
+    # Optional: `preferred_z_mode: ZMode | None`, the z-mode the driver's commands are written
+    # for (a script's `z_mode` line). A SimConfig without a z_mode takes it.

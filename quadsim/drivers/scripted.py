@@ -140,6 +140,12 @@ class ScriptedDriver:
         self._index = 0
         self._finished = False
 
+    @property
+    def preferred_z_mode(self) -> ZMode | None:
+        """The z-mode the script is written for (its `z_mode` line); the Simulator uses it
+        unless the run's configuration says otherwise."""
+        return self.script.z_mode
+
     def poll(self, step: int, time_s: float) -> Twist | None:
         ends = self._ends
         # a small tolerance keeps a boundary at 2.0 s from landing on 1.99999 by float sums

@@ -14,7 +14,7 @@ from pathlib import Path
 from typing import Any
 
 from quadsim.core.kinematics import matrix_from_quaternion, rotate
-from quadsim.core.types import Twist, VehicleState
+from quadsim.core.types import Twist, VehicleState, ZMode
 from quadsim.recording import contract as rm
 from quadsim.recording.reader import RecordingReader
 from quadsim.sim.description import RunDescription
@@ -74,6 +74,17 @@ class RecordedFlight:
     def frame_at(self, camera: str, ns: int) -> tuple[int, bytes] | None:
         i = bisect_right(self._frame_ns.get(camera, []), ns) - 1
         return self.frames[camera][i] if i >= 0 else None
+
+    def z_mode_at(self, ns: int) -> ZMode | None:
+        """The z-mode in effect at log time `ns`: the run's, then each recorded switch."""
+        mode = self.description.z_mode if self.description is not None else None
+        for step, kind, value in self.events:
+            if kind == "z_mode" and step * NS <= ns * self.physics_hz:
+                try:
+                    mode = ZMode(value)
+                except ValueError:
+                    continue  # a foreign or damaged event: keep what was in effect
+        return mode
 
 
 def load_flight(path: Path | str) -> RecordedFlight:

@@ -63,7 +63,7 @@ class RecordingInfo:
             script = d.driver.get("script")
             out.append("run parameters:")
             out.append(
-                f"  controller {d.controller.kind.value}, z-mode {cfg.z_mode.value}, driver {d.driver_name}"
+                f"  controller {d.controller.kind.value}, z-mode {d.z_mode.value}, driver {d.driver_name}"
                 + (f" ({script})" if isinstance(script, str) and script else "")
             )
             out.append("  rates " + ", ".join(f"{k.replace('_hz', '')} {v} Hz" for k, v in cfg.rates.to_dict().items()))

@@ -58,7 +58,8 @@ class SimConfig:
     vehicle_params: Path | None = None  # None: NAME.params.toml beside the URDF
     world: Path | None = None  # None: assets/worlds/default.toml
     controller: ControllerKind = ControllerKind.CASCADE
-    z_mode: ZMode = ZMode.VELOCITY
+    #: how linear.z is read; None: what the driver asks for (a script's `z_mode` line), else velocity
+    z_mode: ZMode | None = None
     rates: Rates = field(default_factory=Rates)
     command_timeout_s: float | None = 0.5  # dead-man switch; None disables it
     start: StartPose = field(default_factory=StartPose)
@@ -94,7 +95,7 @@ class SimConfig:
             "vehicle_params": str(self.vehicle_params) if self.vehicle_params else None,
             "world": str(self.world) if self.world else None,
             "controller": self.controller.value,
-            "z_mode": self.z_mode.value,
+            "z_mode": (self.z_mode or ZMode.VELOCITY).value,
             "rates": self.rates.to_dict(),
             "command_timeout_s": self.command_timeout_s,
             "start": {"x_m": self.start.x_m, "y_m": self.start.y_m, "yaw_rad": self.start.yaw_rad},

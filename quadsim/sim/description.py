@@ -71,6 +71,11 @@ class RunDescription:
     world_model: WorldSpec | None = field(default=None, compare=False, repr=False)
 
     @property
+    def z_mode(self) -> ZMode:
+        """How linear.z was read when the run started."""
+        return self.config.z_mode or ZMode.VELOCITY
+
+    @property
     def driver_name(self) -> str:
         return str(self.driver.get("name", "?"))
 

@@ -12,6 +12,7 @@ This is also the API for autonomy code:
 from __future__ import annotations
 
 from collections.abc import Callable
+from dataclasses import replace
 from typing import Any
 
 from quadsim.control import make_controller
@@ -38,16 +39,19 @@ class Simulator:
         controller_gains: dict[str, Any] | None = None,
         texture_required: bool = True,
     ) -> None:
+        self.driver: InputDriver = driver if driver is not None else ProgrammaticDriver()
+        if config.z_mode is None:  # the driver's wish (a script's z_mode line), else velocity
+            config = replace(config, z_mode=getattr(self.driver, "preferred_z_mode", None) or ZMode.VELOCITY)
         self.config = config
+        self.z_mode: ZMode = config.z_mode or ZMode.VELOCITY
         self.vehicle = load_vehicle(config.urdf, config.vehicle_params)
         self.world = load_world(config.world, texture_required)
         rates = config.rates
         timeout = config.command_timeout_s
         self.controller = make_controller(config.controller, self.vehicle, controller_gains)
         self.gate = CommandGate(
-            self.vehicle.limits, config.z_mode, None if timeout is None else round(timeout * rates.physics_hz)
+            self.vehicle.limits, self.z_mode, None if timeout is None else round(timeout * rates.physics_hz)
         )
-        self.driver: InputDriver = driver if driver is not None else ProgrammaticDriver()
         self.physics = PhysicsWorld(self.vehicle, self.world, rates.physics_hz, config.start, config.gui)
         self.loop = SimLoop(self.physics, self.controller, self.gate, rates, self.driver)
 

@@ -178,7 +178,7 @@ class ReplayApp:
             command=command or Twist(),
             command_held=False,
             armed=command is not None,
-            z_mode=d.config.z_mode.value if d else "?",
+            z_mode=zm.value if (zm := f.z_mode_at(t)) is not None else "?",
             controller=d.controller.kind.value if d else "?",
             input_status=f"replay of {d.driver_name if d else 'another program'}",
             recording_path=None,

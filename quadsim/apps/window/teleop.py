@@ -82,10 +82,11 @@ class TeleopApp:
         self.screen = pygame.display.set_mode(options.window_size, pygame.RESIZABLE)
         pygame.display.set_caption("quadsim")
         self.options = options
-        self.keyboard = KeyboardDriver(LAYOUTS[options.keyboard_layout], z_mode=config.z_mode)
+        z_mode = config.z_mode or ZMode.VELOCITY
+        self.keyboard = KeyboardDriver(LAYOUTS[options.keyboard_layout], z_mode=z_mode)
         self.joystick = JoystickDriver(
             options.joystick_mapping,
-            config.z_mode,
+            z_mode,
             **({"device_factory": device_factory} if device_factory is not None else {}),
         )
         use_joystick = options.input == "joystick" or (options.input == "auto" and pygame.joystick.get_count() > 0)
