@@ -147,3 +147,23 @@ def test_unknown_camera_link_is_a_clear_error():
             CameraPipeline(
                 sim.vehicle, sim.world, 240, (CameraSpec("front", "front_camera_link", rate_hz=25),), workers=0
             )
+
+
+def test_images_look_like_a_cameras_sky_and_haze(tmp_path):
+    """The front camera shows a blue sky above the horizon (not TinyRenderer's white) and a far
+    floor without white speckle; the floor camera, looking down, has no sky."""
+    sim, pipe, keep = _hovering_with_cameras()
+    try:
+        front = decode_jpeg(keep.last("front").jpeg).astype(int)
+        floor = decode_jpeg(keep.last("floor").jpeg).astype(int)
+        cv2.imwrite(str(tmp_path / "front.png"), cv2.cvtColor(front.astype(np.uint8), cv2.COLOR_RGB2BGR))
+    finally:
+        pipe.close()
+        sim.close()
+    top = front[:20]  # well above the horizon at 2 m of altitude
+    assert (top[..., 2] > top[..., 0] + 40).mean() > 0.95  # blue, not white
+    assert top[..., 2].mean() < 235 and top[:5, ..., 2].mean() < top[15:20, ..., 2].mean() + 5  # a gradient
+    horizon_band = front[118:128]  # the far floor near the horizon (cy = 119.5)
+    white = (horizon_band.min(axis=-1) > 235).mean()
+    assert white < 0.01, f"{white:.1%} white speckle in the far floor"
+    assert (floor[..., 2] > floor[..., 0] + 40).mean() < 0.05  # the floor camera sees no sky

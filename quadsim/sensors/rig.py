@@ -6,11 +6,14 @@ client of its own holding the same scene).
 
 from __future__ import annotations
 
+import numpy as np
+
+from quadsim.errors import ConfigError
 from quadsim.physics.pybullet_quiet import pb
 from quadsim.physics.scene import build_world, load_vehicle_body
 from quadsim.physics.world_spec import WorldSpec
 from quadsim.sensors.camera import CameraFrame, CameraSpec, RendererKind, camera_pose
-from quadsim.sensors.rendering import enable_egl, encode_jpeg, projection_matrix, render_rgb
+from quadsim.sensors.rendering import Atmosphere, enable_egl, encode_jpeg, projection_matrix, render_rgb
 from quadsim.vehicle.params import VehicleParams
 
 
@@ -28,6 +31,9 @@ class CameraRig:
         self.specs = {s.name: s for s in specs}
         self._mounts = {s.name: vehicle.camera_mount(s.link_name) for s in specs}
         self._projections = {s.name: projection_matrix(s) for s in specs}
+        self._atmospheres = {s.name: Atmosphere(s) for s in specs}
+        # TinyRenderer always draws; a hardware/EGL renderer may silently draw nothing
+        self._checked: set[str] = set(self.specs) if renderer is RendererKind.TINY else set()
         self._renderer = renderer
         self._cid = cid
         self._body = body_id
@@ -57,9 +63,22 @@ class CameraRig:
         for name in names:
             spec = self.specs[name]
             pose = camera_pose(self._mounts[name], position, orientation)
-            rgb = render_rgb(spec, pose, self._cid, self._renderer, self._projections[name])
+            rgb = render_rgb(spec, pose, self._cid, self._renderer, self._projections[name], self._atmospheres[name])
+            if name not in self._checked:
+                self._check_not_blank(name, rgb)
             frames.append(CameraFrame(name, step, encode_jpeg(rgb, spec.jpeg_quality), spec.width_px, spec.height_px))
         return frames
+
+    def _check_not_blank(self, name: str, rgb: np.ndarray) -> None:
+        """A renderer that draws nothing (an EGL driver that is not really there) gives one flat
+        colour; refuse it rather than record blank frames. The first frame of each camera is
+        checked (at the start pose a camera sees the floor, the sky or both: never one colour)."""
+        self._checked.add(name)
+        if int(rgb.max()) - int(rgb.min()) <= 2:
+            raise ConfigError(
+                f"the {self._renderer.value} renderer drew a blank {name} camera image (one flat colour); "
+                f"it does not work on this machine: use --renderer tiny"
+            )
 
     def close(self) -> None:
         if self._body is not None:  # the client is ours
