@@ -175,21 +175,45 @@ def with_cameras(tmp_path_factory):
     return path
 
 
-def test_headless_summary_mp4_and_plot(with_cameras, tmp_path):
+def test_headless_summary_video_and_plot(with_cameras, tmp_path):
     out = cli("replay", with_cameras, "--headless", "--mp4", tmp_path / "videos", "--plot", tmp_path / "plot.png")
     assert out.returncode == 0, out.stderr
     assert "duration    3.00 s" in out.stdout and "camera      front: 90 frames" in out.stdout
     for cam in ("front", "floor"):
-        video = cv2.VideoCapture(str(tmp_path / "videos" / f"cams_{cam}.mp4"))
+        path = tmp_path / "videos" / f"cams_{cam}.mp4"
+        video = cv2.VideoCapture(str(path))
+        # VP9 in MP4, which browsers play (OpenCV's bundled FFmpeg has no H.264 encoder)
+        assert int(video.get(cv2.CAP_PROP_FOURCC)).to_bytes(4, "little").lower() in (b"vp09", b"vp90")
         count = 0
         while video.read()[0]:
             count += 1
         assert count == 90 and video.get(cv2.CAP_PROP_FPS) == pytest.approx(30, abs=0.5)
+        assert b"ftyp" in path.read_bytes()[:16]  # an MP4 container
     plot = cv2.imread(str(tmp_path / "plot.png"))
-    assert plot.shape == (900, 1400, 3) and plot.std() > 10
-    # the flown track is drawn in red in the left panel
-    left = plot[60:580, 40:560]
-    assert ((left[..., 2] > 150) & (left[..., 1] < 80)).sum() > 50
+    assert plot.shape == (800, 1400, 3) and plot.std() > 10
+    # the flown track is drawn in red (#d62728) in the left panel, the commands dashed blue on the right
+    left, right = plot[:, :560], plot[:, 600:]
+    red = (abs(left[..., 2].astype(int) - 0xD6) < 30) & (left[..., 1] < 80) & (left[..., 0] < 80)
+    blue = (abs(right[..., 0].astype(int) - 0xB4) < 30) & (abs(right[..., 2].astype(int) - 0x1F) < 40)
+    assert red.sum() > 50 and blue.sum() > 200
+
+
+def test_plot_without_matplotlib_says_how_to_get_it(with_cameras, tmp_path, monkeypatch):
+    import builtins
+
+    from quadsim.apps.flight_plot import export_plot
+    from quadsim.errors import QuadsimError
+
+    real_import = builtins.__import__
+
+    def no_matplotlib(name, *args, **kwargs):
+        if name.startswith("matplotlib"):
+            raise ImportError(name)
+        return real_import(name, *args, **kwargs)
+
+    monkeypatch.setattr(builtins, "__import__", no_matplotlib)
+    with pytest.raises(QuadsimError, match=r"pip install 'quadsim\[plot\]'"):
+        export_plot(load_flight(with_cameras), tmp_path / "p.png")
 
 
 def test_replay_without_display_prints_summary(with_cameras):

@@ -460,13 +460,19 @@ def cmd_replay(args: argparse.Namespace) -> int:
         )
         headless = True
     if headless:
-        from quadsim.apps.replay_export import export_mp4, export_plot, summary_lines
+        from quadsim.apps.flight_plot import export_plot
+        from quadsim.apps.replay_export import export_mp4, summary_lines
 
         for line in summary_lines(flight):
             print(line)
         if args.mp4 is not None:
-            for path in export_mp4(flight, args.mp4):
-                print(f"video       {path}")
+            from quadsim.apps.progress import ProgressBar
+
+            bar = ProgressBar(100.0, "encoding video", unit="%")
+            paths = export_mp4(flight, args.mp4, progress=lambda share: bar.update(100.0 * share))
+            bar.close()
+            for path in paths:
+                print(f"video       {path} (VP9)")
         if args.plot is not None:
             print(f"plot        {export_plot(flight, args.plot)}")
         return 0

@@ -1,0 +1,159 @@
+"""`replay --plot FILE.png`: a recorded flight drawn with matplotlib (Agg, no display needed).
+
+Left, the track seen from above with the world's landmarks; right, what was commanded against
+what was flown, over time: forward and sideways speed in the heading frame, climb rate or
+altitude (by the z-mode in effect, shaded where height mode held), and yaw rate.
+"""
+
+from __future__ import annotations
+
+import itertools
+import math
+import tempfile
+from pathlib import Path
+from typing import Any
+
+from quadsim.core.types import HEIGHT_MODE_BASE_M, VehicleState, ZMode
+from quadsim.errors import QuadsimError
+from quadsim.physics.world_spec import load_world
+from quadsim.recording.flight import NS, RecordedFlight
+
+COMMAND_COLOUR = "#1f77b4"
+FLOWN_COLOUR = "#d62728"
+
+
+def _matplotlib() -> Any:
+    try:
+        import matplotlib
+    except ImportError:
+        raise QuadsimError("plots need matplotlib: pip install 'quadsim[plot]'") from None
+    matplotlib.use("Agg", force=True)  # files only: no display, no GUI toolkit
+    import matplotlib.pyplot as plt
+
+    return plt
+
+
+def _heading_velocity(s: VehicleState) -> tuple[float, float]:
+    yaw = s.yaw_rad()
+    vx, vy, _ = s.linear_velocity_mps
+    return math.cos(yaw) * vx + math.sin(yaw) * vy, -math.sin(yaw) * vx + math.cos(yaw) * vy
+
+
+def _steps(f: RecordedFlight, value, mode: ZMode | None = None) -> tuple[list[float], list[float]]:
+    """Commands as a step line (each held until the next); NaN breaks the line where the
+    z-mode in effect is not `mode`."""
+    ts: list[float] = []
+    vs: list[float] = []
+    for (ns, twist), nxt in zip(f.commands, [*f.commands[1:], (f.end_ns, None)]):
+        v = value(twist) if mode is None or f.z_mode_at(ns) is mode else math.nan
+        ts += [ns / NS, nxt[0] / NS]
+        vs += [v, v]
+    return ts, vs
+
+
+def _height_spans(f: RecordedFlight) -> list[tuple[float, float]]:
+    """Time spans (s) in which the height z-mode was in effect."""
+    marks = [0] + [step * NS // f.physics_hz for step, kind, _ in f.events if kind == "z_mode"] + [f.end_ns]
+    spans = []
+    for a, b in itertools.pairwise(marks):
+        if b > a and f.z_mode_at(a) is ZMode.HEIGHT:
+            spans.append((a / NS, b / NS))
+    return spans
+
+
+def _landmarks(f: RecordedFlight) -> list[tuple[str, float, float, tuple[float, float, float]]]:
+    """(name, x, y, colour) of the landmarks of the world the recording was flown in."""
+    d = f.description
+    name = d.config.world.name if d is not None and d.config.world is not None else "default.toml"
+    data = f.attachments.get(name)
+    if not data:
+        return []
+    with tempfile.TemporaryDirectory(prefix="quadsim-plot-") as tmp:
+        path = Path(tmp) / "world.toml"
+        path.write_bytes(data)
+        try:
+            world = load_world(path, texture_required=False)
+        except QuadsimError:
+            return []  # an unreadable world attachment: plot the track alone
+    return [(lm.name, lm.position_m[0], lm.position_m[1], lm.color_rgba[:3]) for lm in world.landmarks]
+
+
+def export_plot(f: RecordedFlight, path: Path) -> Path:
+    """Write the plot to `path` (.png, .jpg, .pdf or .svg) and return it."""
+    if not f.states:
+        raise QuadsimError(f"{f.path}: has no /quad/pose states to plot")
+    plt = _matplotlib()
+    landmarks = _landmarks(f)
+    states = f.states
+    t = [s.step / f.physics_hz for s in states]
+    heading_v = [_heading_velocity(s) for s in states]
+    spans = _height_spans(f)
+    any_height = bool(spans)
+
+    fig = plt.figure(figsize=(14, 8), layout="constrained")
+    grid = fig.add_gridspec(4, 2, width_ratios=(1.0, 1.35))
+    fig.suptitle(
+        f"{f.path.name}: {f.duration_s:.1f} s"
+        + (f", {f.description.controller.kind.value} controller" if f.description else "")
+    )
+
+    track = fig.add_subplot(grid[:, 0])
+    xs, ys = [s.position_m[0] for s in states], [s.position_m[1] for s in states]
+    for name, x, y, colour in landmarks:
+        track.plot(x, y, "s", color=colour, markersize=9, alpha=0.8)
+        track.annotate(name.replace("_", " "), (x, y), textcoords="offset points", xytext=(6, 6), fontsize=8)
+    track.plot(xs, ys, color=FLOWN_COLOUR, linewidth=1.6, label="flown track")
+    track.plot(xs[0], ys[0], "o", color="#2ca02c", label="start")
+    track.plot(xs[-1], ys[-1], "X", color="black", label="end")
+    track.set_xlabel("x, world (m)")
+    track.set_ylabel("y, world (m)")
+    track.set_title("track seen from above")
+    track.set_aspect("equal", adjustable="datalim")
+    track.grid(True, alpha=0.3)
+    track.legend(loc="best", fontsize=8)
+
+    if any_height:
+        z_title, z_unit = "altitude", "m"
+        z_command = _steps(f, lambda tw: tw.linear_z + HEIGHT_MODE_BASE_M, ZMode.HEIGHT)
+        z_flown = [s.position_m[2] for s in states]
+    else:
+        z_title, z_unit = "climb rate", "m/s"
+        z_command = _steps(f, lambda tw: tw.linear_z)
+        z_flown = [s.linear_velocity_mps[2] for s in states]
+    panels: list[tuple[str, str, tuple[list[float], list[float]], list[float]]] = [
+        ("forward speed", "m/s", _steps(f, lambda tw: tw.linear_x), [v[0] for v in heading_v]),
+        ("sideways speed (left +)", "m/s", _steps(f, lambda tw: tw.linear_y), [v[1] for v in heading_v]),
+        (z_title, z_unit, z_command, z_flown),
+        (
+            "yaw rate (ccw +)",
+            "rad/s",
+            _steps(f, lambda tw: tw.angular_z),
+            [s.angular_velocity_body_rps[2] for s in states],
+        ),
+    ]
+    first = None
+    for row, (title, unit, command, flown) in enumerate(panels):
+        ax = fig.add_subplot(grid[row, 1], sharex=first)
+        first = first or ax
+        for a, b in spans:
+            ax.axvspan(
+                a, b, color="#f0e6c8", alpha=0.6, linewidth=0, label="height z-mode" if (a, b) == spans[0] else None
+            )
+        ax.plot(*command, color=COMMAND_COLOUR, linewidth=1.4, linestyle="--", label="commanded")
+        ax.plot(t, flown, color=FLOWN_COLOUR, linewidth=1.2, label="flown")
+        ax.set_ylabel(f"{title}\n({unit})", fontsize=9)
+        ax.grid(True, alpha=0.3)
+        if row == 0:
+            ax.legend(loc="upper right", fontsize=8, ncols=3)
+        if row < len(panels) - 1:
+            ax.tick_params(labelbottom=False)
+    assert first is not None
+    first.set_xlim(0.0, max(f.duration_s, t[-1]))
+    ax.set_xlabel("simulation time (s)")
+    try:
+        fig.savefig(path, dpi=100)
+    except OSError as exc:
+        raise QuadsimError(f"cannot write the plot to {path}: {exc.strerror or exc}") from None
+    finally:
+        plt.close(fig)
+    return path
