@@ -3,6 +3,7 @@
 what the recording holds."""
 
 import math
+from pathlib import Path
 
 import pygame
 import pytest
@@ -362,3 +363,9 @@ def test_a_raw_axis_resting_at_one_end_never_moves_the_vehicle(tmp_path, pads):
     assert app._model().input_status == "joystick Virtual Joystick (raw axes, see --joy-map)"
     app.close()
 
+
+def test_the_readme_mapping_example_is_the_default_mapping_plus_buttons(tmp_path):
+    readme = (Path(__file__).parent.parent / "README.md").read_text()
+    block = readme.split("write a mapping file", 1)[1].split("```toml\n", 1)[1].split("```", 1)[0]
+    (tmp_path / "pad.toml").write_text(block)
+    assert load_mapping(tmp_path / "pad.toml") == JoystickMapping(enable_button=9, enable_turbo_button=10)
