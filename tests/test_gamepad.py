@@ -86,9 +86,11 @@ def events(path):
 def test_game_controller_at_rest_moves_nothing(tmp_path, pads):
     """Sticks centred and triggers released (-1, as SDL reports them) command zero: the pad that
     used to fly off at full speed the moment it was detected."""
-    pads(game_controller=True)
+    pad = pads(game_controller=True)
     app = make_app(tmp_path)
     assert app.driver is app.joystick and app.joystick.pad.kind is PadKind.GAME_CONTROLLER
+    raw = pygame.joystick.Joystick(pad.device_index())  # what the old driver read: raw axes 4 and 5
+    assert raw.get_axis(4) < -0.99 and raw.get_axis(5) < -0.99  # the triggers rest at -1
     start = where(app)
     run_with(app, 2 * FPS)
     c = app.sim.gate.last_command
