@@ -11,7 +11,6 @@ from quadsim import SimConfig, ZMode
 from quadsim.apps.outputs import OutputOptions
 from quadsim.apps.window.pacing import FixedStepPacer
 from quadsim.apps.window.teleop import TeleopApp, TeleopOptions
-from quadsim.drivers.joystick import JoystickMapping, apply_deadzone
 
 FPS = 30  # each frame advances 1/30 s of simulation time
 
@@ -166,113 +165,10 @@ def test_window_shows_both_cameras_map_and_hud(tmp_path):
     assert (216, 30, 25) in colours and (38, 76, 216) in colours  # the red tower, the blue block
     front = rects["front"]
     sky = pixels[front.centery - 120, front.centerx + 150]
-    assert sky.min() > 200  # the front camera's sky (TinyRenderer's white background)
+    assert sky[2] > sky[0] + 40 and sky[2] > 150  # the front camera's blue sky
     assert set(app.frames) == {"front", "floor"}
     # the window resizes
     app.screen = pygame.display.set_mode((640, 480), pygame.RESIZABLE)
     run_with(app, 2)
     assert app.view.layout(app.screen.get_size())["front"].width < 640
     app.close()
-
-
-class FakeJoystick:
-    """A gamepad as SDL numbers an Xbox-style pad: axes 0/1 left stick, 3/4 right stick."""
-
-    def __init__(self, instance_id=7):
-        self.axes = [0.0] * 6
-        self.buttons = [0] * 11
-        self.instance_id = instance_id
-
-    def get_name(self):
-        return "Fake Pad"
-
-    def get_instance_id(self):
-        return self.instance_id
-
-    def get_numaxes(self):
-        return len(self.axes)
-
-    def get_axis(self, i):
-        return self.axes[i]
-
-    def get_numbuttons(self):
-        return len(self.buttons)
-
-    def get_button(self, i):
-        return self.buttons[i]
-
-
-def test_deadzone_is_rescaled_and_continuous():
-    assert apply_deadzone(0.09, 0.1) == 0.0
-    assert apply_deadzone(0.1001, 0.1) == pytest.approx(0.0, abs=1e-3)
-    assert apply_deadzone(0.55, 0.1) == pytest.approx(0.5)
-    assert apply_deadzone(-1.0, 0.1) == -1.0
-
-
-def test_joystick_mode2_mapping_unplug_replug(tmp_path):
-    pad = FakeJoystick()
-    app = make_app(
-        tmp_path,
-        options=TeleopOptions(input="joystick"),
-        config=SimConfig(z_mode=ZMode.VELOCITY),
-        device_factory=lambda index: pad,
-    )
-    assert app.driver is app.joystick
-    run_with(app, 2, {0: [lambda: post(pygame.JOYDEVICEADDED, device_index=0)]})
-    assert app.joystick.device is pad
-    pad.axes[1] = -0.55  # left stick up: climb
-    pad.axes[4] = -0.55  # right stick up: forward
-    pad.axes[3] = 0.05  # right stick x inside the deadzone: nothing sideways
-    pad.axes[0] = -1.0  # left stick full left: yaw counter-clockwise
-    run_with(app, 60)
-    c = app.sim.gate.last_command
-    assert c.linear_z == pytest.approx(0.5 * 1.0) and c.linear_x == pytest.approx(0.5 * 1.5)
-    assert c.linear_y == 0.0 and c.angular_z == pytest.approx(1.2)
-    assert app.sim.state.angular_velocity_body_rps[2] > 1.0
-    # unplugged mid-flight: nothing more is published, the dead-man holds, the HUD says so
-    run_with(app, 30, {0: [lambda: post(pygame.JOYDEVICEREMOVED, instance_id=7)]})
-    assert app.sim.gate.active(app.sim.step_count).hold
-    assert any("unplugged" in w for w in app._model().warnings)
-    assert abs(app.sim.state.angular_velocity_body_rps[2]) < 0.1
-    # plugged in again: flying resumes
-    run_with(app, 30, {0: [lambda: post(pygame.JOYDEVICEADDED, device_index=0)]})
-    assert not app.sim.gate.active(app.sim.step_count).hold
-    assert app.sim.state.angular_velocity_body_rps[2] > 1.0
-    app.close()
-    with open(app.recordings[0], "rb") as fh:
-        reader = make_reader(fh, decoder_factories=[DecoderFactory()])
-        joy = [d for _, _, _, d in reader.iter_decoded_messages(topics=["/joy"])]
-    assert joy and list(joy[-1].axes)[:5] == pytest.approx([-1.0, -0.55, 0.0, 0.05, -0.55])
-
-
-def test_enable_and_turbo_buttons_gate_motion(tmp_path):
-    pad = FakeJoystick()
-    mapping = JoystickMapping(enable_button=4, turbo_button=5)
-    app = make_app(
-        tmp_path, options=TeleopOptions(input="joystick", joystick_mapping=mapping), device_factory=lambda index: pad
-    )
-    run_with(app, 2, {0: [lambda: post(pygame.JOYDEVICEADDED, device_index=0)]})
-    pad.axes[4] = -1.0
-    run_with(app, 10)
-    assert app.sim.gate.last_command.linear_x == 0.0  # not enabled: no motion
-    pad.buttons[4] = 1
-    run_with(app, 10)
-    assert app.sim.gate.last_command.linear_x == pytest.approx(1.5)
-    pad.buttons[5] = 1
-    run_with(app, 10)
-    assert app.sim.gate.last_command.linear_x == pytest.approx(3.0)  # turbo
-    app.close()
-
-
-def test_joystick_mapping_file(tmp_path):
-    from quadsim import ConfigError
-    from quadsim.drivers.joystick import load_mapping
-
-    good = tmp_path / "pad.toml"
-    good.write_text("deadzone = 0.2\nlinear_mps = 2.0\nforward = { index = 1, scale = -1.0 }\nenable_button = 0\n")
-    m = load_mapping(good)
-    assert m.deadzone == 0.2 and m.forward.index == 1 and m.enable_button == 0
-    bad = tmp_path / "bad.toml"
-    bad.write_text("dead_zone = 0.2\n")
-    with pytest.raises(ConfigError, match="unknown key"):
-        load_mapping(bad)

@@ -602,7 +602,8 @@ def build_parser() -> argparse.ArgumentParser:
         "--input",
         choices=["auto", "keyboard", "joystick"],
         default="auto",
-        help="auto (default): a joystick if one is plugged in, else the keyboard",
+        help="auto (default): a gamepad if one is plugged in, else the keyboard until one is plugged in; "
+        "joystick: wait for a gamepad even if none is plugged in",
     )
     t.add_argument(
         "--keys",
@@ -616,7 +617,8 @@ def build_parser() -> argparse.ArgumentParser:
         type=Path,
         default=None,
         metavar="FILE.toml",
-        help="joystick mapping file (axes, buttons, deadzone, scales); see README",
+        help="gamepad mapping file in teleop_twist_joy's names (axis_linear.x, scale_linear.x, enable_button, "
+        "...), axes numbered and signed as on /joy; see README",
     )
     t.add_argument("--window", default="1280x720", metavar="WxH", help="initial window size (default 1280x720)")
     _add_sim_options(p)

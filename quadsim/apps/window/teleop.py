@@ -1,10 +1,14 @@
 """The teleop window: fly with keyboard or gamepad, see both cameras, a map and a HUD, and get a
 recording. `python main.py fly`.
 
-Each frame: handle events (app keys, then the input driver), advance the simulation by what the
+Each frame: handle events (app keys, then the input drivers), advance the simulation by what the
 pacer says (real time, or slower when the machine cannot keep up, never skipping physics
 steps), take the camera frames that are ready, draw. Esc or closing the window finishes the
 recording properly.
+
+Input: the keyboard or a gamepad. With --input auto a gamepad flies if one is plugged in at the
+start, and one plugged in later takes over from the keyboard; every plug and unplug is said in
+the HUD and recorded as an "input" event.
 """
 
 from __future__ import annotations
@@ -15,6 +19,7 @@ from collections import deque
 from collections.abc import Callable
 from dataclasses import dataclass, field, replace
 from pathlib import Path
+from typing import Any
 
 os.environ.setdefault("PYGAME_HIDE_SUPPORT_PROMPT", "1")
 import pygame
@@ -22,8 +27,10 @@ import pygame
 from quadsim.apps.outputs import OutputOptions, RecordedRun
 from quadsim.apps.window.pacing import FixedStepPacer, RealTimePacer
 from quadsim.apps.window.view import TeleopView, ViewModel
-from quadsim.core.types import VehicleState, ZMode
-from quadsim.drivers.joystick import JoystickDevice, JoystickDriver, JoystickMapping
+from quadsim.core.types import Twist, VehicleState, ZMode
+from quadsim.drivers import ASAP
+from quadsim.drivers.gamepad import Pad
+from quadsim.drivers.joystick import JoystickDriver, JoystickMapping
 from quadsim.drivers.keyboard import LAYOUTS, KeyboardDriver
 from quadsim.errors import QuadsimError
 from quadsim.sensors.camera import CameraFrame
@@ -63,6 +70,38 @@ class _Track:
             self.points.append(state.position_m[:2])
 
 
+class _ActiveInput:
+    """The simulator's input driver: whichever of the keyboard and the gamepad flies now (with
+    --input auto a gamepad plugged in later takes over from the keyboard)."""
+
+    def __init__(self, driver: KeyboardDriver | JoystickDriver) -> None:
+        self.driver = driver
+        self.name = driver.name
+
+    def use(self, driver: KeyboardDriver | JoystickDriver) -> None:
+        self.driver = driver
+        self.name = driver.name
+        driver.next_poll_step = ASAP  # its command replaces the other's at once
+
+    @property
+    def next_poll_step(self) -> int:
+        return self.driver.next_poll_step
+
+    @next_poll_step.setter
+    def next_poll_step(self, step: int) -> None:
+        self.driver.next_poll_step = step
+
+    def poll(self, step: int, time_s: float) -> Twist | None:
+        return self.driver.poll(step, time_s)
+
+    @property
+    def finished(self) -> bool:
+        return False
+
+    def describe(self) -> dict[str, Any]:
+        return self.driver.describe()
+
+
 class TeleopApp:
     def __init__(
         self,
@@ -70,7 +109,6 @@ class TeleopApp:
         outputs: OutputOptions,
         options: TeleopOptions = TeleopOptions(),
         pacer: RealTimePacer | FixedStepPacer | None = None,
-        device_factory: Callable[[int], JoystickDevice] | None = None,
     ) -> None:
         if options.keyboard_layout not in LAYOUTS:
             raise QuadsimError(f"unknown keyboard layout {options.keyboard_layout!r}; choose from {', '.join(LAYOUTS)}")
@@ -84,16 +122,16 @@ class TeleopApp:
         self.options = options
         z_mode = config.z_mode or ZMode.VELOCITY
         self.keyboard = KeyboardDriver(LAYOUTS[options.keyboard_layout], z_mode=z_mode)
-        self.joystick = JoystickDriver(
-            options.joystick_mapping,
-            z_mode,
-            **({"device_factory": device_factory} if device_factory is not None else {}),
-        )
-        use_joystick = options.input == "joystick" or (options.input == "auto" and pygame.joystick.get_count() > 0)
-        if use_joystick and device_factory is None and pygame.joystick.get_count() > 0:
-            self.joystick.attach(0)
-        self.driver = self.joystick if use_joystick else self.keyboard
-        self.sim = Simulator(config, self.driver)
+        self.joystick = JoystickDriver(options.joystick_mapping, z_mode)
+        if options.input != "keyboard":
+            self.joystick.attach_first()
+        use_joystick = options.input == "joystick" or (options.input == "auto" and self.joystick.pad is not None)
+        self.input = _ActiveInput(self.joystick if use_joystick else self.keyboard)
+        try:
+            self.sim = Simulator(config, self.input)
+        except BaseException:
+            self.joystick.close()
+            raise
         self.track = _Track()
         self.sim.add_sink(self.track)
         self.frames: dict[str, CameraFrame] = {}
@@ -108,6 +146,7 @@ class TeleopApp:
             )
         except BaseException:
             self.sim.close()
+            self.joystick.close()
             raise
         if self.session.cameras is not None:
             self.session.cameras.sinks.append(self)
@@ -132,6 +171,11 @@ class TeleopApp:
     def on_camera_frame(self, frame: CameraFrame) -> None:
         self.frames[frame.camera] = frame
 
+    @property
+    def driver(self) -> KeyboardDriver | JoystickDriver:
+        """The input driver flying now."""
+        return self.input.driver
+
     def _hook_joy(self) -> None:
         rec = self.session.recorder
         self.joystick.joy_sinks.clear()
@@ -142,6 +186,12 @@ class TeleopApp:
     def _say(self, text: str, seconds: float = 3.0) -> None:
         self.notice = text
         self._notice_until = time.monotonic() + seconds
+
+    def _record_event(self, kind: str, value: str) -> None:
+        """The one place events reach the recording (z-mode switches, input device changes)."""
+        rec = self.session.recorder
+        if self.session.recording and rec is not None:
+            rec.note_event(self.sim.step_count, kind, value)
 
     # --- events -----------------------------------------------------------------------------
 
@@ -172,13 +222,33 @@ class TeleopApp:
                 return
         # both track their device; only the one that is the input driver is polled by the loop
         self.keyboard.handle_event(event)
-        self.joystick.handle_event(event)
+        if self.options.input != "keyboard":
+            before = self.joystick.pad
+            self.joystick.handle_event(event)
+            if self.joystick.pad is not before:
+                self._pad_changed(before)
+
+    def _pad_changed(self, before: Pad | None) -> None:
+        """A gamepad appeared or went: switch to it (--input auto), say so, and record it."""
+        pad = self.joystick.pad
+        if pad is not None:
+            what = f"{pad.name} ({pad.kind.value})"
+            if self.driver is not self.joystick:
+                self.keyboard.clear()
+                self.input.use(self.joystick)
+                self._hook_joy()
+                self._record_event("input", f"gamepad plugged in: {what}; it flies instead of the keyboard")
+                self._say(f"gamepad plugged in: {what} flies now", 6.0)
+            else:
+                self._record_event("input", f"gamepad plugged in: {what}")
+                self._say(f"gamepad plugged in: {what}", 6.0)
+        elif before is not None and self.driver is self.joystick:
+            self._record_event("input", f"gamepad unplugged: {before.name}; holding position")
 
     def toggle_z_mode(self) -> None:
         new = ZMode.HEIGHT if self.sim.gate.z_mode is ZMode.VELOCITY else ZMode.VELOCITY
         self.sim.set_z_mode(new)
-        if self.session.recording:
-            self.session.recorder.note_event(self.sim.step_count, "z_mode", new.value)  # type: ignore[union-attr]
+        self._record_event("z_mode", new.value)
         altitude = self.sim.state.position_m[2]
         self.keyboard.set_z_mode(new, altitude)
         self.joystick.set_z_mode(new, altitude)
@@ -244,9 +314,7 @@ class TeleopApp:
         active = gate.active(self.sim.step_count)
         fps, rtf = self._rates()
         rec = self.session.recorder
-        warnings = []
-        if self.driver is self.joystick and self.joystick.device is None:
-            warnings.append(self.joystick.status)
+        warnings = self.joystick.warnings() if self.driver is self.joystick else []
         if time.monotonic() > self._notice_until:
             self.notice = ""
         return ViewModel(
@@ -271,7 +339,11 @@ class TeleopApp:
             frames=self.frames,
             track=list(self.track.points),
             world=self.sim.world,
-            help_lines=[*self.keyboard.layout.help_lines(), "", *APP_KEYS],
+            help_lines=[
+                *(self.joystick.help_lines() if self.driver is self.joystick else self.keyboard.layout.help_lines()),
+                "",
+                *APP_KEYS,
+            ],
             show_help=self.show_help,
             notice=self.notice,
             warnings=warnings,
@@ -289,6 +361,7 @@ class TeleopApp:
             self.session.close()
         finally:
             self.sim.close()
+            self.joystick.close()
             pygame.display.quit()
 
     def __enter__(self) -> TeleopApp:
