@@ -2,7 +2,7 @@
 
 import sys
 
-from quadsim.apps.cli import main
+from quadsim.apps.launch import main
 
 if __name__ == "__main__":
     sys.exit(main())

@@ -14,6 +14,9 @@ from pathlib import Path
 from typing import TYPE_CHECKING, NoReturn
 
 from quadsim import __version__
+from quadsim.apps.stopping import SignalStop, StopRequested, stop_requested
+from quadsim.apps.stopping import describe as describe_stop
+from quadsim.apps.stopping import exit_code as stop_exit_code
 from quadsim.control import ControllerKind
 from quadsim.core.types import StartPose, ZMode
 from quadsim.errors import QuadsimError
@@ -224,7 +227,7 @@ def _check_z_mode_override(script: Script, z_mode_option: str | None) -> None:
 
 def _fly_script(args: argparse.Namespace, script_name: str, realtime: bool) -> int:
     from quadsim.apps.headless import run_headless
-    from quadsim.apps.outputs import RecordedRun, Terminated, raise_on_sigterm
+    from quadsim.apps.outputs import RecordedRun
     from quadsim.apps.progress import ProgressBar
     from quadsim.drivers.scripted import ScriptedDriver, load_script
     from quadsim.sim.simulator import Simulator
@@ -244,40 +247,39 @@ def _fly_script(args: argparse.Namespace, script_name: str, realtime: bool) -> i
         f"z-mode {config.z_mode.value}, physics {config.rates.physics_hz} Hz, control {config.rates.control_hz} Hz, "
         f"cameras {cams}"
     )
-    raise_on_sigterm()
     bar = ProgressBar(duration, "sim time")
     label = f"{Path(script.name).stem}_{config.controller.value}"
     run_info = {"command": "run", "script": script.name, "duration_s": duration, "realtime": realtime}
-    interrupted: KeyboardInterrupt | None = None
-    with Simulator(config, ScriptedDriver(script)) as sim:
-        with RecordedRun(sim, sim.description(), outputs, label, run_info) as run:
-            if run.path is not None:
-                print(f"recording to {run.path}", flush=True)
+    summary, run, sim_time = None, None, 0.0
+    try:
+        with Simulator(config, ScriptedDriver(script)) as sim:
             try:
-                summary = run_headless(sim, duration, progress=bar.update, realtime=realtime)
-            except KeyboardInterrupt as exc:
-                interrupted = exc
-                summary = None
-            bar.close()
-        final_time = sim.time_s
+                with RecordedRun(sim, sim.description(), outputs, label, run_info) as run:
+                    if run.path is not None:
+                        print(f"recording to {run.path}", flush=True)
+                    summary = run_headless(sim, duration, progress=bar.update, realtime=realtime)
+            finally:
+                sim_time = sim.time_s
+    except StopRequested:
+        pass  # the summary of what was flown follows; the exit code says why it stopped
+    finally:
+        bar.close()
     if summary is not None:
         for line in summary.lines():
             print(line)
-    if run.recorder is not None:
-        rec = run.recorder
-        if rec.error:
-            print(f"recording       {rec.error}")
+    recorder = run.recorder if run is not None else None
+    if recorder is not None:
+        if recorder.error:
+            print(f"recording       {recorder.error}")
         else:
-            size = run.path.stat().st_size / 1e6 if run.path and run.path.exists() else 0.0
-            print(f"recording       {run.path} ({size:.1f} MB, {rec.message_count} messages)")
-    if interrupted is not None:
-        what = "terminated" if isinstance(interrupted, Terminated) else "interrupted"
-        saved = (
-            "; the recording is finished and readable" if run.recorder is not None and not run.recorder.error else ""
-        )
-        print(f"{what} at sim time {final_time:.2f} s{saved}", file=sys.stderr)
-        return 143 if isinstance(interrupted, Terminated) else 130
-    if run.recorder is not None and run.recorder.error:
+            size = run.path.stat().st_size / 1e6 if run and run.path and run.path.exists() else 0.0
+            print(f"recording       {run.path if run else ''} ({size:.1f} MB, {recorder.message_count} messages)")
+    stop = SignalStop.current()
+    if stop is not None and stop.signum is not None:
+        saved = "; the recording is finished and readable" if recorder is not None and not recorder.error else ""
+        print(f"{describe_stop(stop.signum)} at sim time {sim_time:.2f} s{saved}", file=sys.stderr)
+        return stop_exit_code(stop.signum)
+    if recorder is not None and recorder.error:
         print("quadsim: error: the flight finished but its recording did not (see above)", file=sys.stderr)
         return 1
     return 0
@@ -306,7 +308,6 @@ def cmd_fly(args: argparse.Namespace) -> int:
         )
         args.gui = False
         return _fly_script(args, DEMO_SCENARIO, realtime=False)
-    from quadsim.apps.outputs import Terminated, raise_on_sigterm
     from quadsim.apps.window.teleop import TeleopApp, TeleopOptions
     from quadsim.drivers.joystick import JoystickMapping, load_mapping
 
@@ -322,19 +323,24 @@ def cmd_fly(args: argparse.Namespace) -> int:
     )
     config = _config(args, None)
     outputs = _outputs(args)
-    raise_on_sigterm()
-    exit_code = 0
-    with TeleopApp(config, outputs, options) as app:
-        print(f"flying with {app.driver.name}; press H or F1 in the window for the keys, Esc to quit")
-        try:
-            app.run()
-        except KeyboardInterrupt as exc:
-            exit_code = 143 if isinstance(exc, Terminated) else 130
-        flown = app.sim.time_s
+    flown, recordings = 0.0, []
+    try:
+        with TeleopApp(config, outputs, options) as app:
+            print(f"flying with {app.driver.name}; press H or F1 in the window for the keys, Esc to quit")
+            try:
+                app.run(stop=stop_requested)  # a signal ends the window loop at its next frame
+            finally:
+                flown, recordings = app.sim.time_s, app.recordings
+    except StopRequested:
+        pass
     print(f"flew {flown:.1f} s of simulation time")
-    for path in app.recordings:
+    for path in recordings:
         print(f"recording       {path}")
-    return exit_code
+    stop = SignalStop.current()
+    if stop is not None and stop.signum is not None:
+        print(f"{describe_stop(stop.signum)}; the recording is finished and readable", file=sys.stderr)
+        return stop_exit_code(stop.signum)
+    return 0
 
 
 def cmd_scenarios(args: argparse.Namespace) -> int:
@@ -751,6 +757,25 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def main(argv: list[str] | None = None) -> int:
+    """The command line. SIGINT and SIGTERM stop any command cleanly (exit 130 and 143)."""
+    with SignalStop() as stop:
+        try:
+            code = _main(argv)
+        except StopRequested as exc:  # a second signal: stopped at once
+            print(f"quadsim: {describe_stop(exc.signum)}", file=sys.stderr)
+            code = 0  # the exit code below says why
+        except Exception as exc:
+            if stop.signum is None:
+                raise
+            # what a forced stop broke on its way out (an import cut short, a closed pipe)
+            print(f"quadsim: {describe_stop(stop.signum)} ({type(exc).__name__} on the way out)", file=sys.stderr)
+            code = 0
+        if stop.signum is not None and code in (0, 1):
+            return stop_exit_code(stop.signum)
+        return code
+
+
+def _main(argv: list[str] | None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
     logging.basicConfig(

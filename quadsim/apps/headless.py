@@ -7,6 +7,7 @@ import time
 from collections.abc import Callable
 from dataclasses import dataclass
 
+from quadsim.apps.stopping import stop_requested
 from quadsim.core.types import VehicleState
 from quadsim.sim.loop import StateLog
 from quadsim.sim.simulator import Simulator
@@ -24,6 +25,7 @@ class RunSummary:
     max_altitude_m: float
     commands_received: int
     commands_rejected: int
+    stopped_early: bool = False  # a signal asked the run to stop before its end
 
     @property
     def real_time_factor(self) -> float:
@@ -82,14 +84,15 @@ def run_headless(
     start_step = sim.step_count
     t0 = time.perf_counter()
     done = 0
-    while done < total_steps:
+    while done < total_steps and not stop_requested():  # a signal stops it between two chunks
         n = min(chunk, total_steps - done)
         sim.step(n)
         done += n
         if realtime:
             ahead = done / hz - (time.perf_counter() - t0)
-            if ahead > 0:
-                time.sleep(ahead)
+            while ahead > 0 and not stop_requested():
+                time.sleep(min(ahead, 0.05))
+                ahead = done / hz - (time.perf_counter() - t0)
         if progress is not None:
             progress(done / hz)
     wall = time.perf_counter() - t0
@@ -101,4 +104,5 @@ def run_headless(
         max_altitude_m=odo.max_z_m if odo.max_z_m > -math.inf else sim.state.position_m[2],
         commands_received=odo.commands,
         commands_rejected=sim.gate.rejected_count,
+        stopped_early=done < total_steps,
     )

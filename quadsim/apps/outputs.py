@@ -3,11 +3,11 @@ together and always finished together (normal end, Ctrl-C, SIGTERM, an exception
 
 from __future__ import annotations
 
-import signal
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from quadsim.apps.stopping import shielded_from_signals
 from quadsim.errors import QuadsimError
 from quadsim.recording.writer import McapRecorder, check_writable, recording_path
 from quadsim.sensors.camera import CameraSpec, RendererKind, default_cameras
@@ -24,17 +24,6 @@ class OutputOptions:
     renderer: RendererKind = RendererKind.TINY
     render_workers: int = 2  # 0: render in this process
     ordered_delivery: bool = True  # headless: frames in capture order at fixed points
-
-
-class Terminated(KeyboardInterrupt):
-    """SIGTERM, turned into an exception so the run unwinds and finishes its recording."""
-
-
-def raise_on_sigterm() -> None:
-    def handler(signum: int, frame: object) -> None:
-        raise Terminated()
-
-    signal.signal(signal.SIGTERM, handler)
 
 
 class RecordedRun:
@@ -115,6 +104,10 @@ class RecordedRun:
         rec.close()
 
     def close(self) -> None:
+        with shielded_from_signals():  # a signal now must not cut the file short
+            self._close()
+
+    def _close(self) -> None:
         try:
             if self.cameras is not None:
                 self.port.remove_tap(self.cameras.capture)

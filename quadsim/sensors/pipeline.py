@@ -13,12 +13,12 @@ from __future__ import annotations
 
 import math
 import os
-import secrets
+import signal
+import socket
 import subprocess
 import sys
-import tempfile
 from collections import deque
-from multiprocessing.connection import Listener
+from multiprocessing.connection import Connection
 from typing import Protocol
 
 import quadsim
@@ -33,6 +33,18 @@ from quadsim.vehicle.params import VehicleParams
 class FrameSink(Protocol):
     def on_camera_frame(self, frame: CameraFrame) -> None:
         """A rendered frame, stamped with its capture step."""
+
+
+def _exit_status(proc: subprocess.Popen) -> str:
+    code = proc.poll()
+    if code is None:
+        return "still running"
+    if code < 0:
+        try:
+            return f"killed by {signal.Signals(-code).name}"
+        except ValueError:
+            return f"killed by signal {-code}"
+    return f"exit code {code}"
 
 
 def _worker_env() -> dict[str, str]:
@@ -77,6 +89,7 @@ class CameraPipeline:
             self._every[spec.name] = physics_hz // spec.rate_hz
         self._tick = math.gcd(*self._every.values()) if specs else 1
         self._ordered = ordered_delivery
+        self._result_timeout_s = worker_start_timeout_s
         self._seq = 0
         self._pending: deque[tuple[int, int]] = deque()  # (seq, worker index)
         self._procs: list = []
@@ -115,57 +128,55 @@ class CameraPipeline:
             "specs": self.specs,
             "renderer": self.renderer.value,
         }
-        self._tmpdir = tempfile.TemporaryDirectory(prefix="quadsim-render-")
-        address = os.path.join(self._tmpdir.name, "socket")
-        authkey = secrets.token_bytes(16)
-        listener = Listener(address, family="AF_UNIX", authkey=authkey)
-        # Listener.accept() has no timeout of its own; a worker that dies before connecting must
-        # not hang the run, so time out its socket (an implementation detail, hence the guard)
-        sock = getattr(getattr(listener, "_listener", None), "_socket", None)
-        if sock is not None:
-            sock.settimeout(timeout_s)
         try:
             for _ in range(count):
-                proc = subprocess.Popen(
-                    [sys.executable, "-m", "quadsim.sensors.render_worker", address],
-                    stdin=subprocess.PIPE,
-                    env=_worker_env(),
-                )
-                proc.stdin.write(authkey.hex().encode() + b"\n")  # type: ignore[union-attr]
-                proc.stdin.close()  # type: ignore[union-attr]
-                self._procs.append(proc)
+                # a socket pair per worker, inherited by it: nothing on disk to leave behind, and
+                # the worker sees end-of-file (and exits) whenever this process goes away
+                ours, theirs = socket.socketpair()
                 try:
-                    conn = listener.accept()
-                except OSError:
-                    raise QuadsimError(f"a render worker did not start within {timeout_s:.0f} s") from None
-                conn.send(settings)
+                    proc = subprocess.Popen(
+                        [sys.executable, "-m", "quadsim.sensors.render_worker", str(theirs.fileno())],
+                        pass_fds=(theirs.fileno(),),
+                        stdin=subprocess.DEVNULL,
+                        env=_worker_env(),
+                        # a session of its own: Ctrl-C and signals to this process group are for
+                        # this process to act on (it stops the workers when it is done with them)
+                        start_new_session=True,
+                    )
+                finally:
+                    theirs.close()
+                self._procs.append(proc)
+                conn = Connection(ours.detach())
                 self._conns.append(conn)
-            for conn in self._conns:
+                conn.send(settings)
+            for proc, conn in zip(self._procs, self._conns):
                 if not conn.poll(timeout_s):
                     raise QuadsimError(f"a render worker did not get ready within {timeout_s:.0f} s")
                 try:
                     msg = conn.recv()
-                except EOFError:
-                    raise QuadsimError("a render worker exited during start-up") from None
+                except (EOFError, OSError):
+                    raise QuadsimError(f"a render worker exited during start-up ({_exit_status(proc)})") from None
                 if msg[0] == "error":
                     raise QuadsimError(f"render worker failed to start: {msg[1]}")
         except BaseException:
             self.close()
             raise
-        finally:
-            listener.close()
 
     def _receive_oldest(self) -> None:
-        seq, index = self._pending.popleft()
-        conn = self._conns[index]
+        seq, index = self._pending[0]  # popped only once its answer is in: an interrupted
+        conn = self._conns[index]  # wait leaves the queue as it was
         try:
+            if not conn.poll(self._result_timeout_s):
+                raise QuadsimError(f"a render worker gave no frame within {self._result_timeout_s:.0f} s")
             msg = conn.recv()
-        except EOFError:
-            raise QuadsimError("a render worker exited unexpectedly") from None
+        except (EOFError, OSError):
+            raise QuadsimError(f"a render worker exited unexpectedly ({_exit_status(self._procs[index])})") from None
+        self._pending.popleft()
         if msg[0] == "error":
             raise QuadsimError(f"render worker failed: {msg[1]}")
         got_seq, frames = msg
-        assert got_seq == seq, "render results out of order"
+        if got_seq != seq:  # cannot happen with one pipe per worker answering in order
+            raise QuadsimError(f"render worker answered job {got_seq} for job {seq}")
         self._deliver(frames)
 
     # --- capture and delivery ---------------------------------------------------------------
@@ -224,7 +235,3 @@ class CameraPipeline:
         if self._rig is not None:
             self._rig.close()  # disconnects only a client of its own
             self._rig = None
-        tmpdir = getattr(self, "_tmpdir", None)
-        if tmpdir is not None:
-            tmpdir.cleanup()
-            del self._tmpdir

@@ -1,8 +1,10 @@
 """The render worker process: a CameraRig of its own, answering render jobs over a pipe.
 
-Started as `python -m quadsim.sensors.render_worker ADDRESS` (not through multiprocessing's spawn, which
-would re-run the user's __main__ module); it connects back to ADDRESS, a Unix socket, reads the
-authentication key as hex on stdin, then receives its settings as the first message.
+Started as `python -m quadsim.sensors.render_worker FD` (not through multiprocessing's spawn, which
+would re-run the user's __main__ module), FD being its end of a socket pair the parent made; it
+receives its settings as the first message. It runs in a session of its own, so Ctrl-C and
+signals to the parent's process group are the parent's to act on; it exits when the parent
+says so or goes away (end of file), so it never outlives the parent.
 
 Protocol (parent -> worker): (seq, step, names, position, orientation), or None to stop.
 Worker -> parent: ("ready",) once set up, then (seq, [CameraFrame, ...]) per job, or
@@ -14,7 +16,7 @@ from __future__ import annotations
 import signal
 import sys
 import traceback
-from multiprocessing.connection import Client
+from multiprocessing.connection import Connection
 from pathlib import Path
 
 
@@ -39,7 +41,7 @@ def worker_main(conn, urdf: str, params: str, world: str, specs: tuple, renderer
                 break
             seq, step, names, position, orientation = job
             conn.send((seq, rig.render(names, step, position, orientation)))
-    except (EOFError, KeyboardInterrupt, BrokenPipeError):
+    except (EOFError, KeyboardInterrupt, OSError):
         pass  # the parent went away or was interrupted: nothing to report to
     except Exception:
         try:
@@ -51,13 +53,15 @@ def worker_main(conn, urdf: str, params: str, world: str, specs: tuple, renderer
 
 
 def main() -> None:
-    # Ctrl-C reaches the whole process group: let the parent decide when the worker stops, so
-    # it can still collect the frames in flight and finish its recording
+    # Ctrl-C and SIGTERM reach the whole process group: let the parent decide when the worker
+    # stops, so it can still collect the frames in flight and finish its recording
     signal.signal(signal.SIGINT, signal.SIG_IGN)
-    address = sys.argv[1]
-    authkey = bytes.fromhex(sys.stdin.readline().strip())
-    conn = Client(address, family="AF_UNIX", authkey=authkey)
-    settings = conn.recv()
+    signal.signal(signal.SIGTERM, signal.SIG_IGN)
+    conn = Connection(int(sys.argv[1]))
+    try:
+        settings = conn.recv()
+    except (EOFError, OSError):
+        return  # the parent went away before it could say anything
     worker_main(conn, settings["urdf"], settings["params"], settings["world"], settings["specs"], settings["renderer"])
     conn.close()
 

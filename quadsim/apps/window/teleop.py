@@ -349,9 +349,17 @@ class TeleopApp:
             warnings=warnings,
         )
 
-    def run(self, max_frames: int | None = None, before_frame: Callable[[TeleopApp], None] | None = None) -> None:
-        """Run frames until quit (or `max_frames`); `before_frame` lets tests post events."""
+    def run(
+        self,
+        max_frames: int | None = None,
+        before_frame: Callable[[TeleopApp], None] | None = None,
+        stop: Callable[[], bool] | None = None,
+    ) -> None:
+        """Run frames until quit (or `max_frames`, or `stop()` says so); `before_frame` lets tests
+        post events."""
         while not self.quit and (max_frames is None or self.frame_count < max_frames):
+            if stop is not None and stop():
+                break
             if before_frame is not None:
                 before_frame(self)
             self.frame()

@@ -1,0 +1,24 @@
+"""The program's entry point (the `quadsim` command, `python -m quadsim`, main.py).
+
+It takes SIGINT and SIGTERM before anything heavy is imported, so a signal during start-up
+ends the program as cleanly as one during a run: a line on stderr, exit 130 or 143.
+"""
+
+from __future__ import annotations
+
+import sys
+
+from quadsim.apps.stopping import SignalStop, StopRequested, describe, exit_code
+
+
+def main(argv: list[str] | None = None) -> int:
+    with SignalStop():
+        try:
+            from quadsim.apps.cli import main as cli_main
+        except (StopRequested, ImportError) as exc:  # a second signal, or what it broke mid-import
+            stop = SignalStop.current()
+            if stop is None or stop.signum is None:
+                raise
+            print(f"quadsim: {describe(stop.signum)} while starting ({type(exc).__name__})", file=sys.stderr)
+            return exit_code(stop.signum)
+        return cli_main(argv)

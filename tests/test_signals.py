@@ -1,0 +1,169 @@
+"""SIGINT and SIGTERM at random moments, from start-up to shutdown, to the process and to its
+process group: exit 130 / 143, no traceback, the summary printed once the run has begun, the
+recording finished, no process left behind, no temporary folder left behind.
+
+Each trial is a real `run` with both cameras and two render workers (a process group of
+three). The moments are drawn from a seeded generator, spread over a whole run's wall time
+(measured first, on this machine, in this test, and stretched for the three trials that run at once). The interpreter's own first ~0.1 s, before
+any quadsim code runs, is left out: a signal there meets Python's defaults, not quadsim.
+"""
+
+from __future__ import annotations
+
+import os
+import random
+import signal
+import subprocess
+import sys
+import time
+from concurrent.futures import ThreadPoolExecutor
+from dataclasses import dataclass
+from pathlib import Path
+
+import pytest
+from mcap.reader import make_reader
+
+ROOT = Path(__file__).resolve().parent.parent
+MOMENTS_PER_CASE = int(os.environ.get("QUADSIM_SIGNAL_MOMENTS", "20"))
+EXPECTED = {signal.SIGINT: 130, signal.SIGTERM: 143}
+
+
+@dataclass
+class Trial:
+    signum: int
+    to_group: bool
+    delay_s: float
+    returncode: int
+    stdout: str
+    stderr: str
+    recording: Path
+    tmpdir: Path
+    leftover_processes: bool
+
+
+def _command(out: Path) -> list[str]:
+    return [
+        sys.executable,
+        str(ROOT / "main.py"),
+        "run",
+        "--script",
+        "square",
+        "--duration",
+        "1.5",
+        "--camera-size",
+        "64x48",
+        "--out",
+        str(out),
+    ]
+
+
+def _env(tmpdir: Path) -> dict[str, str]:
+    env = {k: v for k, v in os.environ.items() if not k.startswith("PYTEST")}
+    env.update(TMPDIR=str(tmpdir), SDL_VIDEODRIVER="dummy", SDL_AUDIODRIVER="dummy", PYTHONPATH=str(ROOT))
+    return env
+
+
+def _processes_of(tmpdir: Path) -> list[int]:
+    """Processes started for one trial (the program and its render workers): they, and only
+    they, carry the trial's own TMPDIR in their environment."""
+    marker = f"TMPDIR={tmpdir}".encode() + b"\0"
+    found = []
+    for entry in Path("/proc").iterdir():
+        if entry.name.isdigit():
+            try:
+                if marker in (entry / "environ").read_bytes():
+                    found.append(int(entry.name))
+            except OSError:
+                continue
+    return found
+
+
+def _trial(folder: Path, signum: int, to_group: bool, delay_s: float) -> Trial:
+    folder.mkdir(parents=True)
+    tmpdir = folder / "tmp"
+    tmpdir.mkdir()
+    out = folder / "run.mcap"
+    proc = subprocess.Popen(
+        _command(out),
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+        cwd=folder,
+        env=_env(tmpdir),
+        start_new_session=True,  # a process group of its own, as a shell job has
+    )
+    time.sleep(delay_s)
+    try:
+        if to_group:
+            os.killpg(proc.pid, signum)
+        else:
+            proc.send_signal(signum)
+    except ProcessLookupError:
+        pass  # it had already finished
+    stdout, stderr = proc.communicate(timeout=120)
+    deadline = time.monotonic() + 10.0
+    while _processes_of(tmpdir) and time.monotonic() < deadline:
+        time.sleep(0.05)
+    leftover = bool(_processes_of(tmpdir))
+    for pid in _processes_of(tmpdir):
+        os.kill(pid, signal.SIGKILL)
+    return Trial(signum, to_group, delay_s, proc.returncode, stdout, stderr, out, tmpdir, leftover)
+
+
+@pytest.fixture(scope="module")
+def trials(tmp_path_factory) -> list[Trial]:
+    base = tmp_path_factory.mktemp("signals")
+    # one undisturbed run first: how long a run takes here, start to finish
+    t0 = time.monotonic()
+    calm = subprocess.run(_command(base / "calm.mcap"), capture_output=True, text=True, cwd=base, env=_env(base))
+    wall_s = time.monotonic() - t0
+    assert calm.returncode == 0, calm.stderr
+    rng = random.Random(20261122)
+    cases = [
+        (signum, to_group, rng.uniform(0.12, wall_s * 1.6))
+        for signum in (signal.SIGINT, signal.SIGTERM)
+        for to_group in (False, True)
+        for _ in range(MOMENTS_PER_CASE)
+    ]
+    with ThreadPoolExecutor(max_workers=3) as pool:
+        futures = [
+            pool.submit(_trial, base / f"t{i:03d}", signum, group, delay)
+            for i, (signum, group, delay) in enumerate(cases)
+        ]
+        results = [f.result() for f in futures]
+    stopped = sum(t.returncode != 0 for t in results)
+    print(f"\nsignals: {len(results)} trials over a {wall_s:.2f} s run, {stopped} stopped by the signal")
+    return results
+
+
+def _where(t: Trial) -> str:
+    target = "group" if t.to_group else "process"
+    return f"{signal.Signals(t.signum).name} to the {target} at {t.delay_s:.2f} s"
+
+
+def test_no_traceback_and_the_right_exit_code(trials):
+    for t in trials:
+        assert "Traceback" not in t.stderr and "Error" not in t.stderr.replace("quadsim: error", ""), (
+            f"{_where(t)}:\n{t.stderr}"
+        )
+        assert t.returncode in (0, EXPECTED[t.signum]), f"{_where(t)}: exit {t.returncode}\n{t.stderr}"
+    assert sum(t.returncode != 0 for t in trials) >= len(trials) // 2  # most signals came during the run
+
+
+def test_no_process_and_no_temporary_folder_left_behind(trials):
+    for t in trials:
+        assert not t.leftover_processes, f"{_where(t)}: its render workers outlived it"
+        assert not list(t.tmpdir.iterdir()), f"{_where(t)}: left {list(t.tmpdir.iterdir())}"
+
+
+def test_the_summary_is_printed_and_the_recording_finished(trials):
+    for t in trials:
+        if "recording to" not in t.stdout:
+            continue  # stopped before the run began: nothing to summarise
+        assert "final pose" in t.stdout and "recording " in t.stdout, f"{_where(t)}:\n{t.stdout}\n{t.stderr}"
+        if t.returncode:
+            assert "the recording is finished and readable" in t.stderr, f"{_where(t)}:\n{t.stderr}"
+        with open(t.recording, "rb") as fh:
+            summary = make_reader(fh).get_summary()  # a finished file has its summary
+        assert summary is not None and summary.statistics is not None, _where(t)
+        assert summary.statistics.message_count > 0
