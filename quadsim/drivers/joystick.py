@@ -102,7 +102,7 @@ def load_mapping(path: Path) -> JoystickMapping:
     """A TOML mapping file in teleop_twist_joy's names (`axis_linear.x = 3`, `scale_linear.x = 1.5`,
     `scale_linear_turbo.x`, `axis_angular.yaw`, `scale_angular.yaw`, `enable_button`,
     `enable_turbo_button`) plus `deadzone`. Axes are /joy's; an axis of -1 moves nothing. A turbo
-    scale not given is twice the scale."""
+    scale not given is twice the scale; one given must have the scale's sign."""
     try:
         with open(path, "rb") as fh:
             table = tomllib.load(fh)
@@ -149,6 +149,12 @@ def load_mapping(path: Path) -> JoystickMapping:
     for f in TWIST_FIELDS:
         i = index[f]
         values[f] = None if i is None else AxisMap(i, scale[f], turbo.get(f, 2.0 * scale[f]))
+        if i is not None and f in turbo and turbo[f] * scale[f] < 0:
+            kind, key = ("linear", f[-1]) if f.startswith("linear") else ("angular", "yaw")
+            raise ConfigError(
+                f"{path}: scale_{kind}_turbo.{key} = {turbo[f]} and scale_{kind}.{key} = {scale[f]} have opposite "
+                "signs: the turbo button would fly the other way; give both the same sign"
+            )
     if "deadzone" in table:
         values["deadzone"] = _number(path, "deadzone", table["deadzone"])
         if not 0.0 <= values["deadzone"] < 0.9:
