@@ -6,7 +6,10 @@ Two back-ends with the same output:
   scene, so rendering and JPEG encoding run on the other core while physics keeps stepping.
   Jobs go round-robin; results come back in capture order. With `ordered_delivery` (headless
   runs), frame j is handed on just before job j + in_flight is submitted, and the rest at the
-  end, so a recording's message order does not depend on timing.
+  end, so a recording's message order does not depend on timing. Without it (the window),
+  frames are handed on as soon as they are ready, and a capture that finds every worker busy
+  is dropped: the person flying comes first, the cameras take what is left of the machine
+  (the workers also run at a lower priority then).
 """
 
 from __future__ import annotations
@@ -28,6 +31,9 @@ from quadsim.physics.world_spec import WorldSpec
 from quadsim.sensors.camera import CameraFrame, CameraSpec, RendererKind
 from quadsim.sensors.rig import CameraRig
 from quadsim.vehicle.params import VehicleParams
+
+#: how much lower the render workers' priority is when a window is in front of a person
+WINDOW_WORKER_NICENESS = 10
 
 
 class FrameSink(Protocol):
@@ -96,6 +102,7 @@ class CameraPipeline:
         self._conns: list = []
         self._rig: CameraRig | None = None
         self.frames_delivered = 0
+        self.frames_dropped: dict[str, int] = {}  # camera -> captures skipped (unordered mode only)
         if not specs:
             return
         for spec in specs:
@@ -127,6 +134,7 @@ class CameraPipeline:
             "world": str(world.path),
             "specs": self.specs,
             "renderer": self.renderer.value,
+            "niceness": 0 if self._ordered else WINDOW_WORKER_NICENESS,
         }
         try:
             for _ in range(count):
@@ -190,10 +198,16 @@ class CameraPipeline:
         if self._rig is not None:
             self._deliver(self._rig.render(names, step, state.position_m, state.orientation_xyzw))
             return
-        while len(self._pending) >= self._in_flight:
-            self._receive_oldest()
         if not self._ordered:
             self.poll()
+            if len(self._pending) >= self._in_flight:
+                # the workers are behind (a busy machine): drop this capture rather than make
+                # the window and the flight wait; what is recorded are the frames rendered
+                for name in names:
+                    self.frames_dropped[name] = self.frames_dropped.get(name, 0) + 1
+                return
+        while len(self._pending) >= self._in_flight:
+            self._receive_oldest()
         index = self._seq % len(self._conns)
         self._conns[index].send((self._seq, step, names, state.position_m, state.orientation_xyzw))
         self._pending.append((self._seq, index))

@@ -13,6 +13,7 @@ Worker -> parent: ("ready",) once set up, then (seq, [CameraFrame, ...]) per job
 
 from __future__ import annotations
 
+import os
 import signal
 import sys
 import traceback
@@ -62,6 +63,12 @@ def main() -> None:
         settings = conn.recv()
     except (EOFError, OSError):
         return  # the parent went away before it could say anything
+    niceness = settings.get("niceness", 0)
+    if niceness:
+        try:
+            os.nice(niceness)  # the window and the flight come first on a busy machine
+        except OSError:
+            pass
     worker_main(conn, settings["urdf"], settings["params"], settings["world"], settings["specs"], settings["renderer"])
     conn.close()
 

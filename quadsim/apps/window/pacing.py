@@ -11,31 +11,39 @@ class RealTimePacer:
     skip physics steps: it advances at most `max_frame_s` of sim time per frame and lets sim
     time fall behind (the slowdown is visible, and `lagging` says so)."""
 
-    def __init__(self, physics_hz: int, max_frame_s: float = 0.1, clock=time.perf_counter) -> None:
+    def __init__(
+        self, physics_hz: int, max_frame_s: float = 0.1, clock=time.perf_counter, lag_hold_s: float = 1.0
+    ) -> None:
         self.physics_hz = physics_hz
         self.max_steps = max(1, round(max_frame_s * physics_hz))
         self._clock = clock
         self._origin_wall = clock()
         self._origin_steps = 0
-        self.lagging = False
+        self._lag_hold_s = lag_hold_s
+        self._last_behind_wall = -float("inf")
+        self.lagging = False  # behind real time now, or within `lag_hold_s` of it (no flicker)
         self.speed = 1.0  # sim seconds per wall second over the recent frames
 
     def rebase(self, steps_done: int) -> None:
         """Restart the correspondence (after a pause or reset)."""
         self._origin_wall = self._clock()
         self._origin_steps = steps_done
+        self._last_behind_wall = -float("inf")
+        self.lagging = False
 
     def steps_for_frame(self, steps_done: int) -> int:
         target = self._origin_steps + int((self._clock() - self._origin_wall) * self.physics_hz)
         wanted = target - steps_done
+        now = self._clock()
         if wanted > self.max_steps:
             self.lagging = True
-            self._origin_wall = self._clock()  # give up on the backlog: slow down instead
+            self._last_behind_wall = now
+            self._origin_wall = now  # give up on the backlog: slow down instead
             self._origin_steps = steps_done + self.max_steps
             return self.max_steps
+        self.lagging = now - self._last_behind_wall < self._lag_hold_s
         if wanted <= 0:
             return 0
-        self.lagging = False
         return wanted
 
 

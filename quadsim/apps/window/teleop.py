@@ -37,6 +37,11 @@ from quadsim.sensors.camera import CameraFrame
 from quadsim.sim.config import SimConfig
 from quadsim.sim.simulator import Simulator
 
+#: wall time over which the HUD's frame rate and real-time factor are measured
+RATE_WINDOW_S = 1.0
+#: wall time over which each camera's delivered frame rate is counted
+CAMERA_RATE_WINDOW_S = 2.0
+
 APP_KEYS = [
     "Esc        quit (the recording is finished properly)",
     "P          pause / resume",
@@ -159,7 +164,8 @@ class TeleopApp:
         self._notice_until = 0.0
         self.quit = False
         self.frame_count = 0
-        self._frame_walls: deque[tuple[float, int]] = deque(maxlen=60)
+        self._frame_walls: deque[tuple[float, int]] = deque()  # (wall s, step) of the last second
+        self._camera_walls: dict[str, deque[float]] = {}  # wall times of the frames that came in
         self._help_keys = {pygame.K_F1} | (
             {pygame.K_h} if pygame.K_h not in {b.key for b in self.keyboard.layout.bindings} else set()
         )
@@ -170,6 +176,8 @@ class TeleopApp:
 
     def on_camera_frame(self, frame: CameraFrame) -> None:
         self.frames[frame.camera] = frame
+        walls = self._camera_walls.setdefault(frame.camera, deque())
+        walls.append(time.perf_counter())
 
     @property
     def driver(self) -> KeyboardDriver | JoystickDriver:
@@ -277,6 +285,7 @@ class TeleopApp:
         self.joystick.reset()
         self.track.points.clear()
         self.pacer.rebase(0)
+        self._frame_walls.clear()  # rates restart with the clock (no negative real-time factor)
         if was_recording:
             self.recordings.append(self.session.start_recording())
             self._hook_joy()
@@ -298,16 +307,31 @@ class TeleopApp:
         self.view.draw(self.screen, self._model())
         pygame.display.flip()
         self.frame_count += 1
-        self._frame_walls.append((time.perf_counter(), self.sim.step_count))
+        now = time.perf_counter()
+        self._frame_walls.append((now, self.sim.step_count))
+        while len(self._frame_walls) > 2 and now - self._frame_walls[0][0] > RATE_WINDOW_S:
+            self._frame_walls.popleft()
         if self.options.max_fps and isinstance(self.pacer, RealTimePacer):
             self._clock.tick(self.options.max_fps)
 
     def _rates(self) -> tuple[float, float]:
+        """Frames per second and sim seconds per wall second, over the last second of wall time
+        (not the last N frames: at 4 frames/s those would span many seconds)."""
         if len(self._frame_walls) < 2:
             return 0.0, 0.0
         (t0, s0), (t1, s1) = self._frame_walls[0], self._frame_walls[-1]
         span = max(t1 - t0, 1e-9)
-        return (len(self._frame_walls) - 1) / span, (s1 - s0) / self.sim.config.rates.physics_hz / span
+        return (len(self._frame_walls) - 1) / span, max(0, s1 - s0) / self.sim.config.rates.physics_hz / span
+
+    def camera_rates(self) -> dict[str, float]:
+        """Frames per second each camera actually delivered over the last two seconds."""
+        now = time.perf_counter()
+        rates = {}
+        for name, walls in self._camera_walls.items():
+            while walls and now - walls[0] > CAMERA_RATE_WINDOW_S:
+                walls.popleft()
+            rates[name] = len(walls) / CAMERA_RATE_WINDOW_S
+        return rates
 
     def _model(self) -> ViewModel:
         gate = self.sim.gate
@@ -332,7 +356,7 @@ class TeleopApp:
             recording_path=str(self.session.path) if self.session.recording else None,
             recording_error=rec.error if rec is not None else None,
             paused=self.paused,
-            lagging=self.pacer.lagging,
+            lagging=self.pacer.lagging and not self.paused,
             fps=fps,
             real_time_factor=rtf,
             sim_time_s=self.sim.time_s,
@@ -347,6 +371,8 @@ class TeleopApp:
             show_help=self.show_help,
             notice=self.notice,
             warnings=warnings,
+            camera_rates=self.camera_rates() if self.session.cameras is not None else {},
+            camera_rate_hz=max((c.rate_hz for c in self.outputs.cameras), default=0),
         )
 
     def run(

@@ -48,6 +48,8 @@ class ViewModel:
     show_help: bool
     notice: str = ""
     warnings: list[str] = field(default_factory=list)
+    camera_rates: dict[str, float] = field(default_factory=dict)  # frames/s each camera delivered
+    camera_rate_hz: int = 0  # the rate the cameras were asked for
     playback: str | None = None  # replay: shown instead of the recording state
     timeline: tuple[float, float] | None = None  # replay: (time, duration) s, drawn as a clickable bar
 
@@ -179,6 +181,16 @@ class TeleopView:
             (rec, ALERT if m.recording_error else (OK if m.recording_path or m.playback else WARN)),
             (f"{m.fps:4.1f} fps   {m.real_time_factor:4.2f}x real time   sim {m.sim_time_s:7.2f} s   H/F1: help", TEXT),
         ]
+        if m.camera_rates:
+            achieved = "  ".join(f"{name} {rate:4.1f}" for name, rate in sorted(m.camera_rates.items()))
+            short = m.camera_rate_hz and min(m.camera_rates.values()) < 0.8 * m.camera_rate_hz
+            lines.append(
+                (
+                    f"cameras {achieved} of {m.camera_rate_hz} frames/s"
+                    + ("  (the machine is busy: frames are dropped, the flight keeps real time)" if short else ""),
+                    WARN if short else TEXT,
+                )
+            )
         if m.paused:
             lines.append(("PAUSED (P resumes)", WARN))
         if m.lagging:
