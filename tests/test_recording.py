@@ -150,3 +150,17 @@ def test_our_reader_gives_typed_data(recorded):
         assert [p for _, p, _ in poses] == [s.position_m for s in log.states]
         assert reader.parameters["driver"]["script"] == "test"
         assert len(list(reader.images("front"))) == 90
+
+
+def test_a_run_without_commands_is_still_a_quadsim_recording(tmp_path):
+    """No command was ever sent: the file has no /quad_cmd_twist channel (a channel is written
+    with its first message), and it is still read, shown and checked as quadsim's own."""
+    from quadsim.recording.info import read_info
+    from quadsim.recording.reader import RecordingReader
+
+    path = tmp_path / "silent.mcap"
+    record_flight(path, cameras=False, script="silence 1.0\n")
+    with RecordingReader(path) as reader:
+        assert "/quad_cmd_twist" not in reader.topics and list(reader.commands()) == []
+        assert len(list(reader.poses())) == 60
+    assert read_info(path).missing_topics() == []

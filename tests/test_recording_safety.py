@@ -13,6 +13,7 @@ from mcap.reader import make_reader
 
 from quadsim import QuadsimError, SimConfig, Simulator, Twist, ZMode
 from quadsim.apps.outputs import OutputOptions, RecordedRun
+from quadsim.recording.fanout import TopicFanout
 from quadsim.recording.salvage import scan
 from quadsim.recording.writer import McapRecorder, check_writable
 from tests.recording_helpers import record_flight
@@ -44,6 +45,9 @@ class FillingDisk:
     def flush(self):
         self._fh.flush()
 
+    def seek(self, offset, whence=0):
+        return self._fh.seek(offset, whence)
+
     def tell(self):
         return self._fh.tell()
 
@@ -56,7 +60,9 @@ def test_disk_full_stops_recording_keeps_flying_keeps_data(tmp_path):
     disk = FillingDisk(path, limit=60_000)
     with Simulator(SimConfig(z_mode=ZMode.HEIGHT)) as sim:
         rec = McapRecorder(path, sim, (), {}, stream=disk)
-        sim.add_sink(rec)
+        fanout = TopicFanout(sim.config.rates.physics_hz)
+        fanout.add_consumer(rec)
+        sim.add_sink(fanout)
         sim.send(Twist(linear_x=-0.5))  # backwards: the way ahead has a tower in it
         sim.run_for(30.0)  # the recording fills up long before the end
         assert rec.error is not None and "No space left" in rec.error and "quadsim recover" in rec.error

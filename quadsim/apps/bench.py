@@ -181,6 +181,7 @@ def camera_costs(frames: int, repeats: int, out: Callable[[str], None]) -> dict[
     import tempfile
     from pathlib import Path
 
+    from quadsim.recording.fanout import TopicFanout
     from quadsim.recording.writer import McapRecorder
     from quadsim.sensors.camera import RendererKind
     from quadsim.sensors.rig import CameraRig
@@ -193,6 +194,8 @@ def camera_costs(frames: int, repeats: int, out: Callable[[str], None]) -> dict[
     rig = CameraRig(sim.vehicle, cams, RendererKind.TINY, cid, None)
     with tempfile.TemporaryDirectory() as tmp:
         rec = McapRecorder(Path(tmp) / "bench.mcap", sim, cams)
+        fanout = TopicFanout(240, tuple((c, sim.vehicle.camera_mount(c.link_name)) for c in cams))
+        fanout.add_consumer(rec)
         for cam in cams:
 
             def bare(n: int, cam=cam) -> None:
@@ -209,7 +212,7 @@ def camera_costs(frames: int, repeats: int, out: Callable[[str], None]) -> dict[
             def pipeline(n: int, cam=cam) -> None:
                 for i in range(n):
                     for frame in rig.render((cam.name,), i, state.position_m, state.orientation_xyzw):
-                        rec.on_camera_frame(frame)
+                        fanout.on_camera_frame(frame)
 
             results[f"bare_{cam.name}"] = _best_of(repeats, frames, bare)
             results[f"pipeline_{cam.name}"] = _best_of(repeats, frames, pipeline)
@@ -312,11 +315,11 @@ def run_interactive_bench(out: Callable[[str], None] = print, wall_s: float = 10
         app = TeleopApp(SimConfig(z_mode=ZMode.HEIGHT), OutputOptions(out=Path(tmp)), TeleopOptions(input="keyboard"))
         try:
             timer = _Timer()
-            rec, cams = app.session.recorder, app.session.cameras
+            fanout, cams = app.session.fanout, app.session.cameras
             timer.wrap(app.sim.physics, "step", "physics")
             timer.wrap(app.sim.controller, "update", "control")
             for m in ("on_state", "on_command", "on_camera_frame"):
-                timer.wrap(rec, m, "recording")
+                timer.wrap(fanout, m, "recording")
             timer.wrap(cams, "_capture", "cameras")
             timer.wrap(cams, "poll", "cameras+")
             timer.wrap(app.view, "draw", "drawing")

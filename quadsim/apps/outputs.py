@@ -1,17 +1,25 @@
-"""A run's outputs around a Simulator: the camera pipeline and the MCAP recorder, opened
-together and always finished together (normal end, Ctrl-C, SIGTERM, an exception)."""
+"""A run's outputs around a Simulator: the camera pipeline, the topic fan-out and the MCAP
+recorder it feeds, opened together and always finished together (normal end, Ctrl-C, SIGTERM,
+an exception).
+
+The recorder's and the cameras' modules (and so mcap, foxglove, rosbags, cv2) are imported only
+when a run records or has cameras.
+"""
 
 from __future__ import annotations
 
 import signal
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
-from quadsim.recording.writer import McapRecorder, check_writable, recording_path
+from quadsim.recording.fanout import TopicFanout
 from quadsim.sensors.camera import CameraSpec, RendererKind, default_cameras
-from quadsim.sensors.pipeline import CameraPipeline
 from quadsim.sim.simulator import Simulator
+
+if TYPE_CHECKING:
+    from quadsim.recording.writer import McapRecorder
+    from quadsim.sensors.pipeline import CameraPipeline
 
 
 @dataclass(frozen=True)
@@ -36,10 +44,12 @@ def raise_on_sigterm() -> None:
 
 
 class RecordedRun:
-    """Cameras and recorder for one simulator. Use as a context manager; `close` is idempotent.
+    """Cameras, topic fan-out and recorder for one simulator. Use as a context manager; `close`
+    is idempotent.
 
-    Recording can be stopped and started again (the window's key for it); each start makes a
-    new file."""
+    The fan-out (`fanout`) turns the run into the contract's messages once for every consumer;
+    it listens to the loop and the cameras only while it has one. Recording can be stopped and
+    started again (the window's key for it); each start makes a new file."""
 
     def __init__(
         self, sim: Simulator, options: OutputOptions, label: str, run_info: dict[str, Any] | None = None
@@ -51,8 +61,12 @@ class RecordedRun:
         self.recorder: McapRecorder | None = None
         self.cameras: CameraPipeline | None = None
         self.path: Path | None = None
+        mounts = tuple((spec, sim.vehicle.camera_mount(spec.link_name)) for spec in options.cameras)
+        self.fanout = TopicFanout(sim.config.rates.physics_hz, mounts)
         try:
             if options.cameras:
+                from quadsim.sensors.pipeline import CameraPipeline
+
                 self.cameras = CameraPipeline(
                     sim, options.cameras, options.renderer, options.render_workers, options.ordered_delivery
                 )
@@ -73,15 +87,34 @@ class RecordedRun:
         out = self.options.out
         if out is not None and out.suffix == ".mcap" and self.path is not None:
             out = out.parent  # --out FILE names the first recording; later ones go beside it
+        from quadsim.recording.writer import McapRecorder, check_writable, recording_path
+
         path = recording_path(out, self.label)
         check_writable(path)
         info = {**self.run_info, "start_step": self.sim.step_count}
         recorder = McapRecorder(path, self.sim, self.options.cameras, info)
-        self.sim.add_sink(recorder)
-        if self.cameras is not None:
-            self.cameras.sinks.append(recorder)
+        self.fanout.add_consumer(recorder)
+        self._listen(True)
         self.recorder, self.path = recorder, path
         return path
+
+    def _listen(self, on: bool) -> None:
+        """The fan-out listens to the loop and the cameras only while someone consumes it."""
+        fanout, sinks = self.fanout, self.sim.loop.sinks
+        camera_sinks = self.cameras.sinks if self.cameras is not None else []
+        if on and fanout not in sinks:
+            self.sim.add_sink(fanout)
+            if self.cameras is not None:
+                camera_sinks.append(fanout)
+        elif not on:
+            if fanout in sinks:
+                sinks.remove(fanout)
+            if fanout in camera_sinks:
+                camera_sinks.remove(fanout)
+
+    def note_event(self, step: int, kind: str, value: str) -> None:
+        """An event the recording keeps (a z-mode switch) at `step`."""
+        self.fanout.note_event(step, kind, value)
 
     def stop_recording(self) -> None:
         """Finish the current file (with the frames still being rendered)."""
@@ -90,10 +123,9 @@ class RecordedRun:
             return
         if self.cameras is not None:
             self.cameras.drain()
-            if rec in self.cameras.sinks:
-                self.cameras.sinks.remove(rec)
-        if rec in self.sim.loop.sinks:
-            self.sim.loop.sinks.remove(rec)
+        self.fanout.remove_consumer(rec)
+        if not self.fanout.consumers:
+            self._listen(False)
         rec.close()
 
     def close(self) -> None:
@@ -105,6 +137,9 @@ class RecordedRun:
                     self.cameras.close()
         finally:
             if self.recorder is not None:
+                self.fanout.remove_consumer(self.recorder)
+                if not self.fanout.consumers:
+                    self._listen(False)
                 self.recorder.close()
 
     def __enter__(self) -> RecordedRun:

@@ -128,11 +128,9 @@ class TeleopApp:
         self.frames[frame.camera] = frame
 
     def _hook_joy(self) -> None:
-        rec = self.session.recorder
         self.joystick.joy_sinks.clear()
-        if self.driver is self.joystick and rec is not None and not rec.closed:
-            rec.add_joy_topic()
-            self.joystick.joy_sinks.append(rec.on_joy)
+        if self.driver is self.joystick:
+            self.joystick.joy_sinks.append(self.session.fanout.on_joy)
 
     def _say(self, text: str, seconds: float = 3.0) -> None:
         self.notice = text
@@ -172,8 +170,7 @@ class TeleopApp:
     def toggle_z_mode(self) -> None:
         new = ZMode.HEIGHT if self.sim.gate.z_mode is ZMode.VELOCITY else ZMode.VELOCITY
         self.sim.set_z_mode(new)
-        if self.session.recording:
-            self.session.recorder.note_event(self.sim.step_count, "z_mode", new.value)  # type: ignore[union-attr]
+        self.session.note_event(self.sim.step_count, "z_mode", new.value)
         altitude = self.sim.state.position_m[2]
         self.keyboard.set_z_mode(new, altitude)
         self.joystick.set_z_mode(new, altitude)
