@@ -212,3 +212,29 @@ def test_ctrl_c_finishes_the_recording(tmp_path):
     _, err = proc.communicate(timeout=30)
     assert proc.returncode == 130 and "interrupted at sim time" in err
     assert _summary_ok(out)["/quad/pose"] > 60
+
+
+@pytest.mark.skipif(sys.platform == "win32", reason="file size limits are POSIX")
+def test_a_write_error_on_the_file_itself_stops_recording_not_the_flight(tmp_path):
+    """The recorder's own file (not a stream it was given): the OS refuses to let it grow."""
+    import resource
+
+    out = tmp_path / "capped.mcap"
+
+    def cap_file_size():  # Python ignores SIGXFSZ: an over-long write fails with EFBIG
+        resource.setrlimit(resource.RLIMIT_FSIZE, (60_000, 60_000))
+
+    result = subprocess.run(
+        [sys.executable, str(ROOT / "main.py"), "run", "--script", "square", "--cameras", "none", "--out", str(out)],
+        capture_output=True,
+        text=True,
+        cwd=ROOT,
+        preexec_fn=cap_file_size,
+    )
+    assert result.returncode == 0 and "Traceback" not in result.stderr
+    assert "recording stopped at sim time" in result.stdout and "quadsim recover" in result.stdout
+    assert "File too large" in result.stdout  # the reason the OS gave
+    assert "final pose" in result.stdout  # the flight went on to the end
+    assert "WARNING" not in result.stderr  # one clear message, no noise from the writer
+    found = scan(out)
+    assert found.messages and 0 < found.span_s[1] < 30.0

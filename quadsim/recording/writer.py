@@ -118,6 +118,16 @@ class _GuardedStream:
                 self.error = exc
 
 
+def _flush_error(stream: BinaryIO) -> str | None:
+    try:
+        stream.flush()
+    except OSError as exc:
+        return exc.strerror or str(exc)
+    except ValueError:  # closed
+        pass
+    return None
+
+
 def _no_space_left(folder: Path) -> bool:
     try:
         st = os.statvfs(folder)
@@ -131,8 +141,9 @@ class McapRecorder:
     attachments when it opens, then every message it is given.
 
     Chunks are closed here, at every simulated second and whenever `chunk_size` bytes of
-    messages have gathered, never inside the writer's own logging: so a write error surfaces in
-    one place, as an exception, and recording stops there."""
+    messages have gathered, not by the writer while it logs a message: so a write error surfaces
+    here, as an exception, and recording stops (one that hits the few bytes the writer puts down
+    when it opens a chunk is logged by foxglove and surfaces at the next flush)."""
 
     def __init__(
         self,
@@ -180,7 +191,7 @@ class McapRecorder:
             self._writer = foxglove.open_mcap(self._guard or stream, context=self._context, writer_options=options)
             self._write_metadata(sim, cameras, run_info or {})
         except RuntimeError as exc:  # foxglove's errors
-            self._fail(str(exc))
+            self._fail(f"the file could not be written ({exc})")
 
     def _write_metadata(self, sim: Simulator, cameras: tuple[CameraSpec, ...], run_info: dict[str, Any]) -> None:
         params = {**sim.describe(), "cameras": [c.to_dict() for c in cameras], **run_info}
@@ -250,7 +261,7 @@ class McapRecorder:
         try:
             method(*args)
         except RuntimeError as exc:  # foxglove's errors: the file could not be written
-            self._fail(str(exc))
+            self._fail(f"the file could not be written ({exc})")
             return False
         if self._guard is not None and self._guard.error is not None:
             self._fail(str(self._guard.error))
@@ -275,6 +286,8 @@ class McapRecorder:
             return
         if self._guard is not None and self._guard.error is not None:
             reason = self._guard.error.strerror or reason
+        elif self._own_stream and (os_error := _flush_error(self._stream)) is not None:
+            reason = os_error  # what the writer's failed write left in the file's buffer says why
         elif _no_space_left(self.path.parent):
             reason = os.strerror(errno.ENOSPC)
         self.error = (
