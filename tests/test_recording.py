@@ -49,6 +49,7 @@ def test_profile_schemas_encodings_and_qos(recorded):
         schema = summary.schemas[ch.schema_id]
         assert (schema.name, schema.encoding, ch.message_encoding) == (type_name, "ros2msg", "cdr")
         assert "offered_qos_profiles" in ch.metadata
+    assert len(summary.schemas) == len({t for t, _ in CONTRACT.values()})  # one schema per type
     assert "durability: 1" in channels["/tf_static"].metadata["offered_qos_profiles"]  # transient local
     assert "durability: 2" in channels["/quad/pose"].metadata["offered_qos_profiles"]
     # dependencies concatenated the rosbag2 way

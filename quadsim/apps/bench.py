@@ -194,7 +194,8 @@ def camera_costs(frames: int, repeats: int, out: Callable[[str], None]) -> dict[
     rig = CameraRig(sim.vehicle, cams, RendererKind.TINY, cid, None)
     with tempfile.TemporaryDirectory() as tmp:
         rec = McapRecorder(Path(tmp) / "bench.mcap", sim, cams)
-        fanout = TopicFanout(240, tuple((c, sim.vehicle.camera_mount(c.link_name)) for c in cams))
+        mounts = tuple((c, sim.vehicle.camera_mount(c.link_name)) for c in cams)
+        fanout = TopicFanout(sim.config.rates.physics_hz, mounts)
         fanout.add_consumer(rec)
         for cam in cams:
 
