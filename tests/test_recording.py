@@ -49,6 +49,7 @@ def test_profile_schemas_encodings_and_qos(recorded):
         schema = summary.schemas[ch.schema_id]
         assert (schema.name, schema.encoding, ch.message_encoding) == (type_name, "ros2msg", "cdr")
         assert "offered_qos_profiles" in ch.metadata
+    assert len(summary.schemas) == len({t for t, _ in CONTRACT.values()})  # one schema per type
     assert "durability: 1" in channels["/tf_static"].metadata["offered_qos_profiles"]  # transient local
     assert "durability: 2" in channels["/quad/pose"].metadata["offered_qos_profiles"]
     # dependencies concatenated the rosbag2 way
@@ -150,3 +151,17 @@ def test_our_reader_gives_typed_data(recorded):
         assert [p for _, p, _ in poses] == [s.position_m for s in log.states]
         assert reader.description is not None and reader.description.driver["script"] == "test"
         assert len(list(reader.images("front"))) == 90
+
+
+def test_a_run_without_commands_is_still_a_quadsim_recording(tmp_path):
+    """No command was ever sent: the file has no /quad_cmd_twist channel (a channel is written
+    with its first message), and it is still read, shown and checked as quadsim's own."""
+    from quadsim.recording.info import read_info
+    from quadsim.recording.reader import RecordingReader
+
+    path = tmp_path / "silent.mcap"
+    record_flight(path, cameras=False, script="silence 1.0\n")
+    with RecordingReader(path) as reader:
+        assert "/quad_cmd_twist" not in reader.topics and list(reader.commands()) == []
+        assert len(list(reader.poses())) == 60
+    assert read_info(path).missing_topics() == []

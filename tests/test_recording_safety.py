@@ -13,6 +13,7 @@ from mcap.reader import make_reader
 
 from quadsim import QuadsimError, SimConfig, Simulator, Twist, ZMode
 from quadsim.apps.outputs import OutputOptions, RecordedRun
+from quadsim.recording.fanout import TopicFanout
 from quadsim.recording.salvage import scan
 from quadsim.recording.writer import McapRecorder, check_writable
 from tests.recording_helpers import record_flight
@@ -44,6 +45,9 @@ class FillingDisk:
     def flush(self):
         self._fh.flush()
 
+    def seek(self, offset, whence=0):
+        return self._fh.seek(offset, whence)
+
     def tell(self):
         return self._fh.tell()
 
@@ -56,7 +60,9 @@ def test_disk_full_stops_recording_keeps_flying_keeps_data(tmp_path):
     disk = FillingDisk(path, limit=60_000)
     with Simulator(SimConfig(z_mode=ZMode.HEIGHT)) as sim:
         rec = McapRecorder(path, sim.description(), stream=disk)
-        sim.add_sink(rec)
+        fanout = TopicFanout(sim.config.rates.physics_hz)
+        fanout.add_consumer(rec)
+        sim.add_sink(fanout)
         sim.send(Twist(linear_x=-0.5))  # backwards: the way ahead has a tower in it
         sim.run_for(30.0)  # the recording fills up long before the end
         assert rec.error is not None and "No space left" in rec.error and "quadsim recover" in rec.error
@@ -206,3 +212,31 @@ def test_ctrl_c_finishes_the_recording(tmp_path):
     _, err = proc.communicate(timeout=30)
     assert proc.returncode == 130 and "interrupted at sim time" in err
     assert _summary_ok(out)["/quad/pose"] > 60
+
+
+@pytest.mark.skipif(sys.platform == "win32", reason="file size limits are POSIX")
+def test_a_write_error_on_the_file_itself_stops_recording_not_the_flight(tmp_path):
+    """The recorder's own file (not a stream it was given): the OS refuses to let it grow."""
+    import resource
+
+    out = tmp_path / "capped.mcap"
+
+    def cap_file_size():  # Python ignores SIGXFSZ: an over-long write fails with EFBIG
+        resource.setrlimit(resource.RLIMIT_FSIZE, (60_000, 60_000))
+
+    result = subprocess.run(
+        [sys.executable, str(ROOT / "main.py"), "run", "--script", "square", "--cameras", "none", "--out", str(out)],
+        capture_output=True,
+        text=True,
+        cwd=ROOT,
+        preexec_fn=cap_file_size,
+    )
+    # the flight went on, but a run whose recording stopped does not say "all fine": exit 1
+    assert result.returncode == 1 and "Traceback" not in result.stderr
+    assert "its recording did not" in result.stderr
+    assert "recording stopped at sim time" in result.stdout and "quadsim recover" in result.stdout
+    assert "File too large" in result.stdout  # the reason the OS gave
+    assert "final pose" in result.stdout  # the flight went on to the end
+    assert "WARNING" not in result.stderr  # one clear message, no noise from the writer
+    found = scan(out)
+    assert found.messages and 0 < found.span_s[1] < 30.0

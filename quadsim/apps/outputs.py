@@ -1,19 +1,27 @@
-"""A run's outputs around a Simulator: the camera pipeline and the MCAP recorder, opened
-together and always finished together (normal end, Ctrl-C, SIGTERM, an exception)."""
+"""A run's outputs: the camera pipeline, the topic fan-out and the MCAP recorder it feeds,
+opened together and always finished together (normal end, Ctrl-C, SIGTERM, an exception).
+
+They attach to the run through its OutputPort (the Simulator is one) and know it by its typed
+RunDescription: they never hold the simulator. The recorder's and the cameras' modules (and so
+mcap, foxglove, rosbags, cv2) are imported only when a run records or has cameras.
+"""
 
 from __future__ import annotations
 
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from quadsim.apps.stopping import shielded_from_signals
 from quadsim.errors import QuadsimError
-from quadsim.recording.writer import McapRecorder, check_writable, recording_path
+from quadsim.recording.fanout import TopicFanout
 from quadsim.sensors.camera import CameraSpec, RendererKind, default_cameras
-from quadsim.sensors.pipeline import CameraPipeline
 from quadsim.sim.description import RunDescription
 from quadsim.sim.loop import OutputPort
+
+if TYPE_CHECKING:
+    from quadsim.recording.writer import McapRecorder
+    from quadsim.sensors.pipeline import CameraPipeline
 
 
 @dataclass(frozen=True)
@@ -27,10 +35,12 @@ class OutputOptions:
 
 
 class RecordedRun:
-    """Cameras and recorder for one simulator. Use as a context manager; `close` is idempotent.
+    """Cameras, topic fan-out and recorder for one run. Use as a context manager; `close` is
+    idempotent.
 
-    Recording can be stopped and started again (the window's key for it); each start makes a
-    new file."""
+    The fan-out (`fanout`) turns the run into the contract's messages once for every consumer;
+    it listens to the loop and the cameras only while it has one. Recording can be stopped and
+    started again (the window's key for it); each start makes a new file."""
 
     def __init__(
         self,
@@ -48,11 +58,16 @@ class RecordedRun:
         self.recorder: McapRecorder | None = None
         self.cameras: CameraPipeline | None = None
         self.path: Path | None = None
+        vehicle, world = description.vehicle_model, description.world_model
+        if vehicle is None or world is None:
+            raise QuadsimError("outputs need the description of a live run (with its vehicle and world)")
+        mounts = tuple((spec, vehicle.camera_mount(spec.link_name)) for spec in options.cameras)
+        self.fanout = TopicFanout(description.config.rates.physics_hz, mounts)
+        self._listening = False
         try:
             if options.cameras:
-                vehicle, world = description.vehicle_model, description.world_model
-                if vehicle is None or world is None:
-                    raise QuadsimError("cameras need the description of a live run (with its vehicle and world)")
+                from quadsim.sensors.pipeline import CameraPipeline
+
                 self.cameras = CameraPipeline(
                     vehicle,
                     world,
@@ -81,43 +96,64 @@ class RecordedRun:
         out = self.options.out
         if out is not None and out.suffix == ".mcap" and self.path is not None:
             out = out.parent  # --out FILE names the first recording; later ones go beside it
+        from quadsim.recording.writer import McapRecorder, check_writable, recording_path
+
         path = recording_path(out, self.label)
         check_writable(path)
         description = self.description.with_outputs(self.options.cameras, self.port.step_count, self.run_info)
         recorder = McapRecorder(path, description)
-        self.port.add_sink(recorder)
-        if self.cameras is not None:
-            self.cameras.sinks.append(recorder)
+        self.fanout.add_consumer(recorder)
+        self._listen(True)
         self.recorder, self.path = recorder, path
         return path
+
+    def _listen(self, on: bool) -> None:
+        """The fan-out listens to the loop and the cameras only while someone consumes it."""
+        if on == self._listening:
+            return
+        self._listening = on
+        fanout = self.fanout
+        if on:
+            self.port.add_sink(fanout)
+            if self.cameras is not None:
+                self.cameras.sinks.append(fanout)
+        else:
+            self.port.remove_sink(fanout)
+            if self.cameras is not None and fanout in self.cameras.sinks:
+                self.cameras.sinks.remove(fanout)
+
+    def note_event(self, step: int, kind: str, value: str) -> None:
+        """An event the recording keeps (a z-mode switch, an input device change) at `step`."""
+        self.fanout.note_event(step, kind, value)
 
     def stop_recording(self) -> None:
         """Finish the current file (with the frames still being rendered)."""
         rec = self.recorder
         if rec is None or rec.closed:
             return
-        if self.cameras is not None:
-            self.cameras.drain()
-            if rec in self.cameras.sinks:
-                self.cameras.sinks.remove(rec)
-        self.port.remove_sink(rec)
-        rec.close()
+        with shielded_from_signals():  # a signal now must not cut the file short
+            if self.cameras is not None:
+                self.cameras.drain()
+            self.fanout.remove_consumer(rec)
+            if not self.fanout.consumers:
+                self._listen(False)
+            rec.close()
 
     def close(self) -> None:
         with shielded_from_signals():  # a signal now must not cut the file short
-            self._close()
-
-    def _close(self) -> None:
-        try:
-            if self.cameras is not None:
-                self.port.remove_tap(self.cameras.capture)
-                try:
-                    self.cameras.drain()  # the frames still being rendered belong in the file
-                finally:
-                    self.cameras.close()
-        finally:
-            if self.recorder is not None:
-                self.recorder.close()
+            try:
+                if self.cameras is not None:
+                    self.port.remove_tap(self.cameras.capture)
+                    try:
+                        self.cameras.drain()  # the frames still being rendered belong in the file
+                    finally:
+                        self.cameras.close()
+            finally:
+                if self.recorder is not None:
+                    self.fanout.remove_consumer(self.recorder)
+                    if not self.fanout.consumers:
+                        self._listen(False)
+                    self.recorder.close()
 
     def __enter__(self) -> RecordedRun:
         return self

@@ -154,8 +154,7 @@ def resimulate(
                                 progress(sim.step_count / config.rates.physics_hz)
                     if mode is not None:
                         sim.set_z_mode(mode)
-                        if run.recorder is not None:
-                            run.recorder.note_event(sim.step_count, "z_mode", mode.value)
+                        run.note_event(sim.step_count, "z_mode", mode.value)
                 stepping_wall_s = time.perf_counter() - t_fly
                 new_path = run.path
     new = {s.step: s for s in log.states}

@@ -40,13 +40,19 @@ class RecordingInfo:
         return self.end_s - self.start_s
 
     def missing_topics(self) -> list[str]:
+        """Core topics a foreign file lacks (in quadsim's own, a topic with no message has no channel)."""
+        if "quadsim_version" in self.metadata:
+            return []
         have = {t.name for t in self.topics}
         return [t for t in CORE_TOPICS if t not in have]
 
     def lines(self) -> list[str]:
+        writer = self.library or "?"
+        if "quadsim_version" in self.metadata and not writer.startswith("quadsim"):  # through foxglove-sdk
+            writer = f"quadsim {self.metadata['quadsim_version']} ({writer})"
         out = [
             f"file        {self.path} ({self.size_bytes / 1e6:.2f} MB)",
-            f"written by  {self.library or '?'} (profile {self.profile or 'none'})",
+            f"written by  {writer} (profile {self.profile or 'none'})",
             f"duration    {self.duration_s:.2f} s of simulation time ({self.start_s:.2f} .. {self.end_s:.2f} s)",
         ]
         if "wall_clock_start_utc" in self.metadata:

@@ -50,13 +50,15 @@ class RecordingReader:
             for ch in summary.channels.values()
             if ch.schema_id in summary.schemas
         }
-        missing = [t for t in rm.CORE_TOPICS if t not in self.topics]
-        if missing and require_topics:
-            self._fh.close()
-            raise QuadsimError(f"{self.path}: not a quadsim recording: missing topics {', '.join(missing)}")
         records = list(self._reader.iter_metadata())
         #: the run's record: version, wall-clock start, parameters (JSON); empty for other programs' files
         self.quadsim_metadata: dict[str, str] = next((dict(m.metadata) for m in records if m.name == METADATA_NAME), {})
+        # quadsim's own files are known by their record: a topic that got no message (no command
+        # was ever sent) has no channel in the file
+        missing = [t for t in rm.CORE_TOPICS if t not in self.topics]
+        if missing and require_topics and not self.quadsim_metadata:
+            self._fh.close()
+            raise QuadsimError(f"{self.path}: not a quadsim recording: missing topics {', '.join(missing)}")
         #: the run's typed description; None for other programs' files or when unreadable (then
         #: `description_error` says why)
         self.description: RunDescription | None = None
@@ -78,20 +80,18 @@ class RecordingReader:
 
     def raw_messages(self, topics: list[str]) -> Iterator[tuple[str, int, Any]]:
         """(topic, log time ns, decoded message) of several topics, in log-time order."""
+        deserialize = rm.typestore().deserialize_cdr
         for _, channel, message in self._reader.iter_messages(topics=topics, log_time_order=True):
-            yield (
-                channel.topic,
-                message.log_time,
-                rm.TYPESTORE.deserialize_cdr(message.data, self.topics[channel.topic]),
-            )
+            yield channel.topic, message.log_time, deserialize(message.data, self.topics[channel.topic])
 
     def messages(self, topic: str) -> Iterator[tuple[int, Any]]:
         """(log time ns, decoded message) of one topic, in log-time order."""
         type_name = self.topics.get(topic)
         if type_name is None:
             return
+        deserialize = rm.typestore().deserialize_cdr
         for _, _, message in self._reader.iter_messages(topics=[topic], log_time_order=True):
-            yield message.log_time, rm.TYPESTORE.deserialize_cdr(message.data, type_name)
+            yield message.log_time, deserialize(message.data, type_name)
 
     def commands(self) -> Iterator[tuple[int, Twist]]:
         for ns, m in self.messages(rm.TWIST.name):

@@ -1,37 +1,38 @@
 """The recorder: writes a run to MCAP following the recording contract of DESIGN.md.
 
-Profile `ros2`, `ros2msg` schemas, CDR messages, zstd chunks. Log time = publish time =
-header.stamp = simulation time in ns from 0. A chunk is closed and the file flushed every
-simulated second, so a crash loses about a second; the file is fsynced at most once per wall
-second. If writing fails (the disk is full), recording stops, what was written stays readable
-(`quadsim recover` indexes it), and the flight goes on.
+A consumer of the topic fan-out (`quadsim.recording.fanout`): it writes the messages it is given
+and decides nothing about them. Profile `ros2`, `ros2msg` schemas, CDR messages, zstd chunks,
+written by foxglove-sdk's MCAP writer (Rust). Log time = publish time = header.stamp =
+simulation time in ns from 0. A chunk is closed and the file flushed every simulated second, so
+a crash loses about a second; the file is fsynced at most once per wall second. If writing fails
+(the disk is full), recording stops, what was written stays readable (`quadsim recover` indexes
+it), and the flight goes on.
 """
 
 from __future__ import annotations
 
 import datetime as dt
+import errno
 import json
 import logging
 import os
 import re
 import shutil
 import time
+from collections.abc import Sequence
 from pathlib import Path
-from typing import BinaryIO, TypeVar
-
-from mcap.writer import CompressionType, Writer
+from typing import TYPE_CHECKING, Any, BinaryIO
 
 from quadsim import __version__
-from quadsim.core.types import Twist, VehicleState
 from quadsim.errors import QuadsimError
-from quadsim.recording import contract as rm
+from quadsim.recording.contract import Topic, schema_text
 from quadsim.recording.paths import default_recordings_dir
-from quadsim.sensors.camera import CameraFrame
 from quadsim.sim.description import RunDescription
 
-log = logging.getLogger(__name__)
+if TYPE_CHECKING:
+    from quadsim.recording.fanout import Message
 
-T = TypeVar("T")
+log = logging.getLogger(__name__)
 
 #: refuse to start recording with less free space than this
 MIN_FREE_BYTES = 200 * 1024 * 1024
@@ -40,7 +41,8 @@ EVENT_METADATA_NAME = "quadsim_event"  # one record per event, written when it h
 
 
 def recording_path(out: Path | None, label: str, now: dt.datetime | None = None) -> Path:
-    """Where a run lands: `--out FILE.mcap`, or a dated name in `--out DIR` (default: `default_recordings_dir()`)."""
+    """Where a run lands: `--out FILE.mcap`, or a dated name in `--out DIR` (default:
+    `default_recordings_dir()`)."""
     if out is not None and out.suffix == ".mcap":
         return out
     folder = out if out is not None else default_recordings_dir()
@@ -77,14 +79,75 @@ def check_writable(path: Path, min_free_bytes: int = MIN_FREE_BYTES) -> None:
         )
 
 
-def _live_model(model: T | None) -> T:
-    if model is None:
-        raise QuadsimError("a recording needs the description of a live run (with its vehicle and world)")
-    return model
+class _GuardedStream:
+    """A caller's stream under the MCAP writer: it remembers the first write error, which the
+    Rust writer would report only as "I/O error", and from then on it is a null device (writes
+    are counted, not written), so the writer goes on without complaint while the recorder stops.
+
+    Its methods are Python code that the writer calls from Rust, so a signal handler's exception
+    (Ctrl-C) may land in them; recordings to a path do not use it: the writer then calls the C
+    methods of a plain file, where no Python handler runs."""
+
+    def __init__(self, raw: BinaryIO) -> None:
+        self.raw = raw
+        self.error: OSError | None = None
+        self._position = 0  # where the writer believes it is (the file may be shorter after an error)
+        self._end = 0
+
+    def write(self, data: bytes | bytearray) -> int:
+        if self.error is None:
+            try:
+                self.raw.write(data)
+            except OSError as exc:
+                self.error = exc
+        self._position += len(data)
+        self._end = max(self._end, self._position)
+        return len(data)
+
+    def seek(self, offset: int, whence: int = os.SEEK_SET) -> int:
+        if self.error is None:
+            try:
+                self._position = self.raw.seek(offset, whence)
+                return self._position
+            except OSError as exc:
+                self.error = exc
+        self._position = {os.SEEK_SET: 0, os.SEEK_CUR: self._position, os.SEEK_END: self._end}[whence] + offset
+        return self._position
+
+    def flush(self) -> None:
+        if self.error is None:
+            try:
+                self.raw.flush()
+            except OSError as exc:
+                self.error = exc
+
+
+def _flush_error(stream: BinaryIO) -> str | None:
+    try:
+        stream.flush()
+    except OSError as exc:
+        return exc.strerror or str(exc)
+    except ValueError:  # closed
+        pass
+    return None
+
+
+def _no_space_left(folder: Path) -> bool:
+    try:
+        st = os.statvfs(folder)
+    except (OSError, AttributeError):  # no statvfs on Windows
+        return False
+    return st.f_bavail == 0 or st.f_bfree == 0
 
 
 class McapRecorder:
-    """A loop sink (commands, states) and a camera-frame sink that writes one MCAP file."""
+    """A consumer of the topic fan-out that writes one MCAP file: the run's metadata and
+    attachments when it opens, then every message it is given.
+
+    Chunks are closed here, at every simulated second and whenever `chunk_size` bytes of
+    messages have gathered, not by the writer while it logs a message: so a write error surfaces
+    here, as an exception, and recording stops (one that hits the few bytes the writer puts down
+    when it opens a chunk is logged by foxglove and surfaces at the next flush)."""
 
     def __init__(
         self,
@@ -93,10 +156,11 @@ class McapRecorder:
         stream: BinaryIO | None = None,
         chunk_size: int = 4 * 1024 * 1024,
     ) -> None:
-        self.path = path
+        import foxglove
+        from foxglove.mcap import MCAPCompression, MCAPWriteOptions
+
         cameras = description.cameras
-        self._hz = description.config.rates.physics_hz
-        self._cameras = {c.name: c for c in cameras}
+        self.path = path
         self._own_stream = stream is None
         if stream is None:
             try:
@@ -104,46 +168,40 @@ class McapRecorder:
             except OSError as exc:
                 raise QuadsimError(f"cannot create {path}: {exc.strerror}") from None
         self._stream = stream
-        self._writer = Writer(stream, chunk_size=chunk_size, compression=CompressionType.ZSTD)
-        self.counts: dict[str, int] = {}
+        self._guard = None if self._own_stream else _GuardedStream(stream)
+        self.message_count = 0
         self.error: str | None = None
         self.closed = False
+        self.last_log_time_ns = 0
         self._flush_every_ns = 1_000_000_000
         self._next_flush_ns = self._flush_every_ns
+        self._chunk_size = chunk_size
+        self._chunk_bytes = 0
         self._last_fsync_wall = time.monotonic()
-        self._channels: dict[str, int] = {}
-        self.last_log_time_ns = 0
+        self._foxglove = foxglove
+        self._context = foxglove.Context()  # this file's channels, apart from any other sink's
+        self._channels: dict[str, Any] = {}
+        self._log: dict[str, Any] = {}  # topic -> its channel's log(data, log_time)
+        self._writer: Any = None
+        options = MCAPWriteOptions(
+            profile="ros2",
+            compression=MCAPCompression.Zstd,
+            # without cameras, zstd's fastest level: closing a chunk takes half the time, for about
+            # the same size; with cameras, JPEGs are most of the bytes, zstd's default makes the
+            # file ~9 % smaller, and rendering dwarfs the time it takes
+            compression_level=0 if cameras else 1,
+            chunk_size=None,  # chunks end where this class says (see above)
+            compression_threads=0,  # compress in this thread: the other core renders cameras
+        )
         try:
-            self._writer.start(profile="ros2", library=f"quadsim {__version__}")
-            topics = [rm.TWIST, *rm.STATE_TOPICS, rm.TF_STATIC]
-            for spec in cameras:
-                topics += [rm.image_topic(spec), rm.camera_info_topic(spec)]
-            for topic in topics:
-                self._register(topic)
+            self._writer = foxglove.open_mcap(self._guard or stream, context=self._context, writer_options=options)
             self._write_metadata(description)
-            vehicle = _live_model(description.vehicle_model)
-            mounts = tuple((spec, vehicle.camera_mount(spec.link_name)) for spec in cameras)
-            self._write(rm.TF_STATIC, 0, rm.tf_static_msg(mounts))
-        except OSError as exc:
-            self._fail(exc)
-
-    # --- set-up -----------------------------------------------------------------------------
-
-    def _register(self, topic: rm.Topic) -> int:
-        schema = self._writer.register_schema(topic.type_name, "ros2msg", rm.schema_text(topic.type_name).encode())
-        cid = self._writer.register_channel(topic.name, "cdr", schema, {"offered_qos_profiles": topic.qos})
-        self._channels[topic.name] = cid
-        self.counts[topic.name] = 0
-        return cid
-
-    def add_joy_topic(self) -> None:
-        """Add /joy (done only when a joystick drives)."""
-        if rm.JOY.name not in self._channels and self.error is None:
-            self._register(rm.JOY)
+        except RuntimeError as exc:  # foxglove's errors
+            self._fail(f"the file could not be written ({exc})")
 
     def _write_metadata(self, description: RunDescription) -> None:
         params = description.to_parameters()
-        self._writer.add_metadata(
+        self._writer.write_metadata(
             METADATA_NAME,
             {
                 "quadsim_version": __version__,
@@ -152,72 +210,77 @@ class McapRecorder:
                 "parameters": json.dumps(params, sort_keys=True),
             },
         )
-        v, world = _live_model(description.vehicle_model), _live_model(description.world_model)
+        v, world = description.vehicle_model, description.world_model
+        if v is None or world is None:
+            raise QuadsimError("a recording needs the description of a live run (with its vehicle and world)")
         for path, media in (
             (v.urdf_path, "application/xml"),
             (v.params_path, "application/toml"),
             (world.path, "application/toml"),
         ):
-            self._writer.add_attachment(0, 0, path.name, media, path.read_bytes())
+            self._writer.attach(log_time=0, create_time=0, name=path.name, media_type=media, data=path.read_bytes())
 
-    # --- sinks ------------------------------------------------------------------------------
+    # --- what the fan-out calls -----------------------------------------------------------------
 
-    def ns(self, step: int) -> int:
-        return step * 1_000_000_000 // self._hz
-
-    def on_command(self, step: int, twist: Twist) -> None:
-        self._write(rm.TWIST, self.ns(step), rm.twist_msg(twist))
-
-    def on_state(self, state: VehicleState) -> None:
-        ns = self.ns(state.step)
-        self._write(rm.POSE, ns, rm.pose_msg(state, ns))
-        self._write(rm.ODOM, ns, rm.odom_msg(state, ns))
-        self._write(rm.IMU, ns, rm.imu_msg(state, ns))
-        self._write(rm.ROTOR_THRUSTS, ns, rm.rotor_thrusts_msg(state))
-        self._write(rm.TF, ns, rm.tf_msg(state, ns))
-
-    def on_camera_frame(self, frame: CameraFrame) -> None:
-        spec = self._cameras.get(frame.camera)
-        if spec is None:
+    def add_topic(self, topic: Topic) -> None:
+        """A channel for `topic` (one schema per type: the writer shares equal schemas)."""
+        if topic.name in self._channels:
             return
-        ns = self.ns(frame.step)
-        self._write(rm.image_topic(spec), ns, rm.compressed_image_msg(frame, spec, ns))
-        self._write(rm.camera_info_topic(spec), ns, rm.camera_info_msg(spec, ns))
+        foxglove = self._foxglove
+        schema = foxglove.Schema(name=topic.type_name, encoding="ros2msg", data=schema_text(topic.type_name).encode())
+        channel = foxglove.Channel(
+            topic.name,
+            schema=schema,
+            message_encoding="cdr",
+            context=self._context,
+            metadata={"offered_qos_profiles": topic.qos},
+        )
+        self._channels[topic.name] = channel
+        # the typed core of Channel.log, without its checks for JSON and str messages
+        self._log[topic.name] = channel.base.log
 
-    def note_event(self, step: int, kind: str, value: str) -> None:
-        """Something a re-simulation must know besides the commands (a z-mode switch)."""
-        if self.error is not None or self.closed:
+    def on_messages(self, messages: Sequence[Message]) -> None:
+        if self.error is not None or self.closed or not messages:
             return
-        try:
-            self._writer.add_metadata(EVENT_METADATA_NAME, {"step": str(step), "kind": kind, "value": value})
-        except OSError as exc:
-            self._fail(exc)
+        log_to, size = self._log, self._chunk_bytes
+        for topic, ns, data in messages:
+            log_to[topic.name](data, ns)  # publish time = log time; sequence counts from 1 per channel
+            size += len(data)
+        self._chunk_bytes = size
+        self.message_count += len(messages)
+        if ns > self.last_log_time_ns:
+            self.last_log_time_ns = ns
+        if ns >= self._next_flush_ns or size >= self._chunk_size:
+            if ns >= self._next_flush_ns:
+                self._next_flush_ns = (ns // self._flush_every_ns + 1) * self._flush_every_ns
+            self._flush()
 
-    def on_joy(self, step: int, axes: tuple[float, ...], buttons: tuple[int, ...]) -> None:
-        ns = self.ns(step)
-        self._write(rm.JOY, ns, rm.joy_msg(axes, buttons, ns))
+    def on_event(self, step: int, kind: str, value: str) -> None:
+        """Kept as metadata too, where re-simulation reads it (a z-mode switch)."""
+        if self.error is None and not self.closed:
+            self._call(
+                self._writer.write_metadata, EVENT_METADATA_NAME, {"step": str(step), "kind": kind, "value": value}
+            )
 
     # --- writing ----------------------------------------------------------------------------
 
-    def _write(self, topic: rm.Topic, ns: int, msg: object) -> None:
-        if self.error is not None or self.closed:
-            return
+    def _call(self, method: Any, *args: Any) -> bool:
+        """Call a writer method that may write to the file; False (and recording stopped) if it failed."""
         try:
-            count = self.counts[topic.name]
-            self._writer.add_message(
-                self._channels[topic.name], log_time=ns, data=rm.serialize(msg), publish_time=ns, sequence=count
-            )
-            self.counts[topic.name] = count + 1
-            if ns > self.last_log_time_ns:
-                self.last_log_time_ns = ns
-            if ns >= self._next_flush_ns:
-                self._next_flush_ns = (ns // self._flush_every_ns + 1) * self._flush_every_ns
-                self._writer.flush()
-                self._maybe_fsync()
-        except OSError as exc:
-            self._fail(exc)
+            method(*args)
+        except RuntimeError as exc:  # foxglove's errors: the file could not be written
+            self._fail(f"the file could not be written ({exc})")
+            return False
+        if self._guard is not None and self._guard.error is not None:
+            self._fail(str(self._guard.error))
+            return False
+        return True
 
-    def _maybe_fsync(self) -> None:
+    def _flush(self) -> None:
+        """Close the chunk and hand it to the OS; fsync at most once per wall second."""
+        self._chunk_bytes = 0
+        if not self._call(self._writer.flush):
+            return
         now = time.monotonic()
         if now - self._last_fsync_wall >= 1.0 and hasattr(self._stream, "fileno"):
             self._last_fsync_wall = now
@@ -226,34 +289,42 @@ class McapRecorder:
             except (OSError, ValueError):
                 pass
 
-    def _fail(self, exc: OSError) -> None:
-        reason = exc.strerror or str(exc)
+    def _fail(self, reason: str) -> None:
+        if self.error is not None:
+            return
+        if self._guard is not None and self._guard.error is not None:
+            reason = self._guard.error.strerror or reason
+        elif self._own_stream and (os_error := _flush_error(self._stream)) is not None:
+            reason = os_error  # what the writer's failed write left in the file's buffer says why
+        elif _no_space_left(self.path.parent):
+            reason = os.strerror(errno.ENOSPC)
         self.error = (
             f"recording stopped at sim time {self.last_log_time_ns / 1e9:.2f} s: {reason}. "
             f"What was written is kept; run 'quadsim recover {self.path}' to index it"
         )
         log.error("%s", self.error)
-        try:
-            self._stream.close() if self._own_stream else None
-        except OSError:
-            pass
-
-    @property
-    def message_count(self) -> int:
-        return sum(self.counts.values())
+        if self._writer is not None:
+            try:
+                self._writer.close()  # it has failed: this only lets it go
+            except RuntimeError:
+                pass
+        if self._own_stream:
+            try:
+                self._stream.close()
+            except OSError:
+                pass
 
     def close(self) -> None:
         """Finish the file (summary, index, footer). Safe to call more than once."""
         if self.closed:
             return
         self.closed = True
-        if self.error is not None:
+        if self.error is not None or not self._call(self._writer.close):
             return
         try:
-            self._writer.finish()
             if self._own_stream:
                 self._stream.flush()
                 os.fsync(self._stream.fileno())
                 self._stream.close()
         except OSError as exc:
-            self._fail(exc)
+            self._fail(exc.strerror or str(exc))

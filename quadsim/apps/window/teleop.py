@@ -185,11 +185,9 @@ class TeleopApp:
         return self.input.driver
 
     def _hook_joy(self) -> None:
-        rec = self.session.recorder
         self.joystick.joy_sinks.clear()
-        if self.driver is self.joystick and rec is not None and not rec.closed:
-            rec.add_joy_topic()
-            self.joystick.joy_sinks.append(rec.on_joy)
+        if self.driver is self.joystick:
+            self.joystick.joy_sinks.append(self.session.fanout.on_joy)
 
     def _say(self, text: str, seconds: float = 3.0) -> None:
         self.notice = text
@@ -197,9 +195,7 @@ class TeleopApp:
 
     def _record_event(self, kind: str, value: str) -> None:
         """The one place events reach the recording (z-mode switches, input device changes)."""
-        rec = self.session.recorder
-        if self.session.recording and rec is not None:
-            rec.note_event(self.sim.step_count, kind, value)
+        self.session.note_event(self.sim.step_count, kind, value)
 
     # --- events -----------------------------------------------------------------------------
 

@@ -1,0 +1,439 @@
+"""CDR encoding, written by hand, of the ROS 2 messages the recording contract uses.
+
+The bytes are the ones ROS 2's type support writes (the tests compare them with rosbags'
+`serialize_cdr`, the reference, byte for byte): a 4-byte encapsulation header (CDR, little
+endian), then the fields in order, each primitive aligned to its own size counted from the end
+of that header; a string is a uint32 length that counts its terminating NUL, then its UTF-8 bytes
+and the NUL; a sequence is a uint32 count, then its elements (aligned only when there is one).
+
+Each message shape (its frame names, the lengths of its strings and sequences) compiles once to
+a struct.Struct, so encoding a message is one `pack` call. The `*_encoder` functions give that
+compiled encoder for a fixed shape (what a producer calls many times a second); the plain
+functions take any shape. Covariances left out (None) are all zeros, ROS's "unknown", written as
+padding, which is much cheaper than packing 36 floats.
+"""
+
+from __future__ import annotations
+
+import struct
+from collections.abc import Callable, Sequence
+from functools import lru_cache
+from typing import NamedTuple
+
+#: CDR_LE (representation 0x0001, big-endian on the wire) and options 0
+ENCAPSULATION = b"\x00\x01\x00\x00"
+NS_PER_S = 1_000_000_000
+
+Vec3 = Sequence[float]  # x, y, z
+Quat = Sequence[float]  # x, y, z, w
+
+
+class _Layout:
+    """Builds the struct format of one message shape, keeping track of CDR alignment."""
+
+    def __init__(self) -> None:
+        self._codes = ["<4s"]  # the encapsulation header, passed as ENCAPSULATION
+        self._offset = 0  # from the end of the encapsulation header
+
+    def _align(self, size: int) -> None:
+        pad = -self._offset % size
+        if pad:
+            self._codes.append(f"{pad}x")
+            self._offset += pad
+
+    def scalars(self, code: str, count: int = 1) -> _Layout:
+        """`count` primitives of struct code `code` (d, f, I, i, B, ?)."""
+        if count:
+            size = struct.calcsize(code)
+            self._align(size)
+            self._codes.append(f"{count}{code}")
+            self._offset += size * count
+        return self
+
+    def zeros(self, code: str, count: int) -> _Layout:
+        """`count` primitives that are all zero, written as padding (nothing to pass)."""
+        if count:
+            size = struct.calcsize(code)
+            self._align(size)
+            self._codes.append(f"{size * count}x")
+            self._offset += size * count
+        return self
+
+    def string(self, length: int) -> _Layout:
+        """A string of `length` UTF-8 bytes: pass its length + 1, then the bytes (the NUL is added)."""
+        self.scalars("I")
+        self._codes.append(f"{length + 1}s")
+        self._offset += length + 1
+        return self
+
+    def header(self, frame_id_length: int) -> _Layout:
+        """std_msgs/Header: stamp (int32 sec, uint32 nanosec), frame_id."""
+        return self.scalars("i").scalars("I").string(frame_id_length)
+
+    def sequence(self, code: str, count: int) -> _Layout:
+        """A sequence of `count` primitives: pass the count, then the elements."""
+        return self.scalars("I").scalars(code, count)
+
+    def build(self) -> struct.Struct:
+        return struct.Struct("".join(self._codes))
+
+
+def _stamp(ns: int) -> tuple[int, int]:
+    return divmod(ns, NS_PER_S)
+
+
+def _given(values: Sequence[float] | None) -> Sequence[float]:
+    return () if values is None else values
+
+
+def _covariance(layout: _Layout, given: bool, count: int) -> _Layout:
+    return layout.scalars("d", count) if given else layout.zeros("d", count)
+
+
+# --- geometry_msgs ---------------------------------------------------------------------------
+
+_TWIST = _Layout().scalars("d", 6).build()
+
+
+def twist(linear: Vec3, angular: Vec3) -> bytes:
+    """geometry_msgs/msg/Twist."""
+    return _TWIST.pack(ENCAPSULATION, *linear, *angular)
+
+
+@lru_cache(maxsize=256)
+def pose_stamped_encoder(frame_id: str) -> Callable[[int, Vec3, Quat], bytes]:
+    """geometry_msgs/msg/PoseStamped in `frame_id`: encode(ns, position, orientation)."""
+    frame = frame_id.encode()
+    pack, length = _Layout().header(len(frame)).scalars("d", 7).build().pack, len(frame) + 1
+
+    def encode(ns: int, position: Vec3, orientation: Quat) -> bytes:
+        sec, nanosec = divmod(ns, NS_PER_S)
+        return pack(ENCAPSULATION, sec, nanosec, length, frame, *position, *orientation)
+
+    return encode
+
+
+def pose_stamped(ns: int, frame_id: str, position: Vec3, orientation: Quat) -> bytes:
+    """geometry_msgs/msg/PoseStamped."""
+    return pose_stamped_encoder(frame_id)(ns, position, orientation)
+
+
+@lru_cache(maxsize=256)
+def _vector3_stamped(frame_id: str) -> tuple[struct.Struct, bytes]:
+    frame = frame_id.encode()
+    return _Layout().header(len(frame)).scalars("d", 3).build(), frame
+
+
+def vector3_stamped(ns: int, frame_id: str, vector: Vec3) -> bytes:
+    """geometry_msgs/msg/Vector3Stamped."""
+    layout, frame = _vector3_stamped(frame_id)
+    return layout.pack(ENCAPSULATION, *_stamp(ns), len(frame) + 1, frame, *vector)
+
+
+# --- nav_msgs, sensor_msgs ---------------------------------------------------------------------
+
+
+@lru_cache(maxsize=256)
+def odometry_encoder(
+    frame_id: str, child_frame_id: str, pose_covariance: bool = False, twist_covariance: bool = False
+) -> Callable[..., bytes]:
+    """nav_msgs/msg/Odometry, pose in `frame_id`, twist in `child_frame_id`: encode(ns, position,
+    orientation, linear, angular, pose_cov, twist_cov), each covariance 36 values where its flag
+    is set, and () (all zeros) where it is not."""
+    frame, child = frame_id.encode(), child_frame_id.encode()
+    layout = _Layout().header(len(frame)).string(len(child)).scalars("d", 7)  # pose: position, orientation
+    layout = _covariance(layout, pose_covariance, 36).scalars("d", 6)  # twist: linear, angular
+    pack = _covariance(layout, twist_covariance, 36).build().pack
+    frames = (len(frame) + 1, frame, len(child) + 1, child)
+
+    def encode(
+        ns: int,
+        position: Vec3,
+        orientation: Quat,
+        linear: Vec3,
+        angular: Vec3,
+        pose_cov: Sequence[float] = (),
+        twist_cov: Sequence[float] = (),
+    ) -> bytes:
+        sec, nanosec = divmod(ns, NS_PER_S)
+        return pack(
+            ENCAPSULATION, sec, nanosec, *frames, *position, *orientation, *pose_cov, *linear, *angular, *twist_cov
+        )
+
+    return encode
+
+
+def odometry(
+    ns: int,
+    frame_id: str,
+    child_frame_id: str,
+    position: Vec3,
+    orientation: Quat,
+    linear: Vec3,
+    angular: Vec3,
+    pose_covariance: Sequence[float] | None = None,
+    twist_covariance: Sequence[float] | None = None,
+) -> bytes:
+    """nav_msgs/msg/Odometry: pose in `frame_id`, twist in `child_frame_id`. Covariances: 36 each."""
+    encode = odometry_encoder(frame_id, child_frame_id, pose_covariance is not None, twist_covariance is not None)
+    return encode(ns, position, orientation, linear, angular, _given(pose_covariance), _given(twist_covariance))
+
+
+@lru_cache(maxsize=256)
+def imu_encoder(frame_id: str, covariances: tuple[bool, bool, bool] = (False, False, False)) -> Callable[..., bytes]:
+    """sensor_msgs/msg/Imu in `frame_id`: encode(ns, orientation, angular_velocity,
+    linear_acceleration, orientation_cov, angular_velocity_cov, linear_acceleration_cov), each
+    covariance (9 values) where `covariances` says it is given, () where it is all zeros."""
+    frame = frame_id.encode()
+    layout = _Layout().header(len(frame))
+    for count, given in zip((4, 3, 3), covariances):  # orientation, angular velocity, linear acceleration
+        layout = _covariance(layout.scalars("d", count), given, 9)
+    pack, length = layout.build().pack, len(frame) + 1
+
+    def encode(
+        ns: int,
+        orientation: Quat,
+        angular_velocity: Vec3,
+        linear_acceleration: Vec3,
+        orientation_cov: Sequence[float] = (),
+        angular_velocity_cov: Sequence[float] = (),
+        linear_acceleration_cov: Sequence[float] = (),
+    ) -> bytes:
+        sec, nanosec = divmod(ns, NS_PER_S)
+        return pack(
+            ENCAPSULATION,
+            sec,
+            nanosec,
+            length,
+            frame,
+            *orientation,
+            *orientation_cov,
+            *angular_velocity,
+            *angular_velocity_cov,
+            *linear_acceleration,
+            *linear_acceleration_cov,
+        )
+
+    return encode
+
+
+def imu(
+    ns: int,
+    frame_id: str,
+    orientation: Quat,
+    angular_velocity: Vec3,
+    linear_acceleration: Vec3,
+    orientation_covariance: Sequence[float] | None = None,
+    angular_velocity_covariance: Sequence[float] | None = None,
+    linear_acceleration_covariance: Sequence[float] | None = None,
+) -> bytes:
+    """sensor_msgs/msg/Imu. Covariances: 9 each."""
+    covariances = (orientation_covariance, angular_velocity_covariance, linear_acceleration_covariance)
+    encode = imu_encoder(frame_id, (covariances[0] is not None, covariances[1] is not None, covariances[2] is not None))
+    return encode(ns, orientation, angular_velocity, linear_acceleration, *(_given(c) for c in covariances))
+
+
+@lru_cache(maxsize=256)
+def _compressed_image(frame_id: str, image_format: str) -> tuple[struct.Struct, bytes, bytes]:
+    frame, fmt = frame_id.encode(), image_format.encode()
+    return _Layout().header(len(frame)).string(len(fmt)).scalars("I").build(), frame, fmt
+
+
+def compressed_image(ns: int, frame_id: str, image_format: str, data: bytes) -> bytes:
+    """sensor_msgs/msg/CompressedImage (`image_format` e.g. "jpeg")."""
+    layout, frame, fmt = _compressed_image(frame_id, image_format)
+    sec, nanosec = divmod(ns, NS_PER_S)
+    # uint8 elements need no alignment: the data follows its count directly
+    return layout.pack(ENCAPSULATION, sec, nanosec, len(frame) + 1, frame, len(fmt) + 1, fmt, len(data)) + data
+
+
+class RegionOfInterest(NamedTuple):
+    x_offset: int = 0
+    y_offset: int = 0
+    height: int = 0
+    width: int = 0
+    do_rectify: bool = False
+
+
+#: the whole image (sensor_msgs' "all zeros: full resolution")
+FULL_IMAGE = RegionOfInterest()
+
+
+@lru_cache(maxsize=256)
+def _camera_info(frame_id: str, distortion_model: str, d_count: int) -> tuple[struct.Struct, bytes, bytes]:
+    frame, model = frame_id.encode(), distortion_model.encode()
+    layout = _Layout().header(len(frame)).scalars("I", 2).string(len(model)).sequence("d", d_count)
+    layout = layout.scalars("d", 9 + 9 + 12).scalars("I", 2)  # k, r, p; binning_x, binning_y
+    return layout.scalars("I", 4).scalars("?").build(), frame, model  # roi
+
+
+def camera_info(
+    ns: int,
+    frame_id: str,
+    height: int,
+    width: int,
+    distortion_model: str,
+    d: Sequence[float],
+    k: Sequence[float],
+    r: Sequence[float],
+    p: Sequence[float],
+    binning_x: int = 0,
+    binning_y: int = 0,
+    roi: RegionOfInterest = FULL_IMAGE,
+) -> bytes:
+    """sensor_msgs/msg/CameraInfo (k and r: 9 values, p: 12)."""
+    if (len(k), len(r), len(p)) != (9, 9, 12):
+        raise ValueError(f"CameraInfo needs 9 k, 9 r and 12 p values, got {len(k)}, {len(r)}, {len(p)}")
+    layout, frame, model = _camera_info(frame_id, distortion_model, len(d))
+    sec, nanosec = divmod(ns, NS_PER_S)
+    return layout.pack(
+        ENCAPSULATION,
+        sec,
+        nanosec,
+        len(frame) + 1,
+        frame,
+        height,
+        width,
+        len(model) + 1,
+        model,
+        len(d),
+        *d,
+        *k,
+        *r,
+        *p,
+        binning_x,
+        binning_y,
+        *roi,
+    )
+
+
+@lru_cache(maxsize=256)
+def _joy(frame_id: str, axes: int, buttons: int) -> tuple[struct.Struct, bytes]:
+    frame = frame_id.encode()
+    return _Layout().header(len(frame)).sequence("f", axes).sequence("i", buttons).build(), frame
+
+
+def joy(ns: int, frame_id: str, axes: Sequence[float], buttons: Sequence[int]) -> bytes:
+    """sensor_msgs/msg/Joy (axes float32, buttons int32)."""
+    layout, frame = _joy(frame_id, len(axes), len(buttons))
+    sec, nanosec = divmod(ns, NS_PER_S)
+    return layout.pack(ENCAPSULATION, sec, nanosec, len(frame) + 1, frame, len(axes), *axes, len(buttons), *buttons)
+
+
+# --- std_msgs, tf2_msgs, rcl_interfaces ----------------------------------------------------------
+
+
+class ArrayDimension(NamedTuple):
+    """std_msgs/msg/MultiArrayDimension."""
+
+    label: str
+    size: int
+    stride: int
+
+
+@lru_cache(maxsize=256)
+def float64_multi_array_encoder(
+    dims: tuple[ArrayDimension, ...], count: int, data_offset: int = 0
+) -> Callable[[Sequence[float]], bytes]:
+    """std_msgs/msg/Float64MultiArray with this layout and `count` values: encode(data)."""
+    layout = _Layout().scalars("I")  # dim count
+    head: list[object] = [ENCAPSULATION, len(dims)]
+    for dim in dims:
+        label = dim.label.encode()
+        layout = layout.string(len(label)).scalars("I", 2)  # size, stride
+        head += (len(label) + 1, label, dim.size, dim.stride)
+    pack = layout.scalars("I").sequence("d", count).build().pack  # data_offset, data
+    fixed = (*head, data_offset, count)
+
+    def encode(data: Sequence[float]) -> bytes:
+        return pack(*fixed, *data)
+
+    return encode
+
+
+def float64_multi_array(data: Sequence[float], dims: Sequence[ArrayDimension] = (), data_offset: int = 0) -> bytes:
+    """std_msgs/msg/Float64MultiArray."""
+    return float64_multi_array_encoder(tuple(dims), len(data), data_offset)(data)
+
+
+class TransformStamped(NamedTuple):
+    """geometry_msgs/msg/TransformStamped: `child_frame_id` in `frame_id` at `ns`."""
+
+    ns: int
+    frame_id: str
+    child_frame_id: str
+    translation: Vec3
+    rotation: Quat
+
+
+@lru_cache(maxsize=256)
+def _tf_message(frames: tuple[tuple[str, str], ...]) -> tuple[struct.Struct, tuple[tuple[int, bytes, int, bytes], ...]]:
+    layout = _Layout().scalars("I")  # transform count
+    encoded = []
+    for parent, child in frames:
+        p, c = parent.encode(), child.encode()
+        layout = layout.header(len(p)).string(len(c)).scalars("d", 7)  # translation, rotation
+        encoded.append((len(p) + 1, p, len(c) + 1, c))
+    return layout.build(), tuple(encoded)
+
+
+def tf_message(transforms: Sequence[TransformStamped]) -> bytes:
+    """tf2_msgs/msg/TFMessage."""
+    layout, frames = _tf_message(tuple((t.frame_id, t.child_frame_id) for t in transforms))
+    args: list[object] = [ENCAPSULATION, len(transforms)]
+    for t, (parent_length, parent, child_length, child) in zip(transforms, frames):
+        sec, nanosec = divmod(t.ns, NS_PER_S)
+        args += (sec, nanosec, parent_length, parent, child_length, child, *t.translation, *t.rotation)
+    return layout.pack(*args)
+
+
+@lru_cache(maxsize=256)
+def transform_encoder(frame_id: str, child_frame_id: str) -> Callable[[int, Vec3, Quat], bytes]:
+    """tf2_msgs/msg/TFMessage with one transform, `child_frame_id` in `frame_id`:
+    encode(ns, translation, rotation) (what /tf carries for a single body)."""
+    layout, ((parent_length, parent, child_length, child),) = _tf_message(((frame_id, child_frame_id),))
+    pack = layout.pack
+
+    def encode(ns: int, translation: Vec3, rotation: Quat) -> bytes:
+        sec, nanosec = divmod(ns, NS_PER_S)
+        return pack(ENCAPSULATION, 1, sec, nanosec, parent_length, parent, child_length, child, *translation, *rotation)
+
+    return encode
+
+
+def string(data: str) -> bytes:
+    """std_msgs/msg/String."""
+    text = data.encode()
+    return _string(len(text)).pack(ENCAPSULATION, len(text) + 1, text)
+
+
+@lru_cache(maxsize=256)
+def _string(length: int) -> struct.Struct:
+    return _Layout().string(length).build()
+
+
+class LogLevel:
+    """rcl_interfaces/msg/Log levels."""
+
+    DEBUG = 10
+    INFO = 20
+    WARN = 30
+    ERROR = 40
+    FATAL = 50
+
+
+@lru_cache(maxsize=256)
+def _log(lengths: tuple[int, int, int, int]) -> struct.Struct:
+    layout = _Layout().scalars("i").scalars("I").scalars("B")  # stamp, level
+    for length in lengths:  # name, msg, file, function
+        layout.string(length)
+    return layout.scalars("I").build()  # line
+
+
+def log(ns: int, level: int, name: str, msg: str, file: str = "", function: str = "", line: int = 0) -> bytes:
+    """rcl_interfaces/msg/Log (what /rosout carries)."""
+    texts = [s.encode() for s in (name, msg, file, function)]
+    args: list[object] = [ENCAPSULATION, *_stamp(ns), level]
+    for text in texts:
+        args += (len(text) + 1, text)
+    return _log((len(texts[0]), len(texts[1]), len(texts[2]), len(texts[3]))).pack(*args, line)

@@ -1,0 +1,199 @@
+"""One topic fan-out: a run's commands, states, camera frames, joystick input and events become
+the recording contract's messages once, and every consumer gets the same messages.
+
+A message is (topic, log time in ns of simulation time, CDR bytes), with header.stamp equal to
+its log time. Consumers (the MCAP recorder today; a ROS 2 bridge, a Foxglove server and the
+window later) choose nothing: which messages a state becomes is decided here alone. Each producer
+hands its messages over in log-time order (a state's five at once); frames rendered in other
+processes arrive when they are ready, as they would on a live bus.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Sequence
+from functools import lru_cache
+from typing import NamedTuple, Protocol
+
+from quadsim.core.kinematics import body_velocity, quaternion_from_matrix
+from quadsim.core.types import Twist, VehicleState
+from quadsim.recording import cdr
+from quadsim.recording.contract import (
+    BODY_FRAME,
+    IMU,
+    JOY,
+    ODOM,
+    POSE,
+    ROSOUT,
+    ROTOR_THRUSTS,
+    STATE_TOPICS,
+    TF,
+    TF_STATIC,
+    TWIST,
+    WORLD_FRAME,
+    Topic,
+    camera_info_topic,
+    image_topic,
+    optical_rotation,
+)
+from quadsim.sensors.camera import CameraFrame, CameraSpec
+from quadsim.vehicle.params import CameraMount
+
+NS_PER_S = 1_000_000_000
+JOY_FRAME = "joy"
+#: the `name` of the /rosout messages quadsim itself writes
+LOGGER_NAME = "quadsim"
+
+
+#: (topic, log time in ns, CDR bytes with their encapsulation header); a plain tuple, as
+#: building a named one costs more than encoding some of the messages
+Message = tuple[Topic, int, bytes]
+
+
+class TopicConsumer(Protocol):
+    """What the fan-out feeds."""
+
+    def add_topic(self, topic: Topic) -> None:
+        """A topic messages will come on; announced once, before its first message."""
+
+    def on_messages(self, messages: Sequence[Message]) -> None:
+        """Messages from one producer, in log-time order (a state's messages come together)."""
+
+    def on_event(self, step: int, kind: str, value: str) -> None:
+        """Something a re-simulation must know besides the commands (a z-mode switch), at `step`.
+        Its /rosout message comes through `on_messages` as well."""
+
+
+@lru_cache(maxsize=16)
+def _thrusts_encoder(rotors: int) -> Callable[[Sequence[float]], bytes]:
+    """/quad/rotor_thrusts: one value per rotor, labelled."""
+    return cdr.float64_multi_array_encoder((cdr.ArrayDimension("rotor", rotors, rotors),), rotors)
+
+
+class _Camera(NamedTuple):
+    spec: CameraSpec
+    image: Topic
+    info: Topic
+
+
+class TopicFanout:
+    """A loop sink (commands, states) and a camera-frame sink that turns what it receives into the
+    contract's messages and hands them to its consumers. With no consumer it does nothing."""
+
+    def __init__(self, physics_hz: int, cameras: Sequence[tuple[CameraSpec, CameraMount]] = ()) -> None:
+        self.physics_hz = physics_hz
+        # the encoders of the state's messages, compiled for their frames
+        self._pose = cdr.pose_stamped_encoder(WORLD_FRAME)
+        self._odometry = cdr.odometry_encoder(WORLD_FRAME, BODY_FRAME)
+        self._imu = cdr.imu_encoder(BODY_FRAME)
+        self._tf = cdr.transform_encoder(WORLD_FRAME, BODY_FRAME)
+        self.consumers: list[TopicConsumer] = []
+        self._cameras = {spec.name: _Camera(spec, image_topic(spec), camera_info_topic(spec)) for spec, _ in cameras}
+        #: every topic announced so far, in the order consumers get them
+        self.topics: list[Topic] = [TWIST, *STATE_TOPICS, TF_STATIC]
+        for camera in self._cameras.values():
+            self.topics += [camera.image, camera.info]
+        static = [
+            cdr.TransformStamped(
+                0, BODY_FRAME, spec.optical_frame, mount.position_m, quaternion_from_matrix(optical_rotation(mount))
+            )
+            for spec, mount in cameras
+        ]
+        #: latched messages: every consumer gets them first, whenever it joins (transient local)
+        self.latched: tuple[Message, ...] = ((TF_STATIC, 0, cdr.tf_message(static)),)
+
+    # --- consumers ----------------------------------------------------------------------------
+
+    def add_consumer(self, consumer: TopicConsumer) -> None:
+        """Start feeding `consumer`: the topics so far, then the latched messages."""
+        for topic in self.topics:
+            consumer.add_topic(topic)
+        consumer.on_messages(self.latched)
+        self.consumers.append(consumer)
+
+    def remove_consumer(self, consumer: TopicConsumer) -> None:
+        if consumer in self.consumers:
+            self.consumers.remove(consumer)
+
+    def declare(self, topic: Topic) -> None:
+        """Announce a topic that not every run has (/joy when a joystick drives)."""
+        if topic not in self.topics:
+            self.topics.append(topic)
+            for consumer in self.consumers:
+                consumer.add_topic(topic)
+
+    def ns(self, step: int) -> int:
+        """Log time of a physics step: floor(step * 1e9 / physics_hz)."""
+        return step * NS_PER_S // self.physics_hz
+
+    def _publish(self, messages: Sequence[Message]) -> None:
+        for consumer in self.consumers:
+            consumer.on_messages(messages)
+
+    # --- producers ----------------------------------------------------------------------------
+
+    def on_command(self, step: int, twist: Twist) -> None:
+        """The command as the controller received it -> /quad_cmd_twist."""
+        if self.consumers:
+            self._publish(((TWIST, self.ns(step), cdr.twist(twist[:3], twist[3:])),))
+
+    def on_state(self, state: VehicleState) -> None:
+        """A state -> pose, odometry, IMU, rotor thrusts and /tf, all stamped at its step."""
+        if not self.consumers:
+            return
+        ns = state.step * NS_PER_S // self.physics_hz
+        p, q, rates = state.position_m, state.orientation_xyzw, state.angular_velocity_body_rps
+        thrusts = state.rotor_thrusts_n
+        velocity = body_velocity(q, state.linear_velocity_mps)  # odometry's twist is in base_link
+        self._publish(
+            (
+                (POSE, ns, self._pose(ns, p, q)),
+                (ODOM, ns, self._odometry(ns, p, q, velocity, rates)),
+                (IMU, ns, self._imu(ns, q, rates, state.specific_force_body_mps2)),
+                (ROTOR_THRUSTS, ns, _thrusts_encoder(len(thrusts))(thrusts)),
+                (TF, ns, self._tf(ns, p, q)),
+            )
+        )
+
+    def on_camera_frame(self, frame: CameraFrame) -> None:
+        """An encoded frame -> its CompressedImage and the matching CameraInfo."""
+        camera = self._cameras.get(frame.camera)
+        if camera is None or not self.consumers:
+            return
+        spec, ns = camera.spec, self.ns(frame.step)
+        f = spec.focal_px
+        cx, cy = spec.principal_point_px
+        info = cdr.camera_info(
+            ns,
+            spec.optical_frame,
+            spec.height_px,
+            spec.width_px,
+            "plumb_bob",
+            (0.0,) * 5,
+            spec.k_matrix(),
+            (1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0),
+            (f, 0.0, cx, 0.0, 0.0, f, cy, 0.0, 0.0, 0.0, 1.0, 0.0),
+        )
+        self._publish(
+            (
+                (camera.image, ns, cdr.compressed_image(ns, spec.optical_frame, "jpeg", frame.jpeg)),
+                (camera.info, ns, info),
+            )
+        )
+
+    def on_joy(self, step: int, axes: Sequence[float], buttons: Sequence[int]) -> None:
+        """Joystick axes and buttons in the ROS `joy` convention -> /joy."""
+        if self.consumers:
+            self.declare(JOY)
+            ns = self.ns(step)
+            self._publish(((JOY, ns, cdr.joy(ns, JOY_FRAME, axes, buttons)),))
+
+    def note_event(self, step: int, kind: str, value: str) -> None:
+        """An event (a z-mode switch) -> /rosout, and `on_event` for consumers that keep it apart."""
+        if not self.consumers:
+            return
+        self.declare(ROSOUT)
+        ns = self.ns(step)
+        message = (ROSOUT, ns, cdr.log(ns, cdr.LogLevel.INFO, LOGGER_NAME, f"{kind}: {value}"))
+        for consumer in self.consumers:
+            consumer.on_event(step, kind, value)
+            consumer.on_messages((message,))

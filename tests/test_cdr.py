@@ -1,0 +1,236 @@
+"""The hand-written CDR encoders give, byte for byte, what rosbags' serialize_cdr (the reference)
+gives, for random values: odd string lengths, empty sequences, any rotor count, every padding case."""
+
+import random
+import struct
+
+import numpy as np
+import pytest
+from mcap.records import Schema
+from mcap_ros2.decoder import DecoderFactory
+from rosbags.typesys import Stores, get_typestore
+
+from quadsim.recording import cdr
+from quadsim.recording.contract import schema_text
+
+TS = get_typestore(Stores.ROS2_HUMBLE)  # the reference
+T = TS.types
+RUNS = 60
+
+
+def _ref(msg) -> bytes:
+    return bytes(TS.serialize_cdr(msg, msg.__msgtype__))
+
+
+def _text(rng: random.Random, max_len: int = 9) -> str:
+    """ASCII and multi-byte UTF-8, lengths 0..max_len: every string padding case."""
+    return "".join(rng.choice("abcxyz_/é→") for _ in range(rng.randint(0, max_len)))
+
+
+def _floats(rng: random.Random, n: int) -> tuple[float, ...]:
+    return tuple(rng.uniform(-1e3, 1e3) for _ in range(n))
+
+
+def _ns(rng: random.Random) -> int:
+    return rng.randrange(0, 2**31 * 1_000_000_000)
+
+
+def _stamp(ns: int):
+    return T["builtin_interfaces/msg/Time"](sec=ns // 1_000_000_000, nanosec=ns % 1_000_000_000)
+
+
+def _header(ns: int, frame: str):
+    return T["std_msgs/msg/Header"](stamp=_stamp(ns), frame_id=frame)
+
+
+def _vec(v):
+    return T["geometry_msgs/msg/Vector3"](x=v[0], y=v[1], z=v[2])
+
+
+def _quat(q):
+    return T["geometry_msgs/msg/Quaternion"](x=q[0], y=q[1], z=q[2], w=q[3])
+
+
+def _pose(p, q):
+    return T["geometry_msgs/msg/Pose"](
+        position=T["geometry_msgs/msg/Point"](x=p[0], y=p[1], z=p[2]), orientation=_quat(q)
+    )
+
+
+def _f64(values) -> np.ndarray:
+    return np.asarray(values, dtype=np.float64)
+
+
+def _rngs():
+    """RUNS random cases, seeded: the same ones on every run."""
+    return (random.Random(seed) for seed in range(RUNS))
+
+
+def test_twist():
+    for rng in _rngs():
+        lin, ang = _floats(rng, 3), _floats(rng, 3)
+        ref = T["geometry_msgs/msg/Twist"](linear=_vec(lin), angular=_vec(ang))
+        assert cdr.twist(lin, ang) == _ref(ref)
+
+
+def test_pose_stamped_and_vector3_stamped():
+    for rng in _rngs():
+        ns, frame, p, q = _ns(rng), _text(rng), _floats(rng, 3), _floats(rng, 4)
+        ref = T["geometry_msgs/msg/PoseStamped"](header=_header(ns, frame), pose=_pose(p, q))
+        assert cdr.pose_stamped(ns, frame, p, q) == _ref(ref)
+        ref = T["geometry_msgs/msg/Vector3Stamped"](header=_header(ns, frame), vector=_vec(p))
+        assert cdr.vector3_stamped(ns, frame, p) == _ref(ref)
+
+
+@pytest.mark.parametrize("with_covariance", [False, True])
+def test_odometry(with_covariance):
+    for rng in _rngs():
+        ns, frame, child = _ns(rng), _text(rng), _text(rng)
+        p, q, lin, ang = _floats(rng, 3), _floats(rng, 4), _floats(rng, 3), _floats(rng, 3)
+        pc, tc = (_floats(rng, 36), _floats(rng, 36)) if with_covariance else (None, None)
+        ref = T["nav_msgs/msg/Odometry"](
+            header=_header(ns, frame),
+            child_frame_id=child,
+            pose=T["geometry_msgs/msg/PoseWithCovariance"](pose=_pose(p, q), covariance=_f64(pc or [0.0] * 36)),
+            twist=T["geometry_msgs/msg/TwistWithCovariance"](
+                twist=T["geometry_msgs/msg/Twist"](linear=_vec(lin), angular=_vec(ang)),
+                covariance=_f64(tc or [0.0] * 36),
+            ),
+        )
+        assert cdr.odometry(ns, frame, child, p, q, lin, ang, pc, tc) == _ref(ref)
+
+
+@pytest.mark.parametrize("given", [(False, False, False), (True, False, True), (True, True, True)])
+def test_imu(given):
+    for rng in _rngs():
+        ns, frame, q, w, a = _ns(rng), _text(rng), _floats(rng, 4), _floats(rng, 3), _floats(rng, 3)
+        covs = [_floats(rng, 9) if g else None for g in given]
+        ref = T["sensor_msgs/msg/Imu"](
+            header=_header(ns, frame),
+            orientation=_quat(q),
+            orientation_covariance=_f64(covs[0] or [0.0] * 9),
+            angular_velocity=_vec(w),
+            angular_velocity_covariance=_f64(covs[1] or [0.0] * 9),
+            linear_acceleration=_vec(a),
+            linear_acceleration_covariance=_f64(covs[2] or [0.0] * 9),
+        )
+        assert cdr.imu(ns, frame, q, w, a, *covs) == _ref(ref)
+
+
+def test_float64_multi_array():
+    for rng in _rngs():
+        dims = [
+            cdr.ArrayDimension(_text(rng), rng.randrange(2**32), rng.randrange(2**32)) for _ in range(rng.randint(0, 3))
+        ]
+        data = _floats(rng, rng.choice([0, 1, 3, 4, 6, 8]))  # no data, a quad, a hexa, an octo
+        offset = rng.randrange(2**32)
+        layout = T["std_msgs/msg/MultiArrayLayout"](
+            dim=[T["std_msgs/msg/MultiArrayDimension"](label=d.label, size=d.size, stride=d.stride) for d in dims],
+            data_offset=offset,
+        )
+        ref = T["std_msgs/msg/Float64MultiArray"](layout=layout, data=_f64(data))
+        assert cdr.float64_multi_array(data, dims, offset) == _ref(ref)
+
+
+def test_tf_message():
+    for rng in _rngs():
+        transforms = [
+            cdr.TransformStamped(_ns(rng), _text(rng), _text(rng), _floats(rng, 3), _floats(rng, 4))
+            for _ in range(rng.randint(0, 4))
+        ]
+        ref = T["tf2_msgs/msg/TFMessage"](
+            transforms=[
+                T["geometry_msgs/msg/TransformStamped"](
+                    header=_header(t.ns, t.frame_id),
+                    child_frame_id=t.child_frame_id,
+                    transform=T["geometry_msgs/msg/Transform"](
+                        translation=_vec(t.translation), rotation=_quat(t.rotation)
+                    ),
+                )
+                for t in transforms
+            ]
+        )
+        assert cdr.tf_message(transforms) == _ref(ref)
+        if len(transforms) == 1:
+            t = transforms[0]
+            assert cdr.transform_encoder(t.frame_id, t.child_frame_id)(t.ns, t.translation, t.rotation) == _ref(ref)
+
+
+def test_compressed_image():
+    for rng in _rngs():
+        ns, frame, fmt = _ns(rng), _text(rng), _text(rng, 5)
+        data = bytes(rng.randrange(256) for _ in range(rng.randint(0, 40)))
+        ref = T["sensor_msgs/msg/CompressedImage"](
+            header=_header(ns, frame), format=fmt, data=np.frombuffer(data, dtype=np.uint8)
+        )
+        assert cdr.compressed_image(ns, frame, fmt, data) == _ref(ref)
+
+
+def test_camera_info():
+    for rng in _rngs():
+        ns, frame, model = _ns(rng), _text(rng), _text(rng)
+        h, w, bx, by = (rng.randrange(2**32) for _ in range(4))
+        d, k, r, p = _floats(rng, rng.choice([0, 1, 5, 8])), _floats(rng, 9), _floats(rng, 9), _floats(rng, 12)
+        roi = cdr.RegionOfInterest(*(rng.randrange(2**32) for _ in range(4)), rng.random() < 0.5)
+        ref = T["sensor_msgs/msg/CameraInfo"](
+            header=_header(ns, frame),
+            height=h,
+            width=w,
+            distortion_model=model,
+            d=_f64(d),
+            k=_f64(k),
+            r=_f64(r),
+            p=_f64(p),
+            binning_x=bx,
+            binning_y=by,
+            roi=T["sensor_msgs/msg/RegionOfInterest"](**roi._asdict()),
+        )
+        assert cdr.camera_info(ns, frame, h, w, model, d, k, r, p, bx, by, roi) == _ref(ref)
+
+
+def test_joy():
+    for rng in _rngs():
+        ns, frame = _ns(rng), _text(rng)
+        axes = [struct.unpack("<f", struct.pack("<f", v))[0] for v in _floats(rng, rng.randint(0, 7))]  # float32 exact
+        buttons = [rng.randrange(-(2**31), 2**31) for _ in range(rng.randint(0, 13))]
+        ref = T["sensor_msgs/msg/Joy"](
+            header=_header(ns, frame), axes=np.asarray(axes, np.float32), buttons=np.asarray(buttons, np.int32)
+        )
+        assert cdr.joy(ns, frame, axes, buttons) == _ref(ref)
+
+
+def test_string_and_log():
+    for rng in _rngs():
+        text = _text(rng, 30)
+        assert cdr.string(text) == _ref(T["std_msgs/msg/String"](data=text))
+        ns, level, texts, line = (
+            _ns(rng),
+            rng.choice([10, 20, 30, 40, 50]),
+            [_text(rng) for _ in range(4)],
+            rng.randrange(2**32),
+        )
+        ref = T["rcl_interfaces/msg/Log"](
+            stamp=_stamp(ns), level=level, name=texts[0], msg=texts[1], file=texts[2], function=texts[3], line=line
+        )
+        assert cdr.log(ns, level, *texts, line) == _ref(ref)
+
+
+def test_other_decoders_read_them():
+    """mcap_ros2's own decoder (generated from the schema text, as Foxglove does) reads them too."""
+    ns = 12_345_678_901
+    odom = cdr.odometry(ns, "world", "base_link", (1.0, 2.0, 3.0), (0.0, 0.0, 0.6, 0.8), (0.5, 0.0, 0.0), (0, 0, 0.1))
+    schema = Schema(
+        id=1, name="nav_msgs/msg/Odometry", encoding="ros2msg", data=schema_text("nav_msgs/msg/Odometry").encode()
+    )
+    decoded = DecoderFactory().decoder_for("cdr", schema)(odom)
+    assert decoded.header.stamp.sec == 12 and decoded.header.stamp.nanosec == 345_678_901
+    assert decoded.child_frame_id == "base_link" and decoded.pose.pose.orientation.w == 0.8
+    assert list(decoded.pose.covariance) == [0.0] * 36 and decoded.twist.twist.angular.z == 0.1
+    thrusts = cdr.float64_multi_array((1.0, 2.0, 3.0, 4.0, 5.0, 6.0), (cdr.ArrayDimension("rotor", 6, 6),))
+    decoded = TS.deserialize_cdr(thrusts, "std_msgs/msg/Float64MultiArray")
+    assert list(decoded.data) == [1.0, 2.0, 3.0, 4.0, 5.0, 6.0] and decoded.layout.dim[0].label == "rotor"
+
+
+def test_camera_info_refuses_wrong_matrix_sizes():
+    with pytest.raises(ValueError, match="9 k"):
+        cdr.camera_info(0, "f", 1, 1, "plumb_bob", (), (1.0,) * 8, (0.0,) * 9, (0.0,) * 12)
