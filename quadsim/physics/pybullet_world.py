@@ -1,6 +1,6 @@
 """Physics: the PyBullet world, the vehicle body, its motors and the forces applied each step.
 
-Holds no controller and no gains: it takes four commanded rotor forces per step and returns
+Holds no controller and no gains: it takes N commanded rotor forces per step and returns
 the vehicle's state. It is the only flight module that imports pybullet.
 """
 
@@ -66,7 +66,7 @@ class PhysicsWorld:
         c = vehicle.yaw_torque_per_thrust_m
         self._yaw_per_n = tuple(-r.spin.sign * c for r in vehicle.rotors)
         self._drag = vehicle.drag_coefficients_ns_per_m
-        self.motors = MotorBank(vehicle.motor_time_constant_s, vehicle.max_thrust_n, self.dt_s)
+        self.motors = MotorBank(len(vehicle.rotors), vehicle.motor_time_constant_s, vehicle.max_thrust_n, self.dt_s)
         self.step_count = 0
         self._read_kinematics()
         self._previous_velocity = self._linear_velocity
@@ -111,18 +111,14 @@ class PhysicsWorld:
         """Advance one physics step with the given commanded rotor forces (N)."""
         body, cid = self.body_id, self._cid
         f = self.motors.advance(command_n)
-        r0, r1, r2, r3 = self._rotor_links
         link_frame = pb.LINK_FRAME
         origin = (0.0, 0.0, 0.0)
-        pb.applyExternalForce(body, r0, (0.0, 0.0, f[0]), origin, link_frame, physicsClientId=cid)
-        pb.applyExternalForce(body, r1, (0.0, 0.0, f[1]), origin, link_frame, physicsClientId=cid)
-        pb.applyExternalForce(body, r2, (0.0, 0.0, f[2]), origin, link_frame, physicsClientId=cid)
-        pb.applyExternalForce(body, r3, (0.0, 0.0, f[3]), origin, link_frame, physicsClientId=cid)
-        y0, y1, y2, y3 = self._yaw_per_n
+        yaw = 0.0
+        for link, thrust, yaw_per_n in zip(self._rotor_links, f, self._yaw_per_n):
+            pb.applyExternalForce(body, link, (0.0, 0.0, thrust), origin, link_frame, physicsClientId=cid)
+            yaw += yaw_per_n * thrust
         # the rotor links share base_link's axes, so a torque about rotor z is one about body z
-        pb.applyExternalTorque(
-            body, r0, (0.0, 0.0, y0 * f[0] + y1 * f[1] + y2 * f[2] + y3 * f[3]), link_frame, physicsClientId=cid
-        )
+        pb.applyExternalTorque(body, self._rotor_links[0], (0.0, 0.0, yaw), link_frame, physicsClientId=cid)
         # drag: velocity into base_link, -c v per axis, applied at the base in its own frame
         (m00, m01, m02), (m10, m11, m12), (m20, m21, m22) = self._rotation
         vx, vy, vz = self._linear_velocity

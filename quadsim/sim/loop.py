@@ -71,7 +71,8 @@ class SimLoop:
         self._control_every = rates.every(rates.control_hz)
         self._state_every = rates.every(rates.state_hz)
         self._control_dt_s = 1.0 / rates.control_hz
-        self._rotor_command: RotorForces = (0.0, 0.0, 0.0, 0.0)
+        self._idle: RotorForces = (0.0,) * len(physics.vehicle.rotors)
+        self._rotor_command = self._idle
 
     def add_tap(self, every_steps: int, callback: Callable[[VehicleState], None]) -> None:
         """Call `callback(state)` after every `every_steps`-th physics step (cameras use this)."""
@@ -94,7 +95,7 @@ class SimLoop:
         self.controller.reset()
         self.gate.reset()
         self.step_count = 0
-        self._rotor_command = (0.0, 0.0, 0.0, 0.0)
+        self._rotor_command = self._idle
 
     def run(self, steps: int) -> None:
         """Advance `steps` physics steps (see the module docstring for the order)."""
