@@ -16,8 +16,15 @@ from quadsim.core.kinematics import IDENTITY, Mat3, Vec3, mat_mul, matrix_from_r
 from quadsim.core.toml_compat import tomllib
 from quadsim.errors import ConfigError
 
-#: The vehicle the project ships, used when no other URDF is given.
-DEFAULT_URDF = asset_path("urdf", "quadsim_x.urdf")
+#: The airframes the project ships, by the names `--vehicle` takes (each URDF has its
+#: NAME.params.toml beside it).
+SHIPPED_VEHICLES: dict[str, Path] = {
+    "quad": asset_path("urdf", "quadsim_x.urdf"),
+    "hexa": asset_path("urdf", "quadsim_hexa.urdf"),
+}
+#: The vehicle flown when no other is asked for.
+DEFAULT_VEHICLE = "quad"
+DEFAULT_URDF = SHIPPED_VEHICLES[DEFAULT_VEHICLE]
 
 
 class Spin(enum.Enum):
