@@ -25,10 +25,13 @@ class PhysicsWorld:
     """A PyBullet client with the world and one vehicle in it. Composition, not inheritance:
     the client is private, and only what the simulator needs is exposed.
 
-    Every `step`: the motors move toward the commanded forces; each rotor's force is applied at
+    Every step: the motors move toward the commanded forces; each rotor's force is applied at
     its link along body z; the summed yaw reaction torque on a rotor link in its own frame (see
     STYLE.md on the base-link torque frame bug); linear body drag at the base; then one
     `stepSimulation`. PyBullet clears external forces after each step, so all are re-applied.
+
+    It keeps no clock: the simulation loop (quadsim.sim.loop.SimLoop) is the only caller of
+    `_step` and owns the step count, which it hands to `state`.
     """
 
     def __init__(
@@ -67,7 +70,6 @@ class PhysicsWorld:
         self._yaw_per_n = tuple(-r.spin.sign * c for r in vehicle.rotors)
         self._drag = vehicle.drag_coefficients_ns_per_m
         self.motors = MotorBank(len(vehicle.rotors), vehicle.motor_time_constant_s, vehicle.max_thrust_n, self.dt_s)
-        self.step_count = 0
         self._read_kinematics()
         self._previous_velocity = self._linear_velocity
 
@@ -103,12 +105,14 @@ class PhysicsWorld:
         )
         pb.resetBaseVelocity(self.body_id, (0.0, 0.0, 0.0), (0.0, 0.0, 0.0), physicsClientId=self._cid)
         self.motors.reset()
-        self.step_count = 0
         self._read_kinematics()
         self._previous_velocity = self._linear_velocity
 
-    def step(self, command_n: RotorForces) -> None:
-        """Advance one physics step with the given commanded rotor forces (N)."""
+    def _step(self, command_n: RotorForces) -> None:
+        """Advance one physics step with the given commanded rotor forces (N).
+
+        Private to the simulation loop, which counts the steps: stepping from anywhere else
+        would move the vehicle without moving the clock."""
         body, cid = self.body_id, self._cid
         f = self.motors.advance(command_n)
         link_frame = pb.LINK_FRAME
@@ -136,7 +140,6 @@ class PhysicsWorld:
             physicsClientId=cid,
         )
         pb.stepSimulation(physicsClientId=cid)
-        self.step_count += 1
         self._previous_velocity = self._linear_velocity
         self._read_kinematics()
 
@@ -146,8 +149,9 @@ class PhysicsWorld:
         self._linear_velocity, self._angular_velocity = pb.getBaseVelocity(self.body_id, physicsClientId=cid)
         self._rotation = matrix_from_quaternion(self._orientation)
 
-    def state(self) -> VehicleState:
-        """The vehicle's state after the last step (body rates in base_link)."""
+    def state(self, step: int) -> VehicleState:
+        """The vehicle's state after the last physics step, which the loop counts as `step`
+        (body rates in base_link)."""
         (m00, m01, m02), (m10, m11, m12), (m20, m21, m22) = self._rotation
         wx, wy, wz = self._angular_velocity
         (vx, vy, vz), (ux, uy, uz) = self._linear_velocity, self._previous_velocity
@@ -155,7 +159,7 @@ class PhysicsWorld:
         # specific force: (dv/dt - gravity) in world, then into base_link
         fx, fy, fz = (vx - ux) * inv_dt, (vy - uy) * inv_dt, (vz - uz) * inv_dt + self.vehicle.gravity_mps2
         return VehicleState(
-            self.step_count,
+            step,
             self._position,
             self._orientation,
             self._linear_velocity,

@@ -80,7 +80,7 @@ class Simulator:
 
     @property
     def state(self) -> VehicleState:
-        return self.physics.state()
+        return self.loop.state()
 
     @property
     def step_count(self) -> int:
