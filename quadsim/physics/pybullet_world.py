@@ -20,6 +20,8 @@ from quadsim.vehicle.params import VehicleParams
 #: Clearance above the ground the vehicle is placed at, so it starts just resting on the floor.
 _SPAWN_CLEARANCE_M = 0.001
 
+_ORIGIN = (0.0, 0.0, 0.0)
+
 
 class PhysicsWorld:
     """A PyBullet client with the world and one vehicle in it. Composition, not inheritance:
@@ -46,6 +48,7 @@ class PhysicsWorld:
             raise QuadsimError("--gui needs a display (DISPLAY is not set); run without --gui")
         self.vehicle = vehicle
         self.dt_s = 1.0 / physics_hz
+        self._inv_dt = 1.0 / self.dt_s
         self._cid = pb.connect(pb.GUI if gui else pb.DIRECT)
         if self._cid < 0:
             raise QuadsimError("could not start PyBullet" + (" with a GUI" if gui else ""))
@@ -113,40 +116,33 @@ class PhysicsWorld:
 
         Private to the simulation loop, which counts the steps: stepping from anywhere else
         would move the vehicle without moving the clock."""
-        body, cid = self.body_id, self._cid
-        f = self.motors.advance(command_n)
-        link_frame = pb.LINK_FRAME
-        origin = (0.0, 0.0, 0.0)
+        # the hot path: PyBullet's calls get positional arguments (parsing the keyword
+        # physicsClientId costs about a quarter of a microsecond a call)
+        body, cid, link_frame, apply_force = self.body_id, self._cid, pb.LINK_FRAME, pb.applyExternalForce
         yaw = 0.0
-        for link, thrust, yaw_per_n in zip(self._rotor_links, f, self._yaw_per_n):
-            pb.applyExternalForce(body, link, (0.0, 0.0, thrust), origin, link_frame, physicsClientId=cid)
+        for link, thrust, yaw_per_n in zip(self._rotor_links, self.motors.advance(command_n), self._yaw_per_n):
+            apply_force(body, link, (0.0, 0.0, thrust), _ORIGIN, link_frame, cid)
             yaw += yaw_per_n * thrust
         # the rotor links share base_link's axes, so a torque about rotor z is one about body z
-        pb.applyExternalTorque(body, self._rotor_links[0], (0.0, 0.0, yaw), link_frame, physicsClientId=cid)
+        pb.applyExternalTorque(body, self._rotor_links[0], (0.0, 0.0, yaw), link_frame, cid)
         # drag: velocity into base_link, -c v per axis, applied at the base in its own frame
         (m00, m01, m02), (m10, m11, m12), (m20, m21, m22) = self._rotation
         vx, vy, vz = self._linear_velocity
         cx, cy, cz = self._drag
-        pb.applyExternalForce(
-            body,
-            -1,
-            (
-                -cx * (m00 * vx + m10 * vy + m20 * vz),
-                -cy * (m01 * vx + m11 * vy + m21 * vz),
-                -cz * (m02 * vx + m12 * vy + m22 * vz),
-            ),
-            origin,
-            link_frame,
-            physicsClientId=cid,
+        drag = (
+            -cx * (m00 * vx + m10 * vy + m20 * vz),
+            -cy * (m01 * vx + m11 * vy + m21 * vz),
+            -cz * (m02 * vx + m12 * vy + m22 * vz),
         )
-        pb.stepSimulation(physicsClientId=cid)
+        apply_force(body, -1, drag, _ORIGIN, link_frame, cid)
+        pb.stepSimulation(cid)
         self._previous_velocity = self._linear_velocity
         self._read_kinematics()
 
     def _read_kinematics(self) -> None:
-        cid = self._cid
-        self._position, self._orientation = pb.getBasePositionAndOrientation(self.body_id, physicsClientId=cid)
-        self._linear_velocity, self._angular_velocity = pb.getBaseVelocity(self.body_id, physicsClientId=cid)
+        body, cid = self.body_id, self._cid
+        self._position, self._orientation = pb.getBasePositionAndOrientation(body, cid)
+        self._linear_velocity, self._angular_velocity = pb.getBaseVelocity(body, cid)
         self._rotation = matrix_from_quaternion(self._orientation)
 
     def state(self, step: int) -> VehicleState:
@@ -155,7 +151,7 @@ class PhysicsWorld:
         (m00, m01, m02), (m10, m11, m12), (m20, m21, m22) = self._rotation
         wx, wy, wz = self._angular_velocity
         (vx, vy, vz), (ux, uy, uz) = self._linear_velocity, self._previous_velocity
-        inv_dt = 1.0 / self.dt_s
+        inv_dt = self._inv_dt
         # specific force: (dv/dt - gravity) in world, then into base_link
         fx, fy, fz = (vx - ux) * inv_dt, (vy - uy) * inv_dt, (vz - uz) * inv_dt + self.vehicle.gravity_mps2
         return VehicleState(

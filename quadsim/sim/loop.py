@@ -109,6 +109,9 @@ class SimLoop:
         sinks, taps = self.sinks, self._taps
         n = self.step_count
         command = self._rotor_command
+        # the state after a step is built once, only if someone takes it: the sinks and taps of
+        # that step, then the controller at the start of the next one (nothing moves in between)
+        state: VehicleState | None = None
         for _ in range(steps):
             if driver is not None and (n % input_every == 0 or n >= driver.next_poll_step):
                 twist = driver.poll(n, n / hz)
@@ -118,10 +121,10 @@ class SimLoop:
                         for sink in sinks:
                             sink.on_command(n, accepted)
             if n % control_every == 0:
-                command = controller.update(physics.state(n), gate.active(n), control_dt)
+                command = controller.update(physics.state(n) if state is None else state, gate.active(n), control_dt)
             physics._step(command)
             n += 1
-            state = None  # built once per step, only if someone receives it
+            state = None
             if n % state_every == 0 and sinks:
                 state = physics.state(n)
                 for sink in sinks:

@@ -40,8 +40,7 @@ class Mixer:
         square = allocation.shape[0] == allocation.shape[1]
         inverse = np.linalg.inv(allocation) if square else np.linalg.pinv(allocation)
         # plain tuples: the hot path below is scalar Python, faster than numpy for a few rotors
-        self._thrust_roll_pitch = tuple((float(a), float(b), float(c)) for a, b, c, _ in inverse)
-        self._yaw = tuple(float(d) for *_, d in inverse)
+        self._rows = tuple((float(a), float(b), float(c), float(d)) for a, b, c, d in inverse)
         self.rotor_count = allocation.shape[1]
         self.max_thrust_n = vehicle.max_thrust_n
 
@@ -58,9 +57,15 @@ class Mixer:
         When the wanted wrench does not fit, yaw torque is given up first (scaled down until
         the forces fit), as roll and pitch keep the vehicle upright and yaw does not.
         """
-        forces = [a * thrust_n + b * roll_nm + c * pitch_nm for a, b, c in self._thrust_roll_pitch]
-        yaws = [d * yaw_nm for d in self._yaw]
-        top = self.max_thrust_n
+        rows, top = self._rows, self.max_thrust_n
+        wanted = [a * thrust_n + b * roll_nm + c * pitch_nm + d * yaw_nm for a, b, c, d in rows]
+        for g in wanted:
+            if not 0.0 <= g <= top:
+                break
+        else:
+            return tuple(wanted)  # it fits as it is (the usual case)
+        forces = [a * thrust_n + b * roll_nm + c * pitch_nm for a, b, c, _ in rows]
+        yaws = [d * yaw_nm for *_, d in rows]
         scale = 1.0
         for f, y in zip(forces, yaws):
             g = f + y

@@ -23,20 +23,21 @@ class MotorBank:
         self._max = max_thrust_n
         self.thrusts_n: RotorForces = (0.0,) * motor_count
 
-    def _check(self, forces: RotorForces) -> None:
-        if len(forces) != self.motor_count:
-            raise ValueError(f"expected {self.motor_count} rotor forces, got {len(forces)}")
+    def _wrong_count(self, forces: RotorForces) -> ValueError:
+        return ValueError(f"expected {self.motor_count} rotor forces, got {len(forces)}")
 
     def reset(self, thrusts_n: RotorForces | None = None) -> None:
         """Set the produced thrusts (default: all stopped)."""
         if thrusts_n is None:
             thrusts_n = (0.0,) * self.motor_count
-        self._check(thrusts_n)
+        if len(thrusts_n) != self.motor_count:
+            raise self._wrong_count(thrusts_n)
         self.thrusts_n = tuple(thrusts_n)
 
     def advance(self, command_n: RotorForces) -> RotorForces:
         """Move the produced thrusts one step toward the command and return them."""
-        self._check(command_n)
+        if len(command_n) != self.motor_count:
+            raise self._wrong_count(command_n)
         a, top = self._alpha, self._max
         # clip the command first: a motor cannot be asked for more than it has
         self.thrusts_n = tuple([f + a * (clamp(u, 0.0, top) - f) for f, u in zip(self.thrusts_n, command_n)])
