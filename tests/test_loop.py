@@ -105,3 +105,36 @@ def test_reset_returns_to_start():
         sim.run_for(3.0)
         sim.reset()
         assert sim.step_count == 0 and sim.state.position_m == pytest.approx(start)
+
+
+def test_the_state_step_is_always_the_loops_step_count():
+    # one clock: every state anyone sees (controller, sinks, taps, the API) carries the loop's count
+    from quadsim.physics.pybullet_world import PhysicsWorld
+
+    assert not hasattr(PhysicsWorld, "step")  # nothing outside the loop advances physics
+    with Simulator(SimConfig(z_mode=ZMode.HEIGHT, rates=Rates(control_hz=120, state_hz=60))) as sim:
+        assert not hasattr(sim.physics, "step_count")
+        seen_by_controller: list[int] = []
+        update = sim.controller.update
+
+        def spying(state, command, dt_s):
+            seen_by_controller.append(state.step)
+            return update(state, command, dt_s)
+
+        sim.loop.controller.update = spying  # type: ignore[method-assign]
+        log = StateLog()
+        sim.add_sink(log)
+        tapped: list[int] = []
+        sim.loop.add_tap(5, lambda s: tapped.append(s.step))
+        sim.send(Twist())
+        for chunk in (1, 7, 240, 13, 3):
+            state = sim.step(chunk)
+            assert state.step == sim.step_count == sim.state.step
+        total = sim.step_count
+        assert total == 264
+        assert seen_by_controller == list(range(0, total, 2))  # control at 120 Hz: every 2nd step
+        assert [s.step for s in log.states] == list(range(4, total + 1, 4))
+        assert tapped == list(range(5, total + 1, 5))
+        sim.reset()
+        assert sim.step_count == 0 == sim.state.step
+        assert sim.step(5).step == 5

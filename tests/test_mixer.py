@@ -47,10 +47,31 @@ def test_clipping_and_yaw_given_up_first(vehicle):
 
 
 def test_motor_lag_is_first_order():
-    motors = MotorBank(time_constant_s=0.02, max_thrust_n=6.0, dt_s=1 / 240)
+    motors = MotorBank(motor_count=4, time_constant_s=0.02, max_thrust_n=6.0, dt_s=1 / 240)
     for _ in range(5):  # 5 steps of 1/240 s = one time constant (0.0208 s)
         motors.advance((2.0, 2.0, 2.0, 2.0))
     assert motors.thrusts_n[0] == pytest.approx(2.0 * (1 - 2.718281828 ** (-5 / 240 / 0.02)), rel=1e-9)
     for _ in range(200):
         motors.advance((9.0, -1.0, 3.0, 3.0))
     assert motors.thrusts_n == pytest.approx((6.0, 0.0, 3.0, 3.0))
+
+
+def test_motor_bank_takes_one_force_per_motor():
+    motors = MotorBank(motor_count=6, time_constant_s=0.0, max_thrust_n=6.0, dt_s=1 / 240)
+    assert motors.thrusts_n == (0.0,) * 6
+    assert motors.advance((1.0, 2.0, 3.0, 4.0, 5.0, 7.0)) == (1.0, 2.0, 3.0, 4.0, 5.0, 6.0)
+    with pytest.raises(ValueError, match="expected 6 rotor forces, got 4"):
+        motors.advance((1.0, 1.0, 1.0, 1.0))
+    with pytest.raises(ValueError, match="expected 6 rotor forces"):
+        motors.reset((0.0,) * 5)
+
+
+def test_quad_mixer_uses_the_exact_inverse(vehicle):
+    # four rotors: the allocation is square and its exact inverse is used, to the last bit
+    import numpy as np
+
+    mixer = Mixer(vehicle)
+    inverse = np.linalg.inv(mixer.allocation)
+    thrust, roll, pitch, yaw = 9.0, 0.02, -0.01, 0.003
+    expected = [a * thrust + b * roll + c * pitch + d * yaw for a, b, c, d in inverse.tolist()]
+    assert mixer.to_rotor_forces(thrust, roll, pitch, yaw) == tuple(expected)

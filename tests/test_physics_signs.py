@@ -5,6 +5,7 @@ import math
 import pytest
 
 from quadsim import SimConfig, Simulator, StartPose, Twist, ZMode
+from quadsim.control import ControllerKind
 from quadsim.physics.pybullet_quiet import pb
 
 
@@ -67,6 +68,24 @@ def test_plus_yaw_command_turns_counter_clockwise():
         assert 0.5 < state.yaw_rad() < 1.2
 
 
+class _ConstantForces:
+    """A stand-in controller: the same rotor forces at every control step."""
+
+    kind = ControllerKind.CASCADE
+
+    def __init__(self, forces):
+        self.forces = forces
+
+    def reset(self):
+        pass
+
+    def update(self, state, command, dt_s):
+        return self.forces
+
+    def describe(self):
+        return {"name": "constant"}
+
+
 def _spin_up(yaw_imbalance_n: float, hover_n: float) -> tuple[float, float, float]:
     with Simulator(SimConfig()) as sim:
         phys = sim.physics
@@ -75,9 +94,8 @@ def _spin_up(yaw_imbalance_n: float, hover_n: float) -> tuple[float, float, floa
         )
         forces = (hover_n, hover_n + yaw_imbalance_n, hover_n, hover_n + yaw_imbalance_n)
         phys.motors.reset(forces)
-        for _ in range(24):
-            phys.step(forces)
-        return phys.state().angular_velocity_body_rps
+        sim.loop.controller = _ConstantForces(forces)
+        return sim.step(24).angular_velocity_body_rps
 
 
 def test_yaw_reaction_torque_acts_about_body_z_when_tilted(vehicle):

@@ -82,3 +82,42 @@ def test_missing_files_are_named(tmp_path):
     shutil.copy(DEFAULT_URDF, urdf)
     with pytest.raises(ConfigError, match=r"lonely\.params\.toml"):
         load_vehicle(urdf)
+
+
+def test_rotor_links_must_be_numbered_from_one_without_gaps(tmp_path):
+    urdf, _ = _copy_vehicle(tmp_path)
+    urdf.write_text(urdf.read_text().replace('"rotor_3"', '"rotor_7"'))
+    with pytest.raises(ConfigError, match=r"rotor_1..rotor_N with N >= 4, found \['rotor_1', 'rotor_2', 'rotor_4'"):
+        load_vehicle(urdf)
+
+
+def test_fewer_than_four_rotors_are_refused(tmp_path):
+    urdf, params = _copy_vehicle(tmp_path)
+    text = urdf.read_text()
+    start = text.index('<link name="rotor_4">')
+    end = text.index("</joint>", start) + len("</joint>")
+    urdf.write_text(text[:start] + text[end:])
+    params.write_text(params.read_text().replace(', rotor_4 = "cw"', ""))
+    with pytest.raises(ConfigError, match="N >= 4"):
+        load_vehicle(urdf)
+
+
+def test_spins_must_balance(tmp_path):
+    urdf, params = _copy_vehicle(tmp_path)
+    params.write_text(params.read_text().replace('rotor_4 = "cw"', 'rotor_4 = "ccw"'))
+    with pytest.raises(ConfigError, match="as many ccw as cw rotors; 3 of the 4"):
+        load_vehicle(urdf)
+
+
+def test_spin_of_a_rotor_the_urdf_lacks_is_refused(tmp_path):
+    urdf, params = _copy_vehicle(tmp_path)
+    params.write_text(params.read_text().replace('rotor_4 = "cw"', 'rotor_4 = "cw", rotor_5 = "ccw"'))
+    with pytest.raises(ConfigError, match=r"spin names \['rotor_5'\]"):
+        load_vehicle(urdf)
+
+
+def test_shipped_vehicles_load():
+    from quadsim.vehicle.params import SHIPPED_VEHICLES
+
+    counts = {name: load_vehicle(path).rotor_count for name, path in SHIPPED_VEHICLES.items()}
+    assert counts == {"quad": 4, "hexa": 6}

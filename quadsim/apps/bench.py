@@ -2,7 +2,8 @@
 
 Flight core:
   baseline   the bare PyBullet loop for this URDF and world: four applyExternalForce + stepSimulation
-  physics    quadsim's PhysicsWorld.step alone (motor lag, forces, yaw torque, drag, state read)
+  physics    the loop stepping PhysicsWorld with a constant command, no controller, driver or sinks
+             (motor lag, forces, yaw torque, drag, state read, the loop's own bookkeeping)
   full loop  SimLoop at 240 Hz physics and 240 Hz control: driver polling, command gate,
              controller, physics and state publishing, hovering at 2 m
 Each figure is the best of several repeats (the least disturbed by other work on the machine).
@@ -13,13 +14,13 @@ from __future__ import annotations
 import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
+from typing import Any
 
 from quadsim.control import ControllerKind
-from quadsim.core.types import Twist, ZMode
+from quadsim.core.types import ActiveCommand, RotorForces, Twist, VehicleState, ZMode
 from quadsim.physics.pybullet_quiet import pb
-from quadsim.physics.pybullet_world import PhysicsWorld
 from quadsim.sim.config import Rates, SimConfig
-from quadsim.sim.loop import StateLog
+from quadsim.sim.loop import SimLoop, StateLog
 from quadsim.sim.simulator import Simulator
 
 
@@ -83,23 +84,41 @@ def _hovering_sim(controller: ControllerKind, rates: Rates) -> Simulator:
     return sim
 
 
+class _ConstantForces:
+    """A stand-in controller asking for the same rotor forces every step, so that a loop
+    stepped with it costs physics and bookkeeping alone."""
+
+    kind = ControllerKind.CASCADE  # the Controller protocol names a kind; nothing reads it here
+
+    def __init__(self, forces: RotorForces) -> None:
+        self.forces = forces
+
+    def reset(self) -> None:
+        pass
+
+    def update(self, state: VehicleState, command: ActiveCommand, dt_s: float) -> RotorForces:
+        return self.forces
+
+    def describe(self) -> dict[str, Any]:
+        return {"name": "constant", "forces_n": list(self.forces)}
+
+
 def physics_only(steps: int, repeats: int) -> Figure:
     sim = _hovering_sim(ControllerKind.CASCADE, Rates())
-    phys: PhysicsWorld = sim.physics
+    phys = sim.physics
     body, cid = phys.body_id, phys.client_id
-    hover = sim.vehicle.hover_thrust_per_rotor_n
-    command = (hover, hover, hover, hover)
+    hover = _ConstantForces((sim.vehicle.hover_thrust_per_rotor_n,) * sim.vehicle.rotor_count)
+    loop = SimLoop(phys, hover, sim.gate, sim.config.rates)  # no driver, no sinks
 
     def run(n: int) -> None:
-        step = phys.step
-        for i in range(n):
-            if i % 240 == 0:  # as the baseline: keep the uncontrolled body in the air
-                pb.resetBasePositionAndOrientation(body, (0, 0, 2.0), (0, 0, 0, 1), physicsClientId=cid)
-                pb.resetBaseVelocity(body, (0, 0, 0), (0, 0, 0), physicsClientId=cid)
-            step(command)
+        for done in range(0, n, 240):
+            # as the baseline: keep the uncontrolled body in the air
+            pb.resetBasePositionAndOrientation(body, (0, 0, 2.0), (0, 0, 0, 1), physicsClientId=cid)
+            pb.resetBaseVelocity(body, (0, 0, 0), (0, 0, 0), physicsClientId=cid)
+            loop.run(min(240, n - done))
 
     try:
-        return Figure("PhysicsWorld.step (motors, forces, drag)", _best_of(repeats, steps, run), 240)
+        return Figure("physics stepped by the loop, constant forces", _best_of(repeats, steps, run), 240)
     finally:
         sim.close()
 
@@ -406,7 +425,7 @@ def run_interactive_bench(out: Callable[[str], None] = print, wall_s: float = 10
         try:
             timer = _Timer()
             fanout, cams = app.session.fanout, app.session.cameras
-            timer.wrap(app.sim.physics, "step", "physics")
+            timer.wrap(app.sim.physics, "_step", "physics")
             timer.wrap(app.sim.controller, "update", "control")
             for m in ("on_state", "on_command", "on_camera_frame"):
                 timer.wrap(fanout, m, "recording")

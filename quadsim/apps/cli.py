@@ -24,6 +24,7 @@ from quadsim.recording.paths import ENV_VAR as RECORDINGS_ENV_VAR
 from quadsim.recording.paths import default_recordings_dir
 from quadsim.sensors.camera import RendererKind
 from quadsim.sim.config import Rates
+from quadsim.vehicle.params import DEFAULT_VEHICLE, SHIPPED_VEHICLES
 
 if TYPE_CHECKING:
     from quadsim.drivers.scripted import Script
@@ -93,7 +94,20 @@ def _add_sim_options(p: argparse.ArgumentParser) -> None:
         help="how linear.z is read: velocity = climb rate m/s; height = altitude 2.0+z m "
         "(default: what the script says, else velocity)",
     )
-    g.add_argument("--urdf", type=Path, default=None, help="vehicle URDF (default: assets/urdf/quadsim_x.urdf)")
+    v = g.add_mutually_exclusive_group()
+    v.add_argument(
+        "--vehicle",
+        choices=list(SHIPPED_VEHICLES),
+        default=None,
+        help=f"a shipped airframe: quad (X quadrotor) or hexa (hexacopter); default {DEFAULT_VEHICLE}",
+    )
+    v.add_argument(
+        "--urdf",
+        type=Path,
+        default=None,
+        metavar="FILE.urdf",
+        help="any vehicle URDF, with its NAME.params.toml beside it (instead of --vehicle)",
+    )
     g.add_argument("--world", type=Path, default=None, help="world file (default: assets/worlds/default.toml)")
     g.add_argument("--physics-hz", type=_whole(1, 100_000), default=240, help="physics rate (default 240)")
     g.add_argument(
@@ -166,8 +180,9 @@ def _config(args: argparse.Namespace, script_z_mode: ZMode | None):
     rates = Rates(
         physics_hz=args.physics_hz, control_hz=args.control_hz, state_hz=args.state_hz, input_hz=args.input_hz
     )
+    urdf = SHIPPED_VEHICLES[args.vehicle] if args.vehicle else args.urdf  # neither: the default vehicle
     return SimConfig(
-        urdf=args.urdf,
+        urdf=urdf,
         world=args.world,
         controller=ControllerKind(args.controller),
         z_mode=z_mode,

@@ -12,13 +12,17 @@ from quadsim.apps.stopping import SignalStop, StopRequested, describe, exit_code
 
 
 def main(argv: list[str] | None = None) -> int:
-    with SignalStop():
+    with SignalStop() as stop:
         try:
             from quadsim.apps.cli import main as cli_main
         except (StopRequested, ImportError) as exc:  # a second signal, or what it broke mid-import
-            stop = SignalStop.current()
-            if stop is None or stop.signum is None:
+            if stop.signum is None:
                 raise
             print(f"quadsim: {describe(stop.signum)} while starting ({type(exc).__name__})", file=sys.stderr)
             return exit_code(stop.signum)
-        return cli_main(argv)
+        code = cli_main(argv)
+        # the work is done and every file finished: a signal from here on (while the interpreter
+        # shuts down, when Python's defaults would kill it mid-flush) changes nothing
+        stop.ignore_from_now()
+    sys.stdout.flush()
+    return code

@@ -92,6 +92,12 @@ class SignalStop:
             return
         raise StopRequested(signum)
 
+    def ignore_from_now(self) -> None:
+        """Ignore SIGINT and SIGTERM for the rest of the process (its work is done)."""
+        for signum in HANDLED:
+            signal.signal(signum, signal.SIG_IGN)
+        self._previous.clear()  # nothing to restore on exit
+
     @contextmanager
     def shielded(self) -> Iterator[SignalStop]:
         """A region no signal interrupts (finishing a recording); a request waits for its end."""

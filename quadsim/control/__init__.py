@@ -1,4 +1,4 @@
-"""Controllers: pure numeric code turning (state, command) into four rotor forces.
+"""Controllers: pure numeric code turning (state, command) into one force per rotor.
 
 Nothing here imports pybullet. Pick one with `make_controller`.
 """

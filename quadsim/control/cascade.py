@@ -20,8 +20,6 @@ from quadsim.core.types import HEIGHT_MODE_BASE_M, ActiveCommand, RotorForces, V
 from quadsim.vehicle.mixer import Mixer
 from quadsim.vehicle.params import VehicleParams
 
-_IDLE: RotorForces = (0.0, 0.0, 0.0, 0.0)
-
 
 @dataclass(frozen=True)
 class CascadeGains:
@@ -58,6 +56,7 @@ class CascadeController:
         self.vehicle = vehicle
         self.gains = gains
         self.mixer = Mixer(vehicle)
+        self._idle: RotorForces = (0.0,) * len(vehicle.rotors)
         self._mass = vehicle.mass_kg
         self._g = vehicle.gravity_mps2
         self._jxx = vehicle.inertia_kgm2[0][0]
@@ -83,7 +82,7 @@ class CascadeController:
     def update(self, state: VehicleState, command: ActiveCommand, dt_s: float) -> RotorForces:
         if not command.armed:
             self._armed = False
-            return _IDLE
+            return self._idle
         g = self.gains
         px, py, pz = state.position_m
         vx, vy, vz = state.linear_velocity_mps

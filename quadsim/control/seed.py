@@ -63,6 +63,12 @@ class SeedGains:
 
 def _check_layout(vehicle: VehicleParams) -> None:
     expected = ((1, 1, Spin.CCW), (-1, 1, Spin.CW), (-1, -1, Spin.CCW), (1, -1, Spin.CW))
+    if len(vehicle.rotors) != len(expected):
+        raise ConfigError(
+            f"{vehicle.urdf_path.name}: the seed controller flies only the original quadrotor layout "
+            f"(4 rotors: 1 front-left ccw, 2 rear-left cw, 3 rear-right ccw, 4 front-right cw); "
+            f"this vehicle has {len(vehicle.rotors)} rotors: use the cascade controller"
+        )
     for rotor, (sx, sy, spin) in zip(vehicle.rotors, expected):
         x, y, _ = rotor.position_m
         if x * sx <= 0 or y * sy <= 0 or rotor.spin is not spin:

@@ -62,7 +62,7 @@ class VehicleState(NamedTuple):
 
     position_m: base_link origin in `world`. orientation_xyzw: world <- base_link quaternion.
     linear_velocity_mps: in `world`. angular_velocity_body_rps: body rates in `base_link`.
-    rotor_thrusts_n: the forces the four rotors produced during the last physics step.
+    rotor_thrusts_n: the forces the N rotors (rotor_1..rotor_N) produced during the last physics step.
     specific_force_body_mps2: what an accelerometer at the base reads (acceleration minus
     gravity, in base_link; +9.81 along z at rest), over the last physics step.
     """
@@ -72,7 +72,7 @@ class VehicleState(NamedTuple):
     orientation_xyzw: tuple[float, float, float, float]
     linear_velocity_mps: tuple[float, float, float]
     angular_velocity_body_rps: tuple[float, float, float]
-    rotor_thrusts_n: tuple[float, float, float, float]
+    rotor_thrusts_n: tuple[float, ...]
     specific_force_body_mps2: tuple[float, float, float]
 
     def yaw_rad(self) -> float:
@@ -88,7 +88,8 @@ class VehicleState(NamedTuple):
         return roll, pitch
 
 
-RotorForces = tuple[float, float, float, float]
+#: One force per rotor, N, in the vehicle's rotor order (rotor_1..rotor_N).
+RotorForces = tuple[float, ...]
 
 
 @dataclass(frozen=True)

@@ -1,6 +1,6 @@
 """Physics: the PyBullet world, the vehicle body, its motors and the forces applied each step.
 
-Holds no controller and no gains: it takes four commanded rotor forces per step and returns
+Holds no controller and no gains: it takes N commanded rotor forces per step and returns
 the vehicle's state. It is the only flight module that imports pybullet.
 """
 
@@ -20,15 +20,20 @@ from quadsim.vehicle.params import VehicleParams
 #: Clearance above the ground the vehicle is placed at, so it starts just resting on the floor.
 _SPAWN_CLEARANCE_M = 0.001
 
+_ORIGIN = (0.0, 0.0, 0.0)
+
 
 class PhysicsWorld:
     """A PyBullet client with the world and one vehicle in it. Composition, not inheritance:
     the client is private, and only what the simulator needs is exposed.
 
-    Every `step`: the motors move toward the commanded forces; each rotor's force is applied at
+    Every step: the motors move toward the commanded forces; each rotor's force is applied at
     its link along body z; the summed yaw reaction torque on a rotor link in its own frame (see
     STYLE.md on the base-link torque frame bug); linear body drag at the base; then one
     `stepSimulation`. PyBullet clears external forces after each step, so all are re-applied.
+
+    It keeps no clock: the simulation loop (quadsim.sim.loop.SimLoop) is the only caller of
+    `_step` and owns the step count, which it hands to `state`.
     """
 
     def __init__(
@@ -43,6 +48,7 @@ class PhysicsWorld:
             raise QuadsimError("--gui needs a display (DISPLAY is not set); run without --gui")
         self.vehicle = vehicle
         self.dt_s = 1.0 / physics_hz
+        self._inv_dt = 1.0 / self.dt_s
         self._cid = pb.connect(pb.GUI if gui else pb.DIRECT)
         if self._cid < 0:
             raise QuadsimError("could not start PyBullet" + (" with a GUI" if gui else ""))
@@ -66,8 +72,7 @@ class PhysicsWorld:
         c = vehicle.yaw_torque_per_thrust_m
         self._yaw_per_n = tuple(-r.spin.sign * c for r in vehicle.rotors)
         self._drag = vehicle.drag_coefficients_ns_per_m
-        self.motors = MotorBank(vehicle.motor_time_constant_s, vehicle.max_thrust_n, self.dt_s)
-        self.step_count = 0
+        self.motors = MotorBank(len(vehicle.rotors), vehicle.motor_time_constant_s, vehicle.max_thrust_n, self.dt_s)
         self._read_kinematics()
         self._previous_velocity = self._linear_velocity
 
@@ -103,63 +108,54 @@ class PhysicsWorld:
         )
         pb.resetBaseVelocity(self.body_id, (0.0, 0.0, 0.0), (0.0, 0.0, 0.0), physicsClientId=self._cid)
         self.motors.reset()
-        self.step_count = 0
         self._read_kinematics()
         self._previous_velocity = self._linear_velocity
 
-    def step(self, command_n: RotorForces) -> None:
-        """Advance one physics step with the given commanded rotor forces (N)."""
-        body, cid = self.body_id, self._cid
-        f = self.motors.advance(command_n)
-        r0, r1, r2, r3 = self._rotor_links
-        link_frame = pb.LINK_FRAME
-        origin = (0.0, 0.0, 0.0)
-        pb.applyExternalForce(body, r0, (0.0, 0.0, f[0]), origin, link_frame, physicsClientId=cid)
-        pb.applyExternalForce(body, r1, (0.0, 0.0, f[1]), origin, link_frame, physicsClientId=cid)
-        pb.applyExternalForce(body, r2, (0.0, 0.0, f[2]), origin, link_frame, physicsClientId=cid)
-        pb.applyExternalForce(body, r3, (0.0, 0.0, f[3]), origin, link_frame, physicsClientId=cid)
-        y0, y1, y2, y3 = self._yaw_per_n
+    def _step(self, command_n: RotorForces) -> None:
+        """Advance one physics step with the given commanded rotor forces (N).
+
+        Private to the simulation loop, which counts the steps: stepping from anywhere else
+        would move the vehicle without moving the clock."""
+        # the hot path: PyBullet's calls get positional arguments (parsing the keyword
+        # physicsClientId costs about a quarter of a microsecond a call)
+        body, cid, link_frame, apply_force = self.body_id, self._cid, pb.LINK_FRAME, pb.applyExternalForce
+        yaw = 0.0
+        for link, thrust, yaw_per_n in zip(self._rotor_links, self.motors.advance(command_n), self._yaw_per_n):
+            apply_force(body, link, (0.0, 0.0, thrust), _ORIGIN, link_frame, cid)
+            yaw += yaw_per_n * thrust
         # the rotor links share base_link's axes, so a torque about rotor z is one about body z
-        pb.applyExternalTorque(
-            body, r0, (0.0, 0.0, y0 * f[0] + y1 * f[1] + y2 * f[2] + y3 * f[3]), link_frame, physicsClientId=cid
-        )
+        pb.applyExternalTorque(body, self._rotor_links[0], (0.0, 0.0, yaw), link_frame, cid)
         # drag: velocity into base_link, -c v per axis, applied at the base in its own frame
         (m00, m01, m02), (m10, m11, m12), (m20, m21, m22) = self._rotation
         vx, vy, vz = self._linear_velocity
         cx, cy, cz = self._drag
-        pb.applyExternalForce(
-            body,
-            -1,
-            (
-                -cx * (m00 * vx + m10 * vy + m20 * vz),
-                -cy * (m01 * vx + m11 * vy + m21 * vz),
-                -cz * (m02 * vx + m12 * vy + m22 * vz),
-            ),
-            origin,
-            link_frame,
-            physicsClientId=cid,
+        drag = (
+            -cx * (m00 * vx + m10 * vy + m20 * vz),
+            -cy * (m01 * vx + m11 * vy + m21 * vz),
+            -cz * (m02 * vx + m12 * vy + m22 * vz),
         )
-        pb.stepSimulation(physicsClientId=cid)
-        self.step_count += 1
+        apply_force(body, -1, drag, _ORIGIN, link_frame, cid)
+        pb.stepSimulation(cid)
         self._previous_velocity = self._linear_velocity
         self._read_kinematics()
 
     def _read_kinematics(self) -> None:
-        cid = self._cid
-        self._position, self._orientation = pb.getBasePositionAndOrientation(self.body_id, physicsClientId=cid)
-        self._linear_velocity, self._angular_velocity = pb.getBaseVelocity(self.body_id, physicsClientId=cid)
+        body, cid = self.body_id, self._cid
+        self._position, self._orientation = pb.getBasePositionAndOrientation(body, cid)
+        self._linear_velocity, self._angular_velocity = pb.getBaseVelocity(body, cid)
         self._rotation = matrix_from_quaternion(self._orientation)
 
-    def state(self) -> VehicleState:
-        """The vehicle's state after the last step (body rates in base_link)."""
+    def state(self, step: int) -> VehicleState:
+        """The vehicle's state after the last physics step, which the loop counts as `step`
+        (body rates in base_link)."""
         (m00, m01, m02), (m10, m11, m12), (m20, m21, m22) = self._rotation
         wx, wy, wz = self._angular_velocity
         (vx, vy, vz), (ux, uy, uz) = self._linear_velocity, self._previous_velocity
-        inv_dt = 1.0 / self.dt_s
+        inv_dt = self._inv_dt
         # specific force: (dv/dt - gravity) in world, then into base_link
         fx, fy, fz = (vx - ux) * inv_dt, (vy - uy) * inv_dt, (vz - uz) * inv_dt + self.vehicle.gravity_mps2
         return VehicleState(
-            self.step_count,
+            step,
             self._position,
             self._orientation,
             self._linear_velocity,

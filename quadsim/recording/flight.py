@@ -151,5 +151,5 @@ def _state(step: int, parts: dict[str, dict[int, Any]], ns: int) -> VehicleState
     force = (
         (imu.linear_acceleration.x, imu.linear_acceleration.y, imu.linear_acceleration.z) if imu else (0.0, 0.0, 0.0)
     )
-    rotor = tuple(float(v) for v in thrusts.data[:4]) if thrusts is not None and len(thrusts.data) >= 4 else (0.0,) * 4
-    return VehicleState(step, (pose.position.x, pose.position.y, pose.position.z), q, velocity, rates, rotor, force)  # type: ignore[arg-type]
+    rotor = tuple(float(v) for v in thrusts.data) if thrusts is not None else ()
+    return VehicleState(step, (pose.position.x, pose.position.y, pose.position.z), q, velocity, rates, rotor, force)

@@ -4,7 +4,7 @@ Stepping order, once per physics step n (time n / physics_hz):
   1. input   (n % input_every == 0, or n >= driver.next_poll_step):
                                        poll the driver; the gate takes its command, stamped n
   2. control (n % control_every == 0): the controller turns state + active command into rotor forces
-  3. physics:                          motors, forces, one PyBullet step -> step n + 1
+  3. physics:                          motors, forces, one PyBullet step -> step n + 1 (only here)
   4. publish ((n + 1) % state_every == 0): sinks receive the state at step n + 1
   5. taps    ((n + 1) % every == 0):       e.g. the cameras capture the state at step n + 1
 Nothing here reads the wall clock; only a window paces these steps to real time.
@@ -94,7 +94,8 @@ class SimLoop:
         self._control_every = rates.every(rates.control_hz)
         self._state_every = rates.every(rates.state_hz)
         self._control_dt_s = 1.0 / rates.control_hz
-        self._rotor_command: RotorForces = (0.0, 0.0, 0.0, 0.0)
+        self._idle: RotorForces = (0.0,) * len(physics.vehicle.rotors)
+        self._rotor_command = self._idle
 
     def add_tap(self, every_steps: int, callback: Callable[[VehicleState], None]) -> None:
         """Call `callback(state)` after every `every_steps`-th physics step (cameras use this)."""
@@ -115,13 +116,17 @@ class SimLoop:
         """The rotor forces the controller asked for at its last update."""
         return self._rotor_command
 
+    def state(self) -> VehicleState:
+        """The vehicle's state now, stamped with the loop's step count."""
+        return self.physics.state(self.step_count)
+
     def reset(self) -> None:
         """Back to step 0: vehicle at its start pose, controller and gate cleared."""
         self.physics.reset()
         self.controller.reset()
         self.gate.reset()
         self.step_count = 0
-        self._rotor_command = (0.0, 0.0, 0.0, 0.0)
+        self._rotor_command = self._idle
 
     def run(self, steps: int) -> None:
         """Advance `steps` physics steps (see the module docstring for the order)."""
@@ -131,6 +136,9 @@ class SimLoop:
         sinks, taps = self.sinks, self._taps
         n = self.step_count
         command = self._rotor_command
+        # the state after a step is built once, only if someone takes it: the sinks and taps of
+        # that step, then the controller at the start of the next one (nothing moves in between)
+        state: VehicleState | None = None
         for _ in range(steps):
             if driver is not None and (n % input_every == 0 or n >= driver.next_poll_step):
                 twist = driver.poll(n, n / hz)
@@ -140,18 +148,18 @@ class SimLoop:
                         for sink in sinks:
                             sink.on_command(n, accepted)
             if n % control_every == 0:
-                command = controller.update(physics.state(), gate.active(n), control_dt)
-            physics.step(command)
+                command = controller.update(physics.state(n) if state is None else state, gate.active(n), control_dt)
+            physics._step(command)
             n += 1
-            state = None  # built once per step, only if someone receives it
+            state = None
             if n % state_every == 0 and sinks:
-                state = physics.state()
+                state = physics.state(n)
                 for sink in sinks:
                     sink.on_state(state)
             for every, tap in taps:
                 if n % every == 0:
                     if state is None:
-                        state = physics.state()
+                        state = physics.state(n)
                     tap(state)
         self.step_count = n
         self._rotor_command = command

@@ -109,7 +109,7 @@ class Simulator:
     @property
     def state(self) -> VehicleState:
         """The vehicle's state after the last step (ground truth, REP 103 frames, SI units)."""
-        return self.physics.state()
+        return self.loop.state()
 
     @property
     def step_count(self) -> int:

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import enum
 import math
+import re
 import xml.etree.ElementTree as ET
 from dataclasses import dataclass
 from pathlib import Path
@@ -15,8 +16,15 @@ from quadsim.core.kinematics import IDENTITY, Mat3, Vec3, mat_mul, matrix_from_r
 from quadsim.core.toml_compat import tomllib
 from quadsim.errors import ConfigError
 
-#: The vehicle the project ships, used when no other URDF is given.
-DEFAULT_URDF = asset_path("urdf", "quadsim_x.urdf")
+#: The airframes the project ships, by the names `--vehicle` takes (each URDF has its
+#: NAME.params.toml beside it).
+SHIPPED_VEHICLES: dict[str, Path] = {
+    "quad": asset_path("urdf", "quadsim_x.urdf"),
+    "hexa": asset_path("urdf", "quadsim_hexa.urdf"),
+}
+#: The vehicle flown when no other is asked for.
+DEFAULT_VEHICLE = "quad"
+DEFAULT_URDF = SHIPPED_VEHICLES[DEFAULT_VEHICLE]
 
 
 class Spin(enum.Enum):
@@ -68,7 +76,7 @@ class VehicleParams:
     mass_kg: float
     inertia_kgm2: Mat3  # about the centre of mass, in base_link axes
     com_m: Vec3  # centre of mass relative to the base_link origin
-    rotors: tuple[RotorSpec, ...]
+    rotors: tuple[RotorSpec, ...]  # rotor_1..rotor_N, in number order
     thrust_coefficient_n_per_rad2s2: float
     torque_coefficient_nm_per_rad2s2: float
     max_thrust_n: float
@@ -92,6 +100,10 @@ class VehicleParams:
     def yaw_torque_per_thrust_m(self) -> float:
         """Reaction torque per newton of thrust (k_m / k_f), m."""
         return self.torque_coefficient_nm_per_rad2s2 / self.thrust_coefficient_n_per_rad2s2
+
+    @property
+    def rotor_count(self) -> int:
+        return len(self.rotors)
 
     @property
     def weight_n(self) -> float:
@@ -220,7 +232,7 @@ def _read_urdf(path: Path) -> dict[str, _Link]:
         jname = joint.get("name", "")
         if joint.get("type") != "fixed":
             raise ConfigError(
-                f"{path.name}: joint {jname!r} is {joint.get('type')!r}; a quadrotor body uses fixed joints only"
+                f"{path.name}: joint {jname!r} is {joint.get('type')!r}; a multirotor body uses fixed joints only"
             )
         parent = joint.find("parent")
         child = joint.find("child")
@@ -296,14 +308,37 @@ def _number(table: dict[str, Any], section: str, key: str, path: Path, *, low: f
     return float(value)
 
 
+#: The fewest rotors that can give thrust and three independent torques.
+MIN_ROTORS = 4
+
+
+def _rotor_links(urdf: Path, links: dict[str, _Link]) -> list[str]:
+    """The rotor links, rotor_1..rotor_N in number order (N >= 4, none missing)."""
+    numbered = []
+    for name in links:
+        match = re.fullmatch(r"rotor_(\d+)", name)
+        if match:
+            numbered.append((int(match.group(1)), name))
+        elif name.startswith("rotor_"):
+            raise ConfigError(f"{urdf.name}: link {name!r} looks like a rotor but is not named rotor_<number>")
+    names = [name for _, name in sorted(numbered)]
+    expected = [f"rotor_{i}" for i in range(1, len(names) + 1)]
+    if len(names) < MIN_ROTORS or names != expected:
+        raise ConfigError(
+            f"{urdf.name}: expected rotor links named rotor_1..rotor_N with N >= {MIN_ROTORS}, found {names}"
+        )
+    return names
+
+
 def _build(urdf: Path, params: Path, links: dict[str, _Link], table: dict[str, Any]) -> VehicleParams:
     mass, com, inertia = _composite_inertia(links)
-    rotor_names = sorted(n for n in links if n.startswith("rotor_"))
-    if len(rotor_names) != 4:
-        raise ConfigError(f"{urdf.name}: expected 4 rotor links named rotor_1..rotor_4, found {rotor_names}")
+    rotor_names = _rotor_links(urdf, links)
     spins = table.get("rotors", {}).get("spin")
     if not isinstance(spins, dict):
         raise ConfigError(f'{params}: missing [rotors] spin = {{ rotor_1 = "ccw", ... }}')
+    unknown = sorted(set(spins) - set(rotor_names))
+    if unknown:
+        raise ConfigError(f"{params}: [rotors] spin names {unknown}, which {urdf.name} has no link for")
     rotors = []
     for name in rotor_names:
         spin_text = spins.get(name)
@@ -316,17 +351,21 @@ def _build(urdf: Path, params: Path, links: dict[str, _Link], table: dict[str, A
             raise ConfigError(f"{urdf.name}: link {name!r} must be level (its z axis along base_link z)")
         o = links[name].origin_in_base_m
         rotors.append(RotorSpec(name, (o[0] - com[0], o[1] - com[1], o[2] - com[2]), spin))
-    if sum(r.spin.sign for r in rotors) != 0:
-        raise ConfigError(f"{params}: [rotors] spin must have two ccw and two cw rotors")
+    ccw = sum(r.spin is Spin.CCW for r in rotors)
+    if 2 * ccw != len(rotors):
+        # equal thrusts must give no net yaw torque, or hovering would need a yaw trim
+        raise ConfigError(
+            f"{params}: [rotors] spin must have as many ccw as cw rotors; {ccw} of the {len(rotors)} rotors are ccw"
+        )
 
     kf = _number(table, "rotors", "thrust_coefficient_n_per_rad2s2", params, low=1e-9, high=1.0)
     km = _number(table, "rotors", "torque_coefficient_nm_per_rad2s2", params, low=1e-12, high=1.0)
     max_thrust = _number(table, "rotors", "max_thrust_n", params, low=1e-3, high=1e4)
     tau = _number(table, "rotors", "motor_time_constant_s", params, low=0.0, high=1.0)
     weight = mass * 9.81
-    if 4 * max_thrust < 1.2 * weight:
+    if len(rotors) * max_thrust < 1.2 * weight:
         raise ConfigError(
-            f"{params}: [rotors] max_thrust_n = {max_thrust} gives {4 * max_thrust:.2f} N in all, "
+            f"{params}: [rotors] max_thrust_n = {max_thrust} gives {len(rotors) * max_thrust:.2f} N in all, "
             f"too little to fly a {weight:.2f} N vehicle (need at least 1.2x its weight)"
         )
     drag = table.get("drag", {}).get("linear_coefficients_ns_per_m")
