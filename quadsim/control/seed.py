@@ -1,4 +1,4 @@
-"""A port of the original V-REP quadricopter Twist controller (../shared/seed/controller.lua).
+"""A port of the original V-REP quadricopter Twist controller (its Lua child script).
 
 The structure, gains and mixer pattern are the original's:
     altitude PID around the hover command 5.335 with a vertical-velocity term;

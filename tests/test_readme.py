@@ -1,0 +1,50 @@
+"""The README tells the truth: its example output is what the code prints."""
+
+from __future__ import annotations
+
+import re
+import subprocess
+import sys
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parent.parent
+README = (ROOT / "README.md").read_text()
+
+#: what differs from machine to machine and from run to run
+VARIABLE = [
+    (re.compile(r"^(wall time\s+)[\d.]+ s$"), r"\1<wall> s"),
+    (re.compile(r"^(real-time factor )[\d.]+x$"), r"\1<rtf>x"),
+    (re.compile(r"(recording to |recording\s+)\S+\.mcap"), r"\1<file>.mcap"),
+]
+
+
+def _normalise(lines: list[str]) -> list[str]:
+    out = []
+    for line in lines:
+        for pattern, replacement in VARIABLE:
+            line = pattern.sub(replacement, line)
+        out.append(line.rstrip())
+    return out
+
+
+def test_the_run_example_is_what_run_prints(tmp_path):
+    intro = README.index("`python main.py run --script square\n--cameras none` prints")
+    block = README[README.index("```\n", intro) + 4 : README.index("\n```", README.index("```\n", intro) + 4)]
+    result = subprocess.run(
+        [
+            sys.executable,
+            str(ROOT / "main.py"),
+            "run",
+            "--script",
+            "square",
+            "--cameras",
+            "none",
+            "--out",
+            str(tmp_path),
+        ],
+        capture_output=True,
+        text=True,
+        cwd=ROOT,
+    )
+    assert result.returncode == 0, result.stderr
+    assert _normalise(result.stdout.splitlines()) == _normalise(block.splitlines())
