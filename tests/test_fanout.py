@@ -150,12 +150,16 @@ def test_every_consumer_gets_the_same_messages_and_latecomers_the_latched_ones(f
     fanout.add_consumer(first)
     for state in log.states[:10]:
         fanout.on_state(state)
-    fanout.add_consumer(late)
+    late_step = log.states[9].step
+    fanout.add_consumer(late, late_step)
     for state in log.states[10:20]:
         fanout.on_state(state)
     assert first.topics == late.topics and "/quad/front_camera/image_raw/compressed" in late.topics
-    assert first.messages[0] is late.messages[0]  # /tf_static, made once
+    # /tf_static, latched: the first consumer's at 0, the latecomer's when it joined
     assert first.messages[0][0].name == "/tf_static" and first.messages[0][1] == 0
+    assert late.messages[0][0].name == "/tf_static" and late.messages[0][1] == late_step * 1_000_000_000 // 240
+    late_static = TS.deserialize_cdr(late.messages[0][2], "tf2_msgs/msg/TFMessage").transforms[0]
+    assert late_static.header.stamp.sec * 1_000_000_000 + late_static.header.stamp.nanosec == late.messages[0][1]
     assert late.messages[1:] == first.messages[1 + 50 :]
     assert all(a is b for a, b in zip(late.messages[1:], first.messages[51:]))  # the same objects: encoded once
     spec, mount = mounts[0]

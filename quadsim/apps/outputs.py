@@ -102,7 +102,7 @@ class RecordedRun:
         check_writable(path)
         description = self.description.with_outputs(self.options.cameras, self.port.step_count, self.run_info)
         recorder = McapRecorder(path, description)
-        self.fanout.add_consumer(recorder)
+        self.fanout.add_consumer(recorder, self.port.step_count)
         self._listen(True)
         self.recorder, self.path = recorder, path
         return path

@@ -92,22 +92,28 @@ class TopicFanout:
         self.topics: list[Topic] = [TWIST, *STATE_TOPICS, TF_STATIC]
         for camera in self._cameras.values():
             self.topics += [camera.image, camera.info]
-        static = [
+        self._static = [
             cdr.TransformStamped(
                 0, BODY_FRAME, spec.optical_frame, mount.position_m, quaternion_from_matrix(optical_rotation(mount))
             )
             for spec, mount in cameras
         ]
-        #: latched messages: every consumer gets them first, whenever it joins (transient local)
-        self.latched: tuple[Message, ...] = ((TF_STATIC, 0, cdr.tf_message(static)),)
+
+    def latched(self, step: int = 0) -> tuple[Message, ...]:
+        """The latched messages (transient local), stamped at `step`: every consumer gets them
+        first, whenever it joins."""
+        ns = self.ns(step)
+        static = [t._replace(ns=ns) for t in self._static]
+        return ((TF_STATIC, ns, cdr.tf_message(static)),)
 
     # --- consumers ----------------------------------------------------------------------------
 
-    def add_consumer(self, consumer: TopicConsumer) -> None:
-        """Start feeding `consumer`: the topics so far, then the latched messages."""
+    def add_consumer(self, consumer: TopicConsumer, step: int = 0) -> None:
+        """Start feeding `consumer` from `step` on: the topics so far, then the latched messages
+        (stamped at `step`, so a recording started mid-run begins when it began)."""
         for topic in self.topics:
             consumer.add_topic(topic)
-        consumer.on_messages(self.latched)
+        consumer.on_messages(self.latched(step))
         self.consumers.append(consumer)
 
     def remove_consumer(self, consumer: TopicConsumer) -> None:

@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import datetime as dt
 import errno
+import heapq
 import json
 import logging
 import os
@@ -140,6 +141,49 @@ def _no_space_left(folder: Path) -> bool:
     return st.f_bavail == 0 or st.f_bfree == 0
 
 
+class _LogTimeOrder:
+    """Puts messages from producers that run at different delays back in log-time order.
+
+    Frames come in capture order, from the render workers, some camera periods after the states
+    of their time. Everything else is held until a frame at least as late has come (or
+    `max_hold_ns` of newer messages have piled up, when frames stop: a window dropping them on a
+    busy machine). Frames from before `start_ns` (rendered before recording began) are left out.
+    """
+
+    def __init__(self, camera_topics: set[str], start_ns: int, max_hold_ns: int = 2_000_000_000) -> None:
+        self._camera_topics = camera_topics
+        self._start_ns = start_ns
+        self._max_hold_ns = max_hold_ns
+        self._held: list[tuple[int, int, Message]] = []  # heap of (log time, arrival, message)
+        self._arrivals = 0
+        self._frames_up_to = -1  # every frame up to this log time is in
+        self._newest = 0
+
+    def push(self, messages: Sequence[Message]) -> list[Message]:
+        for message in messages:
+            topic, ns, _ = message
+            if topic.name in self._camera_topics:
+                if ns < self._start_ns:
+                    continue
+                if ns > self._frames_up_to:
+                    self._frames_up_to = ns
+            heapq.heappush(self._held, (ns, self._arrivals, message))
+            self._arrivals += 1
+            if ns > self._newest:
+                self._newest = ns
+        release_to = max(self._frames_up_to, self._newest - self._max_hold_ns)
+        out = []
+        held = self._held
+        while held and held[0][0] <= release_to:
+            out.append(heapq.heappop(held)[2])
+        return out
+
+    def drain(self) -> list[Message]:
+        out = [item[2] for item in sorted(self._held)]
+        self._held.clear()
+        return out
+
+
 class McapRecorder:
     """A consumer of the topic fan-out that writes one MCAP file: the run's metadata and
     attachments when it opens, then every message it is given.
@@ -183,6 +227,12 @@ class McapRecorder:
         self._channels: dict[str, Any] = {}
         self._log: dict[str, Any] = {}  # topic -> its channel's log(data, log_time)
         self._writer: Any = None
+        # camera frames are rendered elsewhere and come late: hold the rest until the frames of
+        # their time are in, so the file is in log-time order (readers and `mcap doctor` expect it)
+        camera_topics = {f"{c.topic_prefix}/image_raw/compressed" for c in cameras}
+        camera_topics |= {f"{c.topic_prefix}/camera_info" for c in cameras}
+        start_ns = description.start_step * 1_000_000_000 // description.config.rates.physics_hz
+        self._reorder = _LogTimeOrder(camera_topics, start_ns) if cameras else None
         options = MCAPWriteOptions(
             profile="ros2",
             compression=MCAPCompression.Zstd,
@@ -242,6 +292,14 @@ class McapRecorder:
     def on_messages(self, messages: Sequence[Message]) -> None:
         if self.error is not None or self.closed or not messages:
             return
+        if self._reorder is None:
+            self._write(messages)
+            return
+        ready = self._reorder.push(messages)
+        if ready:
+            self._write(ready)
+
+    def _write(self, messages: Sequence[Message]) -> None:
         log_to, size = self._log, self._chunk_bytes
         for topic, ns, data in messages:
             log_to[topic.name](data, ns)  # publish time = log time; sequence counts from 1 per channel
@@ -318,6 +376,10 @@ class McapRecorder:
         """Finish the file (summary, index, footer). Safe to call more than once."""
         if self.closed:
             return
+        if self._reorder is not None and self.error is None:
+            rest = self._reorder.drain()
+            if rest:
+                self._write(rest)
         self.closed = True
         if self.error is not None or not self._call(self._writer.close):
             return
