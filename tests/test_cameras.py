@@ -2,6 +2,7 @@
 deterministic whether rendered in-process or by worker processes."""
 
 import math
+from pathlib import Path
 
 import cv2
 import numpy as np
@@ -167,3 +168,79 @@ def test_images_look_like_a_cameras_sky_and_haze(tmp_path):
     white = (horizon_band.min(axis=-1) > 235).mean()
     assert white < 0.01, f"{white:.1%} white speckle in the far floor"
     assert (floor[..., 2] > floor[..., 0] + 40).mean() < 0.05  # the floor camera sees no sky
+
+
+def _egl_renders_here() -> str | None:
+    """None if PyBullet's EGL plugin renders on this machine, else why not."""
+    import subprocess
+    import sys
+
+    probe = (
+        "from quadsim.physics.pybullet_quiet import pb\n"
+        "from quadsim.sensors.rendering import enable_egl\n"
+        "cid = pb.connect(pb.DIRECT)\n"
+        "enable_egl(cid)\n"
+    )
+    result = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True, timeout=60)
+    if result.returncode != 0:
+        return (result.stderr.strip().splitlines() or [f"exit {result.returncode}"])[-1]
+    return None
+
+
+def test_egl_renders_the_scene_where_a_driver_exists(tmp_path):
+    """With an EGL driver (a GPU's, or Mesa's llvmpipe on the CPU), --renderer egl renders the
+    same scene, in workers and in-process, and nothing of the plugin's chatter reaches stdout."""
+    import subprocess
+    import sys
+
+    why = _egl_renders_here()
+    if why is not None:
+        pytest.skip(f"no EGL rendering on this machine: {why}")
+    root = Path(__file__).resolve().parent.parent
+    for workers in ("2", "0"):
+        out = tmp_path / f"egl{workers}.mcap"
+        result = subprocess.run(
+            [
+                sys.executable,
+                str(root / "main.py"),
+                "run",
+                "--script",
+                "hover",
+                "--duration",
+                "1",
+                "--renderer",
+                "egl",
+                "--render-workers",
+                workers,
+                "--out",
+                str(out),
+            ],
+            capture_output=True,
+            text=True,
+            cwd=root,
+        )
+        assert result.returncode == 0, result.stderr
+        assert "GL_VENDOR" not in result.stdout and "ven =" not in result.stdout and "EGL" not in result.stdout
+        from quadsim.recording.flight import load_flight
+
+        front = decode_jpeg(load_flight(out).frames["front"][-1][1])
+        assert _red_mask(front).sum() > 500  # the red tower ahead, drawn by EGL
+
+
+def test_a_renderer_that_draws_nothing_is_refused(monkeypatch):
+    """No blank frames recorded without a word: the first frame of each camera is checked."""
+    from quadsim import ConfigError
+    from quadsim.sensors import rig as rig_module
+    from quadsim.sensors.camera import RendererKind
+    from quadsim.sensors.rig import CameraRig
+
+    def blank(spec, *args, **kwargs):
+        shape = (spec.height_px, spec.width_px)
+        return np.full((*shape, 3), 178, np.uint8), np.ones(shape, np.float32)
+
+    monkeypatch.setattr(rig_module, "render_raw", blank)
+    with Simulator(SimConfig()) as sim:
+        rig = CameraRig(sim.vehicle, default_cameras(), RendererKind.EGL, sim.scene_client, None)
+        state = sim.state
+        with pytest.raises(ConfigError, match="drew nothing in the front camera"):
+            rig.render(("front",), 0, state.position_m, state.orientation_xyzw)

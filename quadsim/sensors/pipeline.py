@@ -108,13 +108,10 @@ class CameraPipeline:
         for spec in specs:
             vehicle.camera_mount(spec.link_name)  # a clear error for an unknown link, here
         if workers <= 0:
-            if scene_client is None:
+            if scene_client is None or renderer is RendererKind.EGL:
+                # the EGL plugin draws only what is created after it is loaded: a client of its own
                 self._rig = CameraRig.standalone(vehicle, world, specs, renderer)
             else:
-                if renderer is RendererKind.EGL:
-                    from quadsim.sensors.rendering import enable_egl
-
-                    enable_egl(scene_client)
                 self._rig = CameraRig(vehicle, specs, renderer, scene_client, None)
         else:
             self._start_workers(vehicle, world, workers, worker_start_timeout_s)

@@ -63,6 +63,10 @@ def main() -> None:
         settings = conn.recv()
     except (EOFError, OSError):
         return  # the parent went away before it could say anything
+    if settings.get("renderer") == "egl":  # the EGL plugin prints GL strings on stdout as it renders
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, 1)
+        os.close(devnull)
     niceness = settings.get("niceness", 0)
     if niceness:
         try:

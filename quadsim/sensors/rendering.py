@@ -8,7 +8,7 @@ import cv2
 import numpy as np
 
 from quadsim.errors import ConfigError
-from quadsim.physics.pybullet_quiet import pb
+from quadsim.physics.pybullet_quiet import c_output_silenced, pb
 from quadsim.sensors.camera import CameraPose, CameraSpec, RendererKind
 
 
@@ -21,6 +21,30 @@ def projection_matrix(spec: CameraSpec) -> tuple[float, ...]:
     return pb.computeProjectionMatrixFOV(spec.vertical_fov_deg, spec.width_px / spec.height_px, spec.near_m, spec.far_m)
 
 
+def render_raw(
+    spec: CameraSpec,
+    pose: CameraPose,
+    cid: int,
+    renderer: RendererKind = RendererKind.TINY,
+    projection: tuple[float, ...] | None = None,
+) -> tuple[np.ndarray, np.ndarray]:
+    """What the renderer drew: RGB (height x width x 3, uint8, row 0 at the top) and the depth
+    buffer (float32, 1.0 where nothing was drawn). No segmentation mask."""
+    args = (spec.width_px, spec.height_px, view_matrix(pose), projection or projection_matrix(spec))
+    if renderer is RendererKind.TINY:
+        _, _, rgba, depth, _ = pb.getCameraImage(
+            *args, renderer=pb.ER_TINY_RENDERER, flags=pb.ER_NO_SEGMENTATION_MASK, physicsClientId=cid
+        )
+    else:
+        with c_output_silenced():  # the EGL plugin prints its GL vendor as it renders
+            _, _, rgba, depth, _ = pb.getCameraImage(
+                *args, renderer=pb.ER_BULLET_HARDWARE_OPENGL, flags=pb.ER_NO_SEGMENTATION_MASK, physicsClientId=cid
+            )
+    shape = (spec.height_px, spec.width_px)
+    rgb = np.ascontiguousarray(np.reshape(np.asarray(rgba, dtype=np.uint8), (*shape, 4))[:, :, :3])
+    return rgb, np.reshape(np.asarray(depth, dtype=np.float32), shape)
+
+
 def render_rgb(
     spec: CameraSpec,
     pose: CameraPose,
@@ -29,25 +53,15 @@ def render_rgb(
     projection: tuple[float, ...] | None = None,
     atmosphere: Atmosphere | None = None,
 ) -> np.ndarray:
-    """Render one RGB image (height x width x 3, uint8, row 0 at the top). No segmentation mask.
+    """Render one RGB image. With `atmosphere`, the empty background becomes sky and distance
+    softens and hazes the scene (see Atmosphere)."""
+    rgb, depth = render_raw(spec, pose, cid, renderer, projection)
+    return rgb if atmosphere is None else atmosphere.apply(rgb, depth, pose)
 
-    With `atmosphere`, the empty background becomes sky and distance softens and hazes the
-    scene (see Atmosphere)."""
-    engine = pb.ER_TINY_RENDERER if renderer is RendererKind.TINY else pb.ER_BULLET_HARDWARE_OPENGL
-    _, _, rgba, depth, _ = pb.getCameraImage(
-        spec.width_px,
-        spec.height_px,
-        view_matrix(pose),
-        projection or projection_matrix(spec),
-        renderer=engine,
-        flags=pb.ER_NO_SEGMENTATION_MASK,
-        physicsClientId=cid,
-    )
-    shape = (spec.height_px, spec.width_px)
-    rgb = np.ascontiguousarray(np.reshape(np.asarray(rgba, dtype=np.uint8), (*shape, 4))[:, :, :3])
-    if atmosphere is None:
-        return rgb
-    return atmosphere.apply(rgb, np.reshape(np.asarray(depth, dtype=np.float32), shape), pose)
+
+def is_blank(rgb: np.ndarray, depth: np.ndarray) -> bool:
+    """True when a renderer drew nothing: one flat colour, or no depth anywhere."""
+    return int(rgb.max()) - int(rgb.min()) <= 2 or float(depth.min()) >= 0.99999
 
 
 class Atmosphere:
@@ -136,7 +150,8 @@ def enable_egl(cid: int) -> None:
     spec = importlib.util.find_spec("eglRenderer")
     if spec is None or spec.origin is None:
         raise ConfigError("--renderer egl: this pybullet build has no eglRenderer plugin; use --renderer tiny")
-    plugin = pb.loadPlugin(spec.origin, "_eglRendererPlugin", physicsClientId=cid)
+    with c_output_silenced():  # the plugin prints its GL vendor and version strings
+        plugin = pb.loadPlugin(spec.origin, "_eglRendererPlugin", physicsClientId=cid)
     if plugin < 0:
         raise ConfigError(
             "--renderer egl: the EGL plugin did not load (no EGL driver on this machine?); use --renderer tiny"

@@ -9,11 +9,11 @@ from __future__ import annotations
 import numpy as np
 
 from quadsim.errors import ConfigError
-from quadsim.physics.pybullet_quiet import pb
+from quadsim.physics.pybullet_quiet import c_output_silenced, pb
 from quadsim.physics.scene import build_world, load_vehicle_body
 from quadsim.physics.world_spec import WorldSpec
 from quadsim.sensors.camera import CameraFrame, CameraSpec, RendererKind, camera_pose
-from quadsim.sensors.rendering import Atmosphere, enable_egl, encode_jpeg, projection_matrix, render_rgb
+from quadsim.sensors.rendering import Atmosphere, enable_egl, encode_jpeg, is_blank, projection_matrix, render_raw
 from quadsim.vehicle.params import VehicleParams
 
 
@@ -63,23 +63,26 @@ class CameraRig:
         for name in names:
             spec = self.specs[name]
             pose = camera_pose(self._mounts[name], position, orientation)
-            rgb = render_rgb(spec, pose, self._cid, self._renderer, self._projections[name], self._atmospheres[name])
+            rgb, depth = render_raw(spec, pose, self._cid, self._renderer, self._projections[name])
             if name not in self._checked:
-                self._check_not_blank(name, rgb)
+                self._check_not_blank(name, rgb, depth)
+            rgb = self._atmospheres[name].apply(rgb, depth, pose)
             frames.append(CameraFrame(name, step, encode_jpeg(rgb, spec.jpeg_quality), spec.width_px, spec.height_px))
         return frames
 
-    def _check_not_blank(self, name: str, rgb: np.ndarray) -> None:
-        """A renderer that draws nothing (an EGL driver that is not really there) gives one flat
-        colour; refuse it rather than record blank frames. The first frame of each camera is
-        checked (at the start pose a camera sees the floor, the sky or both: never one colour)."""
+    def _check_not_blank(self, name: str, rgb: np.ndarray, depth: np.ndarray) -> None:
+        """A renderer that draws nothing (an EGL driver that is not really there) leaves one flat
+        colour and no depth; refuse it rather than record blank frames. The first frame of each
+        camera is checked, before the sky is painted in (at the start pose a camera sees the
+        floor, so a real image always has depth somewhere)."""
         self._checked.add(name)
-        if int(rgb.max()) - int(rgb.min()) <= 2:
+        if is_blank(rgb, depth):
             raise ConfigError(
-                f"the {self._renderer.value} renderer drew a blank {name} camera image (one flat colour); "
-                f"it does not work on this machine: use --renderer tiny"
+                f"the {self._renderer.value} renderer drew nothing in the {name} camera image "
+                f"(no EGL driver that can render here?): use --renderer tiny"
             )
 
     def close(self) -> None:
         if self._body is not None:  # the client is ours
-            pb.disconnect(physicsClientId=self._cid)
+            with c_output_silenced():  # the EGL plugin says goodbye on stdout
+                pb.disconnect(physicsClientId=self._cid)
