@@ -1,14 +1,19 @@
 """Damaged inputs to info, recover and the reader: a clear message, exit 2, no traceback."""
 
+import contextlib
+import errno
+import io
 import os
 import subprocess
 import sys
 from pathlib import Path
 
 import pytest
+from mcap.reader import make_reader
 from mcap.writer import Writer
 
 from quadsim import QuadsimError
+from quadsim.apps.cli import main
 from quadsim.recording.reader import RecordingReader
 from tests.recording_helpers import record_flight
 
@@ -108,3 +113,82 @@ def test_reader_refuses_damaged_input(kind, tmp_path, good):
 def test_missing_file(tmp_path):
     out = cli("info", tmp_path / "nothing.mcap")
     assert out.returncode == 2 and "no such file" in out.stderr
+
+
+# --- recover --------------------------------------------------------------------------------------
+
+
+def _damaged_chunk(good: Path, dst: Path) -> Path:
+    """`good` with a byte of its first chunk's compressed data flipped (zstd refuses it)."""
+    from tests.damaged_corpus import OP_CHUNK, layout
+
+    data = bytearray(good.read_bytes())
+    chunk = layout(bytes(data)).of(OP_CHUNK)[0]
+    data[chunk.start + chunk.length // 2] ^= 0x5A
+    dst.write_bytes(bytes(data))
+    return dst
+
+
+def test_recover_keeps_the_chunks_around_a_damaged_one(tmp_path, good):
+    bad = _damaged_chunk(good, tmp_path / "bad.mcap")
+    out = cli("recover", bad, "-o", tmp_path / "saved.mcap")
+    assert out.returncode == 0, out.stderr
+    assert "chunk at byte" in out.stdout and "are skipped" in out.stdout  # says what was lost: topics, span
+    with open(good, "rb") as fh:
+        everything = sum(1 for _ in make_reader(fh).iter_messages())
+    with open(tmp_path / "saved.mcap", "rb") as fh:
+        saved = [m.log_time for _, _, m in make_reader(fh, validate_crcs=True).iter_messages()]
+    assert 0.5 * everything < len(saved) < everything and saved[-1] >= 3.9e9  # the chunks after it too
+
+
+class _Filling:
+    """A file that fails with ENOSPC once `limit` bytes have been written to it."""
+
+    def __init__(self, fh, limit: int) -> None:
+        self._fh, self._left = fh, limit
+
+    def write(self, data) -> int:
+        self._left -= len(data)
+        if self._left < 0:
+            raise OSError(errno.ENOSPC, "No space left on device")
+        return self._fh.write(data)
+
+    def __getattr__(self, name):
+        return getattr(self._fh, name)
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self._fh.close()
+
+
+@contextlib.contextmanager
+def _small_disk(folder: Path, size_kib: int):
+    """A tmpfs of `size_kib` at `folder` (root only); None where mounting is not allowed."""
+    folder.mkdir()
+    mounted = subprocess.run(
+        ["mount", "-t", "tmpfs", "-o", f"size={size_kib}k", "tmpfs", str(folder)], capture_output=True
+    )
+    try:
+        yield folder if mounted.returncode == 0 else None
+    finally:
+        if mounted.returncode == 0:
+            subprocess.run(["umount", str(folder)], check=True)
+
+
+def test_recover_onto_a_full_disk_says_so_and_leaves_nothing(tmp_path, good, monkeypatch):
+    src = _damaged_chunk(good, tmp_path / "bad.mcap")
+    with _small_disk(tmp_path / "disk", 16) as disk:
+        if disk is None:  # no tmpfs here: the disk fills up after 16 kB all the same
+            disk = tmp_path / "disk"
+            real_fdopen = os.fdopen
+            monkeypatch.setattr(os, "fdopen", lambda fd, *a, **kw: _Filling(real_fdopen(fd, *a, **kw), 16 * 1024))
+        out = io.StringIO()
+        with contextlib.redirect_stderr(out), contextlib.redirect_stdout(io.StringIO()):
+            code = main(["recover", str(src), "-o", str(disk / "saved.mcap")])
+        assert code == 2
+        assert out.getvalue().strip().splitlines() == [
+            f"quadsim: error: cannot write {disk / 'saved.mcap'}: No space left on device; nothing was written"
+        ]
+        assert list(disk.iterdir()) == []  # no partial file, no temporary file

@@ -285,6 +285,8 @@ def cmd_info(args: argparse.Namespace) -> int:
     info = read_info(args.file)
     for line in info.lines():
         print(line)
+    if info.damage:
+        raise QuadsimError(info.damage_report)
     missing = info.missing_topics()
     if missing:
         raise QuadsimError(f"{args.file}: not a quadsim recording: missing topics {', '.join(missing)}")
@@ -299,13 +301,17 @@ def cmd_recover(args: argparse.Namespace) -> int:
     t0, t1 = result.span_s
     if result.was_complete:
         print(f"{args.file} was complete; its {result.messages} messages were copied to {result.path}")
-    else:
-        print(
-            f"recovered {result.messages} messages on {result.topics} topics from {result.chunks} complete chunks, "
-            f"covering {t0:.2f} .. {t1:.2f} s of simulation time"
-        )
-        print(f"what was lost: {result.note or 'nothing readable after the last chunk'}")
-        print(f"written to {result.path}")
+        return 0
+    print(
+        f"recovered {result.messages} messages on {result.topics} topics from {result.chunks} intact chunks, "
+        f"covering {t0:.2f} .. {t1:.2f} s of simulation time, with {result.metadata} metadata records and "
+        f"{result.attachments} attachments"
+    )
+    lost = [d for d in result.damage if d.loses != "nothing"]
+    print("what was lost: " + ("nothing (only indexes or fields around the data were damaged)" if not lost else ""))
+    for d in result.damage:
+        print(f"  {d.describe()}")
+    print(f"written to {result.path}")
     return 0
 
 
@@ -322,7 +328,9 @@ def cmd_replay(args: argparse.Namespace) -> int:
         bar.close()
         for line in report.lines():
             print(line)
+        _warn(flight.warnings(), args.file)
         return 0
+    _warn(flight.warnings(), args.file)
     headless = args.headless or args.mp4 is not None or args.plot is not None
     if not headless and not has_display():
         print(
@@ -348,6 +356,14 @@ def cmd_replay(args: argparse.Namespace) -> int:
         print("replaying; press H or F1 in the window for the keys, Esc to quit")
         app.run()
     return 0
+
+
+def _warn(lines: list[str], path: Path, most: int = 8) -> None:
+    """What was skipped in a damaged or odd file, on stderr (the command goes on)."""
+    for line in lines[:most]:
+        print(f"quadsim: warning: {path}: {line}", file=sys.stderr)
+    if len(lines) > most:
+        print(f"quadsim: warning: {path}: and {len(lines) - most} more (see 'quadsim info')", file=sys.stderr)
 
 
 def cmd_check(args: argparse.Namespace) -> int:
