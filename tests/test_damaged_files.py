@@ -3,7 +3,9 @@
 import contextlib
 import errno
 import io
+import json
 import os
+import shutil
 import subprocess
 import sys
 from pathlib import Path
@@ -115,7 +117,7 @@ def test_missing_file(tmp_path):
     assert out.returncode == 2 and "no such file" in out.stderr
 
 
-# --- recover --------------------------------------------------------------------------------------
+# --- check over a folder: every file reported, the worst outcome decides the exit code ---------
 
 
 def _damaged_chunk(good: Path, dst: Path) -> Path:
@@ -127,6 +129,56 @@ def _damaged_chunk(good: Path, dst: Path) -> Path:
     data[chunk.start + chunk.length // 2] ^= 0x5A
     dst.write_bytes(bytes(data))
     return dst
+
+
+def _changed_gains(good: Path, dst: Path) -> Path:
+    """`good` as if flown with another position gain: re-flying it gives another flight."""
+    from tests.damaged_corpus import build, read_content
+
+    content = read_content(good)
+    md = content.metadata("quadsim")
+    entries = dict(md.metadata)
+    params = json.loads(entries["parameters"])
+    params["controller"]["gains"]["altitude_p_per_s"] *= 1.5
+    entries["parameters"] = json.dumps(params)
+    md.metadata = list(entries.items())
+    dst.write_bytes(build(content))
+    return dst
+
+
+def test_check_folder_reports_every_file_and_exits_with_the_worst(tmp_path, good):
+    folder = tmp_path / "runs"
+    folder.mkdir()
+    shutil.copy(good, folder / "a_good.mcap")
+    _damaged_chunk(good, folder / "b_damaged.mcap")  # in the middle: the files after it are still checked
+    _changed_gains(good, folder / "c_changed.mcap")
+    empty = tmp_path / "d_empty"
+    empty.mkdir()
+    out = cli("check", folder, empty)
+    assert out.returncode == 2 and "Traceback" not in out.stderr, out.stdout + out.stderr
+    lines = out.stdout.splitlines()
+    assert any(line.startswith("ok") and "a_good.mcap" in line for line in lines)
+    assert any(line.startswith("ERROR") and "b_damaged.mcap" in line and "chunk at byte" in line for line in lines)
+    assert any(line.startswith("FAIL") and "c_changed.mcap" in line for line in lines)
+    assert any(line.startswith("ERROR") and "d_empty" in line for line in lines)
+    assert "1 of 4 recordings re-fly" in lines[-1] and "1 changed" in lines[-1] and "2 unusable" in lines[-1]
+
+    (folder / "b_damaged.mcap").unlink()
+    assert cli("check", folder).returncode == 1  # none unusable, one changed
+    (folder / "c_changed.mcap").unlink()
+    assert cli("check", folder).returncode == 0
+
+
+@pytest.mark.parametrize("option", ["--tolerance-m", "--tolerance-rad"])
+@pytest.mark.parametrize("value", ["-0.001", "nan", "-inf"])
+def test_check_refuses_a_negative_or_nan_tolerance(option, value, good):
+    out = cli("check", good, f"{option}={value}")
+    assert out.returncode == 2 and "Traceback" not in out.stderr
+    assert out.stderr.strip().splitlines() == [f"quadsim: error: {option} must be a number >= 0, got {float(value)}"]
+    assert out.stdout == ""  # refused before flying anything
+
+
+# --- recover --------------------------------------------------------------------------------------
 
 
 def test_recover_keeps_the_chunks_around_a_damaged_one(tmp_path, good):

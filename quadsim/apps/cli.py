@@ -366,31 +366,39 @@ def _warn(lines: list[str], path: Path, most: int = 8) -> None:
         print(f"quadsim: warning: {path}: and {len(lines) - most} more (see 'quadsim info')", file=sys.stderr)
 
 
+def _tolerance(value: float, option: str) -> float:
+    if not value >= 0.0:  # NaN fails this too
+        raise QuadsimError(f"{option} must be a number >= 0, got {value}")
+    return value
+
+
 def cmd_check(args: argparse.Namespace) -> int:
     from quadsim.apps.resim import resimulate
     from quadsim.recording.flight import load_flight
 
+    _tolerance(args.tolerance_m, "--tolerance-m")
+    _tolerance(args.tolerance_rad, "--tolerance-rad")
     files: list[Path] = []
     for path in args.paths:
         if path.is_dir():
-            found = sorted(path.rglob("*.mcap"))
-            if not found:
-                raise QuadsimError(f"{path}: no .mcap recordings in this folder")
-            files += found
+            files += sorted(path.rglob("*.mcap")) or [path]  # an empty folder is reported as unusable
         else:
             files.append(path)
     failed, unusable = 0, 0
     for path in files:
         try:
+            if path.is_dir():
+                raise QuadsimError("no .mcap recordings in this folder")
+            flight = load_flight(path)
             report = resimulate(
-                load_flight(path),
+                flight,
                 record=False,
                 position_tolerance_m=args.tolerance_m,
                 attitude_tolerance_rad=args.tolerance_rad,
             )
         except QuadsimError as exc:
             unusable += 1
-            print(f"ERROR {path}: {exc}")
+            print(f"ERROR {path}: {str(exc).removeprefix(f'{path}: ')}")
             continue
         ok = report.within(args.tolerance_m, args.tolerance_rad)
         failed += not ok
@@ -401,6 +409,8 @@ def cmd_check(args: argparse.Namespace) -> int:
         if not ok:
             for line in report.lines()[1:]:
                 print("     " + line)
+        for line in flight.warnings():
+            print(f"      note: {line}")
     total = len(files)
     print(
         f"{total - failed - unusable} of {total} recordings re-fly within {args.tolerance_m:g} m and "
