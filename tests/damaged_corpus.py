@@ -523,8 +523,9 @@ def _byte_damage(corpus: _Corpus, name: str, data: bytes, rng: random.Random) ->
             r = recs[rng.randrange(len(recs))]
             flip("flip", f"summary op {op}", r.body + rng.randrange(0, r.length))
     channel_topics = lay.of(OP_CHANNEL, in_summary=True)
-    if channel_topics:  # a topic name's bytes, in the summary's copy
+    if channel_topics:  # a topic name's bytes, in the summary's copy: not UTF-8, then another letter
         flip("flip", "summary topic name", channel_topics[0].body + 4 + 4 + 2, 0x80)
+        flip("flip", "summary topic letter", channel_topics[-1].body + 4 + 4 + 3, 0x01)
     so = lay.of(OP_SUMMARY_OFFSET)
     if so:
         flip("flip", "summary offset", so[0].body + 1 + rng.randrange(0, 16))
