@@ -178,6 +178,37 @@ def test_check_refuses_a_negative_or_nan_tolerance(option, value, good):
     assert out.stdout == ""  # refused before flying anything
 
 
+def test_a_damaged_chunk_of_camera_images_alone_is_skipped_and_check_goes_on(tmp_path):
+    """Where a damaged chunk held only images (its index says so), the commands and states are
+    whole: replay and check go on, and say what was skipped."""
+    from tests.damaged_corpus import OP_CHUNK, RMessage, build, layout, read_content
+
+    src = tmp_path / "cams.mcap"
+    record_flight(src, size=(64, 48), script="z_mode height\n1.5 linear.z=0\n")
+    content = read_content(src)
+    images = {i.id for i in content.items if getattr(i, "topic", "").endswith("/image_raw/compressed")}
+    is_image = [isinstance(i, RMessage) and i.channel_id in images for i in content.items]
+    content.items = [i for i, img in zip(content.items, is_image) if not img] + [
+        i for i, img in zip(content.items, is_image) if img
+    ]  # the images last: the last chunks hold nothing else
+    data = bytearray(build(content, chunk_messages=30))
+    last = layout(bytes(data)).of(OP_CHUNK)[-2]
+    data[last.start + last.length - 10] ^= 0x21
+    bad = tmp_path / "bad.mcap"
+    bad.write_bytes(bytes(data))
+
+    out = cli("replay", "--headless", bad)
+    assert out.returncode == 0 and "Traceback" not in out.stderr
+    assert (
+        "quadsim: warning:" in out.stderr and "image_raw/compressed" in out.stderr and " s, are skipped" in out.stderr
+    )
+    frames = [int(line.split()[-2]) for line in out.stdout.splitlines() if line.startswith("camera")]
+    assert frames and min(frames) < 45  # some frames are gone, the rest play
+    out = cli("check", bad)
+    assert out.returncode == 0, out.stdout + out.stderr
+    assert out.stdout.startswith("ok") and "note: the chunk at byte" in out.stdout
+
+
 # --- recover --------------------------------------------------------------------------------------
 
 

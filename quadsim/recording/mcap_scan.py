@@ -864,13 +864,12 @@ class McapFile:
                 elif cid in self._summary.channels:
                     names.add(self._summary.channels[cid][1])
             topics = tuple(sorted(names)) or None
-        before = [s.end_ns for s in self._segments if s.ok and s.offset < seg.offset and s.counts]
-        prev_end = max(before, default=0)
-        after = [s.start_ns for s in self._segments if s.offset > seg.offset]
-        next_start = min(after, default=None)
-        start, end = seg.start_ns, seg.end_ns
-        if not prev_end <= start <= end or (next_start is not None and end > next_start):
-            start, end = prev_end, next_start if next_start is not None else max(prev_end, end)
+        start, end = seg.start_ns, seg.end_ns  # its own fields (or the summary's index, when sound)
+        if start > end:  # those fields are damaged too: the span between its neighbours
+            before = [s.end_ns for s in self._segments if s.ok and s.offset < seg.offset and s.counts]
+            after = [s.start_ns for s in self._segments if s.offset > seg.offset]
+            start = max(before, default=0)
+            end = max(start, min(after, default=start))
         what = "chunk" if seg.chunked else "records"
         self._damage(f"the {what} at byte {seg.offset}", why, "messages", span_ns=(start, end), topics=topics)
 
