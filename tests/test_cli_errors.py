@@ -239,3 +239,18 @@ def test_an_unrecorded_headless_run_renders_no_camera(capsys, monkeypatch):
     )
     assert code == 0, err
     assert "cameras none" in out
+
+
+@pytest.mark.parametrize("size", ["big", "10x10", "1280x"])
+def test_a_bad_window_size(capsys, size):
+    code, _, err = run_cli(
+        capsys, "replay", str(ROOT / "tests" / "recordings" / "square_cascade.mcap"), "--window", size
+    )
+    assert_one_line_error(code, err, "--window")
+
+
+def test_a_start_pose_far_away_is_refused():
+    from quadsim import ConfigError, SimConfig, StartPose
+
+    with pytest.raises(ConfigError, match="beyond"):
+        SimConfig(start=StartPose(1e300, 0.0, 0.0))

@@ -312,6 +312,16 @@ def has_display() -> bool:
     return True  # macOS and Windows always have a desktop
 
 
+def _window_size(text: str) -> tuple[int, int]:
+    try:
+        width, height = (int(v) for v in text.lower().split("x"))
+    except ValueError:
+        raise QuadsimError(f"--window must look like 1280x720, got {text!r}") from None
+    if not (320 <= width <= 16384 and 240 <= height <= 16384):
+        raise QuadsimError(f"--window {text}: the size must be within 320x240 .. 16384x16384")
+    return width, height
+
+
 def cmd_fly(args: argparse.Namespace) -> int:
     if args.gui and not has_display():
         raise QuadsimError("--gui needs a display (DISPLAY is not set); run without --gui")
@@ -326,10 +336,7 @@ def cmd_fly(args: argparse.Namespace) -> int:
     from quadsim.apps.window.teleop import TeleopApp, TeleopOptions
     from quadsim.drivers.joystick import JoystickMapping, load_mapping
 
-    try:
-        width, height = (int(v) for v in args.window.lower().split("x"))
-    except ValueError:
-        raise QuadsimError(f"--window must look like 1280x720, got {args.window!r}") from None
+    width, height = _window_size(args.window)
     options = TeleopOptions(
         input=args.input,
         keyboard_layout=args.keys,
@@ -403,6 +410,8 @@ def cmd_info(args: argparse.Namespace) -> int:
     info = read_info(args.file)
     for line in info.lines():
         print(line)
+    if info.damage:
+        raise QuadsimError(info.damage_report)
     missing = info.missing_topics()
     if missing:
         raise QuadsimError(f"{args.file}: not a quadsim recording: missing topics {', '.join(missing)}")
@@ -417,13 +426,17 @@ def cmd_recover(args: argparse.Namespace) -> int:
     t0, t1 = result.span_s
     if result.was_complete:
         print(f"{args.file} was complete; its {result.messages} messages were copied to {result.path}")
-    else:
-        print(
-            f"recovered {result.messages} messages on {result.topics} topics from {result.chunks} complete chunks, "
-            f"covering {t0:.2f} .. {t1:.2f} s of simulation time"
-        )
-        print(f"what was lost: {result.note or 'nothing readable after the last chunk'}")
-        print(f"written to {result.path}")
+        return 0
+    print(
+        f"recovered {result.messages} messages on {result.topics} topics from {result.chunks} intact chunks, "
+        f"covering {t0:.2f} .. {t1:.2f} s of simulation time, with {result.metadata} metadata records and "
+        f"{result.attachments} attachments"
+    )
+    lost = [d for d in result.damage if d.loses != "nothing"]
+    print("what was lost: " + ("nothing (only indexes or fields around the data were damaged)" if not lost else ""))
+    for d in result.damage:
+        print(f"  {d.describe()}")
+    print(f"written to {result.path}")
     return 0
 
 
@@ -458,6 +471,7 @@ def _check_output_dir(option: str, folder: Path, create: bool = True) -> None:
 def cmd_replay(args: argparse.Namespace) -> int:
     from quadsim.recording.flight import load_flight
 
+    width, height = _window_size(args.window)
     if args.plot is not None:
         _check_output_file("--plot", args.plot, PLOT_SUFFIXES)
     if args.mp4 is not None:
@@ -472,7 +486,9 @@ def cmd_replay(args: argparse.Namespace) -> int:
         bar.close()
         for line in report.lines():
             print(line)
+        _warn(flight.warnings(), args.file)
         return 0
+    _warn(flight.warnings(), args.file)
     headless = args.headless or args.mp4 is not None or args.plot is not None
     if not headless and not has_display():
         print(
@@ -499,11 +515,18 @@ def cmd_replay(args: argparse.Namespace) -> int:
         return 0
     from quadsim.apps.window.replay import ReplayApp
 
-    width, height = (int(v) for v in args.window.lower().split("x"))
     with ReplayApp(flight, (width, height), speed=args.speed, loop=args.loop) as app:
         print("replaying; press H or F1 in the window for the keys, Esc to quit")
         app.run()
     return 0
+
+
+def _warn(lines: list[str], path: Path, most: int = 8) -> None:
+    """What was skipped in a damaged or odd file, on stderr (the command goes on)."""
+    for line in lines[:most]:
+        print(f"quadsim: warning: {path}: {line}", file=sys.stderr)
+    if len(lines) > most:
+        print(f"quadsim: warning: {path}: and {len(lines) - most} more (see 'quadsim info')", file=sys.stderr)
 
 
 def cmd_check(args: argparse.Namespace) -> int:
@@ -513,24 +536,24 @@ def cmd_check(args: argparse.Namespace) -> int:
     files: list[Path] = []
     for path in args.paths:
         if path.is_dir():
-            found = sorted(path.rglob("*.mcap"))
-            if not found:
-                raise QuadsimError(f"{path}: no .mcap recordings in this folder")
-            files += found
+            files += sorted(path.rglob("*.mcap")) or [path]  # an empty folder is reported as unusable
         else:
             files.append(path)
     failed, unusable = 0, 0
     for path in files:
         try:
+            if path.is_dir():
+                raise QuadsimError("no .mcap recordings in this folder")
+            flight = load_flight(path)
             report = resimulate(
-                load_flight(path),
+                flight,
                 record=False,
                 position_tolerance_m=args.tolerance_m,
                 attitude_tolerance_rad=args.tolerance_rad,
             )
         except QuadsimError as exc:
             unusable += 1
-            print(f"ERROR {path}: {exc}")
+            print(f"ERROR {path}: {str(exc).removeprefix(f'{path}: ')}")
             continue
         ok = report.within(args.tolerance_m, args.tolerance_rad)
         failed += not ok
@@ -541,6 +564,8 @@ def cmd_check(args: argparse.Namespace) -> int:
         if not ok:
             for line in report.lines()[1:]:
                 print("     " + line)
+        for line in flight.warnings():
+            print(f"      note: {line}")
     total = len(files)
     print(
         f"{total - failed - unusable} of {total} recordings re-fly within {args.tolerance_m:g} m and "

@@ -65,28 +65,57 @@ class ResimReport:
         return out
 
 
+def _plain_name(name: str) -> bool:
+    """A file name that stays inside the folder it is written to."""
+    return bool(name) and name == Path(name).name and not name.startswith(".") and "\0" not in name
+
+
 def _config_from(flight: RecordedFlight, folder: Path) -> tuple[SimConfig, dict[str, float]]:
     d = flight.description
     if d is None:
         if flight.description_error:
             raise QuadsimError(f"{flight.description_error}: it cannot be re-flown")
         raise QuadsimError(f"{flight.path}: not a quadsim recording (no quadsim metadata): it cannot be re-flown")
+    lost = flight.lost_for_resim()
+    if lost is not None:
+        raise QuadsimError(
+            f"{flight.path}: damaged: {lost}. The recorded flight is incomplete, so it cannot be re-flown "
+            f"faithfully; 'quadsim recover {flight.path}' saves what is readable"
+        )
+    unreadable = flight.unreadable_for_resim()
+    if unreadable is not None:
+        raise QuadsimError(f"{flight.path}: {unreadable}, so the flight cannot be re-flown faithfully")
     if not flight.commands:
         raise QuadsimError(f"{flight.path}: has no /quad_cmd_twist commands to re-fly")
     if not flight.states:
         raise QuadsimError(f"{flight.path}: has no /quad/pose states to compare with")
+    period = d.config.rates.physics_hz // d.config.rates.state_hz
+    most = max(d.config.rates.physics_hz, 2 * period)  # one second, or two state periods
+    for a, b in zip(flight.states, flight.states[1:]):
+        if b.step - a.step > most:
+            raise QuadsimError(
+                f"{flight.path}: its /quad/pose states jump from t={a.step / d.config.rates.physics_hz:.2f} s to "
+                f"t={b.step / d.config.rates.physics_hz:.2f} s: the flight between cannot be compared"
+            )
     if d.start_step:
         raise QuadsimError(
             f"{flight.path}: this recording was started mid-flight (at step {d.start_step}); "
             f"only recordings that start at the beginning of a flight can be re-flown"
         )
     names = {d.vehicle.urdf_file, d.vehicle.params_file}
+    odd = [n for n in sorted(names) if not _plain_name(n)]
+    if odd:
+        raise QuadsimError(f"{flight.path}: the vehicle's file name {odd[0]!r} is not a plain file name")
     missing = [n for n in sorted(names) if n not in flight.attachments]
     if missing:
         raise QuadsimError(f"{flight.path}: attachment(s) {', '.join(missing)} missing: cannot rebuild the vehicle")
     for name, data in flight.attachments.items():
-        if name == Path(name).name and not name.startswith("."):  # plain file names only, never a path
-            (folder / name).write_bytes(data)
+        if _plain_name(name):  # plain file names only, never a path
+            try:
+                (folder / name).write_bytes(data)
+            except OSError as exc:  # a name too long for this file system
+                if name in names:
+                    raise QuadsimError(f"{flight.path}: cannot write attachment {name!r}: {exc.strerror}") from None
     world_name = d.config.world.name if d.config.world else "default.toml"
     world = folder / world_name if world_name in flight.attachments else None
     config = replace(
@@ -133,8 +162,12 @@ def resimulate(
         driver = ReplayDriver(flight.command_steps(), str(flight.path))
         try:
             sim = Simulator(config, driver, controller_gains=gains, texture_required=False)
-        except ValueError as exc:
-            raise QuadsimError(f"{flight.path}: cannot rebuild the controller: {exc}") from None
+        except (QuadsimError, ValueError) as exc:
+            # name the recording's attachments, not the temporary folder they were written to
+            why = str(exc).replace(f"{tmp}/", "attachment ")
+            raise QuadsimError(
+                f"{flight.path}: cannot rebuild the run from its parameters and attachments: {why}"
+            ) from None
         with sim:
             log = StateLog()
             sim.add_sink(log)

@@ -1,12 +1,14 @@
 """A recording loaded whole for playback and re-simulation: states, commands, camera frames,
 the run's parameters, events and attachments.
 
-Foreign files load too (playback shows what is there); damaged ones are refused with what is
-wrong and how to recover them.
+Foreign files load too (playback shows what is there), and so do damaged ones: what could not be
+read is listed in `damage` and `notes`, and `lost_for_resim` says whether the flight can still be
+flown again faithfully.
 """
 
 from __future__ import annotations
 
+import math
 from bisect import bisect_right
 from dataclasses import dataclass, field
 from functools import cached_property
@@ -16,6 +18,7 @@ from typing import Any
 from quadsim.core.kinematics import matrix_from_quaternion, rotate
 from quadsim.core.types import Twist, VehicleState, ZMode
 from quadsim.recording import contract as rm
+from quadsim.recording.mcap_scan import Damage
 from quadsim.recording.reader import RecordingReader
 from quadsim.sim.description import RunDescription
 
@@ -39,6 +42,10 @@ class RecordedFlight:
     topics: dict[str, int] = field(default_factory=dict)  # topic -> message count
     end_ns: int = 0
     description_error: str | None = None  # why the run's parameters could not be read, if so
+    damage: list[Damage] = field(default_factory=list)  # what is wrong with the file (chunks skipped...)
+    notes: list[str] = field(default_factory=list)  # what was not read though the file is sound there
+    bad_events: list[str] = field(default_factory=list)  # event records that are malformed
+    undecodable: dict[str, int] = field(default_factory=dict)  # topic -> messages that did not decode
 
     @property
     def is_quadsim(self) -> bool:
@@ -71,6 +78,30 @@ class RecordedFlight:
         i = bisect_right(self._command_ns, ns) - 1
         return self.commands[i][1] if i >= 0 else None
 
+    def warnings(self) -> list[str]:
+        """What a person replaying the file should know: damage and what was skipped."""
+        out = [d.describe() for d in self.damage] + list(self.notes)
+        out += [f"{n} messages on {topic} do not decode: skipped" for topic, n in sorted(self.undecodable.items())]
+        return out
+
+    def lost_for_resim(self) -> str | None:
+        """The damage that cost recorded commands or states, if any: then the flight cannot be
+        flown again faithfully (a damaged chunk of camera images alone does not matter)."""
+        needed = {rm.TWIST.name, *(t.name for t in rm.STATE_TOPICS)}
+        for d in self.damage:
+            if d.loses == "messages" and (d.topics is None or needed & set(d.topics)):
+                return d.describe()
+        return None
+
+    def unreadable_for_resim(self) -> str | None:
+        """Commands, states or events present but unreadable, if any (a crafted or foreign file)."""
+        needed = {rm.TWIST.name, *(t.name for t in rm.STATE_TOPICS)}
+        for topic in sorted(needed & self.undecodable.keys()):
+            return f"{self.undecodable[topic]} messages on {topic} do not decode"
+        if self.bad_events:
+            return self.bad_events[0]
+        return None
+
     def frame_at(self, camera: str, ns: int) -> tuple[int, bytes] | None:
         i = bisect_right(self._frame_ns.get(camera, []), ns) - 1
         return self.frames[camera][i] if i >= 0 else None
@@ -88,16 +119,19 @@ class RecordedFlight:
 
 
 def load_flight(path: Path | str) -> RecordedFlight:
-    with RecordingReader(path, require_topics=False) as reader:
+    """Everything readable in a recording. Damaged chunks are skipped (listed in `damage`);
+    QuadsimError only for what is not an MCAP file at all."""
+    with RecordingReader(path, require_topics=False, allow_damage=True) as reader:
         description = reader.description
         hz = description.config.rates.physics_hz if description is not None else 240
         flight = RecordedFlight(reader.path, description, hz, description_error=reader.description_error)
         flight.events = reader.events
+        flight.bad_events = reader.bad_events
+        flight.damage, flight.notes = reader.damage, reader.notes
         flight.attachments = reader.attachments()
-        types, stats = reader.topics, reader.summary.statistics
-        if stats is not None:
-            flight.topics = {reader.summary.channels[c].topic: n for c, n in stats.channel_message_counts.items()}
-            flight.end_ns = stats.message_end_time
+        types = reader.topics
+        flight.topics = reader.topic_counts()
+        flight.end_ns = reader.span_ns[1]
         parts: dict[str, dict[int, Any]] = {
             rm.POSE.name: {},
             rm.ODOM.name: {},
@@ -109,17 +143,21 @@ def load_flight(path: Path | str) -> RecordedFlight:
             for t in types
             if t.endswith("/image_raw/compressed") and types[t] == "sensor_msgs/msg/CompressedImage"
         }
-        wanted = [t for t in (*parts, rm.TWIST.name, *cameras.values()) if t in types and types[t] == _expected_type(t)]
+        wanted = [t for t in (*parts, rm.TWIST.name, *cameras.values()) if t in types]
         camera_of = {t: n for n, t in cameras.items()}
         for topic, ns, msg in reader.raw_messages(wanted):
             if topic in parts:
-                parts[topic][ns] = msg
+                if _finite(topic, msg):
+                    parts[topic][ns] = msg
+                else:
+                    reader.undecodable[topic] = reader.undecodable.get(topic, 0) + 1
             elif topic == rm.TWIST.name:
                 flight.commands.append(
                     (ns, Twist(msg.linear.x, msg.linear.y, msg.linear.z, msg.angular.x, msg.angular.y, msg.angular.z))
                 )
             else:
                 flight.frames.setdefault(camera_of[topic], []).append((ns, bytes(msg.data)))
+        flight.undecodable = dict(reader.undecodable)
     for ns in sorted(parts[rm.POSE.name]):
         flight.state_ns.append(ns)
         flight.states.append(_state(flight.step_of(ns), parts, ns))
@@ -129,11 +167,12 @@ def load_flight(path: Path | str) -> RecordedFlight:
     return flight
 
 
-def _expected_type(topic: str) -> str:
-    for t in (rm.TWIST, *rm.STATE_TOPICS):
-        if t.name == topic:
-            return t.type_name
-    return "sensor_msgs/msg/CompressedImage"
+def _finite(topic: str, msg: Any) -> bool:
+    """A pose must hold finite numbers to be a state (NaN would poison every figure)."""
+    if topic != rm.POSE.name:
+        return True
+    p, q = msg.pose.position, msg.pose.orientation
+    return all(math.isfinite(v) for v in (p.x, p.y, p.z, q.x, q.y, q.z, q.w))
 
 
 def _state(step: int, parts: dict[str, dict[int, Any]], ns: int) -> VehicleState:

@@ -1,15 +1,14 @@
-"""`quadsim info`: what a recording holds (duration, topics, rates, the run's parameters),
-or, for a damaged file, what is wrong and how much of it is readable."""
+"""`quadsim info`: what a recording holds (duration, topics, rates, the run's parameters), and,
+for a damaged file, what is wrong and how much of it is readable."""
 
 from __future__ import annotations
 
 from dataclasses import dataclass
 from pathlib import Path
 
-from quadsim.errors import QuadsimError
 from quadsim.recording.contract import CORE_TOPICS
+from quadsim.recording.mcap_scan import Damage
 from quadsim.recording.reader import RecordingReader
-from quadsim.recording.salvage import damage_report
 from quadsim.sim.description import RunDescription
 
 
@@ -34,6 +33,9 @@ class RecordingInfo:
     description_error: str | None
     metadata: dict[str, str]
     attachments: tuple[str, ...]
+    damage: tuple[Damage, ...] = ()
+    notes: tuple[str, ...] = ()
+    damage_report: str = ""  # one paragraph on the damage, when there is some
 
     @property
     def duration_s(self) -> float:
@@ -87,36 +89,44 @@ class RecordingInfo:
             out.append(f"run parameters: unreadable ({self.description_error})")
         else:
             out.append("run parameters: none (not recorded by quadsim)")
+        if self.damage:
+            out.append("damage:")
+            out += [f"  {d.describe()}" for d in self.damage]
+        if self.notes:
+            out.append("notes:")
+            out += [f"  {n}" for n in self.notes]
         return out
 
 
 def read_info(path: Path) -> RecordingInfo:
-    """Summarise a complete recording; raise QuadsimError saying what is wrong otherwise."""
-    with RecordingReader(path, require_topics=False) as reader:
-        header, summary, ours = reader.header, reader.summary, reader.quadsim_metadata
-        attachments = tuple(reader.attachments())
-    stats = summary.statistics
-    if stats is None:
-        raise QuadsimError(damage_report(path))
-    start, end = stats.message_start_time / 1e9, stats.message_end_time / 1e9
-    duration = max(end - start, 1e-9)
-    topics = []
-    for cid, ch in sorted(summary.channels.items()):
-        schema = summary.schemas.get(ch.schema_id)
-        count = stats.channel_message_counts.get(cid, 0)
-        topics.append(
-            TopicInfo(ch.topic, schema.name if schema else "?", count, (count - 1) / duration if count > 1 else 0.0)
+    """Summarise a recording from what is readable in it (every chunk's CRC verified); damage
+    is listed in `damage`, and `damage_report` says what to do about it."""
+    with RecordingReader(path, require_topics=False, allow_damage=True) as reader:
+        f = reader.file
+        t0, t1 = f.span_ns
+        start, end = t0 / 1e9, t1 / 1e9
+        duration = max(end - start, 1e-9)
+        topics = []
+        for ch in f.channels:
+            count = f.counts.get(ch.key, 0)
+            topics.append(
+                TopicInfo(
+                    ch.topic, ch.schema.name if ch.schema else "?", count, (count - 1) / duration if count > 1 else 0.0
+                )
+            )
+        return RecordingInfo(
+            path,
+            f.size,
+            reader.profile,
+            reader.library,
+            start,
+            end,
+            tuple(topics),
+            reader.description,
+            reader.description_error,
+            reader.quadsim_metadata,
+            tuple(dict.fromkeys(a.name for a in f.attachments)),
+            tuple(reader.damage),
+            tuple(reader.notes),
+            f.damage_report() if reader.damage else "",
         )
-    return RecordingInfo(
-        path,
-        path.stat().st_size,
-        header.profile,
-        header.library,
-        start,
-        end,
-        tuple(topics),
-        reader.description,
-        reader.description_error,
-        ours,
-        attachments,
-    )

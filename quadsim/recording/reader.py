@@ -1,8 +1,12 @@
 """Reading recordings back: commands, states and camera frames, typed.
 
-Refuses, with a clear QuadsimError, files that are not MCAP, are damaged or cut short (see
-`quadsim recover`), or (unless `require_topics` is off, for playing other programs' files)
-lack the topics a quadsim recording has.
+Every chunk's CRC is verified (see `mcap_scan`). By default a damaged or cut-short file is
+refused with a clear QuadsimError (what is wrong, how much is readable, `quadsim recover`);
+with `allow_damage` it is read as far as it goes and `damage` says what was skipped. Files that
+are not MCAP are refused, and (unless `require_topics` is off, for playing other programs'
+files) so are files without the topics a quadsim recording has. A topic whose encoding or
+schema is not the contract's is not decoded (`notes` says so), and neither is a message that
+does not decode.
 """
 
 from __future__ import annotations
@@ -12,53 +16,96 @@ from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
-from mcap.reader import make_reader
-
-from quadsim.core.types import Twist
+from quadsim.core.types import Twist, ZMode
 from quadsim.errors import QuadsimError
 from quadsim.recording import contract as rm
-from quadsim.recording.salvage import check_is_mcap, damage_report
+from quadsim.recording.mcap_scan import ChannelDef, Damage, McapFile
 from quadsim.recording.writer import EVENT_METADATA_NAME, METADATA_NAME
 from quadsim.sim.description import DescriptionError, RunDescription
 
+#: an event's step must be a whole number in this range
+MAX_EVENT_STEP = 2**62
 
-def _event(metadata: dict[str, str]) -> tuple[int, str, str] | None:
-    """(step, kind, value) of an event record; None for a malformed one."""
+
+def _event(metadata: dict[str, str]) -> tuple[int, str, str] | str:
+    """(step, kind, value) of an event record, or why it is malformed."""
     try:
-        return int(metadata["step"]), str(metadata["kind"]), str(metadata["value"])
-    except (KeyError, ValueError, TypeError):
+        step_text, kind, value = metadata["step"], metadata["kind"], metadata["value"]
+    except KeyError as exc:
+        return f"no {exc.args[0]!r} field"
+    try:
+        step = int(step_text)
+    except ValueError:
+        return f"step {step_text[:40]!r} is not a whole number"
+    if not 0 <= step <= MAX_EVENT_STEP:
+        return f"step {step_text[:40]} is out of range"
+    if kind == "z_mode" and value not in {z.value for z in ZMode}:
+        return f"z-mode {value[:40]!r} is not one of {', '.join(z.value for z in ZMode)}"
+    return step, kind, value
+
+
+def _contract_type(topic: str) -> str | None:
+    """The message type the recording contract gives a topic (None: not one of its topics)."""
+    for t in (rm.TWIST, rm.JOY, *rm.STATE_TOPICS, rm.TF_STATIC):
+        if t.name == topic:
+            return t.type_name
+    if topic.endswith("/image_raw/compressed"):
+        return "sensor_msgs/msg/CompressedImage"
+    if topic.endswith("/camera_info"):
+        return "sensor_msgs/msg/CameraInfo"
+    return None
+
+
+def _decodable_as(channel: ChannelDef) -> str | None:
+    """The ROS 2 type a channel's messages decode as, if it is CDR with a known ros2msg schema."""
+    s = channel.schema
+    if channel.message_encoding != "cdr" or s is None or s.encoding != "ros2msg" or s.name not in rm.typestore().types:
         return None
+    return s.name
 
 
 class RecordingReader:
-    def __init__(self, path: Path | str, require_topics: bool = True) -> None:
+    def __init__(self, path: Path | str, require_topics: bool = True, allow_damage: bool = False) -> None:
         self.path = Path(path)
-        check_is_mcap(self.path)
-        self._fh = open(self.path, "rb")
+        self.file = McapFile(self.path)
         try:
-            self._reader = make_reader(self._fh)
-            self.header = self._reader.get_header()
-            summary = self._reader.get_summary()
-        except Exception:
-            summary = None
-        if summary is None:
-            self._fh.close()
-            raise QuadsimError(damage_report(self.path))
-        self.summary = summary
-        self.topics = {
-            ch.topic: summary.schemas[ch.schema_id].name
-            for ch in summary.channels.values()
-            if ch.schema_id in summary.schemas
-        }
-        records = list(self._reader.iter_metadata())
-        #: the run's record: version, wall-clock start, parameters (JSON); empty for other programs' files
-        self.quadsim_metadata: dict[str, str] = next((dict(m.metadata) for m in records if m.name == METADATA_NAME), {})
+            self._open(require_topics, allow_damage)
+        except BaseException:
+            self.file.close()
+            raise
+
+    def _open(self, require_topics: bool, allow_damage: bool) -> None:
+        f = self.file
+        if f.damage and not allow_damage:
+            raise QuadsimError(f.damage_report())
+        #: what is wrong with the file and what was skipped (empty for a sound file)
+        self.damage: list[Damage] = list(f.damage)
+        #: what was not read though the file is sound there (foreign topics, bad events...)
+        self.notes: list[str] = list(f.notes)
+        self.profile, self.library = f.profile, f.library
+        #: topic -> type name (its schema's name, "?" without one)
+        self.topics: dict[str, str] = {}
+        for ch in f.channels:
+            self.topics.setdefault(ch.topic, ch.schema.name if ch.schema else "?")
+        ours = [m for m in f.metadata if m.name == METADATA_NAME]
         # quadsim's own files are known by their record: a topic that got no message (no command
         # was ever sent) has no channel in the file
         missing = [t for t in rm.CORE_TOPICS if t not in self.topics]
-        if missing and require_topics and not self.quadsim_metadata:
-            self._fh.close()
+        if missing and require_topics and not ours:
             raise QuadsimError(f"{self.path}: not a quadsim recording: missing topics {', '.join(missing)}")
+        for ch in f.channels:
+            expected = _contract_type(ch.topic)
+            if expected is not None and f.counts.get(ch.key) and _decodable_as(ch) != expected:
+                schema = f"{ch.schema.encoding or '?'} schema {ch.schema.name!r}" if ch.schema else "no schema"
+                self.notes.append(
+                    f"{ch.topic} is {ch.message_encoding or 'unencoded'} with {schema}, not the contract's cdr with "
+                    f"ros2msg schema {expected!r}: its messages are not read"
+                )
+        records = f.metadata
+        if len(ours) > 1:
+            self.notes.append(f"{len(ours)} '{METADATA_NAME}' metadata records: the first is used")
+        #: the run's record: version, wall-clock start, parameters (JSON); empty for other programs' files
+        self.quadsim_metadata: dict[str, str] = dict(ours[0].metadata) if ours else {}
         #: the run's typed description; None for other programs' files or when unreadable (then
         #: `description_error` says why)
         self.description: RunDescription | None = None
@@ -71,27 +118,71 @@ class RecordingReader:
                 self.description_error = f"{self.path}: the run parameters are not valid JSON ({exc})"
             except DescriptionError as exc:
                 self.description_error = f"{self.path}: {exc}"
+        elif ours:
+            self.description_error = f"{self.path}: the '{METADATA_NAME}' metadata has no run parameters"
         #: (step, kind, value) of what happened besides the commands (z-mode switches)
-        found = (_event(m.metadata) for m in records if m.name == EVENT_METADATA_NAME)
-        self.events = sorted(e for e in found if e is not None)
+        self.events: list[tuple[int, str, str]] = []
+        #: why each malformed event record was left out
+        self.bad_events: list[str] = []
+        for m in records:
+            if m.name == EVENT_METADATA_NAME:
+                event = _event(m.metadata)
+                if isinstance(event, str):
+                    self.bad_events.append(f"the event record at byte {m.offset}: {event}")
+                else:
+                    self.events.append(event)
+        self.events.sort()
+        self.notes += [f"{e}; it is ignored" for e in self.bad_events]
+        #: topic -> messages that could not be decoded (skipped)
+        self.undecodable: dict[str, int] = {}
+
+    # --- statistics -------------------------------------------------------------------------
+
+    def topic_counts(self) -> dict[str, int]:
+        out: dict[str, int] = {}
+        for ch in self.file.channels:
+            out[ch.topic] = out.get(ch.topic, 0) + self.file.counts.get(ch.key, 0)
+        return out
+
+    @property
+    def span_ns(self) -> tuple[int, int]:
+        return self.file.span_ns
+
+    # --- contents ---------------------------------------------------------------------------
 
     def attachments(self) -> dict[str, bytes]:
-        return {a.name: a.data for a in self._reader.iter_attachments()}
+        """name -> data of each readable attachment (the first of a name)."""
+        out: dict[str, bytes] = {}
+        for a in self.file.attachments:
+            out.setdefault(a.name, self.file.attachment_data(a))
+        return out
 
     def raw_messages(self, topics: list[str]) -> Iterator[tuple[str, int, Any]]:
-        """(topic, log time ns, decoded message) of several topics, in log-time order."""
-        deserialize = rm.typestore().deserialize_cdr
-        for _, channel, message in self._reader.iter_messages(topics=topics, log_time_order=True):
-            yield channel.topic, message.log_time, deserialize(message.data, self.topics[channel.topic])
+        """(topic, log time ns, decoded message) of several topics, in log-time order. Only
+        channels with the contract's type for the topic are decoded (any known ROS 2 type for
+        topics outside the contract); a message that does not decode is skipped and counted in
+        `undecodable`."""
+        types: dict[int, str] = {}
+        for ch in self.file.channels:
+            if ch.topic not in topics:
+                continue
+            type_name = _decodable_as(ch)
+            expected = _contract_type(ch.topic)
+            if type_name is not None and (expected is None or type_name == expected):
+                types[ch.key] = type_name
+        store = rm.typestore()
+        for m in self.file.messages(set(types)):
+            try:
+                msg = store.deserialize_cdr(m.data, types[m.channel.key])
+            except Exception:  # rosbags raises many kinds on bytes that are not its type
+                self.undecodable[m.channel.topic] = self.undecodable.get(m.channel.topic, 0) + 1
+                continue
+            yield m.channel.topic, m.log_time, msg
 
     def messages(self, topic: str) -> Iterator[tuple[int, Any]]:
         """(log time ns, decoded message) of one topic, in log-time order."""
-        type_name = self.topics.get(topic)
-        if type_name is None:
-            return
-        deserialize = rm.typestore().deserialize_cdr
-        for _, _, message in self._reader.iter_messages(topics=[topic], log_time_order=True):
-            yield message.log_time, deserialize(message.data, type_name)
+        for _, ns, msg in self.raw_messages([topic]):
+            yield ns, msg
 
     def commands(self) -> Iterator[tuple[int, Twist]]:
         for ns, m in self.messages(rm.TWIST.name):
@@ -107,7 +198,7 @@ class RecordingReader:
             yield ns, bytes(m.data)
 
     def close(self) -> None:
-        self._fh.close()
+        self.file.close()
 
     def __enter__(self) -> RecordingReader:
         return self

@@ -1,57 +1,51 @@
-"""Reading what can be read from an MCAP file that was cut short, and writing it out indexed.
+"""Salvaging a damaged or cut-short MCAP file: `recover` writes every readable message to a new,
+valid, indexed MCAP.
 
 A recording killed mid-run (SIGKILL, power loss) has its header and every chunk flushed so far,
-but no summary, index or footer. `scan` walks the file record by record, keeps each complete
-chunk whose CRC holds, and stops at the first record that is cut off; `recover` writes what it
-found to a new, valid, indexed MCAP.
+but no summary, index or footer; a file damaged on disk has chunks that fail their CRC, indexes
+or a summary that no longer match, length fields gone absurd. `mcap_scan` reads such a file chunk
+by chunk: every chunk whose CRC holds is kept, a damaged one is skipped, the data section is
+trusted over a damaged summary, and reading resumes after an absurd length at the next record
+that parses (or where the summary's index points). The output is written to a temporary file
+beside the target and moved into place only once finished: a full disk leaves nothing behind.
 """
 
 from __future__ import annotations
 
+import contextlib
+import os
+import tempfile
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from mcap.exceptions import McapError
-from mcap.records import Attachment, Channel, Chunk, Footer, Header, Message, Metadata, Schema
-from mcap.stream_reader import StreamReader, breakup_chunk
 from mcap.writer import CompressionType, Writer
 
 from quadsim.errors import QuadsimError
+from quadsim.recording.mcap_scan import MAGIC as MCAP_MAGIC
+from quadsim.recording.mcap_scan import ChannelDef, Damage, McapFile, RawMessage, SchemaDef, check_is_mcap
 
-MCAP_MAGIC = b"\x89MCAP0\r\n"
-
-
-def check_is_mcap(path: Path) -> None:
-    """Raise QuadsimError unless `path` is a readable file starting with the MCAP magic."""
-    if not path.exists():
-        raise QuadsimError(f"{path}: no such file")
-    if not path.is_file():
-        raise QuadsimError(f"{path}: not a file")
-    try:
-        with open(path, "rb") as fh:
-            head = fh.read(len(MCAP_MAGIC))
-    except OSError as exc:
-        raise QuadsimError(f"{path}: cannot read ({exc.strerror})") from None
-    if not head:
-        raise QuadsimError(f"{path}: empty file (0 bytes), not an MCAP recording")
-    if head != MCAP_MAGIC[: len(head)] or len(head) < len(MCAP_MAGIC):
-        raise QuadsimError(f"{path}: not an MCAP file (it does not start with the MCAP magic bytes)")
+__all__ = ["MCAP_MAGIC", "Recovered", "Scan", "check_is_mcap", "damage_report", "recover", "scan"]
 
 
 @dataclass
 class Scan:
-    """What a sequential read of a file found."""
+    """What a defensive read of a file found (see `mcap_scan.McapFile`)."""
 
-    header: Header | None = None
-    schemas: dict[int, Schema] = field(default_factory=dict)
-    channels: dict[int, Channel] = field(default_factory=dict)
-    messages: list[Message] = field(default_factory=list)
-    metadata: list[Metadata] = field(default_factory=list)
-    attachments: list[Attachment] = field(default_factory=list)
+    profile: str = ""
+    library: str = ""
+    channels: dict[int, ChannelDef] = field(default_factory=dict)  # by key
+    messages: list[RawMessage] = field(default_factory=list)
     complete_chunks: int = 0
-    bad_chunks: int = 0
-    complete: bool = False  # a footer was reached
-    stop_reason: str = ""
+    damage: list[Damage] = field(default_factory=list)
+    complete: bool = False  # finished properly and undamaged
+
+    @property
+    def bad_chunks(self) -> int:
+        return sum(1 for d in self.damage if d.loses == "messages")
+
+    @property
+    def stop_reason(self) -> str:
+        return "; ".join(d.describe() for d in self.damage)
 
     @property
     def span_s(self) -> tuple[float, float]:
@@ -61,64 +55,24 @@ class Scan:
         return (min(times) / 1e9, max(times) / 1e9)
 
 
-def _take(record: object, scan: Scan) -> None:
-    if isinstance(record, Schema):
-        scan.schemas[record.id] = record
-    elif isinstance(record, Channel):
-        scan.channels[record.id] = record
-    elif isinstance(record, Message):
-        scan.messages.append(record)
-
-
 def scan(path: Path) -> Scan:
-    check_is_mcap(path)
-    result = Scan()
-    with open(path, "rb") as fh:
-        reader = StreamReader(fh, emit_chunks=True, record_size_limit=1 << 30)
-        try:
-            for record in reader.records:
-                if isinstance(record, Header):
-                    result.header = record
-                elif isinstance(record, Chunk):
-                    try:
-                        inner = list(breakup_chunk(record, validate_crc=True))
-                    except (McapError, ValueError) as exc:
-                        result.bad_chunks += 1
-                        result.stop_reason = f"a damaged chunk was skipped ({exc})"
-                        continue
-                    result.complete_chunks += 1
-                    for item in inner:
-                        _take(item, result)
-                elif isinstance(record, Metadata):
-                    result.metadata.append(record)
-                elif isinstance(record, Attachment):
-                    result.attachments.append(record)
-                elif isinstance(record, Footer):
-                    result.complete = True
-                else:
-                    _take(record, result)
-        except McapError as exc:
-            result.stop_reason = f"the file ends in the middle of a record ({type(exc).__name__})"
-        except Exception as exc:  # a malformed record: anything the record parsers raise
-            result.stop_reason = f"unreadable data after {result.complete_chunks} chunks ({type(exc).__name__}: {exc})"
-    if result.header is None:
-        raise QuadsimError(f"{path}: MCAP magic but no readable header; nothing can be recovered")
-    return result
+    """Every readable message of a file, and what is wrong with it."""
+    with McapFile(path) as f:
+        return Scan(
+            f.profile,
+            f.library,
+            {ch.key: ch for ch in f.channels},
+            list(f.messages(log_time_order=False)),
+            f.chunk_count,
+            list(f.damage),
+            f.complete,
+        )
 
 
 def damage_report(path: Path) -> str:
-    """What is wrong with a file that has no readable summary, and how much of it is readable."""
-    found = scan(path)
-    if found.complete and not found.messages:
-        return f"{path}: a complete MCAP file with no messages"
-    t0, t1 = found.span_s
-    why = found.stop_reason or "it has no summary section"
-    return (
-        f"{path}: damaged or cut short: {why}. Readable: {len(found.messages)} messages in "
-        f"{found.complete_chunks} complete chunks, {t0:.2f} .. {t1:.2f} s"
-        + (f", {found.bad_chunks} damaged chunks skipped" if found.bad_chunks else "")
-        + f". Run 'quadsim recover {path}' to save them to an indexed file."
-    )
+    """What is wrong with a file, and how much of it is readable."""
+    with McapFile(path) as f:
+        return f.damage_report()
 
 
 @dataclass(frozen=True)
@@ -129,51 +83,110 @@ class Recovered:
     chunks: int
     span_s: tuple[float, float]
     was_complete: bool
-    note: str
+    note: str  # what was lost, one line per problem
+    damage: tuple[Damage, ...] = ()
+    attachments: int = 0
+    metadata: int = 0
 
 
 def recover(src: Path, dst: Path | None = None, required_topics: tuple[str, ...] = ()) -> Recovered:
-    """Write every complete message of `src` into a new indexed MCAP (default SRC.recovered.mcap).
+    """Write every readable message, metadata record and attachment of `src` into a new indexed
+    MCAP (default SRC.recovered.mcap). Nothing is overwritten.
 
     With `required_topics`, refuse a file that has none of them (someone else's MCAP)."""
-    found = scan(src)
     out = dst if dst is not None else src.with_name(src.stem + ".recovered.mcap")
-    if out.exists():
-        raise QuadsimError(f"{out} already exists; choose another -o (nothing is overwritten)")
-    if out.resolve() == src.resolve():
-        raise QuadsimError("the output must be a different file from the input")
-    if not found.messages:
-        raise QuadsimError(
-            f"{src}: no complete message could be read ({found.stop_reason or 'no chunks'}); nothing to recover"
-        )
-    topics = {ch.topic for ch in found.channels.values()}
-    if required_topics and not topics & set(required_topics):
-        raise QuadsimError(
-            f"{src}: has none of a quadsim recording's topics (found {', '.join(sorted(topics)) or 'none'}); "
-            f"nothing written"
-        )
-    try:
-        fh = open(out, "xb")
-    except OSError as exc:
-        raise QuadsimError(f"cannot create {out}: {exc.strerror}") from None
-    with fh:
-        writer = Writer(fh, compression=CompressionType.ZSTD)
-        writer.start(profile=found.header.profile, library=found.header.library or "quadsim recover")  # type: ignore[union-attr]
-        schema_ids = {sid: writer.register_schema(s.name, s.encoding, s.data) for sid, s in found.schemas.items()}
-        channel_ids = {}
-        for cid, ch in found.channels.items():
-            channel_ids[cid] = writer.register_channel(
-                ch.topic, ch.message_encoding, schema_ids.get(ch.schema_id, 0), ch.metadata
+    with McapFile(src) as f:
+        if out.exists():
+            raise QuadsimError(f"{out} already exists; choose another -o (nothing is overwritten)")
+        if out.resolve() == src.resolve():
+            raise QuadsimError("the output must be a different file from the input")
+        if not f.message_count:
+            why = "; ".join(d.describe() for d in f.damage) or "it holds no messages"
+            raise QuadsimError(f"{src}: no complete message could be read ({why}); nothing to recover")
+        topics = {ch.topic for ch in f.channels if f.counts.get(ch.key)}
+        if required_topics and not topics & set(required_topics):
+            raise QuadsimError(
+                f"{src}: has none of a quadsim recording's topics (found {', '.join(sorted(topics)) or 'none'}); "
+                f"it is someone else's MCAP file: nothing written"
             )
-        for md in found.metadata:
-            writer.add_metadata(md.name, md.metadata)
-        for at in found.attachments:
-            writer.add_attachment(at.log_time, at.create_time, at.name, at.media_type, at.data)
-        kept = 0
-        for msg in found.messages:
-            if msg.channel_id in channel_ids:
-                writer.add_message(channel_ids[msg.channel_id], msg.log_time, msg.data, msg.publish_time, msg.sequence)
-                kept += 1
-        writer.finish()
-    topic_count = len({found.channels[m.channel_id].topic for m in found.messages if m.channel_id in found.channels})
-    return Recovered(out, kept, topic_count, found.complete_chunks, found.span_s, found.complete, found.stop_reason)
+        try:
+            folder = out.parent if str(out.parent) else Path(".")
+            fd, tmp_name = tempfile.mkstemp(prefix=f".{out.name}.", suffix=".partial", dir=folder)
+        except OSError as exc:
+            raise QuadsimError(f"cannot create {out}: {exc.strerror}") from None
+        tmp = Path(tmp_name)
+        try:
+            mask = os.umask(0)
+            os.umask(mask)
+            os.fchmod(fd, 0o666 & ~mask)  # as a file made by open() would be
+            with os.fdopen(fd, "wb") as fh:
+                counts = _write(f, fh)
+                fh.flush()
+                os.fsync(fh.fileno())
+            _move_into_place(tmp, out)
+        except OSError as exc:
+            with contextlib.suppress(OSError):
+                tmp.unlink()
+            raise QuadsimError(f"cannot write {out}: {exc.strerror or exc}; nothing was written") from None
+        except BaseException:
+            with contextlib.suppress(OSError):
+                tmp.unlink()
+            raise
+        t0, t1 = f.span_ns
+        return Recovered(
+            out,
+            counts[0],
+            len(topics),
+            f.chunk_count,
+            (t0 / 1e9, t1 / 1e9),
+            f.complete,
+            "\n".join(d.describe() for d in f.damage),
+            tuple(f.damage),
+            counts[1],
+            counts[2],
+        )
+
+
+def _write(f: McapFile, fh: object) -> tuple[int, int, int]:
+    """Copy what `f` holds to a new MCAP on `fh`, chunk by chunk; (messages, attachments,
+    metadata records) written."""
+    writer = Writer(fh, compression=CompressionType.ZSTD)  # type: ignore[arg-type]
+    profile = f.profile
+    if not f.has_header and f.channels and all(ch.message_encoding == "cdr" for ch in f.channels):
+        profile = "ros2"  # the header is lost, but its messages say what it was
+    writer.start(profile=profile, library=f.library or "quadsim recover")
+    for md in f.metadata:
+        writer.add_metadata(md.name, md.metadata)
+    for at in f.attachments:
+        writer.add_attachment(at.create_time, at.log_time, at.name, at.media_type, f.attachment_data(at))
+    schema_ids: dict[SchemaDef, int] = {}
+    channel_ids: dict[int, int] = {}  # channel key -> id in the output
+    kept = 0
+    for msg in f.messages(log_time_order=False):
+        ch = msg.channel
+        if ch.key not in channel_ids:
+            sid = 0
+            if ch.schema is not None:
+                if ch.schema not in schema_ids:
+                    s = ch.schema
+                    schema_ids[s] = writer.register_schema(s.name, s.encoding, s.data)
+                sid = schema_ids[ch.schema]
+            channel_ids[ch.key] = writer.register_channel(ch.topic, ch.message_encoding, sid, ch.metadata)
+        writer.add_message(channel_ids[ch.key], msg.log_time, msg.data, msg.publish_time, msg.sequence)
+        kept += 1
+    writer.finish()
+    return kept, len(f.attachments), len(f.metadata)
+
+
+def _move_into_place(tmp: Path, out: Path) -> None:
+    """Give the finished file its name, never replacing a file that appeared meanwhile."""
+    try:
+        os.link(tmp, out)
+    except FileExistsError:
+        raise QuadsimError(f"{out} already exists; choose another -o (nothing is overwritten)") from None
+    except OSError:  # a file system without hard links
+        if out.exists():
+            raise QuadsimError(f"{out} already exists; choose another -o (nothing is overwritten)") from None
+        os.replace(tmp, out)
+        return
+    tmp.unlink()

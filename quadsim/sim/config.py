@@ -13,6 +13,8 @@ from quadsim.errors import ConfigError
 
 #: the highest physics rate accepted (PyBullet steps get unreasonably slow past this)
 MAX_PHYSICS_HZ = 10_000
+#: how far from the world's origin a run may start (m, and rad for the heading: any angle fits)
+MAX_START_OFFSET_M = 10_000.0
 #: the longest dead-man timeout accepted; None disables the dead-man switch altogether
 MAX_COMMAND_TIMEOUT_S = 3600.0
 
@@ -87,6 +89,8 @@ class SimConfig:
             value = getattr(self.start, name)
             if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
                 raise ConfigError(f"start pose {name} must be a finite number, got {value!r}")
+            if abs(value) > MAX_START_OFFSET_M:
+                raise ConfigError(f"start pose {name} = {value:g} is beyond {MAX_START_OFFSET_M:g} from the origin")
 
     def to_dict(self) -> dict[str, Any]:
         """Plain JSON-able data (RunDescription reads it back with validation)."""
