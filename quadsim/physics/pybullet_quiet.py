@@ -8,35 +8,7 @@ import ctypes
 import os
 import sys
 from collections.abc import Iterator
-
-
-def _import_quietly():
-    try:
-        libc = ctypes.CDLL(None)
-        saved = (os.dup(1), os.dup(2))
-    except (OSError, AttributeError):  # no POSIX libc: accept the banner
-        import pybullet
-
-        return pybullet
-    sys.stdout.flush()
-    sys.stderr.flush()
-    devnull = os.open(os.devnull, os.O_WRONLY)
-    os.dup2(devnull, 1)
-    os.dup2(devnull, 2)
-    try:
-        import pybullet
-
-        libc.fflush(None)  # whatever sits in C's buffers goes to /dev/null too
-    finally:
-        os.dup2(saved[0], 1)
-        os.dup2(saved[1], 2)
-        os.close(saved[0])
-        os.close(saved[1])
-        os.close(devnull)
-    return pybullet
-
-
-pb = _import_quietly()
+from typing import Any
 
 
 @contextlib.contextmanager
@@ -62,3 +34,13 @@ def c_output_silenced() -> Iterator[None]:
         os.close(saved[0])
         os.close(saved[1])
         os.close(devnull)
+
+
+def _import_quietly() -> Any:
+    with c_output_silenced():
+        import pybullet
+
+    return pybullet
+
+
+pb = _import_quietly()
