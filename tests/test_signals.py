@@ -4,7 +4,7 @@ recording finished, no process left behind, no temporary folder left behind.
 
 Each trial is a real `run` with both cameras and two render workers (a process group of
 three). The moments are drawn from a seeded generator, spread over a whole run's wall time
-(measured first, on this machine, in this test, and stretched for the three trials that run at once). The interpreter's own first ~0.1 s, before
+(measured first, on this machine, in this test, and stretched for the two trials that run at once). The interpreter's own first ~0.1 s, before
 any quadsim code runs, is left out: a signal there meets Python's defaults, not quadsim.
 """
 
@@ -125,7 +125,7 @@ def trials(tmp_path_factory) -> list[Trial]:
         for to_group in (False, True)
         for _ in range(MOMENTS_PER_CASE)
     ]
-    with ThreadPoolExecutor(max_workers=3) as pool:
+    with ThreadPoolExecutor(max_workers=2) as pool:
         futures = [
             pool.submit(_trial, base / f"t{i:03d}", signum, group, delay)
             for i, (signum, group, delay) in enumerate(cases)

@@ -810,7 +810,10 @@ def main(argv: list[str] | None = None) -> int:
             # what a forced stop broke on its way out (an import cut short, a closed pipe)
             print(f"quadsim: {describe_stop(stop.signum)} ({type(exc).__name__} on the way out)", file=sys.stderr)
             code = 0
-        if stop.signum is not None and code in (0, 1):
+        if stop.signum is not None and code != stop_exit_code(stop.signum):
+            # stopped by a signal, whatever else happened on the way out: the exit code says so
+            if code not in (0, 1):
+                print(f"quadsim: {describe_stop(stop.signum)}", file=sys.stderr)
             return stop_exit_code(stop.signum)
         return code
 

@@ -153,7 +153,10 @@ class CameraPipeline:
                 self._procs.append(proc)
                 conn = Connection(ours.detach())
                 self._conns.append(conn)
-                conn.send(settings)
+                try:
+                    conn.send(settings)
+                except OSError:  # BrokenPipeError, ConnectionResetError: it is gone already
+                    raise QuadsimError(f"a render worker exited during start-up ({_exit_status(proc)})") from None
             for proc, conn in zip(self._procs, self._conns):
                 if not conn.poll(timeout_s):
                     raise QuadsimError(f"a render worker did not get ready within {timeout_s:.0f} s")
