@@ -136,13 +136,8 @@ class Simulator:
         )
 
     def describe(self) -> dict[str, Any]:
-        """Every parameter of the run, as plain data for a recording's metadata."""
-        return {
-            "config": self.config.to_dict(),
-            "vehicle": self.vehicle.to_dict(),
-            "controller": self.controller.describe(),
-            "driver": self.driver.describe(),
-        }
+        """Every parameter of the run as plain data: the layout recordings carry (see description())."""
+        return self.description().to_parameters()
 
     # --- lifetime ---------------------------------------------------------------------------
 
