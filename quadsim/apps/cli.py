@@ -345,7 +345,7 @@ def cmd_fly(args: argparse.Namespace) -> int:
     )
     config = _config(args, None)
     outputs = _outputs(args)
-    flown, recordings = 0.0, []
+    flown, recordings, lost = 0.0, [], None
     try:
         with TeleopApp(config, outputs, options) as app:
             print(f"flying with {app.driver.name}; press H or F1 in the window for the keys, Esc to quit")
@@ -353,11 +353,18 @@ def cmd_fly(args: argparse.Namespace) -> int:
                 app.run(stop=stop_requested)  # a signal ends the window loop at its next frame
             finally:
                 flown, recordings = app.sim.time_s, app.recordings
+        lost = app.display_lost  # the window was destroyed from outside or its X connection lost
     except StopRequested:
         pass
     print(f"flew {flown:.1f} s of simulation time")
     for path in recordings:
         print(f"recording       {path}")
+    if lost is not None:
+        from quadsim.apps.window.x11_guard import EXIT_DISPLAY_LOST
+
+        finished = "; the recording is finished" if recordings else ""
+        print(f"the window's display was lost ({lost}){finished}", file=sys.stderr)
+        return EXIT_DISPLAY_LOST
     stop = SignalStop.current()
     if stop is not None and stop.signum is not None:
         print(f"{describe_stop(stop.signum)}; the recording is finished and readable", file=sys.stderr)
@@ -518,6 +525,11 @@ def cmd_replay(args: argparse.Namespace) -> int:
     with ReplayApp(flight, (width, height), speed=args.speed, loop=args.loop) as app:
         print("replaying; press H or F1 in the window for the keys, Esc to quit")
         app.run()
+    if app.display_lost is not None:
+        from quadsim.apps.window.x11_guard import EXIT_DISPLAY_LOST
+
+        print(f"the window's display was lost ({app.display_lost})", file=sys.stderr)
+        return EXIT_DISPLAY_LOST
     return 0
 
 

@@ -2,6 +2,9 @@
 
 It takes SIGINT and SIGTERM before anything heavy is imported, so a signal during start-up
 ends the program as cleanly as one during a run: a line on stderr, exit 130 or 143.
+
+When a window lost its X display (quadsim.apps.window.x11_guard), the process ends without
+SDL's teardown, which would hang on the dead connection.
 """
 
 from __future__ import annotations
@@ -25,4 +28,7 @@ def main(argv: list[str] | None = None) -> int:
         # shuts down, when Python's defaults would kill it mid-flush) changes nothing
         stop.ignore_from_now()
     sys.stdout.flush()
+    guard = sys.modules.get("quadsim.apps.window.x11_guard")
+    if guard is not None and guard.display_lost():
+        guard.end_process(code)
     return code

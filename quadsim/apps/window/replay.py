@@ -1,10 +1,14 @@
 """Playback of a recording in the teleop window: both cameras, the map with the whole track, the
 HUD from the recorded state; play/pause, seek (arrow keys, or a click on the timeline), speed
-0.25x to 16x, frame by frame, loop. `python main.py replay FILE.mcap`."""
+0.25x to 16x, frame by frame, loop. `python main.py replay FILE.mcap`.
+
+As in the teleop window, a window destroyed from outside or a lost X connection ends playback
+(x11_guard): the display is touched no more, and `display_lost` says why."""
 
 from __future__ import annotations
 
 import os
+import sys
 import time
 from pathlib import Path
 
@@ -12,6 +16,7 @@ os.environ.setdefault("PYGAME_HIDE_SUPPORT_PROMPT", "1")
 import pygame
 
 from quadsim.apps.window.view import TeleopView, ViewModel
+from quadsim.apps.window.x11_guard import X11Guard
 from quadsim.core.kinematics import clamp
 from quadsim.core.types import Twist, VehicleState
 from quadsim.physics.world_spec import FloorSpec, WorldSpec, load_world
@@ -79,6 +84,22 @@ class ReplayApp:
         self._track = [s.position_m[:2] for s in flight.states[::6]]
         self._walls: list[float] = []
         self._clock = pygame.time.Clock()
+        self._x11 = X11Guard.install(on_fatal=self._say_lost)
+
+    @property
+    def display_lost(self) -> str | None:
+        """Why the window's display went away, or None."""
+        return self._x11.reason if self._x11 is not None else None
+
+    def _display_gone(self) -> bool:
+        if self._x11 is not None and self._x11.lost:
+            self.quit = True
+            return True
+        return False
+
+    @staticmethod
+    def _say_lost(reason: str) -> None:
+        print(f"the window's display was lost ({reason})", file=sys.stderr)
 
     # --- control ----------------------------------------------------------------------------
 
@@ -139,7 +160,10 @@ class ReplayApp:
     # --- frames -----------------------------------------------------------------------------
 
     def frame(self) -> None:
-        for event in pygame.event.get():
+        events = pygame.event.get()
+        if self._display_gone():
+            return
+        for event in events:
             self.handle_event(event)
         now = time.perf_counter()
         dt = self._frame_s if self._frame_s is not None else now - self._last_wall
@@ -154,6 +178,8 @@ class ReplayApp:
                     self.playing = False
         self.view.draw(self.screen, self.model())
         pygame.display.flip()
+        if self._display_gone():
+            return
         self.frame_count += 1
         self._walls = ([*self._walls, now])[-30:]
         if self._frame_s is None:
@@ -207,7 +233,11 @@ class ReplayApp:
             self.frame()
 
     def close(self) -> None:
-        pygame.display.quit()
+        if self._x11 is None:
+            pygame.display.quit()
+        elif not self._x11.lost:  # after a loss SDL's teardown would wait forever on it
+            self._x11.uninstall()
+            pygame.display.quit()
 
     def __enter__(self) -> ReplayApp:
         return self

@@ -6,6 +6,11 @@ pacer says (real time, or slower when the machine cannot keep up, never skipping
 steps), take the camera frames that are ready, draw. Esc or closing the window finishes the
 recording properly.
 
+On X11 a window destroyed from outside or a lost X connection ends the loop too (x11_guard):
+from then on nothing touches the display; `close` finishes the recording and leaves the display
+alone, and `display_lost` says what happened (the command line then ends the process with
+x11_guard.end_process, since SDL's own teardown would hang on the dead connection).
+
 Input: the keyboard or a gamepad. With --input auto a gamepad flies if one is plugged in at the
 start, and one plugged in later takes over from the keyboard; every plug and unplug is said in
 the HUD and recorded as an "input" event.
@@ -14,6 +19,7 @@ the HUD and recorded as an "input" event.
 from __future__ import annotations
 
 import os
+import sys
 import time
 from collections import deque
 from collections.abc import Callable
@@ -27,6 +33,7 @@ import pygame
 from quadsim.apps.outputs import OutputOptions, RecordedRun
 from quadsim.apps.window.pacing import FixedStepPacer, RealTimePacer
 from quadsim.apps.window.view import TeleopView, ViewModel
+from quadsim.apps.window.x11_guard import X11Guard
 from quadsim.core.types import Twist, VehicleState, ZMode
 from quadsim.drivers import ASAP
 from quadsim.drivers.gamepad import Pad
@@ -171,6 +178,8 @@ class TeleopApp:
         )
         self._clock = pygame.time.Clock()
         self.recordings: list[Path] = [self.session.path] if self.session.path else []
+        # last, so nothing after it can fail with the handlers installed
+        self._x11 = X11Guard.install(on_fatal=self._finish_after_fatal_loss)
 
     # --- wiring -----------------------------------------------------------------------------
 
@@ -188,6 +197,28 @@ class TeleopApp:
         self.joystick.joy_sinks.clear()
         if self.driver is self.joystick:
             self.joystick.joy_sinks.append(self.session.fanout.on_joy)
+
+    @property
+    def display_lost(self) -> str | None:
+        """Why the window's display went away (destroyed from outside, X connection lost), or
+        None."""
+        return self._x11.reason if self._x11 is not None else None
+
+    def _display_gone(self) -> bool:
+        """After each call that touches the display: once it is lost, stop (and touch it no more)."""
+        if self._x11 is not None and self._x11.lost:
+            self.quit = True
+            return True
+        return False
+
+    def _finish_after_fatal_loss(self, reason: str) -> None:
+        """With a libX11 older than 1.7 the process ends inside the X call that met the loss:
+        finish the recording and say what `fly` says after a loss, from there."""
+        self.session.close()
+        print(f"flew {self.sim.time_s:.1f} s of simulation time")
+        for path in self.recordings:
+            print(f"recording       {path}")
+        print(f"the window's display was lost ({reason}); the recording is finished", file=sys.stderr)
 
     def _say(self, text: str, seconds: float = 3.0) -> None:
         self.notice = text
@@ -290,7 +321,10 @@ class TeleopApp:
     # --- the frame loop ---------------------------------------------------------------------
 
     def frame(self) -> None:
-        for event in pygame.event.get():
+        events = pygame.event.get()
+        if self._display_gone():
+            return
+        for event in events:
             self.handle_event(event)
             if self.quit:
                 return
@@ -302,6 +336,8 @@ class TeleopApp:
             self.session.cameras.poll()
         self.view.draw(self.screen, self._model())
         pygame.display.flip()
+        if self._display_gone():
+            return
         self.frame_count += 1
         now = time.perf_counter()
         self._frame_walls.append((now, self.sim.step_count))
@@ -392,7 +428,11 @@ class TeleopApp:
         finally:
             self.sim.close()
             self.joystick.close()
-            pygame.display.quit()
+            if self._x11 is None:
+                pygame.display.quit()
+            elif not self._x11.lost:  # after a loss SDL's teardown would wait forever on it
+                self._x11.uninstall()
+                pygame.display.quit()
 
     def __enter__(self) -> TeleopApp:
         return self

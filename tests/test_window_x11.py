@@ -1,0 +1,335 @@
+"""The window on a real X server (Xvfb): destroyed from outside, or its X connection lost, `fly`
+still finishes its recording and exits cleanly (issue 9, "lost display").
+
+Each case is a real `python main.py fly` with the keyboard, in its own Xvfb, with SDL's x11
+driver, and a real X client doing the damage once the window is mapped and the recording open:
+- the X server is killed (as at the end of a session);
+- `xdotool windowkill` / `xkill -id`: the server closes the program's connection;
+- `xdotool windowclose`: another client destroys the window (BadWindow / BadDrawable follow);
+- WM_DELETE_WINDOW, what a window manager's close button sends: the normal end, exit 0.
+Before the fix Xlib printed `XIO: fatal IO error` or `BadWindow` and called exit(1) inside an
+SDL call: no summary in the file (it needed `recover`), no message from quadsim.
+
+Skipped when Xvfb or xdotool is missing (CI installs them: .ci/run).
+"""
+
+from __future__ import annotations
+
+import ctypes
+import ctypes.util
+import os
+import select
+import shutil
+import signal
+import subprocess
+import sys
+import time
+from collections.abc import Callable, Iterator
+from dataclasses import dataclass
+from pathlib import Path
+
+import pytest
+from mcap.reader import make_reader
+
+from quadsim.apps.window.x11_guard import EXIT_DISPLAY_LOST, LEGACY_ENV
+
+ROOT = Path(__file__).resolve().parent.parent
+LOST = "the window's display was lost ("
+EXIT_TIMEOUT_S = 30.0
+
+pytestmark = [
+    pytest.mark.slow,
+    pytest.mark.skipif(shutil.which("Xvfb") is None, reason="Xvfb is not installed (apt-get install xvfb)"),
+    pytest.mark.skipif(shutil.which("xdotool") is None, reason="xdotool is not installed (apt-get install xdotool)"),
+]
+
+
+@dataclass
+class XServer:
+    display: str
+    proc: subprocess.Popen[bytes]
+
+    def env(self) -> dict[str, str]:
+        return {"DISPLAY": self.display}
+
+
+@pytest.fixture
+def xserver() -> Iterator[XServer]:
+    """An Xvfb of its own, on the first free display number (Xvfb picks it: -displayfd)."""
+    read_fd, write_fd = os.pipe()
+    proc = subprocess.Popen(
+        ["Xvfb", "-displayfd", str(write_fd), "-screen", "0", "1280x800x24", "-nolisten", "tcp"],
+        pass_fds=(write_fd,),
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.DEVNULL,
+    )
+    os.close(write_fd)
+    try:
+        number = b""
+        deadline = time.monotonic() + 20
+        while not number.endswith(b"\n"):
+            ready, _, _ = select.select([read_fd], [], [], max(0.0, deadline - time.monotonic()))
+            chunk = os.read(read_fd, 16) if ready else b""
+            if not chunk:
+                pytest.fail("Xvfb did not start")
+            number += chunk
+        yield XServer(f":{int(number)}", proc)
+    finally:
+        os.close(read_fd)
+        if proc.poll() is None:
+            proc.terminate()  # lets it remove its socket and lock file
+            try:
+                proc.wait(timeout=10)
+            except subprocess.TimeoutExpired:
+                proc.kill()
+        proc.wait()
+
+
+@dataclass
+class Flight:
+    proc: subprocess.Popen[str]
+    out: Path
+    tmpdir: Path
+    window: int = 0
+
+
+def _env(xserver: XServer, tmpdir: Path, legacy: bool = False) -> dict[str, str]:
+    env = {
+        k: v for k, v in os.environ.items() if not k.startswith("PYTEST") and k not in ("SDL_VIDEODRIVER", LEGACY_ENV)
+    }
+    env.update(xserver.env(), TMPDIR=str(tmpdir), SDL_AUDIODRIVER="dummy", PYTHONPATH=str(ROOT))
+    if legacy:
+        env[LEGACY_ENV] = "1"
+    return env
+
+
+def _xdotool(xserver: XServer, *args: str) -> str:
+    done = subprocess.run(
+        ["xdotool", *args], env={**os.environ, **xserver.env()}, capture_output=True, text=True, timeout=10
+    )
+    return done.stdout
+
+
+def _start(xserver: XServer, tmp_path: Path, command: list[str], legacy: bool = False) -> Flight:
+    tmpdir = tmp_path / "tmp"
+    tmpdir.mkdir()
+    out = tmp_path / "flight.mcap"
+    proc = subprocess.Popen(
+        [sys.executable, str(ROOT / "main.py"), *command],
+        cwd=ROOT,
+        env=_env(xserver, tmpdir, legacy),
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+        start_new_session=True,
+    )
+    return Flight(proc, out, tmpdir)
+
+
+def _fly(xserver: XServer, tmp_path: Path, *extra: str, legacy: bool = False) -> Flight:
+    """`fly` with the keyboard, up and flying: its window mapped, its recording open."""
+    out = tmp_path / "flight.mcap"
+    flight = _start(xserver, tmp_path, ["fly", "--input", "keyboard", "--out", str(out), *extra], legacy)
+    _wait_for_window(xserver, flight, lambda: out.exists())
+    time.sleep(1.0)  # a second of flight in the file
+    return flight
+
+
+def _wait_for_window(xserver: XServer, flight: Flight, ready: Callable[[], bool] | None = None) -> None:
+    # by pid: this xdotool's `search --name` does not match SDL's UTF8_STRING window names
+    deadline = time.monotonic() + 90
+    while time.monotonic() < deadline:
+        if flight.proc.poll() is not None:
+            out, err = flight.proc.communicate()
+            pytest.fail(f"the program ended before its window was up ({flight.proc.returncode}):\n{out}\n{err}")
+        found = _xdotool(xserver, "search", "--onlyvisible", "--pid", str(flight.proc.pid)).split()
+        if found and (ready is None or ready()):
+            flight.window = int(found[0])
+            return
+        time.sleep(0.2)
+    _kill(flight)
+    pytest.fail("the window did not appear")
+
+
+def _kill(flight: Flight) -> None:
+    try:
+        os.killpg(flight.proc.pid, signal.SIGKILL)
+    except ProcessLookupError:
+        pass
+
+
+def _finish(flight: Flight) -> tuple[int, str, str, float]:
+    """Wait for the program to end by itself; (exit code, stdout, stderr, seconds it took)."""
+    start = time.monotonic()
+    try:
+        out, err = flight.proc.communicate(timeout=EXIT_TIMEOUT_S)
+    except subprocess.TimeoutExpired:
+        _kill(flight)
+        out, err = flight.proc.communicate()
+        pytest.fail(f"still running {EXIT_TIMEOUT_S:.0f} s after the display went away:\n{out}\n{err}")
+    return flight.proc.returncode, out, err, time.monotonic() - start
+
+
+def _leftovers(flight: Flight) -> list[str]:
+    """Processes of this trial still alive (they carry its TMPDIR) and temporary folders left."""
+    marker = f"TMPDIR={flight.tmpdir}".encode() + b"\0"
+    alive = []
+    for entry in Path("/proc").iterdir():
+        if entry.name.isdigit():
+            try:
+                if marker in (entry / "environ").read_bytes():
+                    alive.append(f"process {entry.name}")
+            except OSError:
+                continue
+    return alive + [f"folder {p.name}" for p in flight.tmpdir.iterdir()]
+
+
+def _assert_finished_recording(path: Path) -> None:
+    with path.open("rb") as f:
+        summary = make_reader(f).get_summary()
+    assert summary is not None, "the recording has no summary (it would need `recover`)"
+    assert summary.statistics is not None and summary.statistics.message_count > 100
+    info = subprocess.run(
+        [sys.executable, str(ROOT / "main.py"), "info", str(path)], capture_output=True, text=True, timeout=60
+    )
+    assert info.returncode == 0, info.stdout + info.stderr
+
+
+def _assert_lost_cleanly(flight: Flight, expected_reason: str) -> None:
+    code, out, err, took = _finish(flight)
+    assert "Traceback" not in out + err, err
+    assert code == EXIT_DISPLAY_LOST, (code, out, err)
+    lines = err.strip().splitlines()
+    assert len(lines) == 1, err  # quadsim's line, and no "XIO: fatal IO error" / "X Error of failed request"
+    assert lines[0].startswith(LOST) and expected_reason in lines[0], lines[0]
+    assert lines[0].endswith("; the recording is finished"), lines[0]
+    assert "flew " in out and f"recording       {flight.out}" in out, out
+    assert took < 15.0, took
+    _assert_finished_recording(flight.out)
+    assert not _leftovers(flight)
+
+
+# --- the X server goes away ------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("cameras", [["--cameras", "none"], ["--camera-size", "64x48"]], ids=["no-cameras", "cameras"])
+def test_x_server_killed(xserver, tmp_path, cameras):
+    flight = _fly(xserver, tmp_path, *cameras)
+    xserver.proc.terminate()
+    _assert_lost_cleanly(flight, f"the connection to the X server {xserver.display} was closed")
+
+
+# --- another client kills the program's connection --------------------------------------------
+
+
+@pytest.mark.parametrize("cameras", [["--cameras", "none"], ["--camera-size", "64x48"]], ids=["no-cameras", "cameras"])
+def test_window_killed(xserver, tmp_path, cameras):
+    flight = _fly(xserver, tmp_path, *cameras)
+    _xdotool(xserver, "windowkill", str(flight.window))
+    _assert_lost_cleanly(flight, f"the connection to the X server {xserver.display} was closed")
+
+
+@pytest.mark.skipif(shutil.which("xkill") is None, reason="xkill is not installed (apt-get install x11-utils)")
+def test_xkill(xserver, tmp_path):
+    flight = _fly(xserver, tmp_path, "--cameras", "none")
+    subprocess.run(["xkill", "-id", str(flight.window)], env={**os.environ, **xserver.env()}, capture_output=True)
+    _assert_lost_cleanly(flight, "was closed")
+
+
+# --- another client destroys the window -------------------------------------------------------
+
+
+def test_window_destroyed_from_outside(xserver, tmp_path):
+    flight = _fly(xserver, tmp_path, "--cameras", "none")
+    _xdotool(xserver, "windowclose", str(flight.window))  # XDestroyWindow, from another client
+    _assert_lost_cleanly(flight, "the window was destroyed by another program: Bad")
+
+
+# --- a libX11 without XSetIOErrorExitHandler (older than 1.7): the best effort ----------------
+
+
+def test_x_server_killed_old_libx11(xserver, tmp_path):
+    """Xlib will call exit(): the recording is finished from inside its IO error handler, the
+    same lines said, and the process ends with the same code."""
+    flight = _fly(xserver, tmp_path, "--camera-size", "64x48", legacy=True)
+    xserver.proc.terminate()
+    code, out, err, _ = _finish(flight)
+    assert "Traceback" not in out + err, err
+    assert code == EXIT_DISPLAY_LOST, (code, out, err)
+    assert err.strip().splitlines() == [
+        f"{LOST}the connection to the X server {xserver.display} was closed); the recording is finished"
+    ]
+    assert "flew " in out and f"recording       {flight.out}" in out, out
+    _assert_finished_recording(flight.out)
+    assert not _leftovers(flight)
+
+
+# --- the normal end is unchanged --------------------------------------------------------------
+
+
+class _ClientMessage(ctypes.Structure):
+    _fields_ = [
+        ("type", ctypes.c_int),
+        ("serial", ctypes.c_ulong),
+        ("send_event", ctypes.c_int),
+        ("display", ctypes.c_void_p),
+        ("window", ctypes.c_ulong),
+        ("message_type", ctypes.c_ulong),
+        ("format", ctypes.c_int),
+        ("data", ctypes.c_long * 5),
+    ]
+
+
+class _XEvent(ctypes.Union):
+    _fields_ = [("xclient", _ClientMessage), ("pad", ctypes.c_long * 24)]
+
+
+def _send_wm_delete(display_name: str, window: int) -> None:
+    """What a window manager's close button does: a WM_PROTOCOLS / WM_DELETE_WINDOW message."""
+    x11 = ctypes.CDLL(ctypes.util.find_library("X11") or "libX11.so.6")
+    x11.XOpenDisplay.restype = ctypes.c_void_p
+    x11.XOpenDisplay.argtypes = [ctypes.c_char_p]
+    x11.XInternAtom.restype = ctypes.c_ulong
+    x11.XInternAtom.argtypes = [ctypes.c_void_p, ctypes.c_char_p, ctypes.c_int]
+    x11.XSendEvent.argtypes = [ctypes.c_void_p, ctypes.c_ulong, ctypes.c_int, ctypes.c_long, ctypes.POINTER(_XEvent)]
+    x11.XFlush.argtypes = [ctypes.c_void_p]
+    x11.XCloseDisplay.argtypes = [ctypes.c_void_p]
+    dpy = x11.XOpenDisplay(display_name.encode())
+    assert dpy, f"cannot open {display_name}"
+    try:
+        event = _XEvent()
+        event.xclient.type = 33  # ClientMessage
+        event.xclient.window = window
+        event.xclient.message_type = x11.XInternAtom(dpy, b"WM_PROTOCOLS", 0)
+        event.xclient.format = 32
+        event.xclient.data[0] = x11.XInternAtom(dpy, b"WM_DELETE_WINDOW", 0)
+        x11.XSendEvent(dpy, window, 0, 0, ctypes.byref(event))
+        x11.XFlush(dpy)
+    finally:
+        x11.XCloseDisplay(dpy)
+
+
+def test_window_closed_normally(xserver, tmp_path):
+    flight = _fly(xserver, tmp_path, "--camera-size", "64x48")
+    _send_wm_delete(xserver.display, flight.window)
+    code, out, err, _ = _finish(flight)
+    assert code == 0, (code, out, err)
+    assert "Traceback" not in out + err and LOST not in err, err
+    assert "flew " in out, out
+    _assert_finished_recording(flight.out)
+    assert not _leftovers(flight)
+
+
+# --- the replay window ------------------------------------------------------------------------
+
+
+def test_replay_window_killed(xserver, tmp_path):
+    recording = ROOT / "tests" / "recordings" / "climb_cascade.mcap"
+    flight = _start(xserver, tmp_path, ["replay", str(recording), "--loop"])
+    _wait_for_window(xserver, flight)
+    time.sleep(0.5)
+    _xdotool(xserver, "windowkill", str(flight.window))
+    code, out, err, _ = _finish(flight)
+    assert "Traceback" not in out + err, err
+    assert code == EXIT_DISPLAY_LOST, (code, out, err)
+    assert err.strip().splitlines() == [f"{LOST}the connection to the X server {xserver.display} was closed)"]
