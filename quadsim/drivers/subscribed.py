@@ -1,0 +1,68 @@
+"""The subscribed driver: Twists that arrive from outside the loop (a ROS 2 subscription, a
+Foxglove client publishing on /quad_cmd_twist), handed in from any thread.
+
+Like a ROS subscriber feeding the original's controller: a message that arrived since the last
+poll is published once; no message, no command, so the gate's dead-man timeout holds the vehicle
+when the publisher stops ("if this message is not present the quadcopter won't move").
+"""
+
+from __future__ import annotations
+
+import math
+import threading
+from typing import Any
+
+from quadsim.core.types import Twist
+from quadsim.drivers import ASAP, NEVER
+
+
+class SubscribedDriver:
+    """Publishes each Twist `deliver`ed since the previous poll (the newest, if several came).
+
+    `deliver` may be called from any thread; it sets `next_poll_step` to ASAP so the loop takes
+    the command at its next step instead of waiting for the next input tick. `received` counts
+    what arrived, `dropped` what was superseded before a poll and `rejected` what was malformed.
+    """
+
+    next_poll_step = NEVER
+
+    def __init__(self, name: str, topic: str = "/quad_cmd_twist") -> None:
+        self.name = name
+        self.topic = topic
+        self.received = 0
+        self.dropped = 0
+        self.rejected = 0
+        self._lock = threading.Lock()
+        self._pending: Twist | None = None
+
+    def deliver(self, linear: tuple[float, float, float], angular_z: float) -> bool:
+        """A message arrived: linear x, y, z and angular z of a geometry_msgs/Twist (angular x
+        and y are not part of the command). Returns False, and keeps nothing, for a message
+        with a field that is not a finite number."""
+        try:
+            twist = Twist(float(linear[0]), float(linear[1]), float(linear[2]), float(angular_z))
+        except (TypeError, ValueError, IndexError):
+            twist = None
+        with self._lock:
+            if twist is None or not all(math.isfinite(v) for v in twist):
+                self.rejected += 1
+                return False
+            self.received += 1
+            if self._pending is not None:
+                self.dropped += 1
+            self._pending = twist
+            self.next_poll_step = ASAP
+        return True
+
+    def poll(self, step: int, time_s: float) -> Twist | None:
+        with self._lock:
+            twist, self._pending = self._pending, None
+            self.next_poll_step = NEVER
+        return twist
+
+    @property
+    def finished(self) -> bool:
+        return False
+
+    def describe(self) -> dict[str, Any]:
+        return {"name": self.name, "topic": self.topic}
