@@ -27,6 +27,8 @@ from quadsim.sim.config import Rates
 from quadsim.vehicle.params import DEFAULT_VEHICLE, SHIPPED_VEHICLES
 
 if TYPE_CHECKING:
+    from quadsim.apps.live import LiveSetup
+    from quadsim.drivers import InputDriver
     from quadsim.drivers.scripted import Script
 
 DEMO_SCENARIO = "figure8"
@@ -77,6 +79,15 @@ def _recordings_default() -> str:
     """The default recordings folder for a help text, and how to change it."""
     folder = str(default_recordings_dir()).replace("%", "%%")  # argparse %-formats help texts
     return f"{folder}; set {RECORDINGS_ENV_VAR} to change it"
+
+
+def _add_ros2_option(p: argparse.ArgumentParser) -> None:
+    p.add_argument(
+        "--ros2",
+        action="store_true",
+        help="join a ROS 2 graph (ROS_DOMAIN_ID, ROS_AUTOMATIC_DISCOVERY_RANGE) and publish every recorded topic "
+        "live, plus /clock for use_sim_time; needs: pip install 'quadsim[ros2]' (no ROS installation)",
+    )
 
 
 def _add_sim_options(p: argparse.ArgumentParser) -> None:
@@ -133,6 +144,7 @@ def _add_sim_options(p: argparse.ArgumentParser) -> None:
         help="dead-man timeout: hold position after S seconds without a command (default 0.5)",
     )
     g.add_argument("--gui", action="store_true", help="also open PyBullet's own 3D window (needs a display)")
+    _add_ros2_option(p)
     o = p.add_argument_group("recording and cameras")
     o.add_argument(
         "--out",
@@ -240,39 +252,58 @@ def _check_z_mode_override(script: Script, z_mode_option: str | None) -> None:
     )
 
 
-def _fly_script(args: argparse.Namespace, script_name: str, realtime: bool) -> int:
+def _fly_script(
+    args: argparse.Namespace, script_name: str | None, realtime: bool, live: LiveSetup | None = None
+) -> int:
+    """Fly a script headless, or (`script_name` None) the commands of `live.driver`, paced to real
+    time until a signal or --duration."""
     from quadsim.apps.headless import run_headless
     from quadsim.apps.outputs import RecordedRun
     from quadsim.apps.progress import ProgressBar
     from quadsim.drivers.scripted import ScriptedDriver, load_script
     from quadsim.sim.simulator import Simulator
 
-    script = load_script(script_name)
-    _check_z_mode_override(script, args.z_mode)
-    config = _config(args, script.z_mode)
     outputs = _outputs(args)
-    if not outputs.record and outputs.cameras:  # headless and unrecorded: nobody would see a frame
+    if live is not None:
+        outputs = replace(outputs, live=live.consumers)
+    if not outputs.record and not outputs.live and outputs.cameras:  # nobody would see a frame
         outputs = replace(outputs, cameras=())
-    duration = args.duration if args.duration is not None else script.duration_s
+    driver: InputDriver
+    if script_name is None:
+        assert live is not None and live.driver is not None
+        config, driver, realtime = _config(args, None), live.driver, True
+        duration = args.duration if args.duration is not None else MAX_DURATION_S
+        what, label = f"the Twists on {live.driver.topic} (ROS 2)", f"ros2_{config.controller.value}"
+        until = f"for {duration:.1f} s" if args.duration is not None else "until Ctrl-C"
+        run_info = {"command": "run", "input": "ros2", "duration_s": args.duration, "realtime": True}
+    else:
+        script = load_script(script_name)
+        _check_z_mode_override(script, args.z_mode)
+        config, driver = _config(args, script.z_mode), ScriptedDriver(script)
+        duration = args.duration if args.duration is not None else script.duration_s
+        what, label = f"'{script.name}'", f"{Path(script.name).stem}_{config.controller.value}"
+        until = f"for {duration:.1f} s"
+        run_info = {"command": "run", "script": script.name, "duration_s": duration, "realtime": realtime}
     if not duration > 0:
         raise QuadsimError(f"--duration must be > 0 s, got {duration}")
     cams = ", ".join(f"{c.name} {c.width_px}x{c.height_px}@{c.rate_hz}Hz" for c in outputs.cameras) or "none"
     print(
-        f"flying '{script.name}' for {duration:.1f} s: controller {config.controller.value}, "
+        f"flying {what} {until}: controller {config.controller.value}, "
         f"z-mode {config.z_mode.value}, physics {config.rates.physics_hz} Hz, control {config.rates.control_hz} Hz, "
         f"cameras {cams}"
     )
+    if live is not None and live.consumers:
+        print(f"publishing on ROS 2 (domain {_ros2_domain()}): every recorded topic and /clock", flush=True)
     bar = ProgressBar(duration, "sim time")
-    label = f"{Path(script.name).stem}_{config.controller.value}"
-    run_info = {"command": "run", "script": script.name, "duration_s": duration, "realtime": realtime}
     summary, run, sim_time = None, None, 0.0
     try:
-        with Simulator(config, ScriptedDriver(script)) as sim:
+        with Simulator(config, driver) as sim:
             try:
                 with RecordedRun(sim, sim.description(), outputs, label, run_info) as run:
                     if run.path is not None:
                         print(f"recording to {run.path}", flush=True)
-                    summary = run_headless(sim, duration, progress=bar.update, realtime=realtime)
+                    progress = bar.update if duration < MAX_DURATION_S else None
+                    summary = run_headless(sim, duration, progress=progress, realtime=realtime)
             finally:
                 sim_time = sim.time_s
     except StopRequested:
@@ -300,8 +331,21 @@ def _fly_script(args: argparse.Namespace, script_name: str, realtime: bool) -> i
     return 0
 
 
+def _ros2_domain() -> int:
+    from quadsim.live.ros2 import domain_id
+
+    return domain_id(os.environ)
+
+
 def cmd_run(args: argparse.Namespace) -> int:
-    return _fly_script(args, args.script, realtime=args.gui or args.realtime)
+    from quadsim.apps.live import open_live
+
+    if args.input == "ros2" and args.script is not None:
+        raise QuadsimError("--input ros2 flies the Twists a ROS 2 node publishes: drop --script")
+    if args.input == "script" and args.script is None:
+        raise QuadsimError("run needs --script NAME|FILE (or --input ros2)")
+    with open_live(args.ros2, args.input) as live:
+        return _fly_script(args, args.script, args.gui or args.realtime, live)
 
 
 def has_display() -> bool:
@@ -323,8 +367,19 @@ def _window_size(text: str) -> tuple[int, int]:
 
 
 def cmd_fly(args: argparse.Namespace) -> int:
+    from quadsim.apps.live import open_live
+
+    with open_live(args.ros2, args.input) as live:
+        return _fly(args, live)
+
+
+def _fly(args: argparse.Namespace, live: LiveSetup) -> int:
     if args.gui and not has_display():
         raise QuadsimError("--gui needs a display (DISPLAY is not set); run without --gui")
+    if not has_display() and live.driver is not None:
+        print("No display found: flying the ROS 2 commands headless.")
+        args.gui = False
+        return _fly_script(args, None, True, live)
     if not has_display():
         print(
             f"No display found: the teleop window cannot open. Recording the scripted demo '{DEMO_SCENARIO}' "
@@ -332,7 +387,7 @@ def cmd_fly(args: argparse.Namespace) -> int:
             f"python main.py scenarios)"
         )
         args.gui = False
-        return _fly_script(args, DEMO_SCENARIO, realtime=False)
+        return _fly_script(args, DEMO_SCENARIO, False, live)
     from quadsim.apps.window.teleop import TeleopApp, TeleopOptions
     from quadsim.drivers.joystick import JoystickMapping, load_mapping
 
@@ -342,9 +397,10 @@ def cmd_fly(args: argparse.Namespace) -> int:
         keyboard_layout=args.keys,
         joystick_mapping=load_mapping(args.joy_map) if args.joy_map else JoystickMapping(),
         window_size=(width, height),
+        subscribed=live.driver,
     )
     config = _config(args, None)
-    outputs = _outputs(args)
+    outputs = replace(_outputs(args), live=live.consumers)
     flown, recordings, lost = 0.0, [], None
     try:
         with TeleopApp(config, outputs, options) as app:
@@ -625,9 +681,16 @@ def build_parser() -> argparse.ArgumentParser:
     )
     p.add_argument(
         "--script",
-        required=True,
+        default=None,
         metavar="NAME|FILE",
         help="a built-in scenario (python main.py scenarios lists them) or a script file",
+    )
+    p.add_argument(
+        "--input",
+        choices=["script", "ros2"],
+        default="script",
+        help="script (default): fly --script; ros2: fly the geometry_msgs/Twist messages a ROS 2 node publishes "
+        "on /quad_cmd_twist, paced to real time until Ctrl-C or --duration (add --ros2 to publish the sensors)",
     )
     p.add_argument(
         "--duration",
@@ -658,10 +721,11 @@ def build_parser() -> argparse.ArgumentParser:
     t = p.add_argument_group("teleop window")
     t.add_argument(
         "--input",
-        choices=["auto", "keyboard", "joystick"],
+        choices=["auto", "keyboard", "joystick", "ros2"],
         default="auto",
         help="auto (default): a gamepad if one is plugged in, else the keyboard until one is plugged in; "
-        "joystick: wait for a gamepad even if none is plugged in",
+        "joystick: wait for a gamepad even if none is plugged in; ros2: the geometry_msgs/Twist messages a ROS 2 "
+        "node publishes on /quad_cmd_twist",
     )
     t.add_argument(
         "--keys",

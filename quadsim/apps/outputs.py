@@ -14,7 +14,7 @@ from typing import TYPE_CHECKING, Any
 
 from quadsim.apps.stopping import shielded_from_signals
 from quadsim.errors import QuadsimError
-from quadsim.recording.fanout import TopicFanout
+from quadsim.recording.fanout import TopicConsumer, TopicFanout
 from quadsim.sensors.camera import CameraSpec, RendererKind, default_cameras
 from quadsim.sim.description import RunDescription
 from quadsim.sim.loop import OutputPort
@@ -32,6 +32,9 @@ class OutputOptions:
     renderer: RendererKind = RendererKind.TINY
     render_workers: int = 2  # 0: render in this process
     ordered_delivery: bool = True  # headless: frames in capture order at fixed points
+    #: live outputs (the ROS 2 bridge) fed by the fan-out for the whole run, recorded or not;
+    #: their owner opens and closes them
+    live: tuple[TopicConsumer, ...] = ()
 
 
 class RecordedRun:
@@ -79,6 +82,9 @@ class RecordedRun:
                     scene_client=port.scene_client,
                 )
                 port.add_tap(self.cameras.tap_interval_steps, self.cameras.capture)
+            for consumer in options.live:
+                self.fanout.add_consumer(consumer, port.step_count)
+                self._listen(True)
             if options.record:
                 self.start_recording()
         except BaseException:
@@ -149,11 +155,13 @@ class RecordedRun:
                     finally:
                         self.cameras.close()
             finally:
+                for consumer in self.options.live:
+                    self.fanout.remove_consumer(consumer)
                 if self.recorder is not None:
                     self.fanout.remove_consumer(self.recorder)
-                    if not self.fanout.consumers:
-                        self._listen(False)
                     self.recorder.close()
+                if not self.fanout.consumers:
+                    self._listen(False)
 
     def __enter__(self) -> RecordedRun:
         return self

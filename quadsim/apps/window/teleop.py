@@ -39,6 +39,7 @@ from quadsim.drivers import ASAP
 from quadsim.drivers.gamepad import Pad
 from quadsim.drivers.joystick import JoystickDriver, JoystickMapping
 from quadsim.drivers.keyboard import LAYOUTS, KeyboardDriver
+from quadsim.drivers.subscribed import SubscribedDriver
 from quadsim.errors import QuadsimError
 from quadsim.sensors.camera import CameraFrame
 from quadsim.sim.config import SimConfig
@@ -61,7 +62,9 @@ APP_KEYS = [
 
 @dataclass(frozen=True)
 class TeleopOptions:
-    input: str = "auto"  # auto | keyboard | joystick
+    input: str = "auto"  # auto | keyboard | joystick | ros2
+    #: with input ros2: the driver the ROS 2 bridge feeds (the window's keys then only steer the app)
+    subscribed: SubscribedDriver | None = None
     keyboard_layout: str = "default"
     joystick_mapping: JoystickMapping = field(default_factory=JoystickMapping)
     window_size: tuple[int, int] = (1280, 720)
@@ -86,7 +89,7 @@ class _ActiveInput:
     """The simulator's input driver: whichever of the keyboard and the gamepad flies now (with
     --input auto a gamepad plugged in later takes over from the keyboard)."""
 
-    def __init__(self, driver: KeyboardDriver | JoystickDriver) -> None:
+    def __init__(self, driver: KeyboardDriver | JoystickDriver | SubscribedDriver) -> None:
         self.driver = driver
         self.name = driver.name
 
@@ -124,8 +127,10 @@ class TeleopApp:
     ) -> None:
         if options.keyboard_layout not in LAYOUTS:
             raise QuadsimError(f"unknown keyboard layout {options.keyboard_layout!r}; choose from {', '.join(LAYOUTS)}")
-        if options.input not in ("auto", "keyboard", "joystick"):
-            raise QuadsimError(f"--input must be auto, keyboard or joystick, got {options.input!r}")
+        if options.input not in ("auto", "keyboard", "joystick", "ros2"):
+            raise QuadsimError(f"--input must be auto, keyboard, joystick or ros2, got {options.input!r}")
+        if (options.input == "ros2") != (options.subscribed is not None):
+            raise QuadsimError("--input ros2 needs the driver its bridge feeds (and only it does)")
         pygame.display.init()
         pygame.font.init()
         pygame.joystick.init()
@@ -135,10 +140,10 @@ class TeleopApp:
         z_mode = config.z_mode or ZMode.VELOCITY
         self.keyboard = KeyboardDriver(LAYOUTS[options.keyboard_layout], z_mode=z_mode)
         self.joystick = JoystickDriver(options.joystick_mapping, z_mode)
-        if options.input != "keyboard":
+        if options.input in ("auto", "joystick"):
             self.joystick.attach_first()
         use_joystick = options.input == "joystick" or (options.input == "auto" and self.joystick.pad is not None)
-        self.input = _ActiveInput(self.joystick if use_joystick else self.keyboard)
+        self.input = _ActiveInput(options.subscribed or (self.joystick if use_joystick else self.keyboard))
         try:
             self.sim = Simulator(config, self.input)
         except BaseException:
@@ -189,7 +194,7 @@ class TeleopApp:
         walls.append(time.perf_counter())
 
     @property
-    def driver(self) -> KeyboardDriver | JoystickDriver:
+    def driver(self) -> KeyboardDriver | JoystickDriver | SubscribedDriver:
         """The input driver flying now."""
         return self.input.driver
 
@@ -257,7 +262,7 @@ class TeleopApp:
                 return
         # both track their device; only the one that is the input driver is polled by the loop
         self.keyboard.handle_event(event)
-        if self.options.input != "keyboard":
+        if self.options.input in ("auto", "joystick"):
             before = self.joystick.pad
             self.joystick.handle_event(event)
             if self.joystick.pad is not before:
@@ -383,6 +388,8 @@ class TeleopApp:
             input_status=(
                 self.joystick.status
                 if self.driver is self.joystick
+                else f"ROS 2 {self.driver.topic} ({self.driver.received} received)"
+                if isinstance(self.driver, SubscribedDriver)
                 else f"keyboard ({self.keyboard.layout.name}, speed x{self.keyboard.scale:.2f})"
             ),
             recording_path=str(self.session.path) if self.session.recording else None,

@@ -1,0 +1,233 @@
+"""The ROS 2 bridge: a run's topics published live to a ROS 2 graph, and Twist commands taken from it.
+
+quadsim speaks the DDS wire protocol that every ROS 2 middleware speaks, through Eclipse Cyclone
+DDS's Python package (the `ros2` extra), with ROS 2's naming: topic `/quad/odom` is DDS topic
+`rt/quad/odom`, type `nav_msgs/msg/Odometry` is `nav_msgs::msg::dds_::Odometry_`. The fan-out's
+CDR bytes go out as they are (they are what a ROS 2 publisher sends), so nothing is encoded twice
+and no ROS installation is needed. `ROS_DOMAIN_ID` and `ROS_AUTOMATIC_DISCOVERY_RANGE` (or the
+older `ROS_LOCALHOST_ONLY`) are honoured as ROS 2 Jazzy reads them; a `CYCLONEDDS_URI` the user
+set wins over the discovery range.
+"""
+
+from __future__ import annotations
+
+import os
+import re
+import threading
+import time
+from collections.abc import Callable, Mapping, Sequence
+from typing import TYPE_CHECKING, Any
+
+from quadsim.errors import QuadsimError
+from quadsim.live.dds_types import idl_type
+from quadsim.recording.contract import TWIST, Topic
+from quadsim.recording.fanout import NS_PER_S, Message
+
+if TYPE_CHECKING:
+    from quadsim.drivers.subscribed import SubscribedDriver
+
+INSTALL_HINT = "--ros2 and --input ros2 need Eclipse Cyclone DDS for Python: pip install 'quadsim[ros2]'"
+CLOCK = Topic("/clock", "rosgraph_msgs/msg/Clock")
+#: /clock is published with the newest log time seen, at most this often (of simulation time)
+CLOCK_HZ = 100
+MAX_DOMAIN_ID = 232  # ROS 2's limit for the default port mapping
+
+_LOCALHOST_CONFIG = (
+    '<CycloneDDS><Domain Id="any"><General><Interfaces><NetworkInterface address="127.0.0.1"/></Interfaces>'
+    "<AllowMulticast>false</AllowMulticast></General><Discovery><ParticipantIndex>auto</ParticipantIndex>"
+    "<MaxAutoParticipantIndex>64</MaxAutoParticipantIndex>{peers}</Discovery></Domain></CycloneDDS>"
+)
+
+
+def cyclonedds() -> Any:
+    """The cyclonedds package, or a one-line error saying how to install it."""
+    try:
+        import cyclonedds.domain
+    except ImportError:
+        raise QuadsimError(INSTALL_HINT) from None
+    import cyclonedds
+
+    return cyclonedds
+
+
+def domain_id(env: Mapping[str, str]) -> int:
+    """ROS_DOMAIN_ID, 0 when unset, as ROS 2 reads it."""
+    text = env.get("ROS_DOMAIN_ID", "").strip()
+    if not text:
+        return 0
+    if not text.isdigit() or int(text) > MAX_DOMAIN_ID:
+        raise QuadsimError(f"ROS_DOMAIN_ID must be a whole number from 0 to {MAX_DOMAIN_ID}, got {text!r}")
+    return int(text)
+
+
+def discovery_config(env: Mapping[str, str]) -> str | None:
+    """The Cyclone DDS configuration for ROS 2's discovery range: LOCALHOST (or ROS_LOCALHOST_ONLY=1)
+    keeps discovery and traffic on the loopback interface, OFF finds no other process; SUBNET (ROS 2's
+    default) is Cyclone's default (multicast on the network). None: Cyclone's own (or CYCLONEDDS_URI)."""
+    if env.get("CYCLONEDDS_URI"):
+        return None
+    wanted = env.get("ROS_AUTOMATIC_DISCOVERY_RANGE", "").strip().upper()
+    if not wanted and env.get("ROS_LOCALHOST_ONLY", "").strip() == "1":
+        wanted = "LOCALHOST"
+    if wanted in ("", "SUBNET", "SYSTEM_DEFAULT"):
+        return None
+    if wanted not in ("LOCALHOST", "OFF"):
+        raise QuadsimError(f"ROS_AUTOMATIC_DISCOVERY_RANGE must be SUBNET, LOCALHOST or OFF, got {wanted!r}")
+    peers = [p.strip() for p in env.get("ROS_STATIC_PEERS", "").split(";") if p.strip()]
+    if wanted == "LOCALHOST":
+        peers.insert(0, "127.0.0.1")
+    xml_peers = "".join(f'<Peer address="{p}"/>' for p in peers)
+    return _LOCALHOST_CONFIG.format(peers=f"<Peers>{xml_peers}</Peers>" if xml_peers else "")
+
+
+def _qos_numbers(topic: Topic) -> tuple[bool, int]:
+    """(transient local, history depth) of a contract topic, read off its offered_qos_profiles."""
+    durability = re.search(r"durability: (\d+)", topic.qos)
+    depth = re.search(r"depth: (\d+)", topic.qos)
+    return (durability is not None and durability.group(1) == "1", int(depth.group(1)) if depth else 10)
+
+
+def dds_topic_name(name: str) -> str:
+    """`/quad/odom` -> `rt/quad/odom`."""
+    return "rt" + name
+
+
+_DOMAINS: dict[int, Any] = {}  # a Cyclone domain is configured once per process
+_DOMAINS_LOCK = threading.Lock()
+
+
+class Ros2Bridge:
+    """A TopicConsumer of the fan-out that publishes every topic it is given on a ROS 2 graph
+    (except `exclude`), plus /clock; and, on request, a Twist subscription feeding a driver.
+
+    Topics keep the contract's QoS: reliable, keep-last; the latched ones (/tf_static,
+    /robot_description, /world/markers, /rosout) transient-local, so a node started later still
+    gets them. Use as a context manager, or call `close`.
+    """
+
+    def __init__(self, exclude: Sequence[str] = (), env: Mapping[str, str] | None = None) -> None:
+        env = os.environ if env is None else env
+        dds = cyclonedds()
+        from cyclonedds.core import Policy, Qos
+        from cyclonedds.domain import Domain, DomainParticipant
+
+        self.domain_id = domain_id(env)
+        config = discovery_config(env)
+        with _DOMAINS_LOCK:
+            if self.domain_id not in _DOMAINS:
+                try:
+                    _DOMAINS[self.domain_id] = Domain(self.domain_id, config) if config else None
+                except dds.core.DDSException as e:
+                    raise QuadsimError(f"could not join ROS 2 domain {self.domain_id}: {e}") from None
+        # IgnoreLocal: the Twist this bridge republishes (keyboard input) must not come back to it
+        self._participant: Any = DomainParticipant(self.domain_id, qos=Qos(Policy.IgnoreLocal.Participant))
+        self._Qos, self._Policy = Qos, Policy
+        self.exclude = frozenset(exclude)
+        self._writers: dict[str, tuple[Any, Any]] = {}  # topic name -> (writer, IDL type)
+        self._readers: list[Any] = []
+        self._lock = threading.Lock()  # the sim thread and a replay thread may both publish
+        self._clock_period_ns = NS_PER_S // CLOCK_HZ
+        self._clock_ns = -1
+        self.published = 0  # messages written
+        self.busy_s = 0.0  # time spent writing (for the benchmark)
+        self.closed = False
+        self.add_topic(CLOCK)
+
+    # --- TopicConsumer ------------------------------------------------------------------------
+
+    def add_topic(self, topic: Topic) -> None:
+        if topic.name in self.exclude or topic.name in self._writers:
+            return
+        from cyclonedds.pub import DataWriter
+        from cyclonedds.topic import Topic as DdsTopic
+
+        latched, depth = _qos_numbers(topic)
+        Policy = self._Policy
+        qos = self._Qos(
+            Policy.Reliability.Reliable(max_blocking_time=100_000_000),
+            Policy.History.KeepLast(depth),
+            Policy.Durability.TransientLocal if latched else Policy.Durability.Volatile,
+        )
+        kind = idl_type(topic.type_name)
+        dds_topic = DdsTopic(self._participant, dds_topic_name(topic.name), kind)
+        self._writers[topic.name] = (DataWriter(self._participant, dds_topic, qos=qos), kind)
+
+    def on_messages(self, messages: Sequence[Message]) -> None:
+        if self.closed or not messages:
+            return
+        started = time.perf_counter()
+        with self._lock:
+            newest = max(ns for _, ns, _ in messages)
+            if newest >= self._clock_ns + self._clock_period_ns or newest < self._clock_ns:
+                self._publish_clock(newest)  # before the messages of that time (a jump back: a replay's seek)
+            for topic, _ns, data in messages:
+                entry = self._writers.get(topic.name)
+                if entry is None:
+                    if topic.name in self.exclude:
+                        continue
+                    self.add_topic(topic)
+                    entry = self._writers[topic.name]
+                writer, kind = entry
+                writer.write(_raw(kind, data))
+                self.published += 1
+        self.busy_s += time.perf_counter() - started
+
+    def on_event(self, step: int, kind: str, value: str) -> None:
+        """Events reach the graph as their /rosout messages."""
+
+    def _publish_clock(self, ns: int) -> None:
+        writer, kind = self._writers[CLOCK.name]
+        time_type = idl_type("builtin_interfaces/msg/Time")
+        writer.write(kind(clock=time_type(sec=ns // NS_PER_S, nanosec=ns % NS_PER_S)))
+        self._clock_ns = ns
+
+    # --- input --------------------------------------------------------------------------------
+
+    def subscribe_twist(self, driver: SubscribedDriver, on_twist: Callable[[], None] | None = None) -> None:
+        """Feed `driver` the geometry_msgs/Twist messages on /quad_cmd_twist, as they arrive (on
+        Cyclone's receive thread). Best effort, so reliable and best-effort publishers both match."""
+        from cyclonedds.core import Listener
+        from cyclonedds.sub import DataReader
+        from cyclonedds.topic import Topic as DdsTopic
+
+        kind = idl_type(TWIST.type_name)
+
+        def on_data_available(reader: Any) -> None:
+            for twist in reader.take(32):
+                if isinstance(twist, kind):  # not an invalid sample (a writer gone)
+                    driver.deliver((twist.linear.x, twist.linear.y, twist.linear.z), twist.angular.z)
+                    if on_twist is not None:
+                        on_twist()
+
+        Policy = self._Policy
+        qos = self._Qos(Policy.Reliability.BestEffort, Policy.History.KeepLast(10))
+        dds_topic = DdsTopic(self._participant, dds_topic_name(TWIST.name), kind)
+        self._readers.append(
+            DataReader(self._participant, dds_topic, qos=qos, listener=Listener(on_data_available=on_data_available))
+        )
+
+    # --- lifetime -----------------------------------------------------------------------------
+
+    def close(self) -> None:
+        if self.closed:
+            return
+        self.closed = True
+        with self._lock:
+            self._readers.clear()
+            self._writers.clear()
+            self._participant = None  # Cyclone deletes the participant and its entities with it
+
+    def __enter__(self) -> Ros2Bridge:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+
+def _raw(kind: Any, data: bytes) -> Any:
+    """A sample of IDL type `kind` that serializes to `data` (CDR with its encapsulation header, as
+    the fan-out made it): DataWriter.write takes an instance of the topic's type and asks it for
+    its bytes."""
+    sample = object.__new__(kind)
+    sample.serialize = lambda **_: data
+    return sample
