@@ -35,7 +35,13 @@ def main() -> int:
     def on_odom(m: Odometry) -> None:
         p = m.pose.pose.position
         odoms.append(
-            {"ns": m.header.stamp.sec * 10**9 + m.header.stamp.nanosec, "x": p.x, "y": p.y, "z": p.z, "frame": m.header.frame_id}
+            {
+                "ns": m.header.stamp.sec * 10**9 + m.header.stamp.nanosec,
+                "x": p.x,
+                "y": p.y,
+                "z": p.z,
+                "frame": m.header.frame_id,
+            }
         )
 
     def on_image(m: CompressedImage) -> None:

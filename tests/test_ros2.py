@@ -27,11 +27,13 @@ def ros2_peer_python() -> Path:
     return python
 
 
-def test_a_ros2_node_flies_quadsim_and_reads_what_it_publishes(ros2_peer_python: Path, tmp_path: Path) -> None:
+def _beside_peer(python: Path, quadsim_args: list[str], folder: Path) -> tuple[subprocess.CompletedProcess[str], dict]:
+    """Run quadsim with `quadsim_args` while the ROS 2 peer flies (it starts publishing once /clock
+    comes); return quadsim's outcome and the peer's report."""
     env = local_env(free_domain())
-    report_path, recording = tmp_path / "peer.json", tmp_path / "flight.mcap"
+    report_path = folder / "peer.json"
     peer = subprocess.Popen(
-        [str(ros2_peer_python), str(PEER), "fly", str(report_path)],
+        [str(python), str(PEER), "fly", str(report_path)],
         env=env,
         stdout=subprocess.PIPE,
         stderr=subprocess.STDOUT,
@@ -39,35 +41,50 @@ def test_a_ros2_node_flies_quadsim_and_reads_what_it_publishes(ros2_peer_python:
     )
     try:
         sim = subprocess.run(
-            [sys.executable, str(ROOT / "main.py"), "run", "--input", "ros2", "--ros2", "--duration", "9"]
-            + ["--cameras", "front", "--camera-size", "160x120", "--out", str(recording)],
-            env=env,
-            capture_output=True,
-            text=True,
-            timeout=120,
+            [sys.executable, str(ROOT / "main.py"), *quadsim_args], env=env, capture_output=True, text=True, timeout=120
         )
         peer_out, _ = peer.communicate(timeout=120)
     finally:
         peer.kill()
     assert sim.returncode == 0, sim.stderr
     assert peer.returncode == 0, peer_out
-    report = json.loads(report_path.read_text())
+    return sim, json.loads(report_path.read_text())
 
-    # it flew where the commands said: 2.5 s climbing at 1 m/s, then 2.5 s forward at 1 m/s, then held
+
+@pytest.fixture(scope="module")
+def ros2_flight(ros2_peer_python: Path, tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, str, dict]:
+    """A run flown by the ROS 2 peer: (its recording, quadsim's output, the peer's report)."""
+    folder = tmp_path_factory.mktemp("ros2_flight")
+    recording = folder / "flight.mcap"
+    args = ["run", "--input", "ros2", "--ros2", "--duration", "9", "--cameras", "front", "--camera-size", "160x120"]
+    sim, report = _beside_peer(ros2_peer_python, [*args, "--out", str(recording)], folder)
+    return recording, sim.stdout, report
+
+
+def _odometry_as_recorded(report: dict, recording: Path) -> None:
     with RecordingReader(recording) as reader:
-        poses = list(reader.poses())
         odoms = {ns: msg for ns, msg in reader.messages("/quad/odom")}
-        assert sum(1 for _ in reader.commands()) >= 80  # the node's 20 Hz Twists, as the controller got them
-    x, y, z = poses[-1][1]
-    assert 2.0 < x < 3.5 and abs(y) < 0.2 and 1.8 < z < 3.2, poses[-1]
-    assert "flying the Twists on /quad_cmd_twist (ROS 2) for 9.0 s" in sim.stdout
-
-    # the node got odometry equal to quadsim's, stamped as recorded
-    assert report["odom_count"] > 100
+    assert len(report["odoms"]) == 50
     for odom in report["odoms"]:
         recorded = odoms[odom["ns"]].pose.pose.position
         assert (odom["x"], odom["y"], odom["z"]) == (recorded.x, recorded.y, recorded.z)
         assert odom["frame"] == "world"
+
+
+def test_a_ros2_node_flies_quadsim_and_reads_what_it_publishes(ros2_flight: tuple[Path, str, dict]) -> None:
+    recording, stdout, report = ros2_flight
+
+    # it flew where the commands said: 2.5 s climbing at 1 m/s, then 2.5 s forward at 1 m/s, then held
+    with RecordingReader(recording) as reader:
+        poses = list(reader.poses())
+        assert sum(1 for _ in reader.commands()) >= 80  # the node's 20 Hz Twists, as the controller got them
+    x, y, z = poses[-1][1]
+    assert 2.0 < x < 3.5 and abs(y) < 0.2 and 1.8 < z < 3.2, poses[-1]
+    assert "flying the Twists on /quad_cmd_twist (ROS 2) for 9.0 s" in stdout
+
+    # the node got odometry equal to quadsim's, stamped as recorded
+    assert report["odom_count"] > 100
+    _odometry_as_recorded(report, recording)
     assert report["odom_last"]["x"] > 2.0
 
     # a JPEG that decodes to the camera's size
@@ -78,6 +95,20 @@ def test_a_ros2_node_flies_quadsim_and_reads_what_it_publishes(ros2_peer_python:
     # /clock advanced with simulation time
     first, last = report["clock_ns"]
     assert report["clock_count"] > 100 and last - first > 4_000_000_000
+
+
+def test_replay_publishes_the_recording_as_it_plays(
+    ros2_peer_python: Path, ros2_flight: tuple[Path, str, dict], tmp_path: Path
+) -> None:
+    recording = ros2_flight[0]
+    sim, report = _beside_peer(
+        ros2_peer_python, ["replay", "--headless", "--ros2", "--speed", "2", str(recording)], tmp_path
+    )
+    assert "publishing on ROS 2" in sim.stdout
+    _odometry_as_recorded(report, recording)  # the recorded bytes, as they were
+    assert report["image_count"] > 20
+    first, last = report["clock_ns"]
+    assert last - first > 4_000_000_000  # /clock follows the playback (twice as fast as the wall clock)
 
 
 def test_without_cyclonedds_a_one_line_message_says_how_to_install(tmp_path: Path) -> None:

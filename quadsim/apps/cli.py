@@ -9,6 +9,7 @@ import math
 import os
 import sys
 from collections.abc import Callable
+from contextlib import ExitStack
 from dataclasses import replace
 from pathlib import Path
 from typing import TYPE_CHECKING, NoReturn
@@ -30,6 +31,8 @@ if TYPE_CHECKING:
     from quadsim.apps.live import LiveSetup
     from quadsim.drivers import InputDriver
     from quadsim.drivers.scripted import Script
+    from quadsim.live.playback import RecordedFeed
+    from quadsim.recording.flight import RecordedFlight
 
 DEMO_SCENARIO = "figure8"
 
@@ -539,6 +542,8 @@ def cmd_replay(args: argparse.Namespace) -> int:
         _check_output_file("--plot", args.plot, PLOT_SUFFIXES)
     if args.mp4 is not None:
         _check_output_dir("--mp4", args.mp4)
+    if args.resim and args.ros2:
+        raise QuadsimError("--ros2 publishes a recording as it plays; --resim flies it again: choose one")
     flight = load_flight(args.file)
     if args.resim:
         from quadsim.apps.progress import ProgressBar
@@ -559,6 +564,50 @@ def cmd_replay(args: argparse.Namespace) -> int:
             "for pictures, or --resim to fly it again)."
         )
         headless = True
+    with ExitStack() as stack:
+        feed = _replay_feed(args, stack)
+        return _replay(args, flight, headless, (width, height), feed)
+
+
+def _replay_feed(args: argparse.Namespace, stack: ExitStack) -> RecordedFeed | None:
+    """With --ros2: the recording's messages, to publish as it plays."""
+    if not args.ros2:
+        return None
+    from quadsim.live.playback import RecordedFeed
+    from quadsim.live.ros2 import Ros2Bridge
+
+    bridge = stack.enter_context(Ros2Bridge())
+    feed = RecordedFeed(args.file, [bridge])
+    print(f"publishing on ROS 2 (domain {bridge.domain_id}) as it plays: {len(feed.messages)} messages and /clock")
+    return feed
+
+
+def _play_headless(feed: RecordedFeed, speed: float, loop: bool) -> None:
+    """Publish the recording paced to the wall clock (at `speed`), until its end or a stop request."""
+    import time
+
+    end_ns = feed.messages[-1][1] if feed.messages else 0
+    start = time.perf_counter()
+    while not stop_requested():
+        t_ns = int((time.perf_counter() - start) * speed * 1e9)
+        if t_ns > end_ns:
+            feed.advance(end_ns)
+            if not loop:
+                return
+            start = time.perf_counter()
+            t_ns = 0
+        feed.advance(t_ns)
+        time.sleep(0.005)
+
+
+def _replay(
+    args: argparse.Namespace,
+    flight: RecordedFlight,
+    headless: bool,
+    size: tuple[int, int],
+    feed: RecordedFeed | None,
+) -> int:
+    width, height = size
     if headless:
         from quadsim.apps.flight_plot import export_plot
         from quadsim.apps.replay_export import export_mp4, summary_lines
@@ -575,10 +624,16 @@ def cmd_replay(args: argparse.Namespace) -> int:
                 print(f"video       {path} (VP9)")
         if args.plot is not None:
             print(f"plot        {export_plot(flight, args.plot)}")
+        if feed is not None:
+            _play_headless(feed, args.speed, args.loop)
+            stop = SignalStop.current()
+            if stop is not None and stop.signum is not None:
+                return stop_exit_code(stop.signum)
         return 0
     from quadsim.apps.window.replay import ReplayApp
 
-    with ReplayApp(flight, (width, height), speed=args.speed, loop=args.loop) as app:
+    on_time = feed.advance if feed is not None else None
+    with ReplayApp(flight, (width, height), speed=args.speed, loop=args.loop, on_time=on_time) as app:
         print("replaying; press H or F1 in the window for the keys, Esc to quit")
         app.run()
     if app.display_lost is not None:
@@ -824,6 +879,7 @@ def build_parser() -> argparse.ArgumentParser:
         help="playback speed, 0.25 to 16 (default 1)",
     )
     p.add_argument("--loop", action="store_true", help="start again at the end")
+    _add_ros2_option(p)
     p.add_argument("--window", default="1280x720", metavar="WxH", help="initial window size")
     p.set_defaults(func=cmd_replay)
 
