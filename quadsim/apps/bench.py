@@ -14,6 +14,7 @@ from __future__ import annotations
 import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
+from pathlib import Path
 from typing import Any
 
 from quadsim.control import ControllerKind
@@ -563,3 +564,108 @@ def run_replay_bench(out: Callable[[str], None] = print, flight_s: float = 20.0)
             f"time (flight core {core.real_time_factor:.0f}x in the same run); {flight_s / best:.0f}x including "
             f"loading, building the world and comparing; max position error {report.position.max_error:g} m"
         )
+
+
+def _ros2_peer() -> tuple[Path, Path] | None:
+    """The ROS 2 node of the tests (tests/ros2_peer.py, in a clone) and the Python of the ROS 2
+    Jazzy environment tests/test_ros2.py makes; None where either is missing."""
+    import os
+    import sys
+
+    script = Path(__file__).resolve().parents[2] / "tests" / "ros2_peer.py"
+    cache = Path(os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache")
+    python = (
+        cache / "quadsim-tests" / f"ros2-jazzy-py{sys.version_info.major}{sys.version_info.minor}" / "bin" / "python"
+    )
+    return (python, script) if script.exists() and python.exists() else None
+
+
+class _CommandTimes:
+    """A loop sink noting when (wall clock) each new climb rate reached the controller."""
+
+    def __init__(self) -> None:
+        self.seen: dict[float, float] = {}
+
+    def on_command(self, step: int, twist: Any) -> None:
+        z = round(twist.linear_z, 6)
+        if z not in self.seen:
+            self.seen[z] = time.time()
+
+    def on_state(self, state: Any) -> None:
+        pass
+
+
+def _realtime_cameras_run(wall_s: float, live: tuple[Any, ...], driver: Any, sink: Any = None) -> tuple[float, float]:
+    """A real-time run with both cameras, recorded, fed to `live` consumers: (wall s, CPU s of this process)."""
+    import tempfile
+
+    from quadsim.apps.headless import run_headless
+    from quadsim.apps.outputs import OutputOptions, RecordedRun
+    from quadsim.sensors.camera import default_cameras
+
+    with tempfile.TemporaryDirectory() as tmp, Simulator(SimConfig(), driver) as sim:
+        if sink is not None:
+            sim.add_sink(sink)
+        options = OutputOptions(
+            out=Path(tmp) / "bench.mcap", cameras=default_cameras(), live=live, ordered_delivery=False
+        )
+        with RecordedRun(sim, sim.description(), options, "bench"):
+            t0, cpu0 = time.perf_counter(), time.process_time()
+            run_headless(sim, wall_s, realtime=True)
+            return time.perf_counter() - t0, time.process_time() - cpu0
+
+
+def run_ros2_bench(out: Callable[[str], None] = print, wall_s: float = 12.0) -> None:
+    """The ROS 2 bridge in a real-time run with both cameras, beside a real rclpy node (rmw_fastrtps_cpp)
+    subscribed to odometry, a camera and /clock and publishing a new Twist every 0.25 s: the
+    bridge's CPU share against the same run without it, and the latency from the node's publish
+    to the controller getting the command (its rotor forces are computed in that same step)."""
+    import json
+    import os
+    import subprocess
+    import tempfile
+
+    from quadsim.drivers.subscribed import SubscribedDriver
+    from quadsim.live.ros2 import Ros2Bridge
+
+    out("## ROS 2 bridge (real time, both cameras, recorded)")
+    peer = _ros2_peer()
+    if peer is None:
+        out("skipped: needs a clone's tests/ros2_peer.py and the ROS 2 environment tests/test_ros2.py makes")
+        return
+    python, script = peer
+    base_wall, base_cpu = _realtime_cameras_run(wall_s, (), SubscribedDriver("none"))
+    env = {k: v for k, v in os.environ.items() if not k.startswith(("ROS_", "RMW_", "CYCLONEDDS_"))}
+    env.update(ROS_AUTOMATIC_DISCOVERY_RANGE="LOCALHOST", ROS_DOMAIN_ID=str(150 + os.getpid() % 50))
+    driver, times = SubscribedDriver("ros2"), _CommandTimes()
+    with tempfile.TemporaryDirectory() as tmp, Ros2Bridge(exclude=("/quad_cmd_twist",), env=env) as bridge:
+        report_path = Path(tmp) / "peer.json"
+        node = subprocess.Popen([str(python), str(script), "latency", str(report_path)], env=env)
+        try:
+            bridge.subscribe_twist(driver)
+            wall, cpu = _realtime_cameras_run(wall_s, (bridge,), driver, times)
+            node.wait(timeout=60)
+        finally:
+            node.kill()
+        report = json.loads(report_path.read_text())
+    latencies = sorted(times.seen[round(z, 6)] - sent for z, sent in report["sent"] if round(z, 6) in times.seen)
+    out(f"baseline (no bridge)   CPU {100 * base_cpu / base_wall:5.1f} % of one core over {base_wall:.1f} s")
+    out(
+        f"with the bridge        CPU {100 * cpu / wall:5.1f} % of one core ({cpu / wall / (base_cpu / base_wall):.2f}x)"
+    )
+    out(
+        f"bridge share           {100 * (cpu / wall - base_cpu / base_wall):5.1f} % of one core; writing took "
+        f"{100 * bridge.busy_s / wall:.1f} % of the loop's time ({bridge.published} messages)"
+    )
+    out(
+        f"node received          {report['odom_count']} odometry, {report['image_count']} front images, "
+        f"{report['clock_count']} /clock"
+    )
+    if latencies:
+        median, worst = latencies[len(latencies) // 2], latencies[-1]
+        out(
+            f"Twist -> controller    median {1000 * median:.1f} ms, worst {1000 * worst:.1f} ms over {len(latencies)} "
+            f"commands (target < 50 ms: one input period)"
+        )
+    else:
+        out("Twist -> controller    no command arrived")

@@ -275,6 +275,7 @@ def _fly_script(
     if script_name is None:
         assert live is not None and live.driver is not None
         config, driver, realtime = _config(args, None), live.driver, True
+        outputs = replace(outputs, ordered_delivery=False)  # live: frames as they come, the loop never waits
         duration = args.duration if args.duration is not None else MAX_DURATION_S
         what, label = f"the Twists on {live.driver.topic} (ROS 2)", f"ros2_{config.controller.value}"
         until = f"for {duration:.1f} s" if args.duration is not None else "until Ctrl-C"
@@ -714,6 +715,10 @@ def cmd_bench(args: argparse.Namespace) -> int:
         from quadsim.apps.bench import run_replay_bench
 
         run_replay_bench()
+    if args.section in ("all", "ros2"):
+        from quadsim.apps.bench import run_ros2_bench
+
+        run_ros2_bench()
     return 0
 
 
@@ -919,10 +924,11 @@ def build_parser() -> argparse.ArgumentParser:
     )
     p.add_argument(
         "--section",
-        choices=["all", "flight", "recording", "window", "replay"],
+        choices=["all", "flight", "recording", "window", "replay", "ros2"],
         default="all",
         help="flight: the flight core; recording: cameras and recording; window: the teleop "
-        "window headless; replay: playback and re-simulation (default: all)",
+        "window headless; replay: playback and re-simulation; ros2: the ROS 2 bridge beside a real rclpy node "
+        "(default: all)",
     )
     p.set_defaults(func=cmd_bench)
     return parser
