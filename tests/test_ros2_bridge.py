@@ -1,0 +1,159 @@
+"""The ROS 2 bridge's parts that need no ROS 2 node: the DDS types against recorded bytes, the
+environment ROS 2 users set, the recorded feed of replay --ros2, the window and `run` flown by
+ROS 2 input, and a real SIGTERM ending `run --input ros2`. (tests/test_ros2.py flies it from rclpy.)"""
+
+from __future__ import annotations
+
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+
+from quadsim.errors import QuadsimError
+from quadsim.live.dds_types import dds_type_name, idl_type
+from quadsim.live.playback import RecordedFeed
+from quadsim.live.ros2 import discovery_config, domain_id
+from quadsim.recording import cdr
+from quadsim.recording.reader import RecordingReader
+from tests.ros2_env import free_domain, local_env
+
+ROOT = Path(__file__).resolve().parents[1]
+RECORDING = ROOT / "tests" / "recordings" / "keyboard_session_cascade.mcap"
+
+
+def test_every_recorded_type_is_a_dds_type_that_reads_and_writes_the_recorded_bytes() -> None:
+    with RecordingReader(RECORDING) as reader:
+        channels = {ch.key: ch for ch in reader.file.channels}
+        seen: dict[str, int] = {}
+        for m in reader.file.messages(set(channels)):
+            name = channels[m.channel.key].schema.name
+            if seen.get(name, 0) >= 3:
+                continue
+            seen[name] = seen.get(name, 0) + 1
+            assert idl_type(name).deserialize(m.data).serialize() == m.data
+    assert {"tf2_msgs/msg/TFMessage", "nav_msgs/msg/Odometry", "sensor_msgs/msg/Imu"} <= set(seen)
+    encoded = {  # the fan-out's other messages
+        "sensor_msgs/msg/CompressedImage": cdr.compressed_image(5, "front_camera_optical", "jpeg", b"\xff\xd8\xff"),
+        "sensor_msgs/msg/CameraInfo": cdr.camera_info(
+            5, "f", 240, 320, "plumb_bob", (0.0,) * 5, (1.0,) * 9, (0.0,) * 9, (2.0,) * 12
+        ),
+        "sensor_msgs/msg/Joy": cdr.joy(5, "joy", (0.5, -1.0), (1, 0, 1)),
+        "rcl_interfaces/msg/Log": cdr.log(5, cdr.LogLevel.INFO, "quadsim", "z-mode: height"),
+        "std_msgs/msg/String": cdr.string("<robot/>"),
+        "geometry_msgs/msg/Vector3Stamped": cdr.vector3_stamped(5, "world", (1.0, 2.0, 3.0)),
+    }
+    for name, data in encoded.items():
+        assert idl_type(name).deserialize(data).serialize() == data, name
+    assert dds_type_name("tf2_msgs/msg/TFMessage") == "tf2_msgs::msg::dds_::TFMessage_"
+
+
+def test_the_ros2_environment_is_read_as_ros2_reads_it() -> None:
+    assert domain_id({}) == 0 and domain_id({"ROS_DOMAIN_ID": "42"}) == 42
+    with pytest.raises(QuadsimError, match="ROS_DOMAIN_ID must be a whole number from 0 to 232, got '300'"):
+        domain_id({"ROS_DOMAIN_ID": "300"})
+    local = discovery_config({"ROS_AUTOMATIC_DISCOVERY_RANGE": "LOCALHOST"})
+    assert local is not None and '<Peer address="127.0.0.1"/>' in local and "<AllowMulticast>false" in local
+    assert discovery_config({"ROS_LOCALHOST_ONLY": "1"}) == local
+    assert discovery_config({}) is None  # SUBNET, ROS 2's default: Cyclone's multicast discovery
+    assert discovery_config({"ROS_AUTOMATIC_DISCOVERY_RANGE": "LOCALHOST", "CYCLONEDDS_URI": "file:///x.xml"}) is None
+    off = discovery_config({"ROS_AUTOMATIC_DISCOVERY_RANGE": "OFF"})
+    assert off is not None and "<Peer" not in off
+    with pytest.raises(QuadsimError, match="ROS_AUTOMATIC_DISCOVERY_RANGE must be SUBNET, LOCALHOST or OFF"):
+        discovery_config({"ROS_AUTOMATIC_DISCOVERY_RANGE": "LAN"})
+
+
+class _Collect:
+    def __init__(self) -> None:
+        self.topics: list[str] = []
+        self.messages: list[tuple[str, int, bytes]] = []
+
+    def add_topic(self, topic) -> None:
+        self.topics.append(topic.name)
+
+    def on_messages(self, messages) -> None:
+        self.messages += [(t.name, ns, data) for t, ns, data in messages]
+
+    def on_event(self, step: int, kind: str, value: str) -> None:
+        pass
+
+
+def test_the_recorded_feed_hands_over_what_was_logged_up_to_the_playback_time_and_plays_on_after_a_seek() -> None:
+    sink = _Collect()
+    feed = RecordedFeed(RECORDING, [sink])
+    assert "/quad/odom" in sink.topics and "/tf_static" in sink.topics
+    first = feed.advance(1_000_000_000)
+    assert first == len(sink.messages) > 0 and all(ns <= 1_000_000_000 for _, ns, _ in sink.messages)
+    feed.advance(2_000_000_000)
+    assert all(ns > 1_000_000_000 for _, ns, _ in sink.messages[first:])
+    with RecordingReader(RECORDING) as reader:
+        odom = next(m for m in reader.file.messages() if m.channel.topic == "/quad/odom")
+    assert ("/quad/odom", odom.log_time, odom.data) in sink.messages  # the recorded bytes as they are
+    before = len(sink.messages)
+    feed.advance(500_000_000)  # back: nothing now, then it plays on from there
+    assert len(sink.messages) == before
+    assert feed.advance(1_000_000_000) == first - sum(1 for _, ns, _ in sink.messages[:first] if ns <= 500_000_000)
+
+
+def test_the_window_flies_the_ros2_input(tmp_path: Path) -> None:
+    pygame = pytest.importorskip("pygame")
+    from quadsim.apps.outputs import OutputOptions
+    from quadsim.apps.window.pacing import FixedStepPacer
+    from quadsim.apps.window.teleop import TeleopApp, TeleopOptions
+    from quadsim.drivers.subscribed import SubscribedDriver
+    from quadsim.sim.config import SimConfig
+
+    driver = SubscribedDriver("ros2")
+    options = TeleopOptions(input="ros2", subscribed=driver)
+    outputs = OutputOptions(out=tmp_path, cameras=(), render_workers=0)
+    with TeleopApp(SimConfig(), outputs, options, pacer=FixedStepPacer(240, 1 / 30)) as app:
+
+        def publish(a: TeleopApp) -> None:
+            if a.frame_count < 60:
+                driver.deliver((0.0, 0.0, 1.0), 0.0)  # climb 1 m/s for 2 s, from "another thread"
+            pygame.event.post(pygame.event.Event(pygame.KEYDOWN, key=pygame.K_UP, mod=0, unicode="", scancode=0))
+
+        app.run(max_frames=90, before_frame=publish)
+        assert 1.5 < app.sim.state.position_m[2] < 2.6
+        assert abs(app.sim.state.position_m[0]) < 0.05  # the keyboard's Up did not fly it
+        assert app._model().input_status.startswith("ROS 2 /quad_cmd_twist")
+
+
+def test_run_with_ros2_input_ends_on_sigterm_with_its_recording_finished(tmp_path: Path) -> None:
+    recording = tmp_path / "ros2.mcap"
+    env = local_env(free_domain())
+    proc = subprocess.Popen(
+        [sys.executable, str(ROOT / "main.py"), "run", "--input", "ros2", "--cameras", "none", "--out", str(recording)],
+        env=env,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+    assert proc.stdout is not None
+    line = proc.stdout.readline()
+    while line and not line.startswith("recording to"):
+        line = proc.stdout.readline()
+    time.sleep(1.0)
+    proc.send_signal(signal.SIGTERM)
+    out, err = proc.communicate(timeout=60)
+    assert proc.returncode == 143, err
+    assert "the recording is finished and readable" in err
+    with RecordingReader(recording) as reader:
+        assert reader.topic_counts()["/quad/odom"] > 10
+        assert reader.description is not None
+
+
+def test_ros2_input_and_a_script_are_refused_together() -> None:
+    proc = subprocess.run(
+        [sys.executable, str(ROOT / "main.py"), "run", "--input", "ros2", "--script", "hover"],
+        env=local_env(free_domain()),
+        capture_output=True,
+        text=True,
+        timeout=60,
+    )
+    assert proc.returncode == 2
+    assert proc.stderr.strip() == (
+        "quadsim: error: --input ros2 flies the Twists a ROS 2 node publishes: drop --script"
+    )
