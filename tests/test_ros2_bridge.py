@@ -97,6 +97,20 @@ def test_the_recorded_feed_hands_over_what_was_logged_up_to_the_playback_time_an
     assert feed.advance(1_000_000_000) == first - sum(1 for _, ns, _ in sink.messages[:first] if ns <= 500_000_000)
 
 
+def test_the_replay_window_feeds_the_recording_to_a_live_consumer_as_it_plays() -> None:
+    pytest.importorskip("pygame")
+    from quadsim.apps.window.replay import ReplayApp
+    from quadsim.recording.flight import load_flight
+
+    sink = _Collect()
+    feed = RecordedFeed(RECORDING, [sink])
+    with ReplayApp(load_flight(RECORDING), frame_s=0.5, on_time=feed.advance) as app:
+        app.run(max_frames=4)  # 2 s of the recording
+    times = [ns for _, ns, _ in sink.messages]
+    assert times and max(times) <= 2_000_000_000 < feed.messages[-1][1]
+    assert max(times) > 1_900_000_000 and times == sorted(times)
+
+
 def test_the_window_flies_the_ros2_input(tmp_path: Path) -> None:
     pygame = pytest.importorskip("pygame")
     from quadsim.apps.outputs import OutputOptions

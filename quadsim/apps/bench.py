@@ -651,7 +651,8 @@ def run_ros2_bench(out: Callable[[str], None] = print, wall_s: float = 12.0) -> 
     latencies = sorted(times.seen[round(z, 6)] - sent for z, sent in report["sent"] if round(z, 6) in times.seen)
     out(f"baseline (no bridge)   CPU {100 * base_cpu / base_wall:5.1f} % of one core over {base_wall:.1f} s")
     out(
-        f"with the bridge        CPU {100 * cpu / wall:5.1f} % of one core ({cpu / wall / (base_cpu / base_wall):.2f}x)"
+        f"with the bridge        CPU {100 * cpu / wall:5.1f} % of one core ({cpu / wall / (base_cpu / base_wall):.2f}x) "
+        f"over {wall:.1f} s for {wall_s:.1f} s of sim time"
     )
     out(
         f"bridge share           {100 * (cpu / wall - base_cpu / base_wall):5.1f} % of one core; writing took "
