@@ -296,7 +296,7 @@ def _fly_script(
         f"z-mode {config.z_mode.value}, physics {config.rates.physics_hz} Hz, control {config.rates.control_hz} Hz, "
         f"cameras {cams}"
     )
-    if live is not None and live.consumers:
+    if args.ros2:
         print(f"publishing on ROS 2 (domain {_ros2_domain()}): every recorded topic and /clock", flush=True)
     bar = ProgressBar(duration, "sim time")
     summary, run, sim_time = None, None, 0.0
