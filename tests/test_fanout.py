@@ -202,3 +202,32 @@ def test_the_loop_feeds_the_fanout_only_while_something_records(tmp_path):
             assert run.fanout in sim.loop.sinks and run.fanout.consumers == [run.recorder]
             run.stop_recording()
             assert run.fanout not in sim.loop.sinks and not run.fanout.consumers
+
+
+def test_the_scene_is_latched_for_every_consumer_with_meshes_as_file_uris(tmp_path):
+    """Given the vehicle and the world, a latecomer gets the URDF, the world's markers and every
+    link's transform too, stamped when it joined. A URDF of one's own naming a mesh beside it
+    publishes it as a file:// URI a viewer on this machine opens."""
+    from quadsim.physics.world_spec import load_world
+    from quadsim.vehicle.params import DEFAULT_URDF, default_params_path, load_vehicle
+
+    (tmp_path / "meshes").mkdir()
+    (tmp_path / "meshes" / "arm.stl").write_bytes(b"solid arm\nendsolid arm\n")
+    urdf = tmp_path / "meshy.urdf"
+    mesh_visual = '<visual><geometry><mesh filename="meshes/arm.stl" scale="1 1 1"/></geometry></visual><visual>'
+    urdf.write_text(DEFAULT_URDF.read_text().replace("<visual>", mesh_visual, 1))
+    default_params_path(urdf).write_bytes(default_params_path(DEFAULT_URDF).read_bytes())
+    vehicle, world = load_vehicle(urdf), load_world()
+    fanout, late = TopicFanout(240, (), vehicle, world), Consumer()
+    fanout.add_consumer(late, 480)
+    assert late.topics[-2:] == ["/robot_description", "/world/markers"]
+    decoded = {t.name: (ns, TS.deserialize_cdr(d, t.type_name)) for t, ns, d in late.messages}
+    assert {ns for ns, _ in decoded.values()} == {2_000_000_000}
+    description = decoded["/robot_description"][1].data
+    assert f'filename="{(tmp_path / "meshes" / "arm.stl").as_uri()}"' in description
+    assert description.count("<link ") == DEFAULT_URDF.read_text().count("<link ")  # the rest as it was
+    static = decoded["/tf_static"][1].transforms
+    assert [t.child_frame_id for t in static] == [link.link_name for link in vehicle.link_frames]
+    assert static[0].header.stamp.sec == 2
+    markers = decoded["/world/markers"][1].markers
+    assert len(markers) == 1 + len(world.landmarks) and markers[-1].header.stamp.sec == 2

@@ -19,6 +19,9 @@ from quadsim.sensors.camera import CameraSpec, RendererKind, default_cameras
 from quadsim.sim.description import RunDescription
 from quadsim.sim.loop import OutputPort
 
+#: the kind of the events that say a recording started or stopped (on /rosout: "recording: started")
+RECORDING_EVENT = "recording"
+
 if TYPE_CHECKING:
     from quadsim.recording.writer import McapRecorder
     from quadsim.sensors.pipeline import CameraPipeline
@@ -62,7 +65,7 @@ class RecordedRun:
         if vehicle is None or world is None:
             raise QuadsimError("outputs need the description of a live run (with its vehicle and world)")
         mounts = tuple((spec, vehicle.camera_mount(spec.link_name)) for spec in options.cameras)
-        self.fanout = TopicFanout(description.config.rates.physics_hz, mounts)
+        self.fanout = TopicFanout(description.config.rates.physics_hz, mounts, vehicle, world)
         self._listening = False
         try:
             if options.cameras:
@@ -105,6 +108,7 @@ class RecordedRun:
         self.fanout.add_consumer(recorder, self.port.step_count)
         self._listen(True)
         self.recorder, self.path = recorder, path
+        self.note_event(self.port.step_count, RECORDING_EVENT, "started")
         return path
 
     def _listen(self, on: bool) -> None:
@@ -123,7 +127,8 @@ class RecordedRun:
                 self.cameras.sinks.remove(fanout)
 
     def note_event(self, step: int, kind: str, value: str) -> None:
-        """An event the recording keeps (a z-mode switch, an input device change) at `step`."""
+        """An event the recording keeps (a z-mode switch, an input device change, recording
+        started or stopped) at `step`: the one way events reach /rosout."""
         self.fanout.note_event(step, kind, value)
 
     def stop_recording(self) -> None:
@@ -134,10 +139,16 @@ class RecordedRun:
         with shielded_from_signals():  # a signal now must not cut the file short
             if self.cameras is not None:
                 self.cameras.drain()
-            self.fanout.remove_consumer(rec)
-            if not self.fanout.consumers:
-                self._listen(False)
-            rec.close()
+            self._finish(rec)
+
+    def _finish(self, rec: McapRecorder) -> None:
+        """Say in the file that recording stops, and close it."""
+        if not rec.closed:
+            self.note_event(self.port.step_count, RECORDING_EVENT, "stopped")
+        self.fanout.remove_consumer(rec)
+        if not self.fanout.consumers:
+            self._listen(False)
+        rec.close()
 
     def close(self) -> None:
         with shielded_from_signals():  # a signal now must not cut the file short
@@ -150,10 +161,7 @@ class RecordedRun:
                         self.cameras.close()
             finally:
                 if self.recorder is not None:
-                    self.fanout.remove_consumer(self.recorder)
-                    if not self.fanout.consumers:
-                        self._listen(False)
-                    self.recorder.close()
+                    self._finish(self.recorder)
 
     def __enter__(self) -> RecordedRun:
         return self

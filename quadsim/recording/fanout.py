@@ -16,6 +16,7 @@ from typing import NamedTuple, Protocol
 
 from quadsim.core.kinematics import body_velocity, quaternion_from_matrix
 from quadsim.core.types import Twist, VehicleState
+from quadsim.physics.world_spec import WorldSpec
 from quadsim.recording import cdr
 from quadsim.recording.contract import (
     BODY_FRAME,
@@ -23,6 +24,7 @@ from quadsim.recording.contract import (
     JOY,
     ODOM,
     POSE,
+    ROBOT_DESCRIPTION,
     ROSOUT,
     ROTOR_THRUSTS,
     STATE_TOPICS,
@@ -30,13 +32,15 @@ from quadsim.recording.contract import (
     TF_STATIC,
     TWIST,
     WORLD_FRAME,
+    WORLD_MARKERS,
     Topic,
     camera_info_topic,
     image_topic,
     optical_rotation,
 )
+from quadsim.recording.scene import link_transforms, robot_description, world_markers
 from quadsim.sensors.camera import CameraFrame, CameraSpec
-from quadsim.vehicle.params import CameraMount
+from quadsim.vehicle.params import CameraMount, VehicleParams
 
 NS_PER_S = 1_000_000_000
 JOY_FRAME = "joy"
@@ -77,9 +81,18 @@ class _Camera(NamedTuple):
 
 class TopicFanout:
     """A loop sink (commands, states) and a camera-frame sink that turns what it receives into the
-    contract's messages and hands them to its consumers. With no consumer it does nothing."""
+    contract's messages and hands them to its consumers. With no consumer it does nothing.
 
-    def __init__(self, physics_hz: int, cameras: Sequence[tuple[CameraSpec, CameraMount]] = ()) -> None:
+    Given the run's `vehicle` and `world`, the latched messages describe the scene as well: the
+    URDF, the world's markers and every link's static transform (`quadsim.recording.scene`)."""
+
+    def __init__(
+        self,
+        physics_hz: int,
+        cameras: Sequence[tuple[CameraSpec, CameraMount]] = (),
+        vehicle: VehicleParams | None = None,
+        world: WorldSpec | None = None,
+    ) -> None:
         self.physics_hz = physics_hz
         # the encoders of the state's messages, compiled for their frames
         self._pose = cdr.pose_stamped_encoder(WORLD_FRAME)
@@ -92,19 +105,29 @@ class TopicFanout:
         self.topics: list[Topic] = [TWIST, *STATE_TOPICS, TF_STATIC]
         for camera in self._cameras.values():
             self.topics += [camera.image, camera.info]
-        self._static = [
+        self._static = link_transforms(vehicle) if vehicle is not None else []
+        self._static += [
             cdr.TransformStamped(
                 0, BODY_FRAME, spec.optical_frame, mount.position_m, quaternion_from_matrix(optical_rotation(mount))
             )
             for spec, mount in cameras
         ]
+        self._robot_description = cdr.string(robot_description(vehicle.urdf_path)) if vehicle is not None else None
+        self._world = world
+        self.topics += [ROBOT_DESCRIPTION] if vehicle is not None else []
+        self.topics += [WORLD_MARKERS] if world is not None else []
 
     def latched(self, step: int = 0) -> tuple[Message, ...]:
         """The latched messages (transient local), stamped at `step`: every consumer gets them
         first, whenever it joins."""
         ns = self.ns(step)
         static = [t._replace(ns=ns) for t in self._static]
-        return ((TF_STATIC, ns, cdr.tf_message(static)),)
+        messages: list[Message] = [(TF_STATIC, ns, cdr.tf_message(static))]
+        if self._robot_description is not None:
+            messages.append((ROBOT_DESCRIPTION, ns, self._robot_description))
+        if self._world is not None:
+            messages.append((WORLD_MARKERS, ns, cdr.marker_array(world_markers(self._world, ns))))
+        return tuple(messages)
 
     # --- consumers ----------------------------------------------------------------------------
 

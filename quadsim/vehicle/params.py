@@ -57,6 +57,16 @@ class CameraMount:
 
 
 @dataclass(frozen=True)
+class LinkFrame:
+    """Where a URDF link's frame sits on the body: its pose relative to the base_link origin
+    (what /tf_static says, so viewers place the model's parts)."""
+
+    link_name: str
+    position_m: Vec3
+    rotation: Mat3  # base_link <- link
+
+
+@dataclass(frozen=True)
 class CommandLimits:
     max_horizontal_speed_mps: float
     max_climb_rate_mps: float
@@ -85,6 +95,8 @@ class VehicleParams:
     limits: CommandLimits
     camera_mounts: tuple[CameraMount, ...]
     gravity_mps2: float = 9.81
+    #: every link but base_link, in the URDF's order
+    link_frames: tuple[LinkFrame, ...] = ()
 
     @property
     def camera_links(self) -> tuple[str, ...]:
@@ -407,4 +419,7 @@ def _build(urdf: Path, params: Path, links: dict[str, _Link], table: dict[str, A
         drag_coefficients_ns_per_m=(float(drag[0]), float(drag[1]), float(drag[2])),
         limits=limits,
         camera_mounts=cameras,
+        link_frames=tuple(
+            LinkFrame(n, link.origin_in_base_m, link.rotation_in_base) for n, link in links.items() if n != "base_link"
+        ),
     )
