@@ -27,7 +27,9 @@ from quadsim.sim.config import Rates
 from quadsim.vehicle.params import DEFAULT_VEHICLE, SHIPPED_VEHICLES
 
 if TYPE_CHECKING:
+    from quadsim.drivers import InputDriver
     from quadsim.drivers.scripted import Script
+    from quadsim.sim.config import SimConfig
 
 DEMO_SCENARIO = "figure8"
 
@@ -241,33 +243,65 @@ def _check_z_mode_override(script: Script, z_mode_option: str | None) -> None:
 
 
 def _fly_script(args: argparse.Namespace, script_name: str, realtime: bool) -> int:
-    from quadsim.apps.headless import run_headless
-    from quadsim.apps.outputs import RecordedRun
-    from quadsim.apps.progress import ProgressBar
     from quadsim.drivers.scripted import ScriptedDriver, load_script
-    from quadsim.sim.simulator import Simulator
 
     script = load_script(script_name)
     _check_z_mode_override(script, args.z_mode)
     config = _config(args, script.z_mode)
+    duration = args.duration if args.duration is not None else script.duration_s
+    run_info = {"command": "run", "script": script.name, "duration_s": duration, "realtime": realtime}
+    return _fly_headless(args, config, ScriptedDriver(script), script.name, duration, run_info)
+
+
+#: `run --commands-from` flies this long after the last command (the dead-man timeout, and settling)
+COMMANDS_TAIL_S = 2.0
+
+
+def _fly_bag(args: argparse.Namespace, realtime: bool) -> int:
+    from quadsim.drivers.replay import ReplayDriver
+    from quadsim.recording.bag_commands import command_steps, read_bag_commands
+
+    bag = read_bag_commands(args.commands_from)
+    config = _config(args, bag.z_mode)
+    driver = ReplayDriver(command_steps(bag, config.rates.physics_hz), str(bag.path))
+    duration = args.duration if args.duration is not None else bag.span_ns / 1e9 + COMMANDS_TAIL_S
+    run_info = {"command": "run", "commands_from": str(bag.path), "duration_s": duration, "realtime": realtime}
+    what = f"{len(bag.commands)} commands of {bag.path.name}"
+    return _fly_headless(args, config, driver, what, duration, run_info, label=bag.path.stem)
+
+
+def _fly_headless(
+    args: argparse.Namespace,
+    config: SimConfig,
+    driver: InputDriver,
+    what: str,
+    duration: float,
+    run_info: dict[str, object],
+    label: str | None = None,
+) -> int:
+    """Fly `driver` headless for `duration` s of sim time, recorded, and print the summary."""
+    from quadsim.apps.headless import run_headless
+    from quadsim.apps.outputs import RecordedRun
+    from quadsim.apps.progress import ProgressBar
+    from quadsim.sim.simulator import Simulator
+
+    realtime = bool(run_info["realtime"])
     outputs = _outputs(args)
     if not outputs.record and outputs.cameras:  # headless and unrecorded: nobody would see a frame
         outputs = replace(outputs, cameras=())
-    duration = args.duration if args.duration is not None else script.duration_s
     if not duration > 0:
         raise QuadsimError(f"--duration must be > 0 s, got {duration}")
     cams = ", ".join(f"{c.name} {c.width_px}x{c.height_px}@{c.rate_hz}Hz" for c in outputs.cameras) or "none"
     print(
-        f"flying '{script.name}' for {duration:.1f} s: controller {config.controller.value}, "
-        f"z-mode {config.z_mode.value}, physics {config.rates.physics_hz} Hz, control {config.rates.control_hz} Hz, "
+        f"flying '{what}' for {duration:.1f} s: controller {config.controller.value}, "
+        f"z-mode {(config.z_mode or ZMode.VELOCITY).value}, physics {config.rates.physics_hz} Hz, control {config.rates.control_hz} Hz, "
         f"cameras {cams}"
     )
     bar = ProgressBar(duration, "sim time")
-    label = f"{Path(script.name).stem}_{config.controller.value}"
-    run_info = {"command": "run", "script": script.name, "duration_s": duration, "realtime": realtime}
+    label = f"{Path(label or what).stem}_{config.controller.value}"
     summary, run, sim_time = None, None, 0.0
     try:
-        with Simulator(config, ScriptedDriver(script)) as sim:
+        with Simulator(config, driver) as sim:
             try:
                 with RecordedRun(sim, sim.description(), outputs, label, run_info) as run:
                     if run.path is not None:
@@ -301,7 +335,10 @@ def _fly_script(args: argparse.Namespace, script_name: str, realtime: bool) -> i
 
 
 def cmd_run(args: argparse.Namespace) -> int:
-    return _fly_script(args, args.script, realtime=args.gui or args.realtime)
+    realtime = args.gui or args.realtime
+    if args.commands_from is not None:
+        return _fly_bag(args, realtime)
+    return _fly_script(args, args.script, realtime)
 
 
 def has_display() -> bool:
@@ -619,22 +656,32 @@ def build_parser() -> argparse.ArgumentParser:
     p = sub.add_parser(
         "run",
         help="fly a scripted flight headless, as fast as possible, and summarise it",
-        description="Fly a built-in scenario or a script file headless as fast as the machine allows, "
-        "showing progress, then print sim time, wall time, real-time factor, final pose "
-        "and distance flown. Script format: see README (or quadsim/drivers/scripted.py).",
+        description="Fly a built-in scenario, a script file or the /quad_cmd_twist commands of any MCAP "
+        "headless as fast as the machine allows, showing progress, then print sim time, wall time, "
+        "real-time factor, final pose and distance flown. Script format: see README (or "
+        "quadsim/drivers/scripted.py).",
     )
-    p.add_argument(
+    what = p.add_mutually_exclusive_group(required=True)
+    what.add_argument(
         "--script",
-        required=True,
         metavar="NAME|FILE",
         help="a built-in scenario (python main.py scenarios lists them) or a script file",
+    )
+    what.add_argument(
+        "--commands-from",
+        type=Path,
+        metavar="FILE.mcap",
+        help="fly the geometry_msgs/msg/Twist messages on /quad_cmd_twist of any MCAP (a ros2 bag in MCAP "
+        "storage, a quadsim recording) at their log times, counted from the first of them; z-mode: a quadsim "
+        "recording's, else --z-mode (default velocity)",
     )
     p.add_argument(
         "--duration",
         type=_number(1e-3, MAX_DURATION_S, "seconds"),
         default=None,
         metavar="S",
-        help="seconds of sim time (default: the script's length; beyond it the vehicle holds)",
+        help="seconds of sim time (default: the script's length, or the commands' span plus "
+        f"{COMMANDS_TAIL_S:g} s; beyond it the vehicle holds)",
     )
     p.add_argument("--realtime", action="store_true", help="pace simulation time to the wall clock (as --gui does)")
     _add_sim_options(p)
