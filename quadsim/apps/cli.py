@@ -593,6 +593,10 @@ def cmd_bench(args: argparse.Namespace) -> int:
         from quadsim.apps.bench import run_replay_bench
 
         run_replay_bench()
+    if args.section in ("all", "sweep"):
+        from quadsim.apps.sweep.bench import run_sweep_bench
+
+        run_sweep_bench()
     return 0
 
 
@@ -796,10 +800,11 @@ def build_parser() -> argparse.ArgumentParser:
     )
     p.add_argument(
         "--section",
-        choices=["all", "flight", "recording", "window", "replay"],
+        choices=["all", "flight", "recording", "window", "replay", "sweep"],
         default="all",
         help="flight: the flight core; recording: cameras and recording; window: the teleop "
-        "window headless; replay: playback and re-simulation (default: all)",
+        "window headless; replay: playback and re-simulation; sweep: a 64-run sweep on 1 worker, "
+        "every core and Ray (default: all)",
     )
     p.set_defaults(func=cmd_bench)
     return parser

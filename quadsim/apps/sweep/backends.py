@@ -134,10 +134,13 @@ def run_ray(fn: Callable[[T], R], tasks: Sequence[T], address: str | None, jobs:
     else:
         kwargs["address"] = address
         kwargs["runtime_env"] = ray_runtime_env()
-    try:
-        ray.init(**kwargs)
-    except Exception as exc:
-        raise QuadsimError(f"cannot start or reach Ray{f' at {address}' if address else ''}: {exc}") from None
+    owner = not ray.is_initialized()  # else the caller's Ray (the bench times its start-up apart)
+    if owner:
+        try:
+            with _signals_blocked():  # Ray's own processes start now: a Ctrl-C is this process's
+                ray.init(**kwargs)
+        except Exception as exc:
+            raise QuadsimError(f"cannot start or reach Ray{f' at {address}' if address else ''}: {exc}") from None
     remote: Any = ray.remote(num_cpus=1, max_retries=0)(_ray_task)
     pending: list[Any] = []
     todo = iter(tasks)
@@ -160,7 +163,8 @@ def run_ray(fn: Callable[[T], R], tasks: Sequence[T], address: str | None, jobs:
     finally:
         for ref in pending:
             ray.cancel(ref, force=True)
-        ray.shutdown()
+        if owner:
+            ray.shutdown()
 
 
 def _ray_task(fn: Callable[[T], R], task: T) -> R:
