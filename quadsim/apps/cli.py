@@ -579,48 +579,38 @@ def _warn(lines: list[str], path: Path, most: int = 8) -> None:
 
 
 def cmd_check(args: argparse.Namespace) -> int:
-    from quadsim.apps.resim import resimulate
-    from quadsim.recording.flight import load_flight
+    from quadsim.apps.check import CheckOutcome, CheckTask, check_one, recordings_in
+    from quadsim.apps.sweep.backends import RAY_MISSING, default_jobs, ray_available, run_tasks
 
-    files: list[Path] = []
-    for path in args.paths:
-        if path.is_dir():
-            files += sorted(path.rglob("*.mcap")) or [path]  # an empty folder is reported as unusable
-        else:
-            files.append(path)
-    failed, unusable = 0, 0
-    for path in files:
-        try:
-            if path.is_dir():
-                raise QuadsimError("no .mcap recordings in this folder")
-            flight = load_flight(path)
-            report = resimulate(
-                flight,
-                record=False,
-                position_tolerance_m=args.tolerance_m,
-                attitude_tolerance_rad=args.tolerance_rad,
-            )
-        except QuadsimError as exc:
-            unusable += 1
-            print(f"ERROR {path}: {str(exc).removeprefix(f'{path}: ')}")
-            continue
-        ok = report.within(args.tolerance_m, args.tolerance_rad)
-        failed += not ok
-        print(
-            f"{'ok   ' if ok else 'FAIL '} {path}: position off by up to {report.position.max_error:.3g} m, "
-            f"attitude by up to {report.attitude.max_error:.3g} rad"
-        )
-        if not ok:
-            for line in report.lines()[1:]:
-                print("     " + line)
-        for line in flight.warnings():
-            print(f"      note: {line}")
+    files = recordings_in(args.paths)
+    jobs = args.jobs if args.jobs is not None else 1
+    if not 1 <= jobs <= 1024:
+        raise QuadsimError(f"--jobs must be from 1 to 1024, got {jobs}")
+    use_ray = args.ray is not None
+    if use_ray and not ray_available():
+        raise QuadsimError(RAY_MISSING)
+    tasks = [CheckTask(path, args.tolerance_m, args.tolerance_rad) for path in files]
+    if use_ray and args.jobs is None:
+        jobs = default_jobs()
+    # results come in completion order; the report keeps the order of the files
+    outcomes: dict[Path, CheckOutcome] = {}
+    shown = 0
+    for outcome in run_tasks(check_one, tasks, jobs, None if args.ray in (None, "local") else args.ray, use_ray):
+        outcomes[outcome.path] = outcome
+        while shown < len(files) and files[shown] in outcomes:
+            for line in outcomes[files[shown]].lines:
+                print(line, flush=True)
+            shown += 1
+    failed = sum(o.status == "changed" for o in outcomes.values())
+    unusable = sum(o.status == "unusable" for o in outcomes.values())
     total = len(files)
+    not_checked = total - len(outcomes)
     print(
-        f"{total - failed - unusable} of {total} recordings re-fly within {args.tolerance_m:g} m and "
+        f"{total - failed - unusable - not_checked} of {total} recordings re-fly within {args.tolerance_m:g} m and "
         f"{args.tolerance_rad:g} rad"
         + (f"; {failed} changed" if failed else "")
         + (f"; {unusable} unusable" if unusable else "")
+        + (f"; {not_checked} not checked (stopped)" if not_checked else "")
     )
     return 2 if unusable else (1 if failed else 0)
 
@@ -640,6 +630,10 @@ def cmd_bench(args: argparse.Namespace) -> int:
         from quadsim.apps.bench import run_replay_bench
 
         run_replay_bench()
+    if args.section in ("all", "sweep"):
+        from quadsim.apps.sweep.bench import run_sweep_bench
+
+        run_sweep_bench()
     return 0
 
 
@@ -827,7 +821,14 @@ def build_parser() -> argparse.ArgumentParser:
         default=1e-3,
         help="attitude tolerance (default 0.001 rad)",
     )
+    from quadsim.apps.sweep.command import add_parallel_arguments
+    from quadsim.apps.sweep.command import add_parser as add_sweep_parser
+
+    add_parallel_arguments(
+        p, "re-fly N recordings at once in worker processes (default 1; the report stays in file order)"
+    )
     p.set_defaults(func=cmd_check)
+    add_sweep_parser(sub, _recordings_default())
 
     p = sub.add_parser(
         "bench",
@@ -846,10 +847,11 @@ def build_parser() -> argparse.ArgumentParser:
     )
     p.add_argument(
         "--section",
-        choices=["all", "flight", "recording", "window", "replay"],
+        choices=["all", "flight", "recording", "window", "replay", "sweep"],
         default="all",
         help="flight: the flight core; recording: cameras and recording; window: the teleop "
-        "window headless; replay: playback and re-simulation (default: all)",
+        "window headless; replay: playback and re-simulation; sweep: a 64-run sweep on 1 worker, "
+        "every core and Ray (default: all)",
     )
     p.set_defaults(func=cmd_bench)
     return parser
