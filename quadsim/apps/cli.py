@@ -20,6 +20,7 @@ from quadsim.apps.stopping import exit_code as stop_exit_code
 from quadsim.control import ControllerKind
 from quadsim.core.types import StartPose, ZMode
 from quadsim.errors import QuadsimError
+from quadsim.live import FOXGLOVE_DEFAULT_ENDPOINT
 from quadsim.recording.paths import ENV_VAR as RECORDINGS_ENV_VAR
 from quadsim.recording.paths import default_recordings_dir
 from quadsim.sensors.camera import RendererKind
@@ -27,7 +28,11 @@ from quadsim.sim.config import Rates
 from quadsim.vehicle.params import DEFAULT_VEHICLE, SHIPPED_VEHICLES
 
 if TYPE_CHECKING:
+    from quadsim.apps.outputs import LiveOutput, OutputOptions
+    from quadsim.drivers import InputDriver
     from quadsim.drivers.scripted import Script
+    from quadsim.drivers.subscribed import SubscribedDriver
+    from quadsim.sim.config import SimConfig
 
 DEMO_SCENARIO = "figure8"
 
@@ -173,6 +178,34 @@ def _add_sim_options(p: argparse.ArgumentParser) -> None:
     )
 
 
+def _add_live_options(p: argparse.ArgumentParser, what: str = "the run") -> None:
+    g = p.add_argument_group("live")
+    g.add_argument(
+        "--foxglove",
+        nargs="?",
+        const=FOXGLOVE_DEFAULT_ENDPOINT,
+        default=None,
+        metavar="HOST:PORT",
+        help=f"serve {what} live to Foxglove (a Foxglove WebSocket server: every topic of the recording, "
+        f"latched ones included) on HOST:PORT (default {FOXGLOVE_DEFAULT_ENDPOINT}: this machine only; "
+        "0.0.0.0:8765 for the network). In the Foxglove app: Open connection -> Foxglove WebSocket -> ws://HOST:PORT",
+    )
+
+
+def _live_outputs(args: argparse.Namespace, commands: SubscribedDriver | None = None) -> list[LiveOutput]:
+    """The live bridges the options ask for (a Foxglove server, also when it is the input)."""
+    endpoint = getattr(args, "foxglove", None)
+    if endpoint is None and commands is None:
+        return []
+    from quadsim.live.foxglove import FoxgloveBridge, parse_endpoint
+
+    host, port = parse_endpoint(endpoint or FOXGLOVE_DEFAULT_ENDPOINT)
+    bridge = FoxgloveBridge(host, port, commands)
+    takes = f"; it takes Twists on {commands.topic} (Teleop panel)" if commands is not None else ""
+    print(f"Foxglove: serving {bridge.url} (Open connection -> Foxglove WebSocket){takes}", flush=True)
+    return [bridge]
+
+
 def _config(args: argparse.Namespace, script_z_mode: ZMode | None):
     from quadsim.sim.config import SimConfig
 
@@ -241,44 +274,94 @@ def _check_z_mode_override(script: Script, z_mode_option: str | None) -> None:
 
 
 def _fly_script(args: argparse.Namespace, script_name: str, realtime: bool) -> int:
-    from quadsim.apps.headless import run_headless
-    from quadsim.apps.outputs import RecordedRun
-    from quadsim.apps.progress import ProgressBar
     from quadsim.drivers.scripted import ScriptedDriver, load_script
-    from quadsim.sim.simulator import Simulator
 
     script = load_script(script_name)
     _check_z_mode_override(script, args.z_mode)
-    config = _config(args, script.z_mode)
-    outputs = _outputs(args)
-    if not outputs.record and outputs.cameras:  # headless and unrecorded: nobody would see a frame
-        outputs = replace(outputs, cameras=())
     duration = args.duration if args.duration is not None else script.duration_s
+    run_info = {"command": "run", "script": script.name, "duration_s": duration, "realtime": realtime}
+    return _fly_headless(
+        args,
+        _config(args, script.z_mode),
+        ScriptedDriver(script),
+        f"'{script.name}' for {duration:.1f} s",
+        duration,
+        realtime,
+        f"{Path(script.name).stem}_{args.controller}",
+        run_info,
+    )
+
+
+def _fly_subscribed(args: argparse.Namespace, command: str) -> int:
+    """Fly the Twists Foxglove clients publish, in real time, until Ctrl-C or --duration."""
+    from quadsim.drivers.subscribed import SubscribedDriver
+
+    driver = SubscribedDriver("foxglove")
+    duration = args.duration if args.duration is not None else MAX_DURATION_S
+    until = f"for {duration:.1f} s" if args.duration is not None else "until Ctrl-C"
+    run_info = {"command": command, "input": "foxglove", "duration_s": duration, "realtime": True}
+    return _fly_headless(
+        args,
+        _config(args, None),
+        driver,
+        f"the Twists Foxglove clients publish on {driver.topic} {until}",
+        duration,
+        True,
+        f"foxglove_{args.controller}",
+        run_info,
+        commands=driver,
+    )
+
+
+def _fly_headless(
+    args: argparse.Namespace,
+    config: SimConfig,
+    driver: InputDriver,
+    what: str,
+    duration: float,
+    realtime: bool,
+    label: str,
+    run_info: dict,
+    commands: SubscribedDriver | None = None,
+) -> int:
+    from quadsim.apps.headless import run_headless
+    from quadsim.apps.outputs import RecordedRun
+    from quadsim.apps.progress import ProgressBar
+    from quadsim.sim.simulator import Simulator
+
+    outputs: OutputOptions = _outputs(args)
+    live_wanted = args.foxglove is not None or commands is not None
+    if not outputs.record and outputs.cameras and not live_wanted:  # nobody would see a frame
+        outputs = replace(outputs, cameras=())
     if not duration > 0:
         raise QuadsimError(f"--duration must be > 0 s, got {duration}")
     cams = ", ".join(f"{c.name} {c.width_px}x{c.height_px}@{c.rate_hz}Hz" for c in outputs.cameras) or "none"
+    live = _live_outputs(args, commands)
     print(
-        f"flying '{script.name}' for {duration:.1f} s: controller {config.controller.value}, "
-        f"z-mode {config.z_mode.value}, physics {config.rates.physics_hz} Hz, control {config.rates.control_hz} Hz, "
+        f"flying {what}: controller {config.controller.value}, "
+        f"z-mode {(config.z_mode or ZMode.VELOCITY).value}, physics {config.rates.physics_hz} Hz, control {config.rates.control_hz} Hz, "
         f"cameras {cams}"
     )
-    bar = ProgressBar(duration, "sim time")
-    label = f"{Path(script.name).stem}_{config.controller.value}"
-    run_info = {"command": "run", "script": script.name, "duration_s": duration, "realtime": realtime}
+    bar = ProgressBar(duration, "sim time") if commands is None else None
     summary, run, sim_time = None, None, 0.0
     try:
-        with Simulator(config, ScriptedDriver(script)) as sim:
+        with Simulator(config, driver) as sim:
             try:
-                with RecordedRun(sim, sim.description(), outputs, label, run_info) as run:
+                with RecordedRun(sim, sim.description(), outputs, label, run_info, live=live) as run:
                     if run.path is not None:
                         print(f"recording to {run.path}", flush=True)
-                    summary = run_headless(sim, duration, progress=bar.update, realtime=realtime)
+                    summary = run_headless(
+                        sim, duration, progress=bar.update if bar is not None else None, realtime=realtime
+                    )
             finally:
                 sim_time = sim.time_s
     except StopRequested:
         pass  # the summary of what was flown follows; the exit code says why it stopped
     finally:
-        bar.close()
+        if bar is not None:
+            bar.close()
+        for output in live:  # closed with the run, or here if the run never started
+            output.close()
     if summary is not None:
         for line in summary.lines():
             print(line)
@@ -301,6 +384,12 @@ def _fly_script(args: argparse.Namespace, script_name: str, realtime: bool) -> i
 
 
 def cmd_run(args: argparse.Namespace) -> int:
+    if args.input == "foxglove":
+        if args.script is not None:
+            raise QuadsimError("--script and --input foxglove both say where commands come from; give one")
+        return _fly_subscribed(args, "run")
+    if args.script is None:
+        raise QuadsimError("say what to fly: --script NAME|FILE, or --input foxglove")
     return _fly_script(args, args.script, realtime=args.gui or args.realtime)
 
 
@@ -325,6 +414,10 @@ def _window_size(text: str) -> tuple[int, int]:
 def cmd_fly(args: argparse.Namespace) -> int:
     if args.gui and not has_display():
         raise QuadsimError("--gui needs a display (DISPLAY is not set); run without --gui")
+    if not has_display() and args.input == "foxglove":
+        print("No display found: flying headless, in real time, what Foxglove clients publish.")
+        args.gui = False
+        return _fly_subscribed(args, "fly")
     if not has_display():
         print(
             f"No display found: the teleop window cannot open. Recording the scripted demo '{DEMO_SCENARIO}' "
@@ -345,9 +438,15 @@ def cmd_fly(args: argparse.Namespace) -> int:
     )
     config = _config(args, None)
     outputs = _outputs(args)
+    commands = None
+    if args.input == "foxglove":
+        from quadsim.drivers.subscribed import SubscribedDriver
+
+        commands = SubscribedDriver("foxglove")
+    live = _live_outputs(args, commands)
     flown, recordings, lost = 0.0, [], None
     try:
-        with TeleopApp(config, outputs, options) as app:
+        with TeleopApp(config, outputs, options, live=live, commands=commands) as app:
             print(f"flying with {app.driver.name}; press H or F1 in the window for the keys, Esc to quit")
             try:
                 app.run(stop=stop_requested)  # a signal ends the window loop at its next frame
@@ -356,6 +455,9 @@ def cmd_fly(args: argparse.Namespace) -> int:
         lost = app.display_lost  # the window was destroyed from outside or its X connection lost
     except StopRequested:
         pass
+    finally:
+        for output in live:  # closed with the run, or here if the window never opened
+            output.close()
     print(f"flew {flown:.1f} s of simulation time")
     for path in recordings:
         print(f"recording       {path}")
@@ -483,6 +585,8 @@ def cmd_replay(args: argparse.Namespace) -> int:
         _check_output_file("--plot", args.plot, PLOT_SUFFIXES)
     if args.mp4 is not None:
         _check_output_dir("--mp4", args.mp4)
+    if args.foxglove is not None and args.resim:
+        raise QuadsimError("--foxglove plays the recording as it is; with --resim nothing would be played (drop one)")
     flight = load_flight(args.file)
     if args.resim:
         from quadsim.apps.progress import ProgressBar
@@ -519,17 +623,68 @@ def cmd_replay(args: argparse.Namespace) -> int:
                 print(f"video       {path} (VP9)")
         if args.plot is not None:
             print(f"plot        {export_plot(flight, args.plot)}")
+        if args.foxglove is not None:
+            return _replay_live(args)
         return 0
     from quadsim.apps.window.replay import ReplayApp
 
-    with ReplayApp(flight, (width, height), speed=args.speed, loop=args.loop) as app:
-        print("replaying; press H or F1 in the window for the keys, Esc to quit")
-        app.run()
+    live = _live_outputs(args)
+    try:
+        feed = _feed(args.file, live)
+        with ReplayApp(flight, (width, height), speed=args.speed, loop=args.loop, feed=feed) as app:
+            print("replaying; press H or F1 in the window for the keys, Esc to quit")
+            app.run()
+    finally:
+        for output in live:
+            output.close()
     if app.display_lost is not None:
         from quadsim.apps.window.x11_guard import EXIT_DISPLAY_LOST
 
         print(f"the window's display was lost ({app.display_lost})", file=sys.stderr)
         return EXIT_DISPLAY_LOST
+    return 0
+
+
+def _feed(path: Path, live: list[LiveOutput]):
+    if not live:
+        return None
+    from quadsim.live.playback import RecordingFeed
+
+    return RecordingFeed(path, live)
+
+
+def _replay_live(args: argparse.Namespace) -> int:
+    """replay --foxglove with no window: play the recording to Foxglove in real time (times
+    --speed), once or --loop, until its end or Ctrl-C."""
+    import time
+
+    live = _live_outputs(args)
+    try:
+        feed = _feed(args.file, live)
+        assert feed is not None
+        print(
+            f"playing {len(feed.messages)} messages on {len(feed.topics)} topics ({feed.end_ns / 1e9:.1f} s) "
+            f"at {args.speed:g}x{', looping' if args.loop else ''}; Ctrl-C stops",
+            flush=True,
+        )
+        t0 = time.monotonic()
+        while not stop_requested():
+            t_ns = int((time.monotonic() - t0) * args.speed * 1e9)
+            if t_ns > feed.end_ns:
+                feed.play_to(feed.end_ns)
+                if not args.loop:
+                    break
+                t0, t_ns = time.monotonic(), 0
+            feed.play_to(t_ns)
+            time.sleep(0.01)
+    finally:
+        for output in live:
+            output.close()
+    print(f"played {feed.played} messages")
+    stop = SignalStop.current()
+    if stop is not None and stop.signum is not None:
+        print(describe_stop(stop.signum), file=sys.stderr)
+        return stop_exit_code(stop.signum)
     return 0
 
 
@@ -625,9 +780,16 @@ def build_parser() -> argparse.ArgumentParser:
     )
     p.add_argument(
         "--script",
-        required=True,
+        default=None,
         metavar="NAME|FILE",
         help="a built-in scenario (python main.py scenarios lists them) or a script file",
+    )
+    p.add_argument(
+        "--input",
+        choices=["script", "foxglove"],
+        default="script",
+        help="script (default): fly --script; foxglove: fly the Twists Foxglove clients publish on /quad_cmd_twist "
+        "(the Teleop panel), in real time, until Ctrl-C or --duration (implies --foxglove)",
     )
     p.add_argument(
         "--duration",
@@ -638,6 +800,7 @@ def build_parser() -> argparse.ArgumentParser:
     )
     p.add_argument("--realtime", action="store_true", help="pace simulation time to the wall clock (as --gui does)")
     _add_sim_options(p)
+    _add_live_options(p)
     p.set_defaults(func=cmd_run)
 
     p = sub.add_parser(
@@ -658,10 +821,11 @@ def build_parser() -> argparse.ArgumentParser:
     t = p.add_argument_group("teleop window")
     t.add_argument(
         "--input",
-        choices=["auto", "keyboard", "joystick"],
+        choices=["auto", "keyboard", "joystick", "foxglove"],
         default="auto",
         help="auto (default): a gamepad if one is plugged in, else the keyboard until one is plugged in; "
-        "joystick: wait for a gamepad even if none is plugged in",
+        "joystick: wait for a gamepad even if none is plugged in; foxglove: the Twists Foxglove clients publish "
+        "on /quad_cmd_twist (the Teleop panel), served as --foxglove says (with no display: headless, in real time)",
     )
     t.add_argument(
         "--keys",
@@ -680,6 +844,7 @@ def build_parser() -> argparse.ArgumentParser:
     )
     t.add_argument("--window", default="1280x720", metavar="WxH", help="initial window size (default 1280x720)")
     _add_sim_options(p)
+    _add_live_options(p)
     p.set_defaults(func=cmd_fly)
 
     p = sub.add_parser("scenarios", help="list the built-in scripted scenarios")
@@ -761,6 +926,7 @@ def build_parser() -> argparse.ArgumentParser:
     )
     p.add_argument("--loop", action="store_true", help="start again at the end")
     p.add_argument("--window", default="1280x720", metavar="WxH", help="initial window size")
+    _add_live_options(p, "the recorded messages, as they are played (put FILE first),")
     p.set_defaults(func=cmd_replay)
 
     p = sub.add_parser(
