@@ -145,3 +145,29 @@ def test_bad_endpoint_from_the_command_line_is_exit_2() -> None:
     out, err = proc.communicate(timeout=60)
     assert proc.returncode == 2
     assert len(err.strip().splitlines()) == 1 and "--foxglove" in err and "Traceback" not in err
+
+
+def test_replay_streams_the_recorded_messages_as_they_are_played(tmp_path: Path) -> None:
+    recording = tmp_path / "hover.mcap"
+    subprocess.run(
+        [sys.executable, str(ROOT / "main.py"), "run", "--script", "hover", "--duration", "3", "--cameras", "none"]
+        + ["--out", str(recording)],
+        cwd=ROOT,
+        env=ENV,
+        check=True,
+        capture_output=True,
+    )
+    proc = _quadsim("replay", str(recording), "--headless", "--foxglove", "127.0.0.1:0")
+    try:
+        url = _served_url(proc)
+        watched = _client(url, "--listen-s", "2")
+        out, err = proc.communicate(timeout=60)
+    finally:
+        proc.kill()
+    assert proc.returncode == 0, err
+    assert watched["topics"]["/tf_static"]["count"] >= 1  # latched: sent when the client subscribed
+    odom = watched["odom"]
+    assert len(odom) > 30  # 60 Hz states, as they are played
+    assert [t for t, *_ in odom] == sorted(t for t, *_ in odom)
+    assert abs(odom[-1][3] - 2.0) < 0.1  # the recorded hover, at 2 m
+    assert re.search(r"played \d+ messages", out)
