@@ -149,9 +149,9 @@ def test_bad_endpoint_from_the_command_line_is_exit_2() -> None:
 
 def test_replay_streams_the_recorded_messages_as_they_are_played(tmp_path: Path) -> None:
     recording = tmp_path / "hover.mcap"
+    fly = ["run", "--script", "hover", "--duration", "3", "--cameras", "none", "--out", str(recording)]
     subprocess.run(
-        [sys.executable, str(ROOT / "main.py"), "run", "--script", "hover", "--duration", "3", "--cameras", "none"]
-        + ["--out", str(recording)],
+        [sys.executable, str(ROOT / "main.py"), *fly],
         cwd=ROOT,
         env=ENV,
         check=True,
