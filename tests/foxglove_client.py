@@ -19,6 +19,7 @@ from typing import Any
 import cv2
 import numpy as np
 from rosbags.typesys import Stores, get_typestore
+from websockets.exceptions import ConnectionClosed
 from websockets.sync.client import connect
 
 #: the protocol's subprotocol; foxglove-sdk serves the same protocol under its newer name
@@ -102,6 +103,9 @@ def main() -> None:
                 frame = ws.recv(timeout=0.01)
             except TimeoutError:
                 continue
+            except ConnectionClosed:  # the run ended
+                report["closed"] = True
+                break
             if isinstance(frame, str):
                 msg = json.loads(frame)
                 if msg["op"] == "serverInfo":

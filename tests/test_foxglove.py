@@ -61,7 +61,7 @@ def _x_at(odom: list, ns: int) -> float:
 
 def test_a_client_watches_every_topic_and_flies_it_with_twists(tmp_path: Path) -> None:
     proc = _quadsim(
-        "run", "--input", "foxglove", "--foxglove", "127.0.0.1:0", "--duration", "8", "--out", str(tmp_path)
+        "run", "--input", "foxglove", "--foxglove", "127.0.0.1:0", "--duration", "10", "--out", str(tmp_path)
     )
     try:
         url = _served_url(proc)

@@ -333,6 +333,8 @@ def _fly_headless(
     live_wanted = args.foxglove is not None or commands is not None
     if not outputs.record and outputs.cameras and not live_wanted:  # nobody would see a frame
         outputs = replace(outputs, cameras=())
+    if commands is not None:  # flown live: the flight keeps real time, the cameras drop frames (as the window)
+        outputs = replace(outputs, ordered_delivery=False)
     if not duration > 0:
         raise QuadsimError(f"--duration must be > 0 s, got {duration}")
     cams = ", ".join(f"{c.name} {c.width_px}x{c.height_px}@{c.rate_hz}Hz" for c in outputs.cameras) or "none"
@@ -758,6 +760,10 @@ def cmd_bench(args: argparse.Namespace) -> int:
         from quadsim.apps.bench import run_replay_bench
 
         run_replay_bench()
+    if args.section in ("all", "live"):
+        from quadsim.apps.bench import run_live_bench
+
+        run_live_bench()
     return 0
 
 
@@ -965,10 +971,10 @@ def build_parser() -> argparse.ArgumentParser:
     )
     p.add_argument(
         "--section",
-        choices=["all", "flight", "recording", "window", "replay"],
+        choices=["all", "flight", "recording", "window", "replay", "live"],
         default="all",
         help="flight: the flight core; recording: cameras and recording; window: the teleop "
-        "window headless; replay: playback and re-simulation (default: all)",
+        "window headless; replay: playback and re-simulation; live: Foxglove streaming (default: all)",
     )
     p.set_defaults(func=cmd_bench)
     return parser
