@@ -171,3 +171,43 @@ def test_replay_streams_the_recorded_messages_as_they_are_played(tmp_path: Path)
     assert [t for t, *_ in odom] == sorted(t for t, *_ in odom)
     assert abs(odom[-1][3] - 2.0) < 0.1  # the recorded hover, at 2 m
     assert re.search(r"played \d+ messages", out)
+
+
+class _Collect:
+    """A live consumer that keeps what it is handed."""
+
+    def __init__(self) -> None:
+        self.topics: list[str] = []
+        self.messages: list[tuple[str, int]] = []
+
+    def add_topic(self, topic) -> None:
+        self.topics.append(topic.name)
+
+    def on_messages(self, messages) -> None:
+        self.messages += [(topic.name, ns) for topic, ns, _ in messages]
+
+    def on_event(self, step: int, kind: str, value: str) -> None:
+        pass
+
+
+def test_the_replay_window_hands_the_recording_to_its_feed_as_it_plays(tmp_path: Path) -> None:
+    from quadsim.apps.window.replay import ReplayApp
+    from quadsim.live.playback import RecordingFeed
+    from quadsim.recording.flight import load_flight
+    from tests.recording_helpers import record_flight
+
+    path = tmp_path / "flight.mcap"
+    record_flight(path)
+    sink = _Collect()
+    feed = RecordingFeed(path, [sink])
+    assert {"/tf_static", "/quad/odom", *IMAGES} <= set(sink.topics)
+    with ReplayApp(load_flight(path), (640, 360), frame_s=0.1, feed=feed) as app:
+        app.run(max_frames=10)  # 1 s of playback
+        played = list(sink.messages)
+        assert played and max(ns for _, ns in played) <= app.t_ns <= 1_000_000_000
+        assert [ns for _, ns in played] == sorted(ns for _, ns in played)
+        assert {"/tf_static", "/quad/odom", *IMAGES} <= {name for name, _ in played}
+        app.seek(0.0)  # back to the start: the latched topics again, as a late joiner gets them
+        app.playing = False
+        app.frame()
+        assert [name for name, _ in sink.messages[len(played) :]] == ["/tf_static"]
