@@ -56,7 +56,7 @@ def test_a_ros2_bags_commands_fly_the_vehicle_where_they_say(tmp_path):
         cwd=ROOT,
     )
     assert result.returncode == 0, result.stderr
-    assert "flying '140 commands of teleop_session.mcap' for 8.9 s" in result.stdout
+    assert "flying the 140 commands of teleop_session.mcap for 8.9 s" in result.stdout
     with RecordingReader(out) as flown:
         recorded = list(flown.commands())
         poses = list(flown.poses())

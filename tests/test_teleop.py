@@ -188,3 +188,20 @@ def test_window_shows_both_cameras_map_and_hud(tmp_path):
     run_with(app, 2)
     assert app.view.layout(app.screen.get_size())["front"].width < 640
     app.close()
+
+
+def test_input_foxglove_flies_the_delivered_twists_and_ignores_the_keyboard(tmp_path: Path) -> None:
+    from quadsim.drivers.subscribed import SubscribedDriver
+
+    commands = SubscribedDriver("foxglove")
+    app = make_app(tmp_path, options=TeleopOptions(input="foxglove"), commands=commands)
+    try:
+        assert app.driver is commands
+        for _ in range(60):  # 2 s: forward and up, as a Teleop panel publishing at 20 Hz (one per frame here)
+            commands.deliver((1.0, 0.0, 0.5), 0.0)
+            run_with(app, 1, {0: [lambda: key(pygame.K_DOWN)]})  # a held back key flies nothing
+        x, _, z = app.sim.state.position_m
+        assert x > 1.0 and z > 0.5
+        assert "foxglove" in app._model().input_status
+    finally:
+        app.close()

@@ -20,6 +20,7 @@ from quadsim.apps.stopping import exit_code as stop_exit_code
 from quadsim.control import ControllerKind
 from quadsim.core.types import StartPose, ZMode
 from quadsim.errors import QuadsimError
+from quadsim.live import FOXGLOVE_DEFAULT_ENDPOINT
 from quadsim.recording.paths import ENV_VAR as RECORDINGS_ENV_VAR
 from quadsim.recording.paths import default_recordings_dir
 from quadsim.sensors.camera import RendererKind
@@ -27,8 +28,10 @@ from quadsim.sim.config import Rates
 from quadsim.vehicle.params import DEFAULT_VEHICLE, SHIPPED_VEHICLES
 
 if TYPE_CHECKING:
+    from quadsim.apps.outputs import LiveOutput, OutputOptions
     from quadsim.drivers import InputDriver
     from quadsim.drivers.scripted import Script
+    from quadsim.drivers.subscribed import SubscribedDriver
     from quadsim.sim.config import SimConfig
 
 DEMO_SCENARIO = "figure8"
@@ -175,6 +178,34 @@ def _add_sim_options(p: argparse.ArgumentParser) -> None:
     )
 
 
+def _add_live_options(p: argparse.ArgumentParser, what: str = "the run") -> None:
+    g = p.add_argument_group("live")
+    g.add_argument(
+        "--foxglove",
+        nargs="?",
+        const=FOXGLOVE_DEFAULT_ENDPOINT,
+        default=None,
+        metavar="HOST:PORT",
+        help=f"serve {what} live to Foxglove (a Foxglove WebSocket server: every topic of the recording, "
+        f"latched ones included) on HOST:PORT (default {FOXGLOVE_DEFAULT_ENDPOINT}: this machine only; "
+        "0.0.0.0:8765 for the network). In the Foxglove app: Open connection -> Foxglove WebSocket -> ws://HOST:PORT",
+    )
+
+
+def _live_outputs(args: argparse.Namespace, commands: SubscribedDriver | None = None) -> list[LiveOutput]:
+    """The live bridges the options ask for (a Foxglove server, also when it is the input)."""
+    endpoint = getattr(args, "foxglove", None)
+    if endpoint is None and commands is None:
+        return []
+    from quadsim.live.foxglove import FoxgloveBridge, parse_endpoint
+
+    host, port = parse_endpoint(endpoint or FOXGLOVE_DEFAULT_ENDPOINT)
+    bridge = FoxgloveBridge(host, port, commands)
+    takes = f"; it takes Twists on {commands.topic} (Teleop panel)" if commands is not None else ""
+    print(f"Foxglove: serving {bridge.url} (Open connection -> Foxglove WebSocket){takes}", flush=True)
+    return [bridge]
+
+
 def _config(args: argparse.Namespace, script_z_mode: ZMode | None):
     from quadsim.sim.config import SimConfig
 
@@ -247,10 +278,18 @@ def _fly_script(args: argparse.Namespace, script_name: str, realtime: bool) -> i
 
     script = load_script(script_name)
     _check_z_mode_override(script, args.z_mode)
-    config = _config(args, script.z_mode)
     duration = args.duration if args.duration is not None else script.duration_s
     run_info = {"command": "run", "script": script.name, "duration_s": duration, "realtime": realtime}
-    return _fly_headless(args, config, ScriptedDriver(script), script.name, duration, run_info)
+    return _fly_headless(
+        args,
+        _config(args, script.z_mode),
+        ScriptedDriver(script),
+        f"'{script.name}' for {duration:.1f} s",
+        duration,
+        realtime,
+        f"{Path(script.name).stem}_{args.controller}",
+        run_info,
+    )
 
 
 #: `run --commands-from` flies this long after the last command (the dead-man timeout, and settling)
@@ -266,8 +305,31 @@ def _fly_bag(args: argparse.Namespace, realtime: bool) -> int:
     driver = ReplayDriver(command_steps(bag, config.rates.physics_hz), str(bag.path))
     duration = args.duration if args.duration is not None else bag.span_ns / 1e9 + COMMANDS_TAIL_S
     run_info = {"command": "run", "commands_from": str(bag.path), "duration_s": duration, "realtime": realtime}
-    what = f"{len(bag.commands)} commands of {bag.path.name}"
-    return _fly_headless(args, config, driver, what, duration, run_info, label=bag.path.stem)
+    what = f"the {len(bag.commands)} commands of {bag.path.name} for {duration:.1f} s"
+    return _fly_headless(
+        args, config, driver, what, duration, realtime, f"{bag.path.stem}_{config.controller.value}", run_info
+    )
+
+
+def _fly_subscribed(args: argparse.Namespace, command: str) -> int:
+    """Fly the Twists Foxglove clients publish, in real time, until Ctrl-C or --duration."""
+    from quadsim.drivers.subscribed import SubscribedDriver
+
+    driver = SubscribedDriver("foxglove")
+    duration = args.duration if args.duration is not None else MAX_DURATION_S
+    until = f"for {duration:.1f} s" if args.duration is not None else "until Ctrl-C"
+    run_info = {"command": command, "input": "foxglove", "duration_s": duration, "realtime": True}
+    return _fly_headless(
+        args,
+        _config(args, None),
+        driver,
+        f"the Twists Foxglove clients publish on {driver.topic} {until}",
+        duration,
+        True,
+        f"foxglove_{args.controller}",
+        run_info,
+        commands=driver,
+    )
 
 
 def _fly_headless(
@@ -276,43 +338,51 @@ def _fly_headless(
     driver: InputDriver,
     what: str,
     duration: float,
-    run_info: dict[str, object],
-    label: str | None = None,
+    realtime: bool,
+    label: str,
+    run_info: dict,
+    commands: SubscribedDriver | None = None,
 ) -> int:
-    """Fly `driver` headless for `duration` s of sim time, recorded, and print the summary."""
     from quadsim.apps.headless import run_headless
     from quadsim.apps.outputs import RecordedRun
     from quadsim.apps.progress import ProgressBar
     from quadsim.sim.simulator import Simulator
 
-    realtime = bool(run_info["realtime"])
-    outputs = _outputs(args)
-    if not outputs.record and outputs.cameras:  # headless and unrecorded: nobody would see a frame
+    outputs: OutputOptions = _outputs(args)
+    live_wanted = args.foxglove is not None or commands is not None
+    if not outputs.record and outputs.cameras and not live_wanted:  # nobody would see a frame
         outputs = replace(outputs, cameras=())
+    if commands is not None:  # flown live: the flight keeps real time, the cameras drop frames (as the window)
+        outputs = replace(outputs, ordered_delivery=False)
     if not duration > 0:
         raise QuadsimError(f"--duration must be > 0 s, got {duration}")
     cams = ", ".join(f"{c.name} {c.width_px}x{c.height_px}@{c.rate_hz}Hz" for c in outputs.cameras) or "none"
+    live = _live_outputs(args, commands)
     print(
-        f"flying '{what}' for {duration:.1f} s: controller {config.controller.value}, "
+        f"flying {what}: controller {config.controller.value}, "
         f"z-mode {(config.z_mode or ZMode.VELOCITY).value}, physics {config.rates.physics_hz} Hz, control {config.rates.control_hz} Hz, "
         f"cameras {cams}"
     )
-    bar = ProgressBar(duration, "sim time")
-    label = f"{Path(label or what).stem}_{config.controller.value}"
+    bar = ProgressBar(duration, "sim time") if commands is None else None
     summary, run, sim_time = None, None, 0.0
     try:
         with Simulator(config, driver) as sim:
             try:
-                with RecordedRun(sim, sim.description(), outputs, label, run_info) as run:
+                with RecordedRun(sim, sim.description(), outputs, label, run_info, live=live) as run:
                     if run.path is not None:
                         print(f"recording to {run.path}", flush=True)
-                    summary = run_headless(sim, duration, progress=bar.update, realtime=realtime)
+                    summary = run_headless(
+                        sim, duration, progress=bar.update if bar is not None else None, realtime=realtime
+                    )
             finally:
                 sim_time = sim.time_s
     except StopRequested:
         pass  # the summary of what was flown follows; the exit code says why it stopped
     finally:
-        bar.close()
+        if bar is not None:
+            bar.close()
+        for output in live:  # closed with the run, or here if the run never started
+            output.close()
     if summary is not None:
         for line in summary.lines():
             print(line)
@@ -335,9 +405,16 @@ def _fly_headless(
 
 
 def cmd_run(args: argparse.Namespace) -> int:
+    inputs = [args.script is not None, args.commands_from is not None, args.input == "foxglove"]
+    if sum(inputs) > 1:
+        raise QuadsimError("--script, --commands-from and --input foxglove each say where commands come from; give one")
+    if args.input == "foxglove":
+        return _fly_subscribed(args, "run")
     realtime = args.gui or args.realtime
     if args.commands_from is not None:
         return _fly_bag(args, realtime)
+    if args.script is None:
+        raise QuadsimError("say what to fly: --script NAME|FILE, --commands-from FILE.mcap, or --input foxglove")
     return _fly_script(args, args.script, realtime)
 
 
@@ -362,6 +439,10 @@ def _window_size(text: str) -> tuple[int, int]:
 def cmd_fly(args: argparse.Namespace) -> int:
     if args.gui and not has_display():
         raise QuadsimError("--gui needs a display (DISPLAY is not set); run without --gui")
+    if not has_display() and args.input == "foxglove":
+        print("No display found: flying headless, in real time, what Foxglove clients publish.")
+        args.gui = False
+        return _fly_subscribed(args, "fly")
     if not has_display():
         print(
             f"No display found: the teleop window cannot open. Recording the scripted demo '{DEMO_SCENARIO}' "
@@ -382,9 +463,15 @@ def cmd_fly(args: argparse.Namespace) -> int:
     )
     config = _config(args, None)
     outputs = _outputs(args)
+    commands = None
+    if args.input == "foxglove":
+        from quadsim.drivers.subscribed import SubscribedDriver
+
+        commands = SubscribedDriver("foxglove")
+    live = _live_outputs(args, commands)
     flown, recordings, lost = 0.0, [], None
     try:
-        with TeleopApp(config, outputs, options) as app:
+        with TeleopApp(config, outputs, options, live=live, commands=commands) as app:
             print(f"flying with {app.driver.name}; press H or F1 in the window for the keys, Esc to quit")
             try:
                 app.run(stop=stop_requested)  # a signal ends the window loop at its next frame
@@ -393,6 +480,9 @@ def cmd_fly(args: argparse.Namespace) -> int:
         lost = app.display_lost  # the window was destroyed from outside or its X connection lost
     except StopRequested:
         pass
+    finally:
+        for output in live:  # closed with the run, or here if the window never opened
+            output.close()
     print(f"flew {flown:.1f} s of simulation time")
     for path in recordings:
         print(f"recording       {path}")
@@ -520,6 +610,8 @@ def cmd_replay(args: argparse.Namespace) -> int:
         _check_output_file("--plot", args.plot, PLOT_SUFFIXES)
     if args.mp4 is not None:
         _check_output_dir("--mp4", args.mp4)
+    if args.foxglove is not None and args.resim:
+        raise QuadsimError("--foxglove plays the recording as it is; with --resim nothing would be played (drop one)")
     flight = load_flight(args.file)
     if args.resim:
         from quadsim.apps.progress import ProgressBar
@@ -556,17 +648,68 @@ def cmd_replay(args: argparse.Namespace) -> int:
                 print(f"video       {path} (VP9)")
         if args.plot is not None:
             print(f"plot        {export_plot(flight, args.plot)}")
+        if args.foxglove is not None:
+            return _replay_live(args)
         return 0
     from quadsim.apps.window.replay import ReplayApp
 
-    with ReplayApp(flight, (width, height), speed=args.speed, loop=args.loop) as app:
-        print("replaying; press H or F1 in the window for the keys, Esc to quit")
-        app.run()
+    live = _live_outputs(args)
+    try:
+        feed = _feed(args.file, live)
+        with ReplayApp(flight, (width, height), speed=args.speed, loop=args.loop, feed=feed) as app:
+            print("replaying; press H or F1 in the window for the keys, Esc to quit")
+            app.run()
+    finally:
+        for output in live:
+            output.close()
     if app.display_lost is not None:
         from quadsim.apps.window.x11_guard import EXIT_DISPLAY_LOST
 
         print(f"the window's display was lost ({app.display_lost})", file=sys.stderr)
         return EXIT_DISPLAY_LOST
+    return 0
+
+
+def _feed(path: Path, live: list[LiveOutput]):
+    if not live:
+        return None
+    from quadsim.live.playback import RecordingFeed
+
+    return RecordingFeed(path, live)
+
+
+def _replay_live(args: argparse.Namespace) -> int:
+    """replay --foxglove with no window: play the recording to Foxglove in real time (times
+    --speed), once or --loop, until its end or Ctrl-C."""
+    import time
+
+    live = _live_outputs(args)
+    try:
+        feed = _feed(args.file, live)
+        assert feed is not None
+        print(
+            f"playing {len(feed.messages)} messages on {len(feed.topics)} topics ({feed.end_ns / 1e9:.1f} s) "
+            f"at {args.speed:g}x{', looping' if args.loop else ''}; Ctrl-C stops",
+            flush=True,
+        )
+        t0 = time.monotonic()
+        while not stop_requested():
+            t_ns = int((time.monotonic() - t0) * args.speed * 1e9)
+            if t_ns > feed.end_ns:
+                feed.play_to(feed.end_ns)
+                if not args.loop:
+                    break
+                t0, t_ns = time.monotonic(), 0
+            feed.play_to(t_ns)
+            time.sleep(0.01)
+    finally:
+        for output in live:
+            output.close()
+    print(f"played {feed.played} messages")
+    stop = SignalStop.current()
+    if stop is not None and stop.signum is not None:
+        print(describe_stop(stop.signum), file=sys.stderr)
+        return stop_exit_code(stop.signum)
     return 0
 
 
@@ -630,6 +773,10 @@ def cmd_bench(args: argparse.Namespace) -> int:
         from quadsim.apps.bench import run_replay_bench
 
         run_replay_bench()
+    if args.section in ("all", "live"):
+        from quadsim.apps.bench import run_live_bench
+
+        run_live_bench()
     if args.section in ("all", "sweep"):
         from quadsim.apps.sweep.bench import run_sweep_bench
 
@@ -655,9 +802,10 @@ def build_parser() -> argparse.ArgumentParser:
         "real-time factor, final pose and distance flown. Script format: see README (or "
         "quadsim/drivers/scripted.py).",
     )
-    what = p.add_mutually_exclusive_group(required=True)
+    what = p.add_mutually_exclusive_group()
     what.add_argument(
         "--script",
+        default=None,
         metavar="NAME|FILE",
         help="a built-in scenario (python main.py scenarios lists them) or a script file",
     )
@@ -670,6 +818,13 @@ def build_parser() -> argparse.ArgumentParser:
         "recording's, else --z-mode (default velocity)",
     )
     p.add_argument(
+        "--input",
+        choices=["script", "foxglove"],
+        default="script",
+        help="script (default): fly --script; foxglove: fly the Twists Foxglove clients publish on /quad_cmd_twist "
+        "(the Teleop panel), in real time, until Ctrl-C or --duration (implies --foxglove)",
+    )
+    p.add_argument(
         "--duration",
         type=_number(1e-3, MAX_DURATION_S, "seconds"),
         default=None,
@@ -679,6 +834,7 @@ def build_parser() -> argparse.ArgumentParser:
     )
     p.add_argument("--realtime", action="store_true", help="pace simulation time to the wall clock (as --gui does)")
     _add_sim_options(p)
+    _add_live_options(p)
     p.set_defaults(func=cmd_run)
 
     p = sub.add_parser(
@@ -699,10 +855,11 @@ def build_parser() -> argparse.ArgumentParser:
     t = p.add_argument_group("teleop window")
     t.add_argument(
         "--input",
-        choices=["auto", "keyboard", "joystick"],
+        choices=["auto", "keyboard", "joystick", "foxglove"],
         default="auto",
         help="auto (default): a gamepad if one is plugged in, else the keyboard until one is plugged in; "
-        "joystick: wait for a gamepad even if none is plugged in",
+        "joystick: wait for a gamepad even if none is plugged in; foxglove: the Twists Foxglove clients publish "
+        "on /quad_cmd_twist (the Teleop panel), served as --foxglove says (with no display: headless, in real time)",
     )
     t.add_argument(
         "--keys",
@@ -721,6 +878,7 @@ def build_parser() -> argparse.ArgumentParser:
     )
     t.add_argument("--window", default="1280x720", metavar="WxH", help="initial window size (default 1280x720)")
     _add_sim_options(p)
+    _add_live_options(p)
     p.set_defaults(func=cmd_fly)
 
     p = sub.add_parser("scenarios", help="list the built-in scripted scenarios")
@@ -802,6 +960,7 @@ def build_parser() -> argparse.ArgumentParser:
     )
     p.add_argument("--loop", action="store_true", help="start again at the end")
     p.add_argument("--window", default="1280x720", metavar="WxH", help="initial window size")
+    _add_live_options(p, "the recorded messages, as they are played (put FILE first),")
     p.set_defaults(func=cmd_replay)
 
     p = sub.add_parser(
@@ -847,11 +1006,11 @@ def build_parser() -> argparse.ArgumentParser:
     )
     p.add_argument(
         "--section",
-        choices=["all", "flight", "recording", "window", "replay", "sweep"],
+        choices=["all", "flight", "recording", "window", "replay", "live", "sweep"],
         default="all",
         help="flight: the flight core; recording: cameras and recording; window: the teleop "
-        "window headless; replay: playback and re-simulation; sweep: a 64-run sweep on 1 worker, "
-        "every core and Ray (default: all)",
+        "window headless; replay: playback and re-simulation; live: Foxglove streaming; sweep: a 64-run "
+        "sweep on 1 worker, every core and Ray (default: all)",
     )
     p.set_defaults(func=cmd_bench)
     return parser

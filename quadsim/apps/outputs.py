@@ -1,5 +1,5 @@
-"""A run's outputs: the camera pipeline, the topic fan-out and the MCAP recorder it feeds,
-opened together and always finished together (normal end, Ctrl-C, SIGTERM, an exception).
+"""A run's outputs: the camera pipeline, the topic fan-out and what it feeds (the MCAP recorder,
+live bridges), opened together and always finished together (normal end, Ctrl-C, SIGTERM, an exception).
 
 They attach to the run through its OutputPort (the Simulator is one) and know it by its typed
 RunDescription: they never hold the simulator. The recorder's and the cameras' modules (and so
@@ -8,13 +8,14 @@ mcap, foxglove, rosbags, cv2) are imported only when a run records or has camera
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, Protocol
 
 from quadsim.apps.stopping import shielded_from_signals
 from quadsim.errors import QuadsimError
-from quadsim.recording.fanout import TopicFanout
+from quadsim.recording.fanout import TopicConsumer, TopicFanout
 from quadsim.sensors.camera import CameraSpec, RendererKind, default_cameras
 from quadsim.sim.description import RunDescription
 from quadsim.sim.loop import OutputPort
@@ -25,6 +26,12 @@ RECORDING_EVENT = "recording"
 if TYPE_CHECKING:
     from quadsim.recording.writer import McapRecorder
     from quadsim.sensors.pipeline import CameraPipeline
+
+
+class LiveOutput(TopicConsumer, Protocol):
+    """A live bridge (Foxglove, ROS 2): fed by the fan-out for the whole run, closed with it."""
+
+    def close(self) -> None: ...
 
 
 @dataclass(frozen=True)
@@ -43,7 +50,9 @@ class RecordedRun:
 
     The fan-out (`fanout`) turns the run into the contract's messages once for every consumer;
     it listens to the loop and the cameras only while it has one. Recording can be stopped and
-    started again (the window's key for it); each start makes a new file."""
+    started again (the window's key for it); each start makes a new file. The `live` outputs
+    (bridges) consume it from the start to the end of the run, recording or not, and are closed
+    with it."""
 
     def __init__(
         self,
@@ -52,6 +61,7 @@ class RecordedRun:
         options: OutputOptions,
         label: str,
         run_info: dict[str, Any] | None = None,
+        live: Sequence[LiveOutput] = (),
     ) -> None:
         self.port = port
         self.description = description
@@ -61,6 +71,7 @@ class RecordedRun:
         self.recorder: McapRecorder | None = None
         self.cameras: CameraPipeline | None = None
         self.path: Path | None = None
+        self.live: list[LiveOutput] = list(live)
         vehicle, world = description.vehicle_model, description.world_model
         if vehicle is None or world is None:
             raise QuadsimError("outputs need the description of a live run (with its vehicle and world)")
@@ -82,6 +93,10 @@ class RecordedRun:
                     scene_client=port.scene_client,
                 )
                 port.add_tap(self.cameras.tap_interval_steps, self.cameras.capture)
+            for output in self.live:
+                self.fanout.add_consumer(output, port.step_count)
+            if self.live:
+                self._listen(True)
             if options.record:
                 self.start_recording()
         except BaseException:
@@ -160,8 +175,14 @@ class RecordedRun:
                     finally:
                         self.cameras.close()
             finally:
-                if self.recorder is not None:
-                    self._finish(self.recorder)
+                try:
+                    if self.recorder is not None:
+                        self._finish(self.recorder)
+                finally:
+                    for output in self.live:
+                        self.fanout.remove_consumer(output)
+                        output.close()
+                    self._listen(bool(self.fanout.consumers))
 
     def __enter__(self) -> RecordedRun:
         return self

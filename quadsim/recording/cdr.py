@@ -100,6 +100,18 @@ def twist(linear: Vec3, angular: Vec3) -> bytes:
     return _TWIST.pack(ENCAPSULATION, *linear, *angular)
 
 
+_TWIST_BODY = {b"\x00\x01": struct.Struct("<6d"), b"\x00\x00": struct.Struct(">6d")}  # CDR_LE, CDR_BE
+
+
+def twist_fields(data: bytes) -> tuple[float, float, float, float, float, float]:
+    """The six fields (linear x y z, angular x y z) of a CDR geometry_msgs/msg/Twist, in either
+    byte order. ValueError for bytes that are not one."""
+    body = _TWIST_BODY.get(bytes(data[:2]))
+    if body is None or len(data) < 4 + body.size:
+        raise ValueError(f"not a CDR geometry_msgs/msg/Twist ({len(data)} bytes, header {bytes(data[:4]).hex()})")
+    return body.unpack_from(data, 4)
+
+
 @lru_cache(maxsize=256)
 def pose_stamped_encoder(frame_id: str) -> Callable[[int, Vec3, Quat], bytes]:
     """geometry_msgs/msg/PoseStamped in `frame_id`: encode(ns, position, orientation)."""
