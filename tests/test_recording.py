@@ -18,6 +18,7 @@ CONTRACT = {
     "/quad/rotor_thrusts": ("std_msgs/msg/Float64MultiArray", 60),
     "/tf": ("tf2_msgs/msg/TFMessage", 60),
     "/tf_static": ("tf2_msgs/msg/TFMessage", None),
+    "/rosout": ("rcl_interfaces/msg/Log", None),  # the take-off, at least
     "/quad/front_camera/image_raw/compressed": ("sensor_msgs/msg/CompressedImage", 30),
     "/quad/floor_camera/image_raw/compressed": ("sensor_msgs/msg/CompressedImage", 30),
     "/quad/front_camera/camera_info": ("sensor_msgs/msg/CameraInfo", 30),

@@ -11,7 +11,7 @@ import sys
 from collections.abc import Callable
 from dataclasses import replace
 from pathlib import Path
-from typing import TYPE_CHECKING, NoReturn
+from typing import TYPE_CHECKING, Any, NoReturn
 
 from quadsim import __version__
 from quadsim.apps.stopping import SignalStop, StopRequested, stop_requested
@@ -132,6 +132,18 @@ def _add_sim_options(p: argparse.ArgumentParser) -> None:
         metavar="S",
         help="dead-man timeout: hold position after S seconds without a command (default 0.5)",
     )
+    g.add_argument(
+        "--hard-landing",
+        action="store_true",
+        help="do not slow descents near the ground (default: touchdown at about 0.3 m/s whatever the descent "
+        "commanded)",
+    )
+    g.add_argument(
+        "--reset-on-crash",
+        action="store_true",
+        help="after a crash (a wall, the ground at speed or tilted) put the vehicle back at the start pose, "
+        "landed; the clock, the commands and the recording go on",
+    )
     g.add_argument("--gui", action="store_true", help="also open PyBullet's own 3D window (needs a display)")
     o = p.add_argument_group("recording and cameras")
     o.add_argument(
@@ -191,6 +203,13 @@ def _config(args: argparse.Namespace, script_z_mode: ZMode | None):
         start=StartPose(),
         gui=args.gui,
     )
+
+
+def _flight_settings(args: argparse.Namespace) -> dict[str, Any]:
+    """The Simulator's landing and crash settings from --hard-landing and --reset-on-crash."""
+    from quadsim.control.landing import LandingSettings
+
+    return {"landing": LandingSettings(hard_landing=args.hard_landing), "reset_on_crash": args.reset_on_crash}
 
 
 def _outputs(args: argparse.Namespace):
@@ -267,7 +286,7 @@ def _fly_script(args: argparse.Namespace, script_name: str, realtime: bool) -> i
     run_info = {"command": "run", "script": script.name, "duration_s": duration, "realtime": realtime}
     summary, run, sim_time = None, None, 0.0
     try:
-        with Simulator(config, ScriptedDriver(script)) as sim:
+        with Simulator(config, ScriptedDriver(script), **_flight_settings(args)) as sim:
             try:
                 with RecordedRun(sim, sim.description(), outputs, label, run_info) as run:
                     if run.path is not None:
@@ -342,6 +361,7 @@ def cmd_fly(args: argparse.Namespace) -> int:
         keyboard_layout=args.keys,
         joystick_mapping=load_mapping(args.joy_map) if args.joy_map else JoystickMapping(),
         window_size=(width, height),
+        **_flight_settings(args),
     )
     config = _config(args, None)
     outputs = _outputs(args)
