@@ -25,8 +25,8 @@ gamma of the body's own X-Y-Z angles. Both are computed the same way here.
 z-modes. In `height` mode linear.z is, as in the original, an offset above 2 m. In `velocity`
 mode (the original had none) the height reference sits linear.z x (-vParam / pParam) = 1 s away
 from the current altitude, so the altitude PID's P and vertical-velocity terms make a climb-rate
-loop with the original's gains (thrust change 2 x (wanted - actual climb rate)); released, the
-altitude reached is held. Altitude limits and landing are the landing layer's (control/landing.py).
+loop with the original's gains (thrust change 2 x (wanted - actual climb rate)), its integral
+paused; released, the altitude reached is held. Altitude limits and landing are the landing layer's (control/landing.py).
 When the dead-man holds, the velocity and yaw-rate references are zero and the height stands.
 
 Heading rate. angular.z is compared with the original's vel_ang[3], the world-frame z component
@@ -165,7 +165,8 @@ class SeedController:
 
         # vertical control
         e = height - pz  # type: ignore[operator]
-        self._cumul += e / k
+        if not self._climbing:  # a climb's lead is no altitude error to integrate
+            self._cumul += e / k
         thrust = HOVER_COMMAND + gn.p * e + gn.i * self._cumul + gn.d * (e - self._last_e) * k + vel_local_z * gn.v
         self._last_e = e
 
