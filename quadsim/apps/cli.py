@@ -402,17 +402,16 @@ def cmd_scenarios(args: argparse.Namespace) -> int:
 
 
 def cmd_evaluate(args: argparse.Namespace) -> int:
-    from quadsim.apps.evaluate import SCENARIO_METRICS, TARGETS, evaluate
+    from quadsim.apps.evaluate import MANOEUVRE_METRICS, MANOEUVRE_TARGETS, SCENARIO_METRICS, TARGETS, evaluate
 
     controllers = [ControllerKind(c) for c in args.controller] if args.controller else list(ControllerKind)
     results = {c: evaluate(controller=c) for c in controllers}
+    details = {"max_tilt_deg", "min_z_m", "max_z_m", "rate_mean_radps", "peak_mps"}
+    details |= {"landed", "final_z_m", "drops", "heading_rate_radps", "bank_deg"}
     rows = [
-        (s, m)
-        for s, fn in SCENARIO_METRICS.items()
-        for m in results[controllers[0]][s]
-        if m not in ("max_tilt_deg", "min_z_m", "max_z_m", "rate_mean_radps", "peak_mps")
+        (s, m) for s in [*SCENARIO_METRICS, *MANOEUVRE_METRICS] for m in results[controllers[0]][s] if m not in details
     ]
-    targets = {(s, m): bound for s, m, bound in TARGETS}
+    targets = {(s, m): bound for s, m, bound in (*TARGETS, *MANOEUVRE_TARGETS)}
     header = "| scenario | metric | target (cascade) | " + " | ".join(c.value for c in controllers) + " |"
     print(header)
     print("|" + "---|" * (3 + len(controllers)))
@@ -424,7 +423,7 @@ def cmd_evaluate(args: argparse.Namespace) -> int:
         "| "
         + " | ".join(
             ["all", "max tilt (deg)", ""]
-            + [f"{max(r['max_tilt_deg'] for r in results[c].values()):.1f}" for c in controllers]
+            + [f"{max(r.get('max_tilt_deg', 0.0) for r in results[c].values()):.1f}" for c in controllers]
         )
         + " |"
     )
