@@ -103,6 +103,9 @@ class _FlightNotices:
         pass
 
     def on_event(self, step: int, kind: str, value: str) -> None:
+        if kind == "reset" and self.alert and time.monotonic() < self._until:
+            self.text += f"; {kind}: {value}"  # the crash stays on screen, with what followed
+            return
         self.alert = kind in WARNING_EVENTS
         self.text = f"{kind.upper() if self.alert else kind}: {value}"
         self._until = time.monotonic() + (8.0 if self.alert else 4.0)
