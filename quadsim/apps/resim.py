@@ -155,13 +155,13 @@ def _flight_settings(flight: RecordedFlight) -> dict[str, Any]:
     record them; recordings older than those: the defaults)."""
     details = flight.description.controller.details if flight.description is not None else {}
     landing = details.get("landing", {})
-    settings = LandingSettings()
+    kept: dict[str, Any] = {}
     if isinstance(landing, dict):
         for f in fields(LandingSettings):
             value = landing.get(f.name)
             if isinstance(value, bool) if f.type in (bool, "bool") else _finite(value):
-                settings = replace(settings, **{f.name: value})
-    return {"landing": settings, "reset_on_crash": details.get("reset_on_crash") is True}
+                kept[f.name] = value
+    return {"landing": LandingSettings(**kept), "reset_on_crash": details.get("reset_on_crash") is True}
 
 
 def _finite(value: object) -> bool:
