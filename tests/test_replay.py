@@ -66,7 +66,12 @@ def test_fresh_interactive_recording_reflies_to_zero(tmp_path):
     app.run(max_frames=120, before_frame=events)
     app.close()
     flight = load_flight(app.recordings[0])
-    assert [e[1:] for e in flight.events] == [("recording", "started"), ("z_mode", "height"), ("recording", "stopped")]
+    assert [e[1:] for e in flight.events] == [
+        ("recording", "started"),
+        ("takeoff", "climbing from the ground"),
+        ("z_mode", "height"),
+        ("recording", "stopped"),
+    ]
     report = resimulate(flight, out=tmp_path / "again")
     assert report.position.max_error == 0.0 and report.attitude.max_error == 0.0
     assert report.new_recording is not None and load_flight(report.new_recording).states

@@ -141,9 +141,18 @@ def test_pause_reset_zmode_and_recording_keys(tmp_path):
     # each file's /rosout says when its recording started and stopped, and what happened between
     first, second, third = ([(round(t, 6), m.msg) for t, m in rosout(path)] for path in app.recordings)
     assert first[0] == (0.0, "recording: started") and first[-1] == (round(stopped_at, 6), "recording: stopped")
-    assert [msg for _, msg in first] == ["recording: started", "z_mode: height", "recording: stopped"]
+    assert [msg for _, msg in first] == [
+        "recording: started",
+        "takeoff: climbing from the ground",
+        "z_mode: height",
+        "recording: stopped",
+    ]
     assert second == [(round(started_at, 6), "recording: started"), (round(reset_at, 6), "recording: stopped")]
-    assert third == [(0.0, "recording: started"), (round(closed_at, 6), "recording: stopped")]
+    assert third == [
+        (0.0, "recording: started"),
+        (0.0, "takeoff: climbing from the ground"),  # after the reset, from the ground again
+        (round(closed_at, 6), "recording: stopped"),
+    ]
 
 
 def rosout(path: Path):

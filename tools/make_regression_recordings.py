@@ -1,7 +1,8 @@
 """Regenerate tests/recordings/: small recordings (no cameras) of representative flights that
 the test suite re-flies. Run it when a change to the flight is intended, and commit the result:
 
-    .venv/bin/python tools/make_regression_recordings.py
+    .venv/bin/python tools/make_regression_recordings.py                 # all of them
+    .venv/bin/python tools/make_regression_recordings.py square_cascade  # only those named
 """
 
 import os
@@ -76,12 +77,20 @@ def keyboard_session() -> Path:
     return path
 
 
+RECORDINGS = {
+    "square_cascade": lambda: scripted("square", ControllerKind.CASCADE),
+    "figure8_seed": lambda: scripted("figure8", ControllerKind.SEED),
+    "climb_cascade": lambda: scripted("climb", ControllerKind.CASCADE),
+    "keyboard_session_cascade": keyboard_session,
+}
+
 if __name__ == "__main__":
+    # no argument: all of them; or name the ones whose flight changed (e.g. square_cascade)
+    wanted = sys.argv[1:] or list(RECORDINGS)
+    unknown = [name for name in wanted if name not in RECORDINGS]
+    if unknown:
+        sys.exit(f"unknown recording {unknown[0]!r}; choose from {', '.join(RECORDINGS)}")
     OUT.mkdir(parents=True, exist_ok=True)
-    for made in (
-        scripted("square", ControllerKind.CASCADE),
-        scripted("figure8", ControllerKind.SEED),
-        scripted("climb", ControllerKind.CASCADE),
-        keyboard_session(),
-    ):
+    for name in wanted:
+        made = RECORDINGS[name]()
         print(f"{made.relative_to(ROOT)}: {made.stat().st_size / 1e3:.0f} kB")

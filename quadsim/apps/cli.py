@@ -11,7 +11,7 @@ import sys
 from collections.abc import Callable
 from dataclasses import replace
 from pathlib import Path
-from typing import TYPE_CHECKING, NoReturn
+from typing import TYPE_CHECKING, Any, NoReturn
 
 from quadsim import __version__
 from quadsim.apps.stopping import SignalStop, StopRequested, stop_requested
@@ -137,6 +137,18 @@ def _add_sim_options(p: argparse.ArgumentParser) -> None:
         metavar="S",
         help="dead-man timeout: hold position after S seconds without a command (default 0.5)",
     )
+    g.add_argument(
+        "--hard-landing",
+        action="store_true",
+        help="do not slow descents near the ground (default: touchdown at about 0.3 m/s whatever the descent "
+        "commanded)",
+    )
+    g.add_argument(
+        "--reset-on-crash",
+        action="store_true",
+        help="after a crash (a wall, the ground at speed or tilted) put the vehicle back at the start pose, "
+        "landed; the clock, the commands and the recording go on",
+    )
     g.add_argument("--gui", action="store_true", help="also open PyBullet's own 3D window (needs a display)")
     o = p.add_argument_group("recording and cameras")
     o.add_argument(
@@ -224,6 +236,13 @@ def _config(args: argparse.Namespace, script_z_mode: ZMode | None):
         start=StartPose(),
         gui=args.gui,
     )
+
+
+def _flight_settings(args: argparse.Namespace) -> dict[str, Any]:
+    """The Simulator's landing and crash settings from --hard-landing and --reset-on-crash."""
+    from quadsim.control.landing import LandingSettings
+
+    return {"landing": LandingSettings(hard_landing=args.hard_landing), "reset_on_crash": args.reset_on_crash}
 
 
 def _outputs(args: argparse.Namespace):
@@ -366,7 +385,7 @@ def _fly_headless(
     bar = ProgressBar(duration, "sim time") if commands is None else None
     summary, run, sim_time = None, None, 0.0
     try:
-        with Simulator(config, driver) as sim:
+        with Simulator(config, driver, **_flight_settings(args)) as sim:
             try:
                 with RecordedRun(sim, sim.description(), outputs, label, run_info, live=live) as run:
                     if run.path is not None:
@@ -460,6 +479,7 @@ def cmd_fly(args: argparse.Namespace) -> int:
         keyboard_layout=args.keys,
         joystick_mapping=load_mapping(args.joy_map) if args.joy_map else JoystickMapping(),
         window_size=(width, height),
+        **_flight_settings(args),
     )
     config = _config(args, None)
     outputs = _outputs(args)
@@ -509,17 +529,16 @@ def cmd_scenarios(args: argparse.Namespace) -> int:
 
 
 def cmd_evaluate(args: argparse.Namespace) -> int:
-    from quadsim.apps.evaluate import SCENARIO_METRICS, TARGETS, evaluate
+    from quadsim.apps.evaluate import MANOEUVRE_METRICS, MANOEUVRE_TARGETS, SCENARIO_METRICS, TARGETS, evaluate
 
     controllers = [ControllerKind(c) for c in args.controller] if args.controller else list(ControllerKind)
     results = {c: evaluate(controller=c) for c in controllers}
+    details = {"max_tilt_deg", "min_z_m", "max_z_m", "rate_mean_radps", "peak_mps"}
+    details |= {"landed", "final_z_m", "drops", "heading_rate_radps", "bank_deg"}
     rows = [
-        (s, m)
-        for s, fn in SCENARIO_METRICS.items()
-        for m in results[controllers[0]][s]
-        if m not in ("max_tilt_deg", "min_z_m", "max_z_m", "rate_mean_radps", "peak_mps")
+        (s, m) for s in [*SCENARIO_METRICS, *MANOEUVRE_METRICS] for m in results[controllers[0]][s] if m not in details
     ]
-    targets = {(s, m): bound for s, m, bound in TARGETS}
+    targets = {(s, m): bound for s, m, bound in (*TARGETS, *MANOEUVRE_TARGETS)}
     header = "| scenario | metric | target (cascade) | " + " | ".join(c.value for c in controllers) + " |"
     print(header)
     print("|" + "---|" * (3 + len(controllers)))
@@ -531,7 +550,7 @@ def cmd_evaluate(args: argparse.Namespace) -> int:
         "| "
         + " | ".join(
             ["all", "max tilt (deg)", ""]
-            + [f"{max(r['max_tilt_deg'] for r in results[c].values()):.1f}" for c in controllers]
+            + [f"{max(r.get('max_tilt_deg', 0.0) for r in results[c].values()):.1f}" for c in controllers]
         )
         + " |"
     )

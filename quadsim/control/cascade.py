@@ -1,7 +1,7 @@
 """The cascade controller: velocity -> attitude (thrust direction) -> body rate -> mixer.
 
 Each axis either tracks the commanded rate (horizontal velocity in the heading frame, climb
-rate, yaw rate) or, when that part of the command is zero or the dead-man has fired, holds
+rate, heading rate about world z) or, when that part of the command is zero or the dead-man has fired, holds
 what it had once the vehicle has slowed down (position, altitude, heading). Hover thrust is fed
 forward; tilt, climb rate and body rates are saturated; integrators stop while saturated.
 
@@ -27,7 +27,7 @@ class CascadeGains:
 
     position_p_per_s: float = 1.2  # horizontal position hold -> velocity
     altitude_p_per_s: float = 2.0  # altitude hold / height z-mode -> climb rate
-    heading_p_per_s: float = 2.5  # heading hold -> yaw rate
+    heading_p_per_s: float = 2.5  # heading hold -> heading rate
     velocity_p_xy_per_s: float = 3.0  # velocity error -> acceleration
     velocity_i_xy_per_s2: float = 1.5
     velocity_p_z_per_s: float = 5.0
@@ -113,9 +113,9 @@ class CascadeController:
             c, s = math.cos(yaw), math.sin(yaw)
             vsx, vsy = c * ux - s * uy, s * ux + c * uy
             # while turning, that set-point rotates with the heading: feed its rate of change
-            # (yaw rate x velocity) forward, or the loop lags it and the vehicle slips sideways
-            yaw_rate = r20 * wp + r21 * wq + r22 * wr
-            turn_ax, turn_ay = -yaw_rate * vsy, yaw_rate * vsx
+            # (heading rate x velocity) forward, or the loop lags it and the vehicle slips sideways
+            heading_rate = r20 * wp + r21 * wq + r22 * wr
+            turn_ax, turn_ay = -heading_rate * vsy, heading_rate * vsx
         else:
             if self._xy_hold is None and vx * vx + vy * vy < latch2:
                 self._xy_hold = (px, py)
@@ -149,14 +149,15 @@ class CascadeController:
         elif vsz < -lim.max_descent_rate_mps:
             vsz = -lim.max_descent_rate_mps
 
-        # yaw: track the commanded rate, or hold the heading
+        # heading: track the commanded heading rate (about world z), or hold the heading
+        heading_rate = r20 * wp + r21 * wq + r22 * wr
         if ur != 0.0:
             self._yaw_hold = None
-            rs = ur
+            hs = ur
         else:
-            if self._yaw_hold is None and -g.hold_latch_yaw_rate_radps < wr < g.hold_latch_yaw_rate_radps:
+            if self._yaw_hold is None and -g.hold_latch_yaw_rate_radps < heading_rate < g.hold_latch_yaw_rate_radps:
                 self._yaw_hold = yaw
-            rs = 0.0 if self._yaw_hold is None else g.heading_p_per_s * _wrap(self._yaw_hold - yaw)
+            hs = 0.0 if self._yaw_hold is None else g.heading_p_per_s * _wrap(self._yaw_hold - yaw)
 
         # velocity loop (world frame) -> wanted acceleration, with drag feed-forward
         ex, ey, ez = vsx - vx, vsy - vy, vsz - vz
@@ -201,8 +202,11 @@ class CascadeController:
         mr = g.max_rate_rp_radps
         ps = clamp(ps, -mr, mr)
         qs = clamp(qs, -mr, mr)
+        # the heading rate is the body rates' world-z component (r20 p + r21 q + r22 r): in a bank,
+        # the body z rate that gives the wanted heading rate, with the roll/pitch rates wanted
         my = lim.max_yaw_rate_radps
-        rs = clamp(rs, -my, my)
+        hs = clamp(hs, -my, my)
+        rs = clamp((hs - r20 * ps - r21 * qs) / max(r22, 0.5), -mr, mr)
 
         # rate loop -> body torques (with the gyroscopic term), then the mixer
         ap = g.rate_p_rp_per_s * (ps - wp)

@@ -7,6 +7,7 @@ the vehicle's state. It is the only flight module that imports pybullet.
 from __future__ import annotations
 
 import os
+from typing import NamedTuple
 
 from quadsim.core.kinematics import matrix_from_quaternion
 from quadsim.core.types import RotorForces, StartPose, VehicleState
@@ -21,6 +22,13 @@ from quadsim.vehicle.params import VehicleParams
 _SPAWN_CLEARANCE_M = 0.001
 
 _ORIGIN = (0.0, 0.0, 0.0)
+
+
+class Contact(NamedTuple):
+    """The vehicle touching one other body after a physics step."""
+
+    other: str  # what it touches: 'floor' or a landmark's name
+    normal_z: float  # world z of the contact normal, pointing at the vehicle (1: resting on it; 0: a wall)
 
 
 class PhysicsWorld:
@@ -60,6 +68,7 @@ class PhysicsWorld:
         if gui:
             pb.configureDebugVisualizer(pb.COV_ENABLE_GUI, 0, physicsClientId=cid)
         self.landmark_ids = build_world(world, cid)
+        self._body_names = {body: name for name, body in self.landmark_ids.items()}
         self.start = start
         self.body_id = load_vehicle_body(vehicle, cid, self._spawn_position(), self._spawn_orientation())
         links = {
@@ -99,7 +108,45 @@ class PhysicsWorld:
             self._rest_z = 10.0 - lo
         return self._rest_z
 
+    @property
+    def rest_height_m(self) -> float:
+        """Height of base_link above the floor when the vehicle rests on it."""
+        return self._resting_height()
+
     # --- stepping ---------------------------------------------------------------------------
+
+    def place(
+        self, position_m: tuple[float, float, float], orientation_xyzw: tuple[float, float, float, float]
+    ) -> None:
+        """Put the vehicle at a pose, at rest, rotors stopped (drop tests, scripted situations)."""
+        pb.resetBasePositionAndOrientation(self.body_id, position_m, orientation_xyzw, physicsClientId=self._cid)
+        pb.resetBaseVelocity(self.body_id, (0.0, 0.0, 0.0), (0.0, 0.0, 0.0), physicsClientId=self._cid)
+        self.motors.reset()
+        self._read_kinematics()
+        self._previous_velocity = self._linear_velocity
+
+    def contacts(self) -> tuple[Contact, ...]:
+        """What the vehicle touches after the last physics step, one entry per other body (with
+        the most upward of its contact normals)."""
+        points = pb.getContactPoints(self.body_id, physicsClientId=self._cid)
+        if not points:
+            return ()
+        normal_z: dict[int, float] = {}
+        for point in points:
+            other, nz = point[2], point[7][2]
+            if nz > normal_z.get(other, -2.0):
+                normal_z[other] = nz
+        return tuple(Contact(self._body_names.get(b, f"body {b}"), nz) for b, nz in normal_z.items())
+
+    @property
+    def body_z_up(self) -> float:
+        """World z component of the body's z axis (1: level, 0: on its side, -1: upside down)."""
+        return self._rotation[2][2]
+
+    @property
+    def velocity_before_step_mps(self) -> tuple[float, float, float]:
+        """The world-frame velocity before the last physics step (an impact's speed)."""
+        return self._previous_velocity
 
     def reset(self) -> None:
         """Put the vehicle back at its start pose, at rest, rotors stopped."""

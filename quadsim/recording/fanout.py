@@ -46,6 +46,8 @@ NS_PER_S = 1_000_000_000
 JOY_FRAME = "joy"
 #: the `name` of the /rosout messages quadsim itself writes
 LOGGER_NAME = "quadsim"
+#: event kinds logged at WARN level on /rosout (the rest are INFO)
+WARNING_EVENTS = frozenset({"crash"})
 
 
 #: (topic, log time in ns, CDR bytes with their encapsulation header); a plain tuple, as
@@ -216,13 +218,19 @@ class TopicFanout:
             ns = self.ns(step)
             self._publish(((JOY, ns, cdr.joy(ns, JOY_FRAME, axes, buttons)),))
 
+    def on_event(self, step: int, kind: str, value: str) -> None:
+        """A flight event from the loop (take-off, touchdown, landed, crash, reset) -> /rosout."""
+        self.note_event(step, kind, value)
+
     def note_event(self, step: int, kind: str, value: str) -> None:
-        """An event (a z-mode switch) -> /rosout, and `on_event` for consumers that keep it apart."""
+        """An event (a z-mode switch, a flight event) -> /rosout (a crash as a warning), and
+        `on_event` for consumers that keep it apart."""
         if not self.consumers:
             return
         self.declare(ROSOUT)
         ns = self.ns(step)
-        message = (ROSOUT, ns, cdr.log(ns, cdr.LogLevel.INFO, LOGGER_NAME, f"{kind}: {value}"))
+        level = cdr.LogLevel.WARN if kind in WARNING_EVENTS else cdr.LogLevel.INFO
+        message = (ROSOUT, ns, cdr.log(ns, level, LOGGER_NAME, f"{kind}: {value}"))
         for consumer in self.consumers:
             consumer.on_event(step, kind, value)
             consumer.on_messages((message,))

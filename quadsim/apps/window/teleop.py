@@ -13,7 +13,8 @@ x11_guard.end_process, since SDL's own teardown would hang on the dead connectio
 
 Input: the keyboard or a gamepad. With --input auto a gamepad flies if one is plugged in at the
 start, and one plugged in later takes over from the keyboard; every plug and unplug is said in
-the HUD and recorded as an "input" event.
+the HUD and recorded as an "input" event. Flight events (take-off, touchdown, landed, crash, reset)
+come from the simulator to the HUD, as they go to the recording's /rosout.
 """
 
 from __future__ import annotations
@@ -34,6 +35,7 @@ from quadsim.apps.outputs import LiveOutput, OutputOptions, RecordedRun
 from quadsim.apps.window.pacing import FixedStepPacer, RealTimePacer
 from quadsim.apps.window.view import TeleopView, ViewModel
 from quadsim.apps.window.x11_guard import X11Guard
+from quadsim.control.landing import LandingSettings
 from quadsim.core.types import Twist, VehicleState, ZMode
 from quadsim.drivers import ASAP
 from quadsim.drivers.gamepad import Pad
@@ -41,6 +43,7 @@ from quadsim.drivers.joystick import JoystickDriver, JoystickMapping
 from quadsim.drivers.keyboard import LAYOUTS, KeyboardDriver
 from quadsim.drivers.subscribed import SubscribedDriver
 from quadsim.errors import QuadsimError
+from quadsim.recording.fanout import WARNING_EVENTS
 from quadsim.sensors.camera import CameraFrame
 from quadsim.sim.config import SimConfig
 from quadsim.sim.simulator import Simulator
@@ -67,6 +70,8 @@ class TeleopOptions:
     joystick_mapping: JoystickMapping = field(default_factory=JoystickMapping)
     window_size: tuple[int, int] = (1280, 720)
     max_fps: int = 60
+    landing: LandingSettings = field(default_factory=LandingSettings)  # hard landings allowed or not
+    reset_on_crash: bool = False  # a crash puts the vehicle back at the start pose
 
 
 class _Track:
@@ -81,6 +86,35 @@ class _Track:
     def on_state(self, state: VehicleState) -> None:
         if state.step % 24 == 0:
             self.points.append(state.position_m[:2])
+
+
+class _FlightNotices:
+    """A sink keeping the last flight event (take-off, touchdown, landed, crash, reset) for the HUD,
+    shown for a few seconds (a crash for longer)."""
+
+    def __init__(self) -> None:
+        self.text = ""
+        self.alert = False
+        self._until = 0.0
+
+    def on_command(self, step: int, twist: object) -> None:
+        pass
+
+    def on_state(self, state: VehicleState) -> None:
+        pass
+
+    def on_event(self, step: int, kind: str, value: str) -> None:
+        if kind == "reset" and self.alert and time.monotonic() < self._until:
+            self.text += f"; {kind}: {value}"  # the crash stays on screen, with what followed
+            return
+        self.alert = kind in WARNING_EVENTS
+        self.text = f"{kind.upper() if self.alert else kind}: {value}"
+        self._until = time.monotonic() + (8.0 if self.alert else 4.0)
+
+    def current(self) -> tuple[str, bool]:
+        if time.monotonic() > self._until:
+            self.text, self.alert = "", False
+        return self.text, self.alert
 
 
 class _ActiveInput:
@@ -146,12 +180,14 @@ class TeleopApp:
         use_joystick = options.input == "joystick" or (options.input == "auto" and self.joystick.pad is not None)
         self.input = _ActiveInput(commands or (self.joystick if use_joystick else self.keyboard))
         try:
-            self.sim = Simulator(config, self.input)
+            self.sim = Simulator(config, self.input, landing=options.landing, reset_on_crash=options.reset_on_crash)
         except BaseException:
             self.joystick.close()
             raise
         self.track = _Track()
         self.sim.add_sink(self.track)
+        self.flight_notices = _FlightNotices()
+        self.sim.add_sink(self.flight_notices)
         self.frames: dict[str, CameraFrame] = {}
         try:
             self.outputs = replace(outputs, ordered_delivery=False)  # show frames as soon as they are ready
@@ -388,6 +424,7 @@ class TeleopApp:
         warnings = self.joystick.warnings() if self.driver is self.joystick else []
         if time.monotonic() > self._notice_until:
             self.notice = ""
+        flight_event, flight_alert = self.flight_notices.current()
         return ViewModel(
             state=self.sim.state,
             command=gate.last_command,
@@ -395,6 +432,9 @@ class TeleopApp:
             armed=active.armed,
             z_mode=gate.z_mode.value,
             controller=self.sim.config.controller.value,
+            phase=self.sim.phase.value,
+            flight_event=flight_event,
+            flight_alert=flight_alert,
             input_status=self._input_status(),
             recording_path=str(self.session.path) if self.session.recording else None,
             recording_error=rec.error if rec is not None else None,
