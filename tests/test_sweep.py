@@ -187,6 +187,22 @@ def test_limits_fail_runs_and_only_failures_are_recorded(tmp_path: Path) -> None
     assert f"{len(kept)} of {len(kept)} recordings re-fly" in check.stdout
 
 
+def test_a_crash_and_a_landing_are_in_the_table(tmp_path: Path) -> None:
+    """A script file beside the sweep file flies into the red tower (6 m ahead); another lands."""
+    (tmp_path / "into_tower.qscript").write_text(
+        "# into the tower\nz_mode height\n4.0 linear.z=1.5\n6.0 linear.x=2.0\n"
+    )
+    (tmp_path / "land.qscript").write_text("# up and down\nz_mode velocity\n2.0 linear.z=1.0\n8.0 linear.z=-1.0\n")
+    text = 'scenarios = ["into_tower.qscript", "land.qscript"]\n[limits]\ncrashes = 0\n'
+    done = _sweep(tmp_path, text, "--jobs", "1", "--out", str(tmp_path / "o"), "--format", "csv", "--no-plot")
+    assert done.returncode == 1, done.stderr
+    tower, land = read_table(tmp_path / "o" / "results.csv")
+    assert tower["scenario"] == "into_tower.qscript" and tower["crashes"] >= 1 and tower["status"] == "fail"
+    assert tower["failed_limits"] == "crashes"
+    assert land["crashes"] == 0 and land["status"] == "ok"
+    assert 0.0 < land["touchdown_speed_mps"] <= 0.5  # the landing layer's gentle touchdown
+
+
 def test_existing_table_needs_resume(tmp_path: Path) -> None:
     text = SMALL.replace('["hover", "step_forward"]', '["hover"]')
     out = str(tmp_path / "o")

@@ -10,6 +10,7 @@ import math
 from collections.abc import Sequence
 
 from quadsim.core.types import Twist, VehicleState
+from quadsim.sim.flight_events import EventKind, FlightEvent
 
 #: metric name -> what it measures (the table's columns, in this order; NaN where not defined)
 METRICS: dict[str, str] = {
@@ -20,7 +21,7 @@ METRICS: dict[str, str] = {
     "max_altitude_m": "highest altitude reached",
     "distance_m": "path length flown",
     "crashes": "contacts reported as crashes",
-    "touchdown_speed_mps": "fastest touchdown (vertical speed at ground contact)",
+    "touchdown_speed_mps": "fastest touchdown (impact speed at ground contact)",
 }
 
 _SETTLE_BAND_MPS = 0.1
@@ -46,7 +47,7 @@ def flight_metrics(
     states: Sequence[VehicleState],
     commands: Sequence[tuple[int, Twist]],
     physics_hz: int,
-    events: Sequence[tuple[int, str, str]] = (),
+    events: Sequence[FlightEvent] = (),
 ) -> dict[str, float]:
     """Every metric of METRICS for one flight (NaN where it has no meaning for this flight)."""
     out = dict.fromkeys(METRICS, math.nan)
@@ -91,22 +92,8 @@ def flight_metrics(
         ref = window[0].position_m
         out["end_drift_m"] = max(math.dist(s.position_m, ref) for s in window)
 
-    crashes = [value for _, kind, value in events if kind == "crash"]
-    out["crashes"] = float(len(crashes))
-    speeds = [_speed(value) for _, kind, value in events if kind == "touchdown"]
-    touchdowns = [v for v in speeds if v is not None]
+    out["crashes"] = float(sum(e.kind is EventKind.CRASH for e in events))
+    touchdowns = [e.speed_mps for e in events if e.kind is EventKind.TOUCHDOWN and e.speed_mps is not None]
     if touchdowns:
         out["touchdown_speed_mps"] = max(touchdowns)
     return out
-
-
-def _speed(value: str) -> float | None:
-    """The first 'N m/s' figure of an event's text."""
-    words = value.replace("=", " ").split()
-    for a, b in itertools.pairwise(words):
-        if b.startswith("m/s"):
-            try:
-                return float(a)
-            except ValueError:
-                return None
-    return None

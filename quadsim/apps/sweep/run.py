@@ -52,7 +52,6 @@ def fly_run(task: RunTask) -> dict[str, Any]:
         gains = dict(run.controller.gains) or None
         with Simulator(config, ScriptedDriver(script), controller_gains=gains) as sim:
             log = StateLog()
-            events: list[tuple[int, str, str]] = []
             sim.add_sink(log)
             recorded = _start_recording(task, sim, script.name) if task.record else None
             try:
@@ -60,7 +59,7 @@ def fly_run(task: RunTask) -> dict[str, Any]:
             finally:
                 if recorded is not None:
                     recorded.close()
-            metrics = flight_metrics(log.states, log.commands, config.rates.physics_hz, events)
+            metrics = flight_metrics(log.states, log.commands, config.rates.physics_hz, sim.events)
         row.update(metrics)
         failed = [
             name for name, limit in task.limits if not math.isnan(metrics.get(name, math.nan)) and metrics[name] > limit
