@@ -23,7 +23,8 @@ from quadsim.errors import QuadsimError
 from quadsim.recording.paths import ENV_VAR as RECORDINGS_ENV_VAR
 from quadsim.recording.paths import default_recordings_dir
 from quadsim.sensors.camera import RendererKind
-from quadsim.sim.config import Rates
+from quadsim.physics.wind import Turbulence, WindSettings, parse_wind
+from quadsim.sim.config import MAX_SEED, Rates
 from quadsim.vehicle.params import DEFAULT_VEHICLE, SHIPPED_VEHICLES
 
 if TYPE_CHECKING:
@@ -99,7 +100,8 @@ def _add_sim_options(p: argparse.ArgumentParser) -> None:
         "--vehicle",
         choices=list(SHIPPED_VEHICLES),
         default=None,
-        help=f"a shipped airframe: quad (X quadrotor) or hexa (hexacopter); default {DEFAULT_VEHICLE}",
+        help="a shipped airframe: quad (1 kg X quadrotor), hexa (hexacopter) or crazyflie (a 27 g "
+        f"Crazyflie 2.x sized quadrotor); default {DEFAULT_VEHICLE}",
     )
     v.add_argument(
         "--urdf",
@@ -133,6 +135,36 @@ def _add_sim_options(p: argparse.ArgumentParser) -> None:
         help="dead-man timeout: hold position after S seconds without a command (default 0.5)",
     )
     g.add_argument("--gui", action="store_true", help="also open PyBullet's own 3D window (needs a display)")
+    w = p.add_argument_group("wind, noise and randomness")
+    w.add_argument(
+        "--wind",
+        default=None,
+        metavar="SPEED,FROM",
+        help="a constant wind of SPEED m/s blowing FROM a direction in degrees, meteorological style: "
+        "clockwise from north, north being the world's +y and east its +x (REP 103). 3,90 is 3 m/s from "
+        "the east, the air moving toward -x (default: no wind)",
+    )
+    w.add_argument(
+        "--turbulence",
+        choices=[t.value for t in Turbulence],
+        default=None,
+        help="Dryden turbulence on top of the wind, with the MIL-F-8785C low-altitude intensities "
+        "(15, 30, 45 knots at 20 ft): light, moderate or severe (default: none)",
+    )
+    w.add_argument(
+        "--no-sensor-noise",
+        action="store_true",
+        help="publish the true IMU values on /quad/imu (default: with the MEMS noise and bias random "
+        "walk of the vehicle's parameter file; /quad/odom and /quad/pose are always ground truth)",
+    )
+    w.add_argument(
+        "--seed",
+        type=_whole(0, MAX_SEED),
+        default=0,
+        metavar="N",
+        help="the run's random seed: turbulence and sensor noise derive from it, and it is recorded, "
+        "so a run re-flies bit for bit (default 0)",
+    )
     o = p.add_argument_group("recording and cameras")
     o.add_argument(
         "--out",
@@ -190,7 +222,16 @@ def _config(args: argparse.Namespace, script_z_mode: ZMode | None):
         command_timeout_s=args.timeout,
         start=StartPose(),
         gui=args.gui,
+        wind=_wind(args),
+        sensor_noise=not args.no_sensor_noise,
+        seed=args.seed,
     )
+
+
+def _wind(args: argparse.Namespace) -> WindSettings:
+    speed, from_deg = parse_wind(args.wind) if args.wind is not None else (0.0, 0.0)
+    turbulence = Turbulence(args.turbulence) if args.turbulence else None
+    return WindSettings(speed, from_deg, turbulence)
 
 
 def _outputs(args: argparse.Namespace):
@@ -260,7 +301,7 @@ def _fly_script(args: argparse.Namespace, script_name: str, realtime: bool) -> i
     print(
         f"flying '{script.name}' for {duration:.1f} s: controller {config.controller.value}, "
         f"z-mode {config.z_mode.value}, physics {config.rates.physics_hz} Hz, control {config.rates.control_hz} Hz, "
-        f"cameras {cams}"
+        f"cameras {cams}" + (f", {config.wind.describe()}" if config.wind.enabled else "")
     )
     bar = ProgressBar(duration, "sim time")
     label = f"{Path(script.name).stem}_{config.controller.value}"

@@ -5,7 +5,8 @@ Stepping order, once per physics step n (time n / physics_hz):
                                        poll the driver; the gate takes its command, stamped n
   2. control (n % control_every == 0): the controller turns state + active command into rotor forces
   3. physics:                          motors, forces, one PyBullet step -> step n + 1 (only here)
-  4. publish ((n + 1) % state_every == 0): sinks receive the state at step n + 1
+  4. publish ((n + 1) % state_every == 0): the IMU noise takes its sample (sinks or not), and
+                                       sinks receive the state at step n + 1
   5. taps    ((n + 1) % every == 0):       e.g. the cameras capture the state at step n + 1
 Nothing here reads the wall clock; only a window paces these steps to real time.
 """
@@ -21,6 +22,7 @@ from quadsim.core.types import RotorForces, Twist, VehicleState
 from quadsim.drivers import InputDriver
 from quadsim.errors import ConfigError
 from quadsim.physics.pybullet_world import PhysicsWorld
+from quadsim.sensors.imu import ImuNoise
 from quadsim.sim.config import Rates
 
 
@@ -79,6 +81,7 @@ class SimLoop:
         gate: CommandGate,
         rates: Rates,
         driver: InputDriver | None = None,
+        imu: ImuNoise | None = None,
     ) -> None:
         if abs(physics.dt_s * rates.physics_hz - 1.0) > 1e-12:
             raise ConfigError("the physics world and the loop disagree on the physics rate")
@@ -87,6 +90,7 @@ class SimLoop:
         self.gate = gate
         self.rates = rates
         self.driver = driver
+        self.imu = imu
         self.sinks: list[Sink] = []
         self._taps: list[tuple[int, Callable[[VehicleState], None]]] = []
         self.step_count = 0
@@ -125,6 +129,8 @@ class SimLoop:
         self.physics.reset()
         self.controller.reset()
         self.gate.reset()
+        if self.imu is not None:
+            self.imu.reset()
         self.step_count = 0
         self._rotor_command = self._idle
 
@@ -133,7 +139,7 @@ class SimLoop:
         physics, controller, gate, driver = self.physics, self.controller, self.gate, self.driver
         input_every, control_every, state_every = self._input_every, self._control_every, self._state_every
         control_dt, hz = self._control_dt_s, self.rates.physics_hz
-        sinks, taps = self.sinks, self._taps
+        sinks, taps, imu = self.sinks, self._taps, self.imu
         n = self.step_count
         command = self._rotor_command
         # the state after a step is built once, only if someone takes it: the sinks and taps of
@@ -152,10 +158,14 @@ class SimLoop:
             physics._step(command)
             n += 1
             state = None
-            if n % state_every == 0 and sinks:
-                state = physics.state(n)
-                for sink in sinks:
-                    sink.on_state(state)
+            if n % state_every == 0:
+                if imu is not None:
+                    state = imu.measure(physics.state(n))
+                if sinks:
+                    if state is None:
+                        state = physics.state(n)
+                    for sink in sinks:
+                        sink.on_state(state)
             for every, tap in taps:
                 if n % every == 0:
                     if state is None:
