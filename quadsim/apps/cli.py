@@ -20,10 +20,10 @@ from quadsim.apps.stopping import exit_code as stop_exit_code
 from quadsim.control import ControllerKind
 from quadsim.core.types import StartPose, ZMode
 from quadsim.errors import QuadsimError
+from quadsim.physics.wind import Turbulence, WindSettings, parse_wind
 from quadsim.recording.paths import ENV_VAR as RECORDINGS_ENV_VAR
 from quadsim.recording.paths import default_recordings_dir
 from quadsim.sensors.camera import RendererKind
-from quadsim.physics.wind import Turbulence, WindSettings, parse_wind
 from quadsim.sim.config import MAX_SEED, Rates
 from quadsim.vehicle.params import DEFAULT_VEHICLE, SHIPPED_VEHICLES
 
@@ -423,29 +423,29 @@ def cmd_scenarios(args: argparse.Namespace) -> int:
 
 
 def cmd_evaluate(args: argparse.Namespace) -> int:
-    from quadsim.apps.evaluate import SCENARIO_METRICS, TARGETS, evaluate
+    from quadsim.apps.evaluate import PHYSICS_TARGETS, TARGETS, evaluate
 
     controllers = [ControllerKind(c) for c in args.controller] if args.controller else list(ControllerKind)
     results = {c: evaluate(controller=c) for c in controllers}
     rows = [
         (s, m)
-        for s, fn in SCENARIO_METRICS.items()
-        for m in results[controllers[0]][s]
+        for s, metrics in results[controllers[0]].items()
+        for m in metrics
         if m not in ("max_tilt_deg", "min_z_m", "max_z_m", "rate_mean_radps", "peak_mps")
     ]
-    targets = {(s, m): bound for s, m, bound in TARGETS}
+    targets = {(s, m): "< " + format(bound, "g") for s, m, bound in TARGETS}
+    targets.update({(s, m): f"{low:g} .. {high:g}" if low else f"< {high:g}" for s, m, low, high in PHYSICS_TARGETS})
     header = "| scenario | metric | target (cascade) | " + " | ".join(c.value for c in controllers) + " |"
     print(header)
     print("|" + "---|" * (3 + len(controllers)))
     for s, m in rows:
-        bound = targets.get((s, m))
         cells = " | ".join(f"{results[c][s][m]:.3f}" for c in controllers)
-        print(f"| {s} | {m} | {'< ' + format(bound, 'g') if bound is not None else ''} | {cells} |")
+        print(f"| {s} | {m} | {targets.get((s, m), '')} | {cells} |")
     print(
         "| "
         + " | ".join(
             ["all", "max tilt (deg)", ""]
-            + [f"{max(r['max_tilt_deg'] for r in results[c].values()):.1f}" for c in controllers]
+            + [f"{max(r.get('max_tilt_deg', 0.0) for r in results[c].values()):.1f}" for c in controllers]
         )
         + " |"
     )

@@ -43,12 +43,17 @@ def load_gains(vehicle: VehicleParams, section: str, gains_type: type[G], overri
     extra = sorted(set(values) - names)
     missing = sorted(names - set(values))
     if extra or missing:
-        raise ConfigError(f"{path}: [{section}] " + "; ".join(
-            part for part in (
-                f"unknown gains {', '.join(extra)}" if extra else "",
-                f"missing gains {', '.join(missing)}" if missing else "",
-            ) if part
-        ))
+        raise ConfigError(
+            f"{path}: [{section}] "
+            + "; ".join(
+                part
+                for part in (
+                    f"unknown gains {', '.join(extra)}" if extra else "",
+                    f"missing gains {', '.join(missing)}" if missing else "",
+                )
+                if part
+            )
+        )
     for key, value in values.items():
         if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
             raise ConfigError(f"{path}: [{section}] {key} must be a finite number, got {value!r}")

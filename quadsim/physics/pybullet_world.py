@@ -143,7 +143,9 @@ class PhysicsWorld:
         """Put the vehicle at `position_m` (base_link origin), level, at rest, facing its start
         heading, the motors producing `thrusts_n` (default: stopped). For measurements and
         tests that start in the air; the loop's clock is not touched."""
-        pb.resetBasePositionAndOrientation(self.body_id, position_m, self._spawn_orientation(), physicsClientId=self._cid)
+        pb.resetBasePositionAndOrientation(
+            self.body_id, position_m, self._spawn_orientation(), physicsClientId=self._cid
+        )
         pb.resetBaseVelocity(self.body_id, (0.0, 0.0, 0.0), (0.0, 0.0, 0.0), physicsClientId=self._cid)
         self.motors.reset(thrusts_n)
         self._read_kinematics()
