@@ -21,15 +21,17 @@ from quadsim.apps.outputs import OutputOptions, RecordedRun  # noqa: E402
 from quadsim.apps.window.pacing import FixedStepPacer  # noqa: E402
 from quadsim.apps.window.teleop import TeleopApp, TeleopOptions  # noqa: E402
 from quadsim.drivers.scripted import ScriptedDriver, load_script  # noqa: E402
+from quadsim.physics.wind import Turbulence, WindSettings  # noqa: E402
 
 OUT = ROOT / "tests" / "recordings"
 
 
-def scripted(name: str, controller: ControllerKind) -> Path:
+def scripted(name: str, controller: ControllerKind, wind: WindSettings = WindSettings(), seed: int = 0) -> Path:
     script = load_script(name)
-    path = OUT / f"{name}_{controller.value}.mcap"
+    windy = f"_{wind.turbulence.value}_wind" if wind.turbulence else ""
+    path = OUT / f"{name}{windy}_{controller.value}.mcap"
     path.unlink(missing_ok=True)
-    config = SimConfig(controller=controller, z_mode=script.z_mode or ZMode.VELOCITY)
+    config = SimConfig(controller=controller, z_mode=script.z_mode or ZMode.VELOCITY, wind=wind, seed=seed)
     with Simulator(config, ScriptedDriver(script)) as sim:
         with RecordedRun(
             sim, sim.description(), OutputOptions(out=path, cameras=()), name, {"command": "run", "script": name}
@@ -82,6 +84,8 @@ if __name__ == "__main__":
         scripted("square", ControllerKind.CASCADE),
         scripted("figure8", ControllerKind.SEED),
         scripted("climb", ControllerKind.CASCADE),
+        # wind, turbulence and IMU noise re-fly bit for bit from the recorded seed
+        scripted("takeoff", ControllerKind.CASCADE, WindSettings(5.0, 90.0, Turbulence.MODERATE), seed=7),
         keyboard_session(),
     ):
         print(f"{made.relative_to(ROOT)}: {made.stat().st_size / 1e3:.0f} kB")
