@@ -3,7 +3,8 @@
 Each axis either tracks the commanded rate (horizontal velocity in the heading frame, climb
 rate, yaw rate) or, when that part of the command is zero or the dead-man has fired, holds
 what it had once the vehicle has slowed down (position, altitude, heading). Hover thrust is fed
-forward; tilt, climb rate and body rates are saturated; integrators stop while saturated.
+forward, less near the ground by the airframe's ground-effect ratio (or a vehicle armed on the
+ground would lift off its skids before the integrator caught up); tilt, climb rate and body rates are saturated; integrators stop while saturated.
 
 The update is written with plain floats, not numpy: at 240 Hz it is the hot path.
 """
@@ -18,7 +19,7 @@ from quadsim.control import ControllerKind
 from quadsim.control.gains import load_gains
 from quadsim.core.kinematics import clamp, matrix_from_quaternion
 from quadsim.core.types import HEIGHT_MODE_BASE_M, ActiveCommand, RotorForces, VehicleState, ZMode
-from quadsim.vehicle.aero import rotor_speed_radps
+from quadsim.vehicle.aero import ground_effect_ratio, rotor_speed_radps
 from quadsim.vehicle.mixer import Mixer
 from quadsim.vehicle.params import VehicleParams
 
@@ -78,6 +79,10 @@ class CascadeController:
         self._drag_q_xy = aero.body_drag_quadratic_ns2_per_m2[0] / m
         self._drag_q_z = aero.body_drag_quadratic_ns2_per_m2[2] / m
         self._tan_tilt = math.tan(gains.max_tilt_rad)
+        # the rotor hubs' mean position relative to the base origin, for their height above the floor
+        n = len(vehicle.rotors)
+        self._hub = tuple(sum(c + r.position_m[i] for r in vehicle.rotors) / n for i, c in enumerate(vehicle.com_m))
+        self._ground_effect = aero.ground_effect
         self.reset()
 
     def describe(self) -> dict[str, Any]:
@@ -202,6 +207,12 @@ class CascadeController:
         thrust = fx * r02 + fy * r12 + fz * r22
         if thrust < 0.0:
             thrust = 0.0
+        if self._ground_effect:
+            hx, hy, hz = self._hub
+            aero = self.vehicle.aero
+            thrust /= ground_effect_ratio(
+                pz + r20 * hx + r21 * hy + r22 * hz, aero.rotor_radius_m, aero.ground_effect_max_ratio
+            )
         norm = math.sqrt(fx * fx + fy * fy + fz * fz)
         bx, by, bz = fx / norm, fy / norm, fz / norm
         # wanted body z expressed in the body frame; tilt error about e3 x d
