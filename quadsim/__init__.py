@@ -28,8 +28,10 @@ _PUBLIC = {
     "Simulator": "quadsim.sim.simulator",
     "StartPose": "quadsim.core.types",
     "StateLog": "quadsim.sim.loop",
+    "Turbulence": "quadsim.physics.wind",
     "Twist": "quadsim.core.types",
     "VehicleState": "quadsim.core.types",
+    "WindSettings": "quadsim.physics.wind",
     "ZMode": "quadsim.core.types",
 }
 
@@ -44,8 +46,10 @@ __all__ = [
     "Simulator",
     "StartPose",
     "StateLog",
+    "Turbulence",
     "Twist",
     "VehicleState",
+    "WindSettings",
     "ZMode",
     "__version__",
 ]
@@ -68,6 +72,7 @@ if TYPE_CHECKING:  # for type checkers and IDEs: the same names, eagerly
     from quadsim.control import ControllerKind
     from quadsim.core.types import ActiveCommand, StartPose, Twist, VehicleState, ZMode
     from quadsim.errors import ConfigError, QuadsimError, ScriptError
+    from quadsim.physics.wind import Turbulence, WindSettings
     from quadsim.sim.config import Rates, SimConfig
     from quadsim.sim.loop import StateLog
     from quadsim.sim.simulator import Simulator

@@ -9,6 +9,7 @@ from rosbags.typesys import Stores, get_typestore
 from quadsim import SimConfig, Simulator, StateLog, Twist, ZMode
 from quadsim.apps.outputs import OutputOptions, RecordedRun
 from quadsim.core.kinematics import body_velocity, quaternion_from_matrix
+from quadsim.physics.wind import Turbulence, WindSettings
 from quadsim.recording.contract import optical_rotation
 from quadsim.recording.fanout import TopicFanout
 from quadsim.sensors.camera import CameraFrame, default_cameras
@@ -87,9 +88,9 @@ def _state_references(s, ns):
                 header=_header(ns, "base_link"),
                 orientation=_quat(s.orientation_xyzw),
                 orientation_covariance=zeros9,
-                angular_velocity=_vec(s.angular_velocity_body_rps),
+                angular_velocity=_vec(s.imu.angular_velocity_body_rps),  # the noisy reading
                 angular_velocity_covariance=zeros9,
-                linear_acceleration=_vec(s.specific_force_body_mps2),
+                linear_acceleration=_vec(s.imu.specific_force_body_mps2),
                 linear_acceleration_covariance=zeros9,
             ),
         ),
@@ -108,13 +109,15 @@ def _state_references(s, ns):
                 transforms=[_transform(ns, "world", "base_link", s.position_m, s.orientation_xyzw)]
             ),
         ),
+        ("/wind", T["geometry_msgs/msg/Vector3Stamped"](header=_header(ns, "world"), vector=_vec(s.wind_mps))),
     ]
 
 
 @pytest.fixture(scope="module")
 def flown():
     log = StateLog()
-    with Simulator(SimConfig(z_mode=ZMode.HEIGHT)) as sim:
+    wind = WindSettings(4.0, 45.0, Turbulence.LIGHT)
+    with Simulator(SimConfig(z_mode=ZMode.HEIGHT, wind=wind, seed=7)) as sim:
         sim.add_sink(log)
         sim.send(Twist(linear_x=1.0, linear_z=0.5, angular_z=0.4))
         sim.run_for(3.0)
@@ -136,10 +139,13 @@ def test_states_and_commands_become_the_contracts_bytes(flown):
         ref = T["geometry_msgs/msg/Twist"](linear=_vec(twist[:3]), angular=_vec(twist[3:]))
         assert (topic.name, ns, data) == ("/quad_cmd_twist", step * 1_000_000_000 // 240, _ref(ref))
     states = consumer.messages[len(log.commands) :]
-    assert len(states) == 5 * len(log.states) == 5 * 180
+    # pose, odometry, IMU (with its noise: not the true rates), thrusts, /tf and /wind
+    assert len(states) == 6 * len(log.states) == 6 * 180
+    assert all(s.imu is not None and s.imu.angular_velocity_body_rps != s.angular_velocity_body_rps for s in log.states)
+    assert consumer.topics[-1] == "/wind"
     for i, state in enumerate(log.states):
         ns = state.step * 1_000_000_000 // 240
-        got = [(topic.name, stamp, data) for topic, stamp, data in states[5 * i : 5 * i + 5]]
+        got = [(topic.name, stamp, data) for topic, stamp, data in states[6 * i : 6 * i + 6]]
         assert got == [(name, ns, _ref(msg)) for name, msg in _state_references(state, ns)]
 
 
@@ -160,8 +166,8 @@ def test_every_consumer_gets_the_same_messages_and_latecomers_the_latched_ones(f
     assert late.messages[0][0].name == "/tf_static" and late.messages[0][1] == late_step * 1_000_000_000 // 240
     late_static = TS.deserialize_cdr(late.messages[0][2], "tf2_msgs/msg/TFMessage").transforms[0]
     assert late_static.header.stamp.sec * 1_000_000_000 + late_static.header.stamp.nanosec == late.messages[0][1]
-    assert late.messages[1:] == first.messages[1 + 50 :]
-    assert all(a is b for a, b in zip(late.messages[1:], first.messages[51:]))  # the same objects: encoded once
+    assert late.messages[1:] == first.messages[1 + 60 :]  # 10 states of 6 messages
+    assert all(a is b for a, b in zip(late.messages[1:], first.messages[61:]))  # the same objects: encoded once
     spec, mount = mounts[0]
     static = TS.deserialize_cdr(first.messages[0][2], "tf2_msgs/msg/TFMessage").transforms[0]
     assert (static.header.frame_id, static.child_frame_id) == ("base_link", spec.optical_frame)

@@ -110,7 +110,7 @@ def test_check_passes_then_fails_with_a_readable_report(tmp_path):
         ROOT / "tests" / "recordings" / "square_cascade.mcap",
         changed,
         "quadsim_x.params.toml",
-        lambda d: d.replace(b"[0.12, 0.12, 0.20]", b"[0.30, 0.30, 0.20]"),
+        lambda d: d.replace(b"rotor_drag_ns_per_m_rad = 1.7e-4", b"rotor_drag_ns_per_m_rad = 4.0e-4"),
     )
     out = cli("check", changed)
     assert out.returncode == 1

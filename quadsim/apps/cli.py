@@ -21,10 +21,11 @@ from quadsim.control import ControllerKind
 from quadsim.core.types import StartPose, ZMode
 from quadsim.errors import QuadsimError
 from quadsim.live import FOXGLOVE_DEFAULT_ENDPOINT
+from quadsim.physics.wind import Turbulence, WindSettings, parse_wind
 from quadsim.recording.paths import ENV_VAR as RECORDINGS_ENV_VAR
 from quadsim.recording.paths import default_recordings_dir
 from quadsim.sensors.camera import RendererKind
-from quadsim.sim.config import Rates
+from quadsim.sim.config import MAX_SEED, Rates
 from quadsim.vehicle.params import DEFAULT_VEHICLE, SHIPPED_VEHICLES
 
 if TYPE_CHECKING:
@@ -104,7 +105,8 @@ def _add_sim_options(p: argparse.ArgumentParser) -> None:
         "--vehicle",
         choices=list(SHIPPED_VEHICLES),
         default=None,
-        help=f"a shipped airframe: quad (X quadrotor) or hexa (hexacopter); default {DEFAULT_VEHICLE}",
+        help="a shipped airframe: quad (1 kg X quadrotor), hexa (hexacopter) or crazyflie (a 27 g "
+        f"Crazyflie 2.x sized quadrotor); default {DEFAULT_VEHICLE}",
     )
     v.add_argument(
         "--urdf",
@@ -150,6 +152,36 @@ def _add_sim_options(p: argparse.ArgumentParser) -> None:
         "landed; the clock, the commands and the recording go on",
     )
     g.add_argument("--gui", action="store_true", help="also open PyBullet's own 3D window (needs a display)")
+    w = p.add_argument_group("wind, noise and randomness")
+    w.add_argument(
+        "--wind",
+        default=None,
+        metavar="SPEED,FROM",
+        help="a constant wind of SPEED m/s blowing FROM a direction in degrees, meteorological style: "
+        "clockwise from north, north being the world's +y and east its +x (REP 103). 3,90 is 3 m/s from "
+        "the east, the air moving toward -x (default: no wind)",
+    )
+    w.add_argument(
+        "--turbulence",
+        choices=[t.value for t in Turbulence],
+        default=None,
+        help="Dryden turbulence on top of the wind, with the MIL-F-8785C low-altitude intensities "
+        "(15, 30, 45 knots at 20 ft): light, moderate or severe (default: none)",
+    )
+    w.add_argument(
+        "--no-sensor-noise",
+        action="store_true",
+        help="publish the true IMU values on /quad/imu (default: with the MEMS noise and bias random "
+        "walk of the vehicle's parameter file; /quad/odom and /quad/pose are always ground truth)",
+    )
+    w.add_argument(
+        "--seed",
+        type=_whole(0, MAX_SEED),
+        default=0,
+        metavar="N",
+        help="the run's random seed: turbulence and sensor noise derive from it, and it is recorded, "
+        "so a run re-flies bit for bit (default 0)",
+    )
     o = p.add_argument_group("recording and cameras")
     o.add_argument(
         "--out",
@@ -235,6 +267,9 @@ def _config(args: argparse.Namespace, script_z_mode: ZMode | None):
         command_timeout_s=args.timeout,
         start=StartPose(),
         gui=args.gui,
+        wind=_wind(args),
+        sensor_noise=not args.no_sensor_noise,
+        seed=args.seed,
     )
 
 
@@ -243,6 +278,12 @@ def _flight_settings(args: argparse.Namespace) -> dict[str, Any]:
     from quadsim.control.landing import LandingSettings
 
     return {"landing": LandingSettings(hard_landing=args.hard_landing), "reset_on_crash": args.reset_on_crash}
+
+
+def _wind(args: argparse.Namespace) -> WindSettings:
+    speed, from_deg = parse_wind(args.wind) if args.wind is not None else (0.0, 0.0)
+    turbulence = Turbulence(args.turbulence) if args.turbulence else None
+    return WindSettings(speed, from_deg, turbulence)
 
 
 def _outputs(args: argparse.Namespace):
@@ -380,7 +421,7 @@ def _fly_headless(
     print(
         f"flying {what}: controller {config.controller.value}, "
         f"z-mode {(config.z_mode or ZMode.VELOCITY).value}, physics {config.rates.physics_hz} Hz, control {config.rates.control_hz} Hz, "
-        f"cameras {cams}"
+        f"cameras {cams}" + (f", {config.wind.describe()}" if config.wind.enabled else "")
     )
     bar = ProgressBar(duration, "sim time") if commands is None else None
     summary, run, sim_time = None, None, 0.0
@@ -529,28 +570,26 @@ def cmd_scenarios(args: argparse.Namespace) -> int:
 
 
 def cmd_evaluate(args: argparse.Namespace) -> int:
-    from quadsim.apps.evaluate import MANOEUVRE_METRICS, MANOEUVRE_TARGETS, SCENARIO_METRICS, TARGETS, evaluate
+    from quadsim.apps.evaluate import MANOEUVRE_TARGETS, PHYSICS_TARGETS, SCENARIO_METRICS, TARGETS, evaluate
 
     controllers = [ControllerKind(c) for c in args.controller] if args.controller else list(ControllerKind)
     results = {c: evaluate(controller=c) for c in controllers}
     details = {"max_tilt_deg", "min_z_m", "max_z_m", "rate_mean_radps", "peak_mps"}
     details |= {"landed", "final_z_m", "drops", "heading_rate_radps", "bank_deg"}
-    rows = [
-        (s, m) for s in [*SCENARIO_METRICS, *MANOEUVRE_METRICS] for m in results[controllers[0]][s] if m not in details
-    ]
-    targets = {(s, m): bound for s, m, bound in (*TARGETS, *MANOEUVRE_TARGETS)}
+    rows = [(s, m) for s, metrics in results[controllers[0]].items() for m in metrics if m not in details]
+    targets = {(s, m): "< " + format(bound, "g") for s, m, bound in (*TARGETS, *MANOEUVRE_TARGETS)}
+    targets.update({(s, m): f"{low:g} .. {high:g}" if low else f"< {high:g}" for s, m, low, high in PHYSICS_TARGETS})
     header = "| scenario | metric | target (cascade) | " + " | ".join(c.value for c in controllers) + " |"
     print(header)
     print("|" + "---|" * (3 + len(controllers)))
     for s, m in rows:
-        bound = targets.get((s, m))
         cells = " | ".join(f"{results[c][s][m]:.3f}" for c in controllers)
-        print(f"| {s} | {m} | {'< ' + format(bound, 'g') if bound is not None else ''} | {cells} |")
+        print(f"| {s} | {m} | {targets.get((s, m), '')} | {cells} |")
     print(
         "| "
         + " | ".join(
-            ["all", "max tilt (deg)", ""]
-            + [f"{max(r.get('max_tilt_deg', 0.0) for r in results[c].values()):.1f}" for c in controllers]
+            ["all scenarios", "max tilt (deg)", ""]
+            + [f"{max(results[c][s]['max_tilt_deg'] for s in SCENARIO_METRICS):.1f}" for c in controllers]
         )
         + " |"
     )

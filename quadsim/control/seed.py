@@ -41,6 +41,7 @@ from dataclasses import asdict, dataclass
 from typing import Any
 
 from quadsim.control import ControllerKind
+from quadsim.control.gains import load_gains
 from quadsim.core.kinematics import clamp, matrix_from_quaternion
 from quadsim.core.types import HEIGHT_MODE_BASE_M, ActiveCommand, RotorForces, VehicleState, ZMode
 from quadsim.errors import ConfigError
@@ -54,18 +55,18 @@ _IDLE: RotorForces = (0.0, 0.0, 0.0, 0.0)
 
 @dataclass(frozen=True)
 class SeedGains:
-    """The original script's constants, unchanged."""
+    """The original script's constants, unchanged: the [seed] table of the airframe's NAME.gains.toml."""
 
-    p: float = 2.0  # pParam
-    i: float = 0.001  # iParam (per DT_REF step)
-    d: float = 0.001  # dParam (per DT_REF step)
-    v: float = -2.0  # vParam
-    attitude_p: float = 0.25
-    attitude_d: float = 2.1  # per DT_REF step
-    velocity_p: float = 0.05
-    velocity_d: float = 0.05  # per DT_REF step
-    yaw_p: float = 1.0
-    yaw_d: float = 1.0  # per DT_REF step
+    p: float
+    i: float
+    d: float
+    v: float
+    attitude_p: float
+    attitude_d: float
+    velocity_p: float
+    velocity_d: float
+    yaw_p: float
+    yaw_d: float
 
 
 def _check_layout(vehicle: VehicleParams) -> None:
@@ -89,8 +90,10 @@ def _check_layout(vehicle: VehicleParams) -> None:
 class SeedController:
     kind = ControllerKind.SEED
 
-    def __init__(self, vehicle: VehicleParams, gains: SeedGains = SeedGains()) -> None:
+    def __init__(self, vehicle: VehicleParams, gains: SeedGains | None = None) -> None:
         _check_layout(vehicle)
+        if gains is None:
+            gains = load_gains(vehicle, ControllerKind.SEED.value, SeedGains)
         self.vehicle = vehicle
         self.gains = gains
         self._newton_per_command = vehicle.hover_thrust_per_rotor_n / HOVER_COMMAND

@@ -31,6 +31,7 @@ from quadsim.recording.contract import (
     TF,
     TF_STATIC,
     TWIST,
+    WIND,
     WORLD_FRAME,
     WORLD_MARKERS,
     Topic,
@@ -168,22 +169,29 @@ class TopicFanout:
             self._publish(((TWIST, self.ns(step), cdr.twist(twist[:3], twist[3:])),))
 
     def on_state(self, state: VehicleState) -> None:
-        """A state -> pose, odometry, IMU, rotor thrusts and /tf, all stamped at its step."""
+        """A state -> pose, odometry, IMU (its noisy reading where the run has one), rotor
+        thrusts, /tf and, in runs with wind, /wind, all stamped at its step."""
         if not self.consumers:
             return
         ns = state.step * NS_PER_S // self.physics_hz
         p, q, rates = state.position_m, state.orientation_xyzw, state.angular_velocity_body_rps
         thrusts = state.rotor_thrusts_n
         velocity = body_velocity(q, state.linear_velocity_mps)  # odometry's twist is in base_link
-        self._publish(
-            (
-                (POSE, ns, self._pose(ns, p, q)),
-                (ODOM, ns, self._odometry(ns, p, q, velocity, rates)),
-                (IMU, ns, self._imu(ns, q, rates, state.specific_force_body_mps2)),
-                (ROTOR_THRUSTS, ns, _thrusts_encoder(len(thrusts))(thrusts)),
-                (TF, ns, self._tf(ns, p, q)),
-            )
-        )
+        imu = state.imu
+        imu_rates, specific_force = (
+            (rates, state.specific_force_body_mps2) if imu is None else imu
+        )  # ground truth stays on pose and odometry
+        messages = [
+            (POSE, ns, self._pose(ns, p, q)),
+            (ODOM, ns, self._odometry(ns, p, q, velocity, rates)),
+            (IMU, ns, self._imu(ns, q, imu_rates, specific_force)),
+            (ROTOR_THRUSTS, ns, _thrusts_encoder(len(thrusts))(thrusts)),
+            (TF, ns, self._tf(ns, p, q)),
+        ]
+        if state.wind_mps is not None:
+            self.declare(WIND)
+            messages.append((WIND, ns, cdr.vector3_stamped(ns, WORLD_FRAME, state.wind_mps)))
+        self._publish(messages)
 
     def on_camera_frame(self, frame: CameraFrame) -> None:
         """An encoded frame -> its CompressedImage and the matching CameraInfo."""

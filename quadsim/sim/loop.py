@@ -8,7 +8,8 @@ Stepping order, once per physics step n (time n / physics_hz):
   3. physics:                          motors, forces, one PyBullet step -> step n + 1 (only here)
   4. contacts:                         touchdown and crash events at n + 1 (and the reset after a
                                        crash, if asked for)
-  5. publish ((n + 1) % state_every == 0): sinks receive the state at step n + 1
+  5. publish ((n + 1) % state_every == 0): the IMU noise takes its sample (sinks or not), and
+                                       sinks receive the state at step n + 1
   6. taps    ((n + 1) % every == 0):       e.g. the cameras capture the state at step n + 1
 Nothing here reads the wall clock; only a window paces these steps to real time.
 """
@@ -25,6 +26,7 @@ from quadsim.core.types import RotorForces, Twist, VehicleState
 from quadsim.drivers import InputDriver
 from quadsim.errors import ConfigError
 from quadsim.physics.pybullet_world import PhysicsWorld
+from quadsim.sensors.imu import ImuNoise
 from quadsim.sim.config import Rates
 from quadsim.sim.flight_events import WALL_NORMAL_Z, ContactMonitor, EventKind, FlightEvent
 
@@ -89,6 +91,7 @@ class SimLoop:
         driver: InputDriver | None = None,
         landing: LandingSettings = LandingSettings(),
         reset_on_crash: bool = False,
+        imu: ImuNoise | None = None,
     ) -> None:
         if abs(physics.dt_s * rates.physics_hz - 1.0) > 1e-12:
             raise ConfigError("the physics world and the loop disagree on the physics rate")
@@ -96,6 +99,7 @@ class SimLoop:
         self.gate = gate
         self.rates = rates
         self.driver = driver
+        self.imu = imu
         self.sinks: list[Sink] = []
         self.landing = LandingLayer(
             controller, physics.vehicle.limits, physics.rest_height_m, len(physics.vehicle.rotors), landing
@@ -155,6 +159,8 @@ class SimLoop:
         self.landing.reset()
         self.contact_monitor.reset()
         self.gate.reset()
+        if self.imu is not None:
+            self.imu.reset()
         self.step_count = 0
         self._rotor_command = self._idle
         self._on_ground = True
@@ -196,7 +202,7 @@ class SimLoop:
         physics, landing, gate, driver = self.physics, self.landing, self.gate, self.driver
         input_every, control_every, state_every = self._input_every, self._control_every, self._state_every
         control_dt, hz = self._control_dt_s, self.rates.physics_hz
-        sinks, taps = self.sinks, self._taps
+        sinks, taps, imu = self.sinks, self._taps, self.imu
         n = self.step_count
         command = self._rotor_command
         # the state after a step is built once, only if someone takes it: the sinks and taps of
@@ -225,10 +231,14 @@ class SimLoop:
             state = None
             if self._after_contact(n):
                 command = self._idle
-            if n % state_every == 0 and sinks:
-                state = physics.state(n)
-                for sink in sinks:
-                    sink.on_state(state)
+            if n % state_every == 0:
+                if imu is not None:
+                    state = imu.measure(physics.state(n))
+                if sinks:
+                    if state is None:
+                        state = physics.state(n)
+                    for sink in sinks:
+                        sink.on_state(state)
             for every, tap in taps:
                 if n % every == 0:
                     if state is None:

@@ -15,6 +15,8 @@ from collections.abc import Callable
 from dataclasses import asdict, replace
 from typing import Any
 
+import numpy as np
+
 from quadsim.control import make_controller
 from quadsim.control.gate import CommandGate
 from quadsim.control.landing import FlightPhase, LandingSettings
@@ -24,6 +26,7 @@ from quadsim.drivers.programmatic import ProgrammaticDriver
 from quadsim.errors import QuadsimError
 from quadsim.physics.pybullet_world import PhysicsWorld
 from quadsim.physics.world_spec import load_world
+from quadsim.sensors.imu import ImuNoise
 from quadsim.sim.config import SimConfig
 from quadsim.sim.description import ControllerDescription, RunDescription, VehicleDescription
 from quadsim.sim.flight_events import FlightEvent
@@ -56,9 +59,22 @@ class Simulator:
         self.gate = CommandGate(
             self.vehicle.limits, self.z_mode, None if timeout is None else round(timeout * rates.physics_hz)
         )
-        self.physics = PhysicsWorld(self.vehicle, self.world, rates.physics_hz, config.start, config.gui)
+        # one seed per run; each random stream gets its own child of it, so adding a stream or
+        # turning one off leaves the others unchanged
+        wind_seed, imu_seed = np.random.SeedSequence(config.seed).spawn(2)
+        self.physics = PhysicsWorld(
+            self.vehicle, self.world, rates.physics_hz, config.start, config.gui, config.wind, wind_seed
+        )
+        imu = ImuNoise(self.vehicle.imu_noise, rates.state_hz, imu_seed) if config.sensor_noise else None
         self.loop = SimLoop(
-            self.physics, self.controller, self.gate, rates, self.driver, landing=landing, reset_on_crash=reset_on_crash
+            self.physics,
+            self.controller,
+            self.gate,
+            rates,
+            self.driver,
+            landing=landing,
+            reset_on_crash=reset_on_crash,
+            imu=imu,
         )
 
     # --- commanding -------------------------------------------------------------------------
