@@ -79,7 +79,7 @@ def test_the_runs_are_the_product_of_the_axes_in_order(tmp_path: Path) -> None:
     spec = load_sweep(spec_file)
     assert len(spec.runs) == 2 * 3 * 2
     assert [r.index for r in spec.runs] == list(range(12))
-    assert spec.runs[0].key == "scenario=hover airframe=quad controller=cascade wind=0 turbulence=none seed=0"
+    assert spec.runs[0].key == "scenario=hover airframe=quad controller=cascade wind=0,0 turbulence=none seed=0"
     assert spec.runs[1].seed == 1 and spec.runs[2].controller.name == "seed"
     assert spec.runs[4].controller.gains == (("velocity_p_xy_per_s", 0.8),)
     assert spec.varied == ("scenario", "controller")
@@ -93,7 +93,7 @@ def test_the_runs_are_the_product_of_the_axes_in_order(tmp_path: Path) -> None:
         ('scenarios = ["nowhere"]', "unknown scenario 'nowhere'"),
         ('scenarios = ["hover"]\nairframes = ["tricopter"]', "unknown airframe 'tricopter'"),
         ('scenarios = ["hover"]\nseeds = 0', "'seeds' must be a whole number"),
-        ('scenarios = ["hover"]\nwind = ["fast"]', "is not SPEED or SPEED,FROM_DEG"),
+        ('scenarios = ["hover"]\nwind = ["fast"]', "a wind must look like SPEED,FROM_DEG"),
         ('scenarios = ["hover"]\nturbulence = ["gusty"]', "is not one of none, light, moderate, severe"),
         (
             'scenarios = ["hover"]\n[controllers.c]\nkind = "cascade"\ngains = { speed = 2 }',
@@ -152,16 +152,38 @@ def test_parquet_table_equals_the_csv_one(tmp_path: Path) -> None:
     assert [repr(r) for r in csv_rows] == [repr(r) for r in parquet_rows]  # repr: NaN equals NaN
 
 
-def test_ray_gives_the_pool_table(tmp_path: Path) -> None:
+def test_the_wind_example_on_ray_and_on_the_pool_gives_the_readme_table(tmp_path: Path) -> None:
+    """examples/sweep_wind.toml (the README's sweep) on a process pool and on a local Ray instance
+    with two workers: the same table, and the summary the README shows."""
     pytest.importorskip("ray", reason="Ray (the ray extra) is not installed")
-    pool = _sweep(tmp_path, SMALL, "--jobs", "2", "--out", str(tmp_path / "pool"), "--format", "csv", "--no-plot")
-    ray = _sweep(
-        tmp_path, SMALL, "--ray", "--jobs", "2", "--out", str(tmp_path / "ray"), "--format", "csv", "--no-plot"
-    )
-    assert pool.returncode == 0, pool.stderr
-    assert ray.returncode == 0, ray.stderr[-2000:]
+    spec = str(ROOT / "examples" / "sweep_wind.toml")
+    common = ["--format", "csv", "--no-plot"]
+    pool = _run("sweep", spec, "--jobs", "2", "--out", str(tmp_path / "pool"), *common)
+    ray = _run("sweep", spec, "--ray", "--jobs", "2", "--out", str(tmp_path / "ray"), *common)
+    assert pool.returncode == ray.returncode == 1, ray.stderr[-2000:]  # the seed controller drifts off
     assert "on Ray (local, 2 CPUs)" in ray.stdout
     assert (tmp_path / "pool" / "results.csv").read_bytes() == (tmp_path / "ray" / "results.csv").read_bytes()
+    rows = read_table(tmp_path / "pool" / "results.csv")
+    cascade = [r for r in rows if r["controller"] == "cascade"]
+    seed = [r for r in rows if r["controller"] == "seed"]
+    assert all(r["status"] == "ok" for r in cascade) and all(r["failed_limits"] == "end_drift_m" for r in seed)
+    # the seed decides the turbulence: three seeds, three different flights, in every wind
+    for wind in ("0,90", "6,90"):
+        assert len({r["end_drift_m"] for r in cascade if r["wind"] == wind}) == 3
+    # more wind, more tilt to hold against it
+    tilt = {w: sum(r["max_tilt_deg"] for r in cascade if r["wind"] == w) for w in ("0,90", "6,90")}
+    assert tilt["6,90"] > tilt["0,90"]
+    readme = (ROOT / "README.md").read_text()
+    block = readme.split("$ python main.py sweep examples/sweep_wind.toml", 1)[1].split("```", 1)[0]
+    shown = [line for line in block.strip().splitlines()[2:] if not line.startswith(("table", "plot"))]
+    printed = [line for line in pool.stdout.splitlines()[1:] if not line.startswith(("table", "plot"))]
+    assert printed == shown
+
+
+def _run(*args: str) -> subprocess.CompletedProcess:
+    return subprocess.run(
+        [sys.executable, str(ROOT / "main.py"), *args], capture_output=True, text=True, timeout=600, cwd=ROOT
+    )
 
 
 def test_limits_fail_runs_and_only_failures_are_recorded(tmp_path: Path) -> None:

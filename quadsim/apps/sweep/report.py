@@ -67,9 +67,12 @@ def plot(rows: Sequence[dict[str, Any]], varied: Sequence[str], path: Path, titl
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    x_axis = varied[0] if varied else "scenario"
+    # on the x axis: the first swept axis whose values are numbers (the wind speed), else the first
+    numeric_axes = [a for a in varied if all(_numeric(str(r[a])) is not None for r in rows)]
+    x_axis = numeric_axes[0] if numeric_axes else varied[0] if varied else "scenario"
     others = [a for a in varied if a != x_axis]
-    shown = [m for m in SHOWN if _finite([r[m] for r in rows])]
+    # a metric that is zero everywhere (no crash in any run) says so in the summary, not as a plot
+    shown = [m for m in SHOWN if any(v != 0.0 for v in _finite([r[m] for r in rows]))]
     fig, axes = plt.subplots(len(shown), 1, figsize=(7.5, 2.2 * len(shown) + 0.8), sharex=True, squeeze=False)
     xs_all = sorted({str(r[x_axis]) for r in rows}, key=lambda v: (_numeric(v) is None, _numeric(v) or 0.0, v))
     numeric = all(_numeric(v) is not None for v in xs_all)
@@ -90,7 +93,16 @@ def plot(rows: Sequence[dict[str, Any]], varied: Sequence[str], path: Path, titl
             name = ", ".join(f"{a}={v}" for a, v in zip(others, label)) or "all runs"
             # categories are not a scale: no line between them
             (line,) = ax.plot(xs, means, marker="o", linestyle="-" if numeric else "none", label=name)
-            if any(lo != hi for lo, hi in zip(lows, highs)):
+            if not numeric:  # the spread over seeds as error bars
+                ax.errorbar(
+                    xs,
+                    means,
+                    yerr=[[m - lo for m, lo in zip(means, lows)], [hi - m for m, hi in zip(means, highs)]],
+                    fmt="none",
+                    ecolor=line.get_color(),
+                    capsize=3,
+                )
+            if numeric and any(lo != hi for lo, hi in zip(lows, highs)):
                 ax.fill_between(xs, lows, highs, color=line.get_color(), alpha=0.18, linewidth=0)
         ax.set_ylabel(metric.replace("_", " "), fontsize=8)
         ax.grid(True, alpha=0.3)
@@ -98,7 +110,7 @@ def plot(rows: Sequence[dict[str, Any]], varied: Sequence[str], path: Path, titl
     bottom = axes[-1, 0]
     if not numeric:
         bottom.set_xticks(list(position.values()), xs_all)
-    bottom.set_xlabel(x_axis + (" (m/s)" if x_axis == "wind" else ""))
+    bottom.set_xlabel("wind speed (m/s)" if x_axis == "wind" else x_axis)
     axes[0, 0].legend(fontsize=7, loc="best")
     fig.suptitle(title, fontsize=10)
     fig.tight_layout()

@@ -28,10 +28,16 @@ class RunTask:
 
 
 def _config(run: RunSpec):
+    from quadsim.apps.sweep.spec import wind_settings
     from quadsim.sim.config import SimConfig
     from quadsim.vehicle.params import SHIPPED_VEHICLES
 
-    return SimConfig(urdf=SHIPPED_VEHICLES[run.airframe], controller=run.controller.kind)
+    return SimConfig(
+        urdf=SHIPPED_VEHICLES[run.airframe],
+        controller=run.controller.kind,
+        wind=wind_settings(run.wind, run.turbulence),
+        seed=run.seed,
+    )
 
 
 def fly_run(task: RunTask) -> dict[str, Any]:

@@ -2,10 +2,10 @@
 
     name = "wind"                        # optional; default: the file's name
     scenarios = ["hover", "square"]      # built-in names or .qscript paths (relative to this file)
-    airframes = ["quad"]                 # shipped presets (quad, hexa, ...); default: quad
+    airframes = ["quad"]                 # shipped presets (quad, hexa, crazyflie); default: quad
     seeds = 3                            # runs per combination, seeded 0, 1, 2 (default 1)
     duration_s = 20.0                    # optional; default: each scenario's own duration
-    wind = ["0", "3,90", "5,90"]         # as --wind gives it; default: no wind
+    wind = ["0,0", "3,90", "5,90"]       # SPEED,FROM_DEG as --wind takes it; default: no wind
     turbulence = ["none", "moderate"]    # as --turbulence gives it; default: none
 
     [controllers.cascade]                # a name of your choice; kind = cascade or seed
@@ -33,6 +33,7 @@ from typing import Any
 from quadsim.control import ControllerKind
 from quadsim.core.toml_compat import tomllib
 from quadsim.errors import ConfigError
+from quadsim.physics.wind import Turbulence, WindSettings, parse_wind
 
 #: the keys a sweep file may have at its top level
 KNOWN_KEYS = {"name", "scenarios", "airframes", "seeds", "duration_s", "wind", "turbulence", "controllers", "limits"}
@@ -186,7 +187,7 @@ def load_sweep(path: Path) -> SweepSpec:
         isinstance(duration, bool) or not isinstance(duration, (int, float)) or not 0 < duration <= 3600
     ):
         raise ConfigError(f"{where}: 'duration_s' must be a number of seconds in (0, 3600], got {duration!r}")
-    winds = _list_of_str(data, "wind", ["0"], where)
+    winds = _list_of_str(data, "wind", ["0,0"], where)
     turbulences = _list_of_str(data, "turbulence", ["none"], where)
     for w in winds:
         check_wind(w, f"{where}: wind")
@@ -225,18 +226,21 @@ def load_sweep(path: Path) -> SweepSpec:
     return SweepSpec(name.strip(), path, runs, {k: float(v) for k, v in limits.items()}, varied)
 
 
+def wind_settings(wind: str, turbulence: str) -> WindSettings:
+    """A run's wind from the sweep file's values: `SPEED,FROM_DEG` as --wind takes it, and a
+    turbulence level or "none"."""
+    speed, from_deg = parse_wind(wind)
+    return WindSettings(speed, from_deg, None if turbulence == "none" else Turbulence(turbulence))
+
+
+TURBULENCE_LEVELS = ("none", *(t.value for t in Turbulence))
+
+
 def check_wind(text: str, where: str) -> None:
-    """`SPEED[,FROM_DEG]`, as --wind takes it."""
-    parts = text.split(",")
     try:
-        values = [float(p) for p in parts]
-    except ValueError:
-        values = []
-    if not 1 <= len(values) <= 2 or not all(math.isfinite(v) for v in values) or values[0] < 0:
-        raise ConfigError(f"{where}: {text!r} is not SPEED or SPEED,FROM_DEG (m/s, degrees), e.g. '3,90'")
-
-
-TURBULENCE_LEVELS = ("none", "light", "moderate", "severe")
+        wind_settings(text, "none")
+    except ConfigError as exc:
+        raise ConfigError(f"{where}: {str(exc).replace('--wind', 'a wind')}") from None
 
 
 def check_turbulence(text: str, where: str) -> None:
