@@ -28,8 +28,8 @@ import quadsim
 from quadsim.core.types import VehicleState
 from quadsim.errors import ConfigError, QuadsimError
 from quadsim.physics.world_spec import WorldSpec
-from quadsim.sensors.camera import CameraFrame, CameraSpec, RendererKind
-from quadsim.sensors.rig import CameraRig
+from quadsim.sensors.camera import CameraFrame, CameraSpec, ImageKind, RendererKind
+from quadsim.sensors.rig import JPEG_ONLY, CameraRig
 from quadsim.vehicle.params import VehicleParams
 
 #: how much lower the render workers' priority is when a window is in front of a person
@@ -86,6 +86,7 @@ class CameraPipeline:
         self.specs = specs
         self.renderer = renderer
         self.sinks: list[FrameSink] = []
+        self.kinds: frozenset[ImageKind] = JPEG_ONLY
         self._every = {}
         for spec in specs:
             if physics_hz % spec.rate_hz:
@@ -121,6 +122,10 @@ class CameraPipeline:
     def tap_interval_steps(self) -> int:
         """Physics steps between two calls of `capture` the pipeline needs."""
         return self._tick
+
+    def want(self, *kinds: ImageKind) -> None:
+        """Frames captured from now on also carry `kinds` (frames in flight do not)."""
+        self.kinds = self.kinds.union(kinds)
 
     # --- workers ----------------------------------------------------------------------------
 
@@ -192,11 +197,18 @@ class CameraPipeline:
     def capture(self, state: VehicleState) -> None:
         """Render the cameras due at `state.step` (a loop tap)."""
         step = state.step
-        names = tuple(s.name for s in self.specs if step % self._every[s.name] == 0)
+        self._submit(tuple(s.name for s in self.specs if step % self._every[s.name] == 0), state)
+
+    def capture_all(self, state: VehicleState) -> None:
+        """Render every camera at `state`, due or not (a first image, or one after a reset)."""
+        self._submit(tuple(s.name for s in self.specs), state)
+
+    def _submit(self, names: tuple[str, ...], state: VehicleState) -> None:
         if not names:
             return
+        step = state.step
         if self._rig is not None:
-            self._deliver(self._rig.render(names, step, state.position_m, state.orientation_xyzw))
+            self._deliver(self._rig.render(names, step, state.position_m, state.orientation_xyzw, self.kinds))
             return
         if not self._ordered:
             self.poll()
@@ -209,7 +221,8 @@ class CameraPipeline:
         while len(self._pending) >= self._in_flight:
             self._receive_oldest()
         index = self._seq % len(self._conns)
-        self._conns[index].send((self._seq, step, names, state.position_m, state.orientation_xyzw))
+        job = (self._seq, step, names, state.position_m, state.orientation_xyzw, self.kinds)
+        self._conns[index].send(job)
         self._pending.append((self._seq, index))
         self._seq += 1
 
