@@ -599,6 +599,10 @@ def cmd_bench(args: argparse.Namespace) -> int:
         from quadsim.apps.bench import run_interactive_bench
 
         run_interactive_bench()
+    if args.section in ("all", "autonomy"):
+        from quadsim.apps.bench_autonomy import run_autonomy_bench
+
+        run_autonomy_bench()
     if args.section in ("all", "replay"):
         from quadsim.apps.bench import run_replay_bench
 
@@ -799,10 +803,11 @@ def build_parser() -> argparse.ArgumentParser:
     )
     p.add_argument(
         "--section",
-        choices=["all", "flight", "recording", "window", "replay"],
+        choices=["all", "flight", "recording", "window", "autonomy", "replay"],
         default="all",
         help="flight: the flight core; recording: cameras and recording; window: the teleop "
-        "window headless; replay: playback and re-simulation (default: all)",
+        "window headless; autonomy: camera images in code; replay: playback and re-simulation "
+        "(default: all)",
     )
     p.set_defaults(func=cmd_bench)
     return parser

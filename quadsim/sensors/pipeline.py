@@ -80,7 +80,10 @@ class CameraPipeline:
         ordered_delivery: bool = True,
         worker_start_timeout_s: float = 60.0,
         scene_client: int | None = None,
+        worker_niceness: int | None = None,
     ) -> None:
+        """`worker_niceness`: how much lower the workers run (default: WINDOW_WORKER_NICENESS
+        without ordered delivery, where a person flies, else 0)."""
         if len({s.name for s in specs}) != len(specs):
             raise ConfigError("camera names must be unique")
         self.specs = specs
@@ -96,6 +99,9 @@ class CameraPipeline:
             self._every[spec.name] = physics_hz // spec.rate_hz
         self._tick = math.gcd(*self._every.values()) if specs else 1
         self._ordered = ordered_delivery
+        self._niceness = (
+            (0 if ordered_delivery else WINDOW_WORKER_NICENESS) if worker_niceness is None else worker_niceness
+        )
         self._result_timeout_s = worker_start_timeout_s
         self._seq = 0
         self._pending: deque[tuple[int, int]] = deque()  # (seq, worker index)
@@ -136,7 +142,7 @@ class CameraPipeline:
             "world": str(world.path),
             "specs": self.specs,
             "renderer": self.renderer.value,
-            "niceness": 0 if self._ordered else WINDOW_WORKER_NICENESS,
+            "niceness": self._niceness,
         }
         try:
             for _ in range(count):

@@ -89,6 +89,7 @@ class Cameras:
             workers=0 if mode is CameraMode.SYNC else render_workers,
             ordered_delivery=False,  # the newest frame as soon as it is there
             scene_client=sim.scene_client,
+            worker_niceness=0,  # code waits for these frames: no lower priority
         )
         kinds = [ImageKind.RGB]
         if depth:
