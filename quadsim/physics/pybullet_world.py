@@ -103,6 +103,11 @@ class PhysicsWorld:
 
     def reset(self) -> None:
         """Put the vehicle back at its start pose, at rest, rotors stopped."""
+        # away from everything first, so that PyBullet forgets the contacts it had (their cached
+        # impulses warm-start the solver): a reset then flies the same whatever came before it
+        far = (0.0, 0.0, 1e4)
+        pb.resetBasePositionAndOrientation(self.body_id, far, (0.0, 0.0, 0.0, 1.0), physicsClientId=self._cid)
+        pb.performCollisionDetection(physicsClientId=self._cid)
         pb.resetBasePositionAndOrientation(
             self.body_id, self._spawn_position(), self._spawn_orientation(), physicsClientId=self._cid
         )
