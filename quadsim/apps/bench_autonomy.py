@@ -3,7 +3,9 @@
 - SYNC: the cost per frame added to stepping, against the bare getCameraImage call of the same
   camera measured in the same run (the baseline);
 - PIPELINED: how old the newest frame is when code reads it, with the simulation paced to real
-  time (as a live robot program would be), in ms of simulation time.
+  time (as a live robot program would be), in ms of simulation time;
+- the Gymnasium environments (with the `gym` extra): env steps per second at the 30 Hz agent
+  rate, one env and gymnasium.make_vec over two processes, random actions.
 """
 
 from __future__ import annotations
@@ -79,6 +81,36 @@ def pipelined_frame_age(wall_s: float = 5.0, workers: int = 2) -> tuple[float, f
         return sum(ages) / len(ages) * to_ms, max(ages) * to_ms, len(ages), cams.frames_dropped
 
 
+def env_steps_per_s(env_id: str, num_envs: int, steps: int = 300) -> float:
+    """Env steps per second (summed over the envs), random actions, after one reset."""
+    import gymnasium as gym
+    import numpy as np
+
+    import quadsim.envs  # noqa: F401 - registers the environments
+
+    if num_envs == 1:
+        env = gym.make(env_id)
+        env.reset(seed=0)
+        env.action_space.seed(0)
+        start = time.perf_counter()
+        for _ in range(steps):
+            if any(env.step(env.action_space.sample())[2:4]):
+                env.reset()
+        elapsed = time.perf_counter() - start
+        env.close()
+        return steps / elapsed
+    envs = gym.make_vec(env_id, num_envs=num_envs, vectorization_mode="async")
+    envs.reset(seed=0)
+    envs.action_space.seed(0)
+    envs.step(envs.action_space.sample())  # the processes are warm
+    start = time.perf_counter()
+    for _ in range(steps):
+        envs.step(envs.action_space.sample())  # episodes reset themselves (autoreset)
+    elapsed = time.perf_counter() - start
+    envs.close()
+    return float(np.float64(steps * num_envs / elapsed))
+
+
 def run_autonomy_bench(out: Callable[[str], None] = print) -> None:
     out("quadsim bench: camera images in code (quadsim.Cameras), front camera 320x240 @ 30 Hz, TinyRenderer")
     bare, sync = sync_cost_per_frame()
@@ -91,3 +123,15 @@ def run_autonomy_bench(out: Callable[[str], None] = print) -> None:
         f"  PIPELINED (2 render workers), paced to real time: newest frame {mean_ms:.0f} ms old on average, "
         f"{max_ms:.0f} ms at most ({read} reads, {dropped} captures dropped)"
     )
+    try:
+        import gymnasium  # noqa: F401
+    except ImportError:
+        out("  Gymnasium environments: skipped (pip install 'quadsim[gym]')")
+        return
+    out(f"  Gymnasium envs at 30 Hz, random actions            {'env steps/s':>12s} {'x real time':>12s}")
+    for env_id, what in (("quadsim/Hover-v0", "state obs"), ("quadsim/TowerVision-v0", "64x64 image obs")):
+        for num_envs in (1, 2):
+            rate = env_steps_per_s(env_id, num_envs)
+            how = "one env" if num_envs == 1 else "make_vec, 2 processes"
+            out(f"  {what:16s} {how:22s}        {rate:12.0f} {rate / 30:11.1f}x")
+    out("  (PyFlyt's and gym-pybullet-drones' envs, the issue's comparison, are not measured yet)")
