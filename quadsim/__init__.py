@@ -33,8 +33,10 @@ _PUBLIC = {
     "Simulator": "quadsim.sim.simulator",
     "StartPose": "quadsim.core.types",
     "StateLog": "quadsim.sim.loop",
+    "Turbulence": "quadsim.physics.wind",
     "Twist": "quadsim.core.types",
     "VehicleState": "quadsim.core.types",
+    "WindSettings": "quadsim.physics.wind",
     "ZMode": "quadsim.core.types",
     "record": "quadsim.apps.outputs",
 }
@@ -55,8 +57,10 @@ __all__ = [
     "Simulator",
     "StartPose",
     "StateLog",
+    "Turbulence",
     "Twist",
     "VehicleState",
+    "WindSettings",
     "ZMode",
     "__version__",
     "record",
@@ -81,6 +85,7 @@ if TYPE_CHECKING:  # for type checkers and IDEs: the same names, eagerly
     from quadsim.control import ControllerKind
     from quadsim.core.types import ActiveCommand, StartPose, Twist, VehicleState, ZMode
     from quadsim.errors import ConfigError, QuadsimError, ScriptError
+    from quadsim.physics.wind import Turbulence, WindSettings
     from quadsim.sensors.camera import CameraInfo, CameraSpec
     from quadsim.sim.cameras import CameraImage, CameraMode, Cameras
     from quadsim.sim.config import Rates, SimConfig

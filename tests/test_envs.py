@@ -63,6 +63,49 @@ def test_seeded_resets_are_reproducible_and_a_p_controller_solves_hover():
         env.close()
 
 
+def test_the_seed_draws_the_gusts_and_a_crash_ends_the_episode():
+    from quadsim.physics.wind import Turbulence, WindSettings
+
+    env = gym.make("quadsim/Hover-v0", wind=WindSettings(3.0, 90.0, Turbulence.MODERATE))
+    try:
+        flights, winds = [], []
+        for seed in (5, 5, 6):
+            observation, _ = env.reset(seed=seed)
+            for _ in range(AGENT_HZ):  # take off
+                observation, *_ = env.step(np.array([0.0, 0.0, 1.0, 0.0], np.float32))
+            gusts = []
+            for _ in range(2 * AGENT_HZ):  # hold still: only the wind moves it
+                observation, *_ = env.step(np.zeros(4, np.float32))
+                gusts.append(env.unwrapped.sim.state.wind_mps)
+            flights.append(observation)
+            winds.append(np.array(gusts))
+        assert np.array_equal(flights[0], flights[1])  # the same seed, the same start and gusts
+        assert np.array_equal(winds[0], winds[1])
+        assert np.abs(winds[0] - winds[2]).max() > 0.1  # another seed, other gusts
+        assert np.linalg.norm(flights[0][3:6]) > 0.01  # the gusts move it
+
+        # fly into the red tower (6 m ahead of the origin, 3 m tall): the crash ends the episode
+        observation, _ = env.reset(seed=1)
+        for _ in range(AGENT_HZ):  # up to about 1.5 m
+            observation, *_ = env.step(np.array([0.0, 0.0, 1.5, 0.0], np.float32))
+        terminated, reward = False, 0.0
+        for _ in range(5 * AGENT_HZ):
+            yaw, (x, y) = observation[8], observation[0:2]
+            wx, wy = 6.0 - x, 0.0 - y
+            d = math.hypot(wx, wy)
+            c, sn = math.cos(yaw), math.sin(yaw)
+            action = np.array([4.0 * (c * wx + sn * wy) / d, 4.0 * (-sn * wx + c * wy) / d, 0.0, 0.0], np.float32)
+            observation, reward, terminated, truncated, _ = env.step(action)
+            if terminated or truncated:
+                break
+        assert terminated and reward < -5.0
+        events = env.unwrapped.sim.events
+        assert any(e.kind.value == "crash" and e.hit == "red_tower" for e in events), events
+        assert abs(observation[0] - 6.0) < 1.5  # it ended at the tower, not out of the arena
+    finally:
+        env.close()
+
+
 def test_tower_vision_images_show_the_tower_when_facing_it():
     env = gym.make("quadsim/TowerVision-v0")
     try:

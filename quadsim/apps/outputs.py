@@ -1,5 +1,5 @@
-"""A run's outputs: the camera pipeline, the topic fan-out and the MCAP recorder it feeds,
-opened together and always finished together (normal end, Ctrl-C, SIGTERM, an exception).
+"""A run's outputs: the camera pipeline, the topic fan-out and what it feeds (the MCAP recorder,
+live bridges), opened together and always finished together (normal end, Ctrl-C, SIGTERM, an exception).
 
 They attach to the run through its OutputPort (the Simulator is one) and know it by its typed
 RunDescription: they never hold the simulator. The recorder's and the cameras' modules (and so
@@ -8,22 +8,32 @@ mcap, foxglove, rosbags, cv2) are imported only when a run records or has camera
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, Protocol
 
 from quadsim.apps.stopping import shielded_from_signals
 from quadsim.errors import QuadsimError
-from quadsim.recording.fanout import TopicFanout
+from quadsim.recording.fanout import TopicConsumer, TopicFanout
 from quadsim.sensors.camera import CameraSpec, RendererKind, default_cameras
 from quadsim.sim.description import RunDescription
 from quadsim.sim.loop import OutputPort
+
+#: the kind of the events that say a recording started or stopped (on /rosout: "recording: started")
+RECORDING_EVENT = "recording"
 
 if TYPE_CHECKING:
     from quadsim.recording.writer import McapRecorder
     from quadsim.sensors.pipeline import CameraPipeline
     from quadsim.sim.cameras import Cameras
     from quadsim.sim.simulator import Simulator
+
+
+class LiveOutput(TopicConsumer, Protocol):
+    """A live bridge (Foxglove, ROS 2): fed by the fan-out for the whole run, closed with it."""
+
+    def close(self) -> None: ...
 
 
 @dataclass(frozen=True)
@@ -42,7 +52,9 @@ class RecordedRun:
 
     The fan-out (`fanout`) turns the run into the contract's messages once for every consumer;
     it listens to the loop and the cameras only while it has one. Recording can be stopped and
-    started again (the window's key for it); each start makes a new file.
+    started again (the window's key for it); each start makes a new file. The `live` outputs
+    (bridges) consume it from the start to the end of the run, recording or not, and are closed
+    with it.
 
     `cameras`: record the frames of a camera pipeline that is already capturing (that of
     quadsim.Cameras, SYNC or PIPELINED) instead of starting one from `options.cameras`; the
@@ -56,6 +68,7 @@ class RecordedRun:
         label: str,
         run_info: dict[str, Any] | None = None,
         cameras: CameraPipeline | None = None,
+        live: Sequence[LiveOutput] = (),
     ) -> None:
         self.port = port
         self.description = description
@@ -66,12 +79,13 @@ class RecordedRun:
         self.cameras: CameraPipeline | None = cameras
         self._own_cameras = cameras is None
         self.path: Path | None = None
+        self.live: list[LiveOutput] = list(live)
         vehicle, world = description.vehicle_model, description.world_model
         if vehicle is None or world is None:
             raise QuadsimError("outputs need the description of a live run (with its vehicle and world)")
         self.camera_specs = options.cameras if cameras is None else cameras.specs
         mounts = tuple((spec, vehicle.camera_mount(spec.link_name)) for spec in self.camera_specs)
-        self.fanout = TopicFanout(description.config.rates.physics_hz, mounts)
+        self.fanout = TopicFanout(description.config.rates.physics_hz, mounts, vehicle, world)
         self._listening = False
         try:
             if cameras is not None:
@@ -92,6 +106,10 @@ class RecordedRun:
                     scene_client=port.scene_client,
                 )
                 port.add_tap(self.cameras.tap_interval_steps, self.cameras.capture)
+            for output in self.live:
+                self.fanout.add_consumer(output, port.step_count)
+            if self.live:
+                self._listen(True)
             if options.record:
                 self.start_recording()
         except BaseException:
@@ -118,6 +136,7 @@ class RecordedRun:
         self.fanout.add_consumer(recorder, self.port.step_count)
         self._listen(True)
         self.recorder, self.path = recorder, path
+        self.note_event(self.port.step_count, RECORDING_EVENT, "started")
         return path
 
     def _listen(self, on: bool) -> None:
@@ -136,7 +155,8 @@ class RecordedRun:
                 self.cameras.sinks.remove(fanout)
 
     def note_event(self, step: int, kind: str, value: str) -> None:
-        """An event the recording keeps (a z-mode switch, an input device change) at `step`."""
+        """An event the recording keeps (a z-mode switch, an input device change, recording
+        started or stopped) at `step`: the one way events reach /rosout."""
         self.fanout.note_event(step, kind, value)
 
     def stop_recording(self) -> None:
@@ -147,10 +167,16 @@ class RecordedRun:
         with shielded_from_signals():  # a signal now must not cut the file short
             if self.cameras is not None:
                 self.cameras.drain()
-            self.fanout.remove_consumer(rec)
-            if not self.fanout.consumers:
-                self._listen(False)
-            rec.close()
+            self._finish(rec)
+
+    def _finish(self, rec: McapRecorder) -> None:
+        """Say in the file that recording stops, and close it."""
+        if not rec.closed:
+            self.note_event(self.port.step_count, RECORDING_EVENT, "stopped")
+        self.fanout.remove_consumer(rec)
+        if not self.fanout.consumers:
+            self._listen(False)
+        rec.close()
 
     def close(self) -> None:
         with shielded_from_signals():  # a signal now must not cut the file short
@@ -164,11 +190,14 @@ class RecordedRun:
                         if self._own_cameras:
                             self.cameras.close()
             finally:
-                if self.recorder is not None:
-                    self.fanout.remove_consumer(self.recorder)
-                    if not self.fanout.consumers:
-                        self._listen(False)
-                    self.recorder.close()
+                try:
+                    if self.recorder is not None:
+                        self._finish(self.recorder)
+                finally:
+                    for output in self.live:
+                        self.fanout.remove_consumer(output)
+                        output.close()
+                    self._listen(bool(self.fanout.consumers))
 
     def __enter__(self) -> RecordedRun:
         return self

@@ -6,9 +6,14 @@ every driver (clamping, dead-man timeout): the agent is the programmatic driver 
 the agent rate, and each env step is 240 / 30 = 8 physics steps.
 
 Termination: leaving the arena (ARENA_HALF_M around the origin, ARENA_TOP_M high), tipping over
-(tilt beyond MAX_TILT_DEG), or a crash (`crashed()`: the hook for the simulator's crash events
-when it has them; today, the vehicle's centre within CRASH_CLEARANCE_M of a landmark's side).
-Truncation: the time limit of the registration (gymnasium's TimeLimit).
+(tilt beyond MAX_TILT_DEG), or a crash (the simulator's crash event: a contact other than a
+landing, with a wall or the ground at speed or tilted). Truncation: the time limit of the
+registration (gymnasium's TimeLimit).
+
+Randomness: `reset(seed=...)` seeds the start pose and the run's seed, from which the wind's
+turbulence and the IMU noise derive (`gymnasium.make("quadsim/Hover-v0",
+wind=WindSettings(3.0, 90.0, Turbulence.LIGHT))`: a wind for every episode, its gusts drawn
+from the episode's seed).
 """
 
 from __future__ import annotations
@@ -22,9 +27,11 @@ from gymnasium import spaces
 
 from quadsim.core.kinematics import body_velocity
 from quadsim.core.types import StartPose, Twist, VehicleState, ZMode
+from quadsim.physics.wind import WindSettings
 from quadsim.sensors.camera import CameraSpec
 from quadsim.sim.cameras import Cameras
 from quadsim.sim.config import Rates, SimConfig
+from quadsim.sim.flight_events import EventKind
 from quadsim.sim.simulator import Simulator
 
 AGENT_HZ = 30
@@ -33,7 +40,8 @@ TOWER_EPISODE_S = 20
 ARENA_HALF_M = 20.0
 ARENA_TOP_M = 10.0
 MAX_TILT_DEG = 80.0
-CRASH_CLEARANCE_M = 0.3  # the rotors reach 0.27 m from the centre
+#: the seeds the env hands the simulator (SimConfig's range)
+_SIM_SEEDS = 2**63 - 1
 #: what render() shows: the front camera, small
 VIEW = CameraSpec("front", "front_camera_link", 160, 120, rate_hz=AGENT_HZ)
 
@@ -43,12 +51,12 @@ class QuadEnv(gym.Env):
 
     metadata = {"render_modes": ["rgb_array"], "render_fps": AGENT_HZ}  # noqa: RUF012 - gymnasium declares it so
 
-    def __init__(self, render_mode: str | None = None) -> None:
+    def __init__(self, render_mode: str | None = None, wind: WindSettings | None = None) -> None:
         if render_mode is not None and render_mode not in self.metadata["render_modes"]:
             raise ValueError(f"render_mode must be one of {self.metadata['render_modes']}, got {render_mode!r}")
         self.render_mode = render_mode
         # commands are polled at the agent rate: an action reaches the gate at its first physics step
-        config = SimConfig(z_mode=ZMode.VELOCITY, rates=Rates(input_hz=AGENT_HZ))
+        config = SimConfig(z_mode=ZMode.VELOCITY, rates=Rates(input_hz=AGENT_HZ), wind=wind or WindSettings())
         self.sim = Simulator(config)
         self.steps_per_action = config.rates.physics_hz // AGENT_HZ
         limits = self.sim.vehicle.limits
@@ -58,9 +66,6 @@ class QuadEnv(gym.Env):
             high=np.array([v, v, limits.max_climb_rate_mps, yaw], np.float32),
             dtype=np.float32,
         )
-        self._boxes = [
-            (lm.position_m, lm.size_m) for lm in self.sim.world.landmarks if lm.collision and lm.shape.value == "box"
-        ]
         self._view: Cameras | None = None
 
     # --- what the subclasses say ----------------------------------------------------------
@@ -80,7 +85,7 @@ class QuadEnv(gym.Env):
     def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None) -> tuple[Any, dict[str, Any]]:
         super().reset(seed=seed)
         self.sim.physics.start = self._start(self.np_random, options or {})
-        self.sim.reset()
+        self.sim.reset(seed=int(self.np_random.integers(_SIM_SEEDS)))  # gusts and sensor noise
         self.sim.send(Twist())
         state = self.sim.state
         self._after_reset()
@@ -93,9 +98,11 @@ class QuadEnv(gym.Env):
     def step(self, action: Any) -> tuple[Any, float, bool, bool, dict[str, Any]]:
         a = np.clip(np.asarray(action, np.float64), self.action_space.low, self.action_space.high)
         self.sim.send(Twist(linear_x=a[0], linear_y=a[1], linear_z=a[2], angular_z=a[3]))
+        events_before = len(self.sim.events)
         state = self.sim.step(self.steps_per_action)
         reward, done = self._reward(state)
-        failed = self.out_of_arena(state) or self.tipped_over(state) or self.crashed(state)
+        crashed = any(e.kind is EventKind.CRASH for e in self.sim.events[events_before:])
+        failed = crashed or self.out_of_arena(state) or self.tipped_over(state)
         if failed:
             reward -= 10.0
         return self._observe(state), reward, done or failed, False, self._info(state)
@@ -127,18 +134,8 @@ class QuadEnv(gym.Env):
         roll, pitch = state.roll_pitch_rad()
         return math.cos(roll) * math.cos(pitch) < math.cos(math.radians(MAX_TILT_DEG))
 
-    def crashed(self, state: VehicleState) -> bool:
-        """The hook for the simulator's crash events (a collision other than a landing). Until
-        it reports them: the vehicle's centre closer than CRASH_CLEARANCE_M to a landmark box."""
-        return any(_distance_to_box_m(state.position_m, c, s) < CRASH_CLEARANCE_M for c, s in self._boxes)
-
     def _info(self, state: VehicleState) -> dict[str, Any]:
         return {"step": state.step, "position_m": np.array(state.position_m)}
-
-
-def _distance_to_box_m(p: tuple[float, float, float], centre: tuple[float, ...], size: tuple[float, ...]) -> float:
-    gaps = [max(abs(p[i] - centre[i]) - size[i] / 2.0, 0.0) for i in range(3)]
-    return math.sqrt(sum(g * g for g in gaps))
 
 
 class HoverEnv(QuadEnv):
@@ -149,8 +146,8 @@ class HoverEnv(QuadEnv):
     distance to the target (m) and a little of the speed. Starts on the ground within 1 m of the
     origin, any heading; the target is within 2 m horizontally, 1 to 2.5 m high."""
 
-    def __init__(self, render_mode: str | None = None) -> None:
-        super().__init__(render_mode)
+    def __init__(self, render_mode: str | None = None, wind: WindSettings | None = None) -> None:
+        super().__init__(render_mode, wind)
         high = np.full(15, np.inf, np.float32)
         self.observation_space = spaces.Box(-high, high, dtype=np.float32)
         self.target_m = np.zeros(3)
@@ -190,8 +187,8 @@ class TowerVisionEnv(QuadEnv):
 
     IMAGE = CameraSpec("front", "front_camera_link", 64, 64, rate_hz=AGENT_HZ)
 
-    def __init__(self, render_mode: str | None = None) -> None:
-        super().__init__(render_mode)
+    def __init__(self, render_mode: str | None = None, wind: WindSettings | None = None) -> None:
+        super().__init__(render_mode, wind)
         self.observation_space = spaces.Dict(
             {
                 "image": spaces.Box(0, 255, (64, 64, 3), np.uint8),

@@ -52,6 +52,9 @@ class ViewModel:
     camera_rate_hz: int = 0  # the rate the cameras were asked for
     playback: str | None = None  # replay: shown instead of the recording state
     timeline: tuple[float, float] | None = None  # replay: (time, duration) s, drawn as a clickable bar
+    phase: str = ""  # landed / flying (empty: not known, as in replay)
+    flight_event: str = ""  # the last flight event (take-off, touchdown, landed, crash, reset), while shown
+    flight_alert: bool = False  # that event is a crash
 
 
 class TeleopView:
@@ -182,7 +185,11 @@ class TeleopView:
                 TEXT,
             ),
             (f"command  {cmd}", TEXT),
-            (f"z-mode {m.z_mode}   controller {m.controller}   input {m.input_status}", TEXT),
+            (
+                (f"{m.phase.upper()}   " if m.phase else "")
+                + f"z-mode {m.z_mode}   controller {m.controller}   input {m.input_status}",
+                TEXT,
+            ),
             (rec, ALERT if m.recording_error else (OK if m.recording_path or m.playback else WARN)),
             (f"{m.fps:4.1f} fps   {m.real_time_factor:4.2f}x real time   sim {m.sim_time_s:7.2f} s   H/F1: help", TEXT),
         ]
@@ -201,6 +208,8 @@ class TeleopView:
         if m.lagging:
             lines.append(("SLOW: this machine cannot keep real time; the simulation runs slower", ALERT))
         lines += [(w, WARN) for w in m.warnings]
+        if m.flight_event:
+            lines.append((m.flight_event, ALERT if m.flight_alert else OK))
         if m.notice:
             lines.append((m.notice, OK))
         height = 8 + 20 * len(lines)
