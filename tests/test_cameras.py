@@ -239,7 +239,7 @@ def test_a_renderer_that_draws_nothing_is_refused(monkeypatch):
 
     def blank(spec, *args, **kwargs):
         shape = (spec.height_px, spec.width_px)
-        return np.full((*shape, 3), 178, np.uint8), np.ones(shape, np.float32)
+        return np.full((*shape, 3), 178, np.uint8), np.ones(shape, np.float32), None
 
     monkeypatch.setattr(rig_module, "render_raw", blank)
     with Simulator(SimConfig()) as sim:

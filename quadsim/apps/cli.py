@@ -827,6 +827,10 @@ def cmd_bench(args: argparse.Namespace) -> int:
         from quadsim.apps.bench import run_interactive_bench
 
         run_interactive_bench()
+    if args.section in ("all", "autonomy"):
+        from quadsim.apps.bench_autonomy import run_autonomy_bench
+
+        run_autonomy_bench()
     if args.section in ("all", "replay"):
         from quadsim.apps.bench import run_replay_bench
 
@@ -1064,11 +1068,11 @@ def build_parser() -> argparse.ArgumentParser:
     )
     p.add_argument(
         "--section",
-        choices=["all", "flight", "recording", "window", "replay", "live", "sweep"],
+        choices=["all", "flight", "recording", "window", "autonomy", "replay", "live", "sweep"],
         default="all",
         help="flight: the flight core; recording: cameras and recording; window: the teleop "
-        "window headless; replay: playback and re-simulation; live: Foxglove streaming; sweep: a 64-run "
-        "sweep on 1 worker, every core and Ray (default: all)",
+        "window headless; autonomy: camera images in code; replay: playback and re-simulation; live: "
+        "Foxglove streaming; sweep: a 64-run sweep on 1 worker, every core and Ray (default: all)",
     )
     p.set_defaults(func=cmd_bench)
     return parser

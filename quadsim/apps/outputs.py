@@ -26,6 +26,8 @@ RECORDING_EVENT = "recording"
 if TYPE_CHECKING:
     from quadsim.recording.writer import McapRecorder
     from quadsim.sensors.pipeline import CameraPipeline
+    from quadsim.sim.cameras import Cameras
+    from quadsim.sim.simulator import Simulator
 
 
 class LiveOutput(TopicConsumer, Protocol):
@@ -52,7 +54,11 @@ class RecordedRun:
     it listens to the loop and the cameras only while it has one. Recording can be stopped and
     started again (the window's key for it); each start makes a new file. The `live` outputs
     (bridges) consume it from the start to the end of the run, recording or not, and are closed
-    with it."""
+    with it.
+
+    `cameras`: record the frames of a camera pipeline that is already capturing (that of
+    quadsim.Cameras, SYNC or PIPELINED) instead of starting one from `options.cameras`; the
+    run then leaves it running when it closes."""
 
     def __init__(
         self,
@@ -61,6 +67,7 @@ class RecordedRun:
         options: OutputOptions,
         label: str,
         run_info: dict[str, Any] | None = None,
+        cameras: CameraPipeline | None = None,
         live: Sequence[LiveOutput] = (),
     ) -> None:
         self.port = port
@@ -69,17 +76,23 @@ class RecordedRun:
         self.label = label
         self.run_info = run_info or {}
         self.recorder: McapRecorder | None = None
-        self.cameras: CameraPipeline | None = None
+        self.cameras: CameraPipeline | None = cameras
+        self._own_cameras = cameras is None
         self.path: Path | None = None
         self.live: list[LiveOutput] = list(live)
         vehicle, world = description.vehicle_model, description.world_model
         if vehicle is None or world is None:
             raise QuadsimError("outputs need the description of a live run (with its vehicle and world)")
-        mounts = tuple((spec, vehicle.camera_mount(spec.link_name)) for spec in options.cameras)
+        self.camera_specs = options.cameras if cameras is None else cameras.specs
+        mounts = tuple((spec, vehicle.camera_mount(spec.link_name)) for spec in self.camera_specs)
         self.fanout = TopicFanout(description.config.rates.physics_hz, mounts, vehicle, world)
         self._listening = False
         try:
-            if options.cameras:
+            if cameras is not None:
+                from quadsim.sensors.camera import ImageKind
+
+                cameras.want(ImageKind.JPEG)
+            elif options.cameras:
                 from quadsim.sensors.pipeline import CameraPipeline
 
                 self.cameras = CameraPipeline(
@@ -118,7 +131,7 @@ class RecordedRun:
 
         path = recording_path(out, self.label)
         check_writable(path)
-        description = self.description.with_outputs(self.options.cameras, self.port.step_count, self.run_info)
+        description = self.description.with_outputs(self.camera_specs, self.port.step_count, self.run_info)
         recorder = McapRecorder(path, description)
         self.fanout.add_consumer(recorder, self.port.step_count)
         self._listen(True)
@@ -169,11 +182,13 @@ class RecordedRun:
         with shielded_from_signals():  # a signal now must not cut the file short
             try:
                 if self.cameras is not None:
-                    self.port.remove_tap(self.cameras.capture)
+                    if self._own_cameras:
+                        self.port.remove_tap(self.cameras.capture)
                     try:
                         self.cameras.drain()  # the frames still being rendered belong in the file
                     finally:
-                        self.cameras.close()
+                        if self._own_cameras:
+                            self.cameras.close()
             finally:
                 try:
                     if self.recorder is not None:
@@ -189,3 +204,13 @@ class RecordedRun:
 
     def __exit__(self, *exc: object) -> None:
         self.close()
+
+
+def record(
+    sim: Simulator, out: Path | str | None = None, cameras: Cameras | None = None, label: str = "api"
+) -> RecordedRun:
+    """Record `sim` from now on to `out` (a .mcap file or a folder; default: the recordings
+    folder), with the frames of `cameras` if given (SYNC or PIPELINED alike). Close it (or use
+    it as a context manager) to finish the file."""
+    options = OutputOptions(out=None if out is None else Path(out), cameras=())
+    return RecordedRun(sim, sim.description(), options, label, cameras=None if cameras is None else cameras.pipeline)

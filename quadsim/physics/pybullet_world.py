@@ -102,6 +102,10 @@ class PhysicsWorld:
         self._read_kinematics()
         self._previous_velocity = self._linear_velocity
 
+    def reseed(self, wind_seed: np.random.SeedSequence) -> None:
+        """The turbulence's random stream from `wind_seed` from the next reset on."""
+        self._wind_seed = wind_seed
+
     def _reset_wind(self) -> None:
         if self.wind_settings.enabled:
             rng = np.random.Generator(np.random.PCG64(self._wind_seed))
@@ -167,6 +171,11 @@ class PhysicsWorld:
 
     def reset(self) -> None:
         """Put the vehicle back at its start pose, at rest, rotors stopped."""
+        # away from everything first, so that PyBullet forgets the contacts it had (their cached
+        # impulses warm-start the solver): a reset then flies the same whatever came before it
+        far = (0.0, 0.0, 1e4)
+        pb.resetBasePositionAndOrientation(self.body_id, far, (0.0, 0.0, 0.0, 1.0), physicsClientId=self._cid)
+        pb.performCollisionDetection(physicsClientId=self._cid)
         pb.resetBasePositionAndOrientation(
             self.body_id, self._spawn_position(), self._spawn_orientation(), physicsClientId=self._cid
         )

@@ -104,6 +104,7 @@ class TopicFanout:
         self._tf = cdr.transform_encoder(WORLD_FRAME, BODY_FRAME)
         self.consumers: list[TopicConsumer] = []
         self._cameras = {spec.name: _Camera(spec, image_topic(spec), camera_info_topic(spec)) for spec, _ in cameras}
+        self._infos = {spec.name: spec.camera_info() for spec, _ in cameras}
         #: every topic announced so far, in the order consumers get them
         self.topics: list[Topic] = [TWIST, *STATE_TOPICS, TF_STATIC]
         for camera in self._cameras.values():
@@ -194,27 +195,23 @@ class TopicFanout:
         self._publish(messages)
 
     def on_camera_frame(self, frame: CameraFrame) -> None:
-        """An encoded frame -> its CompressedImage and the matching CameraInfo."""
+        """A rendered frame -> its CompressedImage and the matching CameraInfo."""
         camera = self._cameras.get(frame.camera)
         if camera is None or not self.consumers:
             return
+        jpeg = frame.jpeg
+        if jpeg is None:  # rendered before a recording asked for JPEG (it was in flight)
+            if frame.rgb is None:
+                return
+            from quadsim.sensors.rendering import encode_jpeg
+
+            jpeg = encode_jpeg(frame.rgb, camera.spec.jpeg_quality)
         spec, ns = camera.spec, self.ns(frame.step)
-        f = spec.focal_px
-        cx, cy = spec.principal_point_px
-        info = cdr.camera_info(
-            ns,
-            spec.optical_frame,
-            spec.height_px,
-            spec.width_px,
-            "plumb_bob",
-            (0.0,) * 5,
-            spec.k_matrix(),
-            (1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0),
-            (f, 0.0, cx, 0.0, 0.0, f, cy, 0.0, 0.0, 0.0, 1.0, 0.0),
-        )
+        i = self._infos[frame.camera]
+        info = cdr.camera_info(ns, i.frame_id, i.height_px, i.width_px, i.distortion_model, i.d, i.k, i.r, i.p)
         self._publish(
             (
-                (camera.image, ns, cdr.compressed_image(ns, spec.optical_frame, "jpeg", frame.jpeg)),
+                (camera.image, ns, cdr.compressed_image(ns, spec.optical_frame, "jpeg", jpeg)),
                 (camera.info, ns, info),
             )
         )

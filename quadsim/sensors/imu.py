@@ -41,6 +41,10 @@ class ImuNoise:
         )
         self.reset()
 
+    def reseed(self, seed: np.random.SeedSequence) -> None:
+        """The noise's random stream from `seed` from the next reset on."""
+        self._seed = seed
+
     def reset(self) -> None:
         """Back to the start of the stream, biases zero."""
         self._rng = np.random.Generator(np.random.PCG64(self._seed))

@@ -59,9 +59,7 @@ class Simulator:
         self.gate = CommandGate(
             self.vehicle.limits, self.z_mode, None if timeout is None else round(timeout * rates.physics_hz)
         )
-        # one seed per run; each random stream gets its own child of it, so adding a stream or
-        # turning one off leaves the others unchanged
-        wind_seed, imu_seed = np.random.SeedSequence(config.seed).spawn(2)
+        wind_seed, imu_seed = _streams(config.seed)
         self.physics = PhysicsWorld(
             self.vehicle, self.world, rates.physics_hz, config.start, config.gui, config.wind, wind_seed
         )
@@ -146,8 +144,16 @@ class Simulator:
         """The physics world's PyBullet client, which holds the scene (in-process rendering)."""
         return self.physics.client_id
 
-    def reset(self) -> None:
-        """Back to step 0: the vehicle at its start pose, rotors idle, controller and gate cleared."""
+    def reset(self, seed: int | None = None) -> None:
+        """Back to step 0: the vehicle at its start pose, rotors idle, controller and gate cleared.
+        With `seed`, the run's random streams (turbulence, sensor noise) start again from that
+        seed instead of the run's own (a Gymnasium env's seeded reset); the description says so."""
+        if seed is not None:
+            self.config = replace(self.config, seed=seed)  # validated like any SimConfig
+            wind_seed, imu_seed = _streams(seed)
+            self.physics.reseed(wind_seed)
+            if self.loop.imu is not None:
+                self.loop.imu.reseed(imu_seed)
         self.loop.reset()
 
     @property
@@ -198,3 +204,10 @@ class Simulator:
 
     def __exit__(self, *exc: object) -> None:
         self.close()
+
+
+def _streams(seed: int) -> tuple[np.random.SeedSequence, np.random.SeedSequence]:
+    """One seed per run; each random stream (wind, IMU noise) gets its own child of it, so adding
+    a stream or turning one off leaves the others unchanged."""
+    wind_seed, imu_seed = np.random.SeedSequence(seed).spawn(2)
+    return wind_seed, imu_seed

@@ -95,7 +95,12 @@ class TeleopView:
     def _image(self, frame: CameraFrame) -> pygame.Surface:
         cached = self._decoded.get(frame.camera)
         if cached is None or cached[0] != frame.step:
-            rgb = decode_jpeg(frame.jpeg)
+            if frame.rgb is not None:
+                rgb = frame.rgb
+            elif frame.jpeg is not None:
+                rgb = decode_jpeg(frame.jpeg)
+            else:
+                return pygame.Surface((frame.width_px, frame.height_px))
             surf = pygame.image.frombuffer(rgb.tobytes(), (rgb.shape[1], rgb.shape[0]), "RGB")
             self._decoded[frame.camera] = (frame.step, surf)
             return surf
