@@ -19,6 +19,11 @@ __version__ = "0.2.0"
 #: public name -> module that defines it
 _PUBLIC = {
     "ActiveCommand": "quadsim.core.types",
+    "CameraImage": "quadsim.sim.cameras",
+    "CameraInfo": "quadsim.sensors.camera",
+    "CameraMode": "quadsim.sim.cameras",
+    "Cameras": "quadsim.sim.cameras",
+    "CameraSpec": "quadsim.sensors.camera",
     "ConfigError": "quadsim.errors",
     "ControllerKind": "quadsim.control",
     "QuadsimError": "quadsim.errors",
@@ -28,13 +33,21 @@ _PUBLIC = {
     "Simulator": "quadsim.sim.simulator",
     "StartPose": "quadsim.core.types",
     "StateLog": "quadsim.sim.loop",
+    "Turbulence": "quadsim.physics.wind",
     "Twist": "quadsim.core.types",
     "VehicleState": "quadsim.core.types",
+    "WindSettings": "quadsim.physics.wind",
     "ZMode": "quadsim.core.types",
+    "record": "quadsim.apps.outputs",
 }
 
 __all__ = [
     "ActiveCommand",
+    "CameraImage",
+    "CameraInfo",
+    "CameraMode",
+    "CameraSpec",
+    "Cameras",
     "ConfigError",
     "ControllerKind",
     "QuadsimError",
@@ -44,10 +57,13 @@ __all__ = [
     "Simulator",
     "StartPose",
     "StateLog",
+    "Turbulence",
     "Twist",
     "VehicleState",
+    "WindSettings",
     "ZMode",
     "__version__",
+    "record",
 ]
 
 
@@ -65,9 +81,13 @@ def __dir__() -> list[str]:
 
 
 if TYPE_CHECKING:  # for type checkers and IDEs: the same names, eagerly
+    from quadsim.apps.outputs import record
     from quadsim.control import ControllerKind
     from quadsim.core.types import ActiveCommand, StartPose, Twist, VehicleState, ZMode
     from quadsim.errors import ConfigError, QuadsimError, ScriptError
+    from quadsim.physics.wind import Turbulence, WindSettings
+    from quadsim.sensors.camera import CameraInfo, CameraSpec
+    from quadsim.sim.cameras import CameraImage, CameraMode, Cameras
     from quadsim.sim.config import Rates, SimConfig
     from quadsim.sim.loop import StateLog
     from quadsim.sim.simulator import Simulator

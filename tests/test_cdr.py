@@ -234,3 +234,69 @@ def test_other_decoders_read_them():
 def test_camera_info_refuses_wrong_matrix_sizes():
     with pytest.raises(ValueError, match="9 k"):
         cdr.camera_info(0, "f", 1, 1, "plumb_bob", (), (1.0,) * 8, (0.0,) * 9, (0.0,) * 12)
+
+
+def _f32(rng: random.Random, n: int) -> tuple[float, ...]:
+    """Values float32 holds exactly (ColorRGBA is float32)."""
+    return tuple(struct.unpack("<f", struct.pack("<f", v))[0] for v in _floats(rng, n))
+
+
+def _rgba(c):
+    return T["std_msgs/msg/ColorRGBA"](r=c[0], g=c[1], b=c[2], a=c[3])
+
+
+def test_marker_array():
+    for rng in _rngs():
+        markers = [
+            cdr.Marker(
+                _ns(rng),
+                _text(rng),
+                _text(rng),
+                rng.randrange(-(2**31), 2**31),
+                rng.choice([1, 2, 3, 9]),
+                _floats(rng, 3),
+                _floats(rng, 4),
+                _floats(rng, 3),
+                _f32(rng, 4),
+                action=rng.choice([0, 2, 3]),
+                lifetime_ns=_ns(rng),
+                frame_locked=rng.random() < 0.5,
+                points=[_floats(rng, 3) for _ in range(rng.randint(0, 3))],
+                colors=[_f32(rng, 4) for _ in range(rng.randint(0, 3))],
+                texture_resource=_text(rng),
+                text=_text(rng),
+                mesh_resource=_text(rng),
+                mesh_use_embedded_materials=rng.random() < 0.5,
+            )
+            for _ in range(rng.randint(0, 3))
+        ]
+        empty = np.zeros(0, np.uint8)
+        ref = T["visualization_msgs/msg/MarkerArray"](
+            markers=[
+                T["visualization_msgs/msg/Marker"](
+                    header=_header(m.ns, m.frame_id),
+                    ns=m.namespace,
+                    id=m.id,
+                    type=m.type,
+                    action=m.action,
+                    pose=_pose(m.position, m.orientation),
+                    scale=_vec(m.scale),
+                    color=_rgba(m.color),
+                    lifetime=T["builtin_interfaces/msg/Duration"](
+                        sec=m.lifetime_ns // 1_000_000_000, nanosec=m.lifetime_ns % 1_000_000_000
+                    ),
+                    frame_locked=m.frame_locked,
+                    points=[T["geometry_msgs/msg/Point"](x=p[0], y=p[1], z=p[2]) for p in m.points],
+                    colors=[_rgba(c) for c in m.colors],
+                    texture_resource=m.texture_resource,
+                    texture=T["sensor_msgs/msg/CompressedImage"](header=_header(0, ""), format="", data=empty),
+                    uv_coordinates=[],
+                    text=m.text,
+                    mesh_resource=m.mesh_resource,
+                    mesh_file=T["visualization_msgs/msg/MeshFile"](filename="", data=empty),
+                    mesh_use_embedded_materials=m.mesh_use_embedded_materials,
+                )
+                for m in markers
+            ]
+        )
+        assert cdr.marker_array(markers) == _ref(ref)

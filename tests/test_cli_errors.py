@@ -73,6 +73,13 @@ def world_file(tmp_path):
         (["check", "x.mcap", "--tolerance-m", "-1"], "--tolerance-m"),
         (["check", "x.mcap", "--tolerance-m", "nan"], "--tolerance-m"),
         (["run", "--script", "nosuchscenario"], "unknown scenario"),
+        (["run", "--script", "hover", "--wind", "3", *QUICK], "--wind must look like SPEED,FROM_DEG"),
+        (["run", "--script", "hover", "--wind", "3,east", *QUICK], "--wind must look like SPEED,FROM_DEG"),
+        (["run", "--script", "hover", "--wind", "80,90", *QUICK], "wind speed 80 m/s is outside"),
+        (["run", "--script", "hover", "--wind", "inf,90", *QUICK], "--wind must be finite"),
+        (["run", "--script", "hover", "--turbulence", "gale"], "--turbulence"),
+        (["run", "--script", "hover", "--seed", "-1"], "--seed"),
+        (["run", "--script", "hover", "--seed", "1.5"], "--seed"),
     ],
 )
 def test_bad_option_values(capsys, argv, expected):

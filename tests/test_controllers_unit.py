@@ -18,6 +18,7 @@ from quadsim.control.seed import SeedController
 from quadsim.core.kinematics import matrix_from_quaternion, matrix_from_rpy, quaternion_from_matrix
 from quadsim.core.types import ActiveCommand, Twist, VehicleState, ZMode
 from quadsim.errors import ConfigError
+from quadsim.vehicle.aero import ground_effect_ratio
 from quadsim.vehicle.mixer import Mixer
 
 DT_S = 1 / 240  # the default control step
@@ -120,7 +121,14 @@ def test_unarmed_rotors_idle(vehicle, kind):
 def test_cascade_hover_thrust_is_weight_and_no_torque(vehicle):
     forces = settle(CascadeController(vehicle), state_of(vehicle), command())
     thrust, tx, ty, tz = wrench(vehicle, forces)
-    assert thrust == pytest.approx(vehicle.weight_n, rel=1e-6)
+    # at 2 m the ground effect is 6.5e-5 of the thrust; the feed-forward takes it off
+    hub_z = 2.0 + vehicle.com_m[2] + vehicle.rotors[0].position_m[2]
+    r, cap = vehicle.aero.rotor_radius_m, vehicle.aero.ground_effect_max_ratio
+    assert thrust == pytest.approx(vehicle.weight_n / ground_effect_ratio(hub_z, r, cap), rel=1e-9)
+    assert thrust == pytest.approx(vehicle.weight_n, rel=1e-4)
+    # one rotor diameter up, it feeds forward 63/64 of the weight
+    low = settle(CascadeController(vehicle), state_of(vehicle, position=(0.0, 0.0, 2 * r - hub_z + 2.0)), command())
+    assert wrench(vehicle, low)[0] == pytest.approx(vehicle.weight_n * 63 / 64, rel=1e-6)
     # the rotor centre is not the centre of mass: the forces are unequal so the torque is zero
     assert (tx, ty, tz) == pytest.approx((0.0, 0.0, 0.0), abs=1e-9)
     assert all(0.0 < f < vehicle.max_thrust_n for f in forces)

@@ -121,11 +121,13 @@ def test_missing_file(tmp_path):
 
 
 def _damaged_chunk(good: Path, dst: Path) -> Path:
-    """`good` with a byte of its first chunk's compressed data flipped (zstd refuses it)."""
+    """`good` with a byte of its first chunk of states flipped (zstd refuses it). The file's first
+    chunk holds only the latched scene messages (the "recording started" event's metadata record
+    closes it): losing those still lets the flight re-fly."""
     from tests.damaged_corpus import OP_CHUNK, layout
 
     data = bytearray(good.read_bytes())
-    chunk = layout(bytes(data)).of(OP_CHUNK)[0]
+    chunk = layout(bytes(data)).of(OP_CHUNK)[1]
     data[chunk.start + chunk.length // 2] ^= 0x5A
     dst.write_bytes(bytes(data))
     return dst

@@ -8,6 +8,8 @@ from pathlib import Path
 
 from quadsim.apps.evaluate import fly
 from quadsim.control import ControllerKind
+from quadsim.physics.wind import Turbulence, WindSettings
+from quadsim.sim.config import SimConfig
 
 ROOT = Path(__file__).resolve().parent.parent
 
@@ -22,6 +24,8 @@ def digest(states) -> str:
             s.linear_velocity_mps,
             s.angular_velocity_body_rps,
             s.rotor_thrusts_n,
+            s.wind_mps or (),
+            *(s.imu or ()),
         ):
             h.update(struct.pack(f"<{len(group)}d", *group))
     return h.hexdigest()
@@ -37,10 +41,21 @@ def test_seed_controller_is_deterministic_too():
     assert fly("square", ControllerKind.SEED).states == fly("square", ControllerKind.SEED).states
 
 
+def test_wind_turbulence_and_sensor_noise_are_deterministic_for_a_seed():
+    windy = SimConfig(wind=WindSettings(5.0, 90.0, Turbulence.MODERATE), seed=42)
+    a, b = fly("square", config=windy), fly("square", config=windy)
+    assert a.states == b.states  # pose, velocities, thrusts, wind and the IMU's noisy reading
+    assert all(s.wind_mps is not None and s.imu is not None for s in a.states)
+    other = fly("square", config=SimConfig(wind=windy.wind, seed=43))
+    assert [s.wind_mps for s in other.states] != [s.wind_mps for s in a.states]
+
+
 def test_two_processes_give_the_same_states():
     code = (
         f"import sys; sys.path.insert(0, {str(ROOT)!r}); from tests.test_determinism import digest; "
-        "from quadsim.apps.evaluate import fly; print(digest(fly('square').states))"
+        "from quadsim.apps.evaluate import fly; from quadsim.physics.wind import Turbulence, WindSettings; "
+        "from quadsim.sim.config import SimConfig; "
+        "print(digest(fly('square', config=SimConfig(wind=WindSettings(3.0, 10.0, Turbulence.LIGHT))).states))"
     )
     outs = [
         subprocess.run(
@@ -48,4 +63,5 @@ def test_two_processes_give_the_same_states():
         ).stdout.strip()
         for _ in range(2)
     ]
-    assert outs[0] == outs[1] == digest(fly("square").states)
+    windy = SimConfig(wind=WindSettings(3.0, 10.0, Turbulence.LIGHT))
+    assert outs[0] == outs[1] == digest(fly("square", config=windy).states)

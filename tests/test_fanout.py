@@ -9,6 +9,7 @@ from rosbags.typesys import Stores, get_typestore
 from quadsim import SimConfig, Simulator, StateLog, Twist, ZMode
 from quadsim.apps.outputs import OutputOptions, RecordedRun
 from quadsim.core.kinematics import body_velocity, quaternion_from_matrix
+from quadsim.physics.wind import Turbulence, WindSettings
 from quadsim.recording.contract import optical_rotation
 from quadsim.recording.fanout import TopicFanout
 from quadsim.sensors.camera import CameraFrame, default_cameras
@@ -87,9 +88,9 @@ def _state_references(s, ns):
                 header=_header(ns, "base_link"),
                 orientation=_quat(s.orientation_xyzw),
                 orientation_covariance=zeros9,
-                angular_velocity=_vec(s.angular_velocity_body_rps),
+                angular_velocity=_vec(s.imu.angular_velocity_body_rps),  # the noisy reading
                 angular_velocity_covariance=zeros9,
-                linear_acceleration=_vec(s.specific_force_body_mps2),
+                linear_acceleration=_vec(s.imu.specific_force_body_mps2),
                 linear_acceleration_covariance=zeros9,
             ),
         ),
@@ -108,13 +109,15 @@ def _state_references(s, ns):
                 transforms=[_transform(ns, "world", "base_link", s.position_m, s.orientation_xyzw)]
             ),
         ),
+        ("/wind", T["geometry_msgs/msg/Vector3Stamped"](header=_header(ns, "world"), vector=_vec(s.wind_mps))),
     ]
 
 
 @pytest.fixture(scope="module")
 def flown():
     log = StateLog()
-    with Simulator(SimConfig(z_mode=ZMode.HEIGHT)) as sim:
+    wind = WindSettings(4.0, 45.0, Turbulence.LIGHT)
+    with Simulator(SimConfig(z_mode=ZMode.HEIGHT, wind=wind, seed=7)) as sim:
         sim.add_sink(log)
         sim.send(Twist(linear_x=1.0, linear_z=0.5, angular_z=0.4))
         sim.run_for(3.0)
@@ -136,10 +139,13 @@ def test_states_and_commands_become_the_contracts_bytes(flown):
         ref = T["geometry_msgs/msg/Twist"](linear=_vec(twist[:3]), angular=_vec(twist[3:]))
         assert (topic.name, ns, data) == ("/quad_cmd_twist", step * 1_000_000_000 // 240, _ref(ref))
     states = consumer.messages[len(log.commands) :]
-    assert len(states) == 5 * len(log.states) == 5 * 180
+    # pose, odometry, IMU (with its noise: not the true rates), thrusts, /tf and /wind
+    assert len(states) == 6 * len(log.states) == 6 * 180
+    assert all(s.imu is not None and s.imu.angular_velocity_body_rps != s.angular_velocity_body_rps for s in log.states)
+    assert consumer.topics[-1] == "/wind"
     for i, state in enumerate(log.states):
         ns = state.step * 1_000_000_000 // 240
-        got = [(topic.name, stamp, data) for topic, stamp, data in states[5 * i : 5 * i + 5]]
+        got = [(topic.name, stamp, data) for topic, stamp, data in states[6 * i : 6 * i + 6]]
         assert got == [(name, ns, _ref(msg)) for name, msg in _state_references(state, ns)]
 
 
@@ -160,8 +166,8 @@ def test_every_consumer_gets_the_same_messages_and_latecomers_the_latched_ones(f
     assert late.messages[0][0].name == "/tf_static" and late.messages[0][1] == late_step * 1_000_000_000 // 240
     late_static = TS.deserialize_cdr(late.messages[0][2], "tf2_msgs/msg/TFMessage").transforms[0]
     assert late_static.header.stamp.sec * 1_000_000_000 + late_static.header.stamp.nanosec == late.messages[0][1]
-    assert late.messages[1:] == first.messages[1 + 50 :]
-    assert all(a is b for a, b in zip(late.messages[1:], first.messages[51:]))  # the same objects: encoded once
+    assert late.messages[1:] == first.messages[1 + 60 :]  # 10 states of 6 messages
+    assert all(a is b for a, b in zip(late.messages[1:], first.messages[61:]))  # the same objects: encoded once
     spec, mount = mounts[0]
     static = TS.deserialize_cdr(first.messages[0][2], "tf2_msgs/msg/TFMessage").transforms[0]
     assert (static.header.frame_id, static.child_frame_id) == ("base_link", spec.optical_frame)
@@ -202,3 +208,32 @@ def test_the_loop_feeds_the_fanout_only_while_something_records(tmp_path):
             assert run.fanout in sim.loop.sinks and run.fanout.consumers == [run.recorder]
             run.stop_recording()
             assert run.fanout not in sim.loop.sinks and not run.fanout.consumers
+
+
+def test_the_scene_is_latched_for_every_consumer_with_meshes_as_file_uris(tmp_path):
+    """Given the vehicle and the world, a latecomer gets the URDF, the world's markers and every
+    link's transform too, stamped when it joined. A URDF of one's own naming a mesh beside it
+    publishes it as a file:// URI a viewer on this machine opens."""
+    from quadsim.physics.world_spec import load_world
+    from quadsim.vehicle.params import DEFAULT_URDF, default_params_path, load_vehicle
+
+    (tmp_path / "meshes").mkdir()
+    (tmp_path / "meshes" / "arm.stl").write_bytes(b"solid arm\nendsolid arm\n")
+    urdf = tmp_path / "meshy.urdf"
+    mesh_visual = '<visual><geometry><mesh filename="meshes/arm.stl" scale="1 1 1"/></geometry></visual><visual>'
+    urdf.write_text(DEFAULT_URDF.read_text().replace("<visual>", mesh_visual, 1))
+    default_params_path(urdf).write_bytes(default_params_path(DEFAULT_URDF).read_bytes())
+    vehicle, world = load_vehicle(urdf), load_world()
+    fanout, late = TopicFanout(240, (), vehicle, world), Consumer()
+    fanout.add_consumer(late, 480)
+    assert late.topics[-2:] == ["/robot_description", "/world/markers"]
+    decoded = {t.name: (ns, TS.deserialize_cdr(d, t.type_name)) for t, ns, d in late.messages}
+    assert {ns for ns, _ in decoded.values()} == {2_000_000_000}
+    description = decoded["/robot_description"][1].data
+    assert f'filename="{(tmp_path / "meshes" / "arm.stl").as_uri()}"' in description
+    assert description.count("<link ") == DEFAULT_URDF.read_text().count("<link ")  # the rest as it was
+    static = decoded["/tf_static"][1].transforms
+    assert [t.child_frame_id for t in static] == [link.link_name for link in vehicle.link_frames]
+    assert static[0].header.stamp.sec == 2
+    markers = decoded["/world/markers"][1].markers
+    assert len(markers) == 1 + len(world.landmarks) and markers[-1].header.stamp.sec == 2

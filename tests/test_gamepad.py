@@ -244,6 +244,13 @@ def test_unplug_holds_position_and_replug_resumes(tmp_path, pads):
     kinds = [(kind, value) for _, kind, value in events(app.recordings[0])]
     assert ("input", "gamepad unplugged: Virtual Controller; holding position") in kinds
     assert ("input", "gamepad plugged in: Virtual Controller (SDL game controller)") in kinds
+    # /rosout carries each at the step it happened
+    rosout = [(t, m.msg) for t, m in read_topic(app.recordings[0], "/rosout")]
+    for step, kind, value in events(app.recordings[0]):
+        assert (step * 1_000_000_000 // 240 / 1e9, f"{kind}: {value}") in rosout
+    unplugged = [t for t, msg in rosout if "unplugged" in msg]
+    plugged = [t for t, msg in rosout if "plugged in" in msg]
+    assert len(unplugged) == 1 and unplugged[0] < plugged[-1]
 
 
 # --- --input auto --------------------------------------------------------------------------------
@@ -269,6 +276,10 @@ def test_auto_switches_to_a_pad_plugged_in_after_start(tmp_path, pads):
     (step, kind, value), *_ = [e for e in events(path) if e[1] == "input"]
     assert value == "gamepad plugged in: Virtual Controller (SDL game controller); it flies instead of the keyboard"
     assert 45 * 8 <= step <= 48 * 8
+    # and /rosout says so at that time, after "recording started" at 0 (Foxglove's Log panel shows them)
+    rosout = [(t, m.msg) for t, m in read_topic(path, "/rosout")]
+    assert rosout[0] == (0.0, "recording: started") and rosout[-1][1] == "recording: stopped"
+    assert (step * 1_000_000_000 // 240 / 1e9, f"input: {value}") in rosout
     joy = read_topic(path, "/joy")
     assert joy and joy[0][0] >= step / 240 and any(m.axes[3] == 1.0 for _, m in joy)  # stick up: +1
 

@@ -36,6 +36,8 @@ PUBLIC_API = [
     "ConfigError",
     "QuadsimError",
     "ScriptError",
+    "WindSettings",
+    "Turbulence",
 ]
 
 

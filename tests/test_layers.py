@@ -22,6 +22,7 @@ LAYERS = [
     {"quadsim.sim"},
     {"quadsim.recording"},
     {"quadsim.live"},
+    {"quadsim.envs"},
     {"quadsim.apps"},
 ]
 #: the package's front doors name the public API lazily and may point anywhere

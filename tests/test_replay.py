@@ -66,7 +66,12 @@ def test_fresh_interactive_recording_reflies_to_zero(tmp_path):
     app.run(max_frames=120, before_frame=events)
     app.close()
     flight = load_flight(app.recordings[0])
-    assert [e[1:] for e in flight.events] == [("z_mode", "height")]
+    assert [e[1:] for e in flight.events] == [
+        ("recording", "started"),
+        ("takeoff", "climbing from the ground"),
+        ("z_mode", "height"),
+        ("recording", "stopped"),
+    ]
     report = resimulate(flight, out=tmp_path / "again")
     assert report.position.max_error == 0.0 and report.attitude.max_error == 0.0
     assert report.new_recording is not None and load_flight(report.new_recording).states
@@ -105,7 +110,7 @@ def test_check_passes_then_fails_with_a_readable_report(tmp_path):
         ROOT / "tests" / "recordings" / "square_cascade.mcap",
         changed,
         "quadsim_x.params.toml",
-        lambda d: d.replace(b"[0.12, 0.12, 0.20]", b"[0.30, 0.30, 0.20]"),
+        lambda d: d.replace(b"rotor_drag_ns_per_m_rad = 1.7e-4", b"rotor_drag_ns_per_m_rad = 4.0e-4"),
     )
     out = cli("check", changed)
     assert out.returncode == 1

@@ -14,7 +14,6 @@ import pytest
 
 from quadsim.errors import QuadsimError
 from quadsim.live.dds_types import dds_type_name, idl_type
-from quadsim.live.playback import RecordedFeed
 from quadsim.live.ros2 import discovery_config, domain_id
 from quadsim.recording import cdr
 from quadsim.recording.reader import RecordingReader
@@ -80,37 +79,6 @@ class _Collect:
         pass
 
 
-def test_the_recorded_feed_hands_over_what_was_logged_up_to_the_playback_time_and_plays_on_after_a_seek() -> None:
-    sink = _Collect()
-    feed = RecordedFeed(RECORDING, [sink])
-    assert "/quad/odom" in sink.topics and "/tf_static" in sink.topics
-    first = feed.advance(1_000_000_000)
-    assert first == len(sink.messages) > 0 and all(ns <= 1_000_000_000 for _, ns, _ in sink.messages)
-    feed.advance(2_000_000_000)
-    assert all(ns > 1_000_000_000 for _, ns, _ in sink.messages[first:])
-    with RecordingReader(RECORDING) as reader:
-        odom = next(m for m in reader.file.messages() if m.channel.topic == "/quad/odom")
-    assert ("/quad/odom", odom.log_time, odom.data) in sink.messages  # the recorded bytes as they are
-    before = len(sink.messages)
-    feed.advance(500_000_000)  # back: nothing now, then it plays on from there
-    assert len(sink.messages) == before
-    assert feed.advance(1_000_000_000) == first - sum(1 for _, ns, _ in sink.messages[:first] if ns <= 500_000_000)
-
-
-def test_the_replay_window_feeds_the_recording_to_a_live_consumer_as_it_plays() -> None:
-    pytest.importorskip("pygame")
-    from quadsim.apps.window.replay import ReplayApp
-    from quadsim.recording.flight import load_flight
-
-    sink = _Collect()
-    feed = RecordedFeed(RECORDING, [sink])
-    with ReplayApp(load_flight(RECORDING), frame_s=0.5, on_time=feed.advance) as app:
-        app.run(max_frames=4)  # 2 s of the recording
-    times = [ns for _, ns, _ in sink.messages]
-    assert times and max(times) <= 2_000_000_000 < feed.messages[-1][1]
-    assert max(times) > 1_900_000_000 and times == sorted(times)
-
-
 def test_the_window_flies_the_ros2_input(tmp_path: Path) -> None:
     pygame = pytest.importorskip("pygame")
     from quadsim.apps.outputs import OutputOptions
@@ -120,9 +88,9 @@ def test_the_window_flies_the_ros2_input(tmp_path: Path) -> None:
     from quadsim.sim.config import SimConfig
 
     driver = SubscribedDriver("ros2")
-    options = TeleopOptions(input="ros2", subscribed=driver)
+    options = TeleopOptions(input="ros2")
     outputs = OutputOptions(out=tmp_path, cameras=(), render_workers=0)
-    with TeleopApp(SimConfig(), outputs, options, pacer=FixedStepPacer(240, 1 / 30)) as app:
+    with TeleopApp(SimConfig(), outputs, options, pacer=FixedStepPacer(240, 1 / 30), commands=driver) as app:
 
         def publish(a: TeleopApp) -> None:
             if a.frame_count < 60:
@@ -132,7 +100,7 @@ def test_the_window_flies_the_ros2_input(tmp_path: Path) -> None:
         app.run(max_frames=90, before_frame=publish)
         assert 1.5 < app.sim.state.position_m[2] < 2.6
         assert abs(app.sim.state.position_m[0]) < 0.05  # the keyboard's Up did not fly it
-        assert app._model().input_status.startswith("ROS 2 /quad_cmd_twist")
+        assert app._model().input_status.startswith("ros2: Twists on /quad_cmd_twist")
 
 
 def test_run_with_ros2_input_ends_on_sigterm_with_its_recording_finished(tmp_path: Path) -> None:

@@ -13,6 +13,7 @@ from mcap.writer import Writer
 from quadsim import ControllerKind, Rates, SimConfig, Simulator, StartPose, ZMode
 from quadsim.apps.resim import resimulate
 from quadsim.errors import QuadsimError
+from quadsim.physics.wind import Turbulence, WindSettings
 from quadsim.recording.flight import load_flight
 from quadsim.recording.info import read_info
 from quadsim.sensors.camera import default_cameras
@@ -28,6 +29,9 @@ def description() -> RunDescription:
         rates=Rates(physics_hz=480, control_hz=240, state_hz=60, input_hz=20),
         command_timeout_s=0.75,
         start=StartPose(1.5, -2.0, 0.3),
+        wind=WindSettings(4.5, 225.0, Turbulence.SEVERE),
+        sensor_noise=False,
+        seed=2**40 + 3,
     )
     with Simulator(config) as sim:
         return sim.description().with_outputs(default_cameras(160, 120, 30), 0, {"command": "run", "script": "x"})
@@ -46,6 +50,18 @@ def test_it_reads_back_what_it_wrote(description):
     assert back.extra == {"command": "run", "script": "x"}
     assert back.vehicle.rotor_count == 4 and back.vehicle.urdf_file == "quadsim_x.urdf"
     assert back.schema_version == SCHEMA_VERSION
+    assert back.config.wind == WindSettings(4.5, 225.0, Turbulence.SEVERE)
+    assert back.config.seed == 2**40 + 3 and back.config.sensor_noise is False
+
+
+def test_a_version_1_description_had_no_wind_and_no_sensor_noise(description):
+    data = description.to_parameters()
+    data["schema_version"] = 1
+    for key in ("wind", "sensor_noise", "seed"):
+        del data["config"][key]
+    back = RunDescription.from_parameters(data)
+    assert back.config.wind == WindSettings() and not back.config.wind.enabled
+    assert back.config.sensor_noise is False and back.config.seed == 0
 
 
 @pytest.mark.parametrize(
@@ -57,6 +73,11 @@ def test_it_reads_back_what_it_wrote(description):
         (("config", "command_timeout_s"), float("nan"), "parameters.config.command_timeout_s"),
         (("config", "start", "x_m"), "0", "parameters.config.start.x_m"),
         (("config", "urdf"), 5, "parameters.config.urdf"),
+        (("config", "seed"), -1, "parameters.config.seed"),
+        (("config", "seed"), 1.5, "parameters.config.seed"),
+        (("config", "wind", "turbulence"), "gale", "parameters.config.wind.turbulence"),
+        (("config", "wind", "speed_mps"), -3, "parameters.config.wind.speed_mps"),
+        (("config", "sensor_noise"), "yes", "parameters.config.sensor_noise"),
         (("controller", "name"), "pid", "parameters.controller.name"),
         (("controller", "gains", "p"), [1], "parameters.controller.gains.p"),
         (("vehicle", "mass_kg"), -1, "parameters.vehicle.mass_kg"),

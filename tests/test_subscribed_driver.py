@@ -37,8 +37,10 @@ def test_messages_from_another_thread_fly_and_silence_holds() -> None:
     start = sim.state.position_m
 
     def publisher() -> None:
-        for _ in range(40):  # 2 s of 1 m/s forward at 20 Hz of simulation time, handed over by a thread
-            driver.deliver((1.0, 0.0, 0.0), 0.0)
+        # 2 s of 1 m/s forward, climbing (forward alone on the ground stays landed), at 20 Hz of
+        # simulation time, handed over by a thread
+        for _ in range(40):
+            driver.deliver((1.0, 0.0, 0.5), 0.0)
             done.wait()
             done.clear()
 

@@ -124,16 +124,41 @@ def test_pause_reset_zmode_and_recording_keys(tmp_path):
     run_with(app, 60, {0: [lambda: key(pygame.K_TAB)]})  # to height mode: holds where it is
     assert app.sim.gate.z_mode is ZMode.HEIGHT
     assert app.sim.state.position_m[2] == pytest.approx(altitude, abs=0.1)
+    stopped_at = app.sim.time_s
     run_with(app, 2, {0: [lambda: key(pygame.K_F5)]})  # stop recording
     assert not app.session.recording
+    started_at = app.sim.time_s
     run_with(app, 2, {0: [lambda: key(pygame.K_F5)]})  # a new one
     assert app.session.recording and len(app.recordings) == 2
+    reset_at = app.sim.time_s
     run_with(app, 2, {0: [lambda: key(pygame.K_BACKSPACE)]})  # reset: back to start, new file
     assert app.sim.state.position_m[2] < 0.1 and len(app.recordings) == 3
+    closed_at = app.sim.time_s
     app.close()
     for path in app.recordings:
         with open(path, "rb") as fh:
             assert make_reader(fh).get_summary() is not None
+    # each file's /rosout says when its recording started and stopped, and what happened between
+    first, second, third = ([(round(t, 6), m.msg) for t, m in rosout(path)] for path in app.recordings)
+    assert first[0] == (0.0, "recording: started") and first[-1] == (round(stopped_at, 6), "recording: stopped")
+    assert [msg for _, msg in first] == [
+        "recording: started",
+        "takeoff: climbing from the ground",
+        "z_mode: height",
+        "recording: stopped",
+    ]
+    assert second == [(round(started_at, 6), "recording: started"), (round(reset_at, 6), "recording: stopped")]
+    assert third == [
+        (0.0, "recording: started"),
+        (0.0, "takeoff: climbing from the ground"),  # after the reset, from the ground again
+        (round(closed_at, 6), "recording: stopped"),
+    ]
+
+
+def rosout(path: Path):
+    with open(path, "rb") as fh:
+        reader = make_reader(fh, decoder_factories=[DecoderFactory()])
+        return [(m.log_time / 1e9, d) for _, _, m, d in reader.iter_decoded_messages(topics=["/rosout"])]
 
 
 def test_speed_keys_and_teleop_twist_layout(tmp_path):
@@ -172,3 +197,20 @@ def test_window_shows_both_cameras_map_and_hud(tmp_path):
     run_with(app, 2)
     assert app.view.layout(app.screen.get_size())["front"].width < 640
     app.close()
+
+
+def test_input_foxglove_flies_the_delivered_twists_and_ignores_the_keyboard(tmp_path: Path) -> None:
+    from quadsim.drivers.subscribed import SubscribedDriver
+
+    commands = SubscribedDriver("foxglove")
+    app = make_app(tmp_path, options=TeleopOptions(input="foxglove"), commands=commands)
+    try:
+        assert app.driver is commands
+        for _ in range(60):  # 2 s: forward and up, as a Teleop panel publishing at 20 Hz (one per frame here)
+            commands.deliver((1.0, 0.0, 0.5), 0.0)
+            run_with(app, 1, {0: [lambda: key(pygame.K_DOWN)]})  # a held back key flies nothing
+        x, _, z = app.sim.state.position_m
+        assert x > 1.0 and z > 0.5
+        assert "foxglove" in app._model().input_status
+    finally:
+        app.close()

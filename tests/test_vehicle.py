@@ -120,4 +120,4 @@ def test_shipped_vehicles_load():
     from quadsim.vehicle.params import SHIPPED_VEHICLES
 
     counts = {name: load_vehicle(path).rotor_count for name, path in SHIPPED_VEHICLES.items()}
-    assert counts == {"quad": 4, "hexa": 6}
+    assert counts == {"quad": 4, "hexa": 6, "crazyflie": 4}

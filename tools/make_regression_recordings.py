@@ -1,7 +1,8 @@
 """Regenerate tests/recordings/: small recordings (no cameras) of representative flights that
 the test suite re-flies. Run it when a change to the flight is intended, and commit the result:
 
-    .venv/bin/python tools/make_regression_recordings.py
+    .venv/bin/python tools/make_regression_recordings.py                 # all of them
+    .venv/bin/python tools/make_regression_recordings.py square_cascade  # only those named
 """
 
 import os
@@ -21,15 +22,17 @@ from quadsim.apps.outputs import OutputOptions, RecordedRun  # noqa: E402
 from quadsim.apps.window.pacing import FixedStepPacer  # noqa: E402
 from quadsim.apps.window.teleop import TeleopApp, TeleopOptions  # noqa: E402
 from quadsim.drivers.scripted import ScriptedDriver, load_script  # noqa: E402
+from quadsim.physics.wind import Turbulence, WindSettings  # noqa: E402
 
 OUT = ROOT / "tests" / "recordings"
 
 
-def scripted(name: str, controller: ControllerKind) -> Path:
+def scripted(name: str, controller: ControllerKind, wind: WindSettings = WindSettings(), seed: int = 0) -> Path:
     script = load_script(name)
-    path = OUT / f"{name}_{controller.value}.mcap"
+    windy = f"_{wind.turbulence.value}_wind" if wind.turbulence else ""
+    path = OUT / f"{name}{windy}_{controller.value}.mcap"
     path.unlink(missing_ok=True)
-    config = SimConfig(controller=controller, z_mode=script.z_mode or ZMode.VELOCITY)
+    config = SimConfig(controller=controller, z_mode=script.z_mode or ZMode.VELOCITY, wind=wind, seed=seed)
     with Simulator(config, ScriptedDriver(script)) as sim:
         with RecordedRun(
             sim, sim.description(), OutputOptions(out=path, cameras=()), name, {"command": "run", "script": name}
@@ -76,12 +79,24 @@ def keyboard_session() -> Path:
     return path
 
 
+RECORDINGS = {
+    "square_cascade": lambda: scripted("square", ControllerKind.CASCADE),
+    "figure8_seed": lambda: scripted("figure8", ControllerKind.SEED),
+    "climb_cascade": lambda: scripted("climb", ControllerKind.CASCADE),
+    # wind, turbulence and IMU noise re-fly bit for bit from the recorded seed
+    "takeoff_moderate_wind_cascade": lambda: scripted(
+        "takeoff", ControllerKind.CASCADE, WindSettings(5.0, 90.0, Turbulence.MODERATE), seed=7
+    ),
+    "keyboard_session_cascade": keyboard_session,
+}
+
 if __name__ == "__main__":
+    # no argument: all of them; or name the ones whose flight changed (e.g. square_cascade)
+    wanted = sys.argv[1:] or list(RECORDINGS)
+    unknown = [name for name in wanted if name not in RECORDINGS]
+    if unknown:
+        sys.exit(f"unknown recording {unknown[0]!r}; choose from {', '.join(RECORDINGS)}")
     OUT.mkdir(parents=True, exist_ok=True)
-    for made in (
-        scripted("square", ControllerKind.CASCADE),
-        scripted("figure8", ControllerKind.SEED),
-        scripted("climb", ControllerKind.CASCADE),
-        keyboard_session(),
-    ):
+    for name in wanted:
+        made = RECORDINGS[name]()
         print(f"{made.relative_to(ROOT)}: {made.stat().st_size / 1e3:.0f} kB")

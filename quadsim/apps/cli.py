@@ -9,10 +9,9 @@ import math
 import os
 import sys
 from collections.abc import Callable
-from contextlib import ExitStack
 from dataclasses import replace
 from pathlib import Path
-from typing import TYPE_CHECKING, NoReturn
+from typing import TYPE_CHECKING, Any, NoReturn
 
 from quadsim import __version__
 from quadsim.apps.stopping import SignalStop, StopRequested, stop_requested
@@ -21,18 +20,20 @@ from quadsim.apps.stopping import exit_code as stop_exit_code
 from quadsim.control import ControllerKind
 from quadsim.core.types import StartPose, ZMode
 from quadsim.errors import QuadsimError
+from quadsim.live import FOXGLOVE_DEFAULT_ENDPOINT
+from quadsim.physics.wind import Turbulence, WindSettings, parse_wind
 from quadsim.recording.paths import ENV_VAR as RECORDINGS_ENV_VAR
 from quadsim.recording.paths import default_recordings_dir
 from quadsim.sensors.camera import RendererKind
-from quadsim.sim.config import Rates
+from quadsim.sim.config import MAX_SEED, Rates
 from quadsim.vehicle.params import DEFAULT_VEHICLE, SHIPPED_VEHICLES
 
 if TYPE_CHECKING:
-    from quadsim.apps.live import LiveSetup
+    from quadsim.apps.outputs import LiveOutput, OutputOptions
     from quadsim.drivers import InputDriver
     from quadsim.drivers.scripted import Script
-    from quadsim.live.playback import RecordedFeed
-    from quadsim.recording.flight import RecordedFlight
+    from quadsim.drivers.subscribed import SubscribedDriver
+    from quadsim.sim.config import SimConfig
 
 DEMO_SCENARIO = "figure8"
 
@@ -84,15 +85,6 @@ def _recordings_default() -> str:
     return f"{folder}; set {RECORDINGS_ENV_VAR} to change it"
 
 
-def _add_ros2_option(p: argparse.ArgumentParser) -> None:
-    p.add_argument(
-        "--ros2",
-        action="store_true",
-        help="join a ROS 2 graph (ROS_DOMAIN_ID, ROS_AUTOMATIC_DISCOVERY_RANGE) and publish every recorded topic "
-        "live, plus /clock for use_sim_time; needs: pip install 'quadsim[ros2]' (no ROS installation)",
-    )
-
-
 def _add_sim_options(p: argparse.ArgumentParser) -> None:
     g = p.add_argument_group("simulation")
     g.add_argument(
@@ -113,7 +105,8 @@ def _add_sim_options(p: argparse.ArgumentParser) -> None:
         "--vehicle",
         choices=list(SHIPPED_VEHICLES),
         default=None,
-        help=f"a shipped airframe: quad (X quadrotor) or hexa (hexacopter); default {DEFAULT_VEHICLE}",
+        help="a shipped airframe: quad (1 kg X quadrotor), hexa (hexacopter) or crazyflie (a 27 g "
+        f"Crazyflie 2.x sized quadrotor); default {DEFAULT_VEHICLE}",
     )
     v.add_argument(
         "--urdf",
@@ -146,8 +139,49 @@ def _add_sim_options(p: argparse.ArgumentParser) -> None:
         metavar="S",
         help="dead-man timeout: hold position after S seconds without a command (default 0.5)",
     )
+    g.add_argument(
+        "--hard-landing",
+        action="store_true",
+        help="do not slow descents near the ground (default: touchdown at about 0.3 m/s whatever the descent "
+        "commanded)",
+    )
+    g.add_argument(
+        "--reset-on-crash",
+        action="store_true",
+        help="after a crash (a wall, the ground at speed or tilted) put the vehicle back at the start pose, "
+        "landed; the clock, the commands and the recording go on",
+    )
     g.add_argument("--gui", action="store_true", help="also open PyBullet's own 3D window (needs a display)")
-    _add_ros2_option(p)
+    w = p.add_argument_group("wind, noise and randomness")
+    w.add_argument(
+        "--wind",
+        default=None,
+        metavar="SPEED,FROM",
+        help="a constant wind of SPEED m/s blowing FROM a direction in degrees, meteorological style: "
+        "clockwise from north, north being the world's +y and east its +x (REP 103). 3,90 is 3 m/s from "
+        "the east, the air moving toward -x (default: no wind)",
+    )
+    w.add_argument(
+        "--turbulence",
+        choices=[t.value for t in Turbulence],
+        default=None,
+        help="Dryden turbulence on top of the wind, with the MIL-F-8785C low-altitude intensities "
+        "(15, 30, 45 knots at 20 ft): light, moderate or severe (default: none)",
+    )
+    w.add_argument(
+        "--no-sensor-noise",
+        action="store_true",
+        help="publish the true IMU values on /quad/imu (default: with the MEMS noise and bias random "
+        "walk of the vehicle's parameter file; /quad/odom and /quad/pose are always ground truth)",
+    )
+    w.add_argument(
+        "--seed",
+        type=_whole(0, MAX_SEED),
+        default=0,
+        metavar="N",
+        help="the run's random seed: turbulence and sensor noise derive from it, and it is recorded, "
+        "so a run re-flies bit for bit (default 0)",
+    )
     o = p.add_argument_group("recording and cameras")
     o.add_argument(
         "--out",
@@ -188,6 +222,34 @@ def _add_sim_options(p: argparse.ArgumentParser) -> None:
     )
 
 
+def _add_live_options(p: argparse.ArgumentParser, what: str = "the run") -> None:
+    g = p.add_argument_group("live")
+    g.add_argument(
+        "--foxglove",
+        nargs="?",
+        const=FOXGLOVE_DEFAULT_ENDPOINT,
+        default=None,
+        metavar="HOST:PORT",
+        help=f"serve {what} live to Foxglove (a Foxglove WebSocket server: every topic of the recording, "
+        f"latched ones included) on HOST:PORT (default {FOXGLOVE_DEFAULT_ENDPOINT}: this machine only; "
+        "0.0.0.0:8765 for the network). In the Foxglove app: Open connection -> Foxglove WebSocket -> ws://HOST:PORT",
+    )
+    g.add_argument(
+        "--ros2",
+        action="store_true",
+        help=f"join a ROS 2 graph (ROS_DOMAIN_ID, ROS_AUTOMATIC_DISCOVERY_RANGE) and publish {what} live: every "
+        "topic of the recording with its QoS, plus /clock for use_sim_time; needs pip install 'quadsim[ros2]' "
+        "(Cyclone DDS; no ROS installation)",
+    )
+
+
+def _live_outputs(args: argparse.Namespace, commands: SubscribedDriver | None = None) -> list[LiveOutput]:
+    """The live bridges the options ask for (--foxglove, --ros2, and the one an input comes from)."""
+    from quadsim.apps.live import open_live_outputs
+
+    return open_live_outputs(getattr(args, "foxglove", None), getattr(args, "ros2", False), commands)
+
+
 def _config(args: argparse.Namespace, script_z_mode: ZMode | None):
     from quadsim.sim.config import SimConfig
 
@@ -205,7 +267,23 @@ def _config(args: argparse.Namespace, script_z_mode: ZMode | None):
         command_timeout_s=args.timeout,
         start=StartPose(),
         gui=args.gui,
+        wind=_wind(args),
+        sensor_noise=not args.no_sensor_noise,
+        seed=args.seed,
     )
+
+
+def _flight_settings(args: argparse.Namespace) -> dict[str, Any]:
+    """The Simulator's landing and crash settings from --hard-landing and --reset-on-crash."""
+    from quadsim.control.landing import LandingSettings
+
+    return {"landing": LandingSettings(hard_landing=args.hard_landing), "reset_on_crash": args.reset_on_crash}
+
+
+def _wind(args: argparse.Namespace) -> WindSettings:
+    speed, from_deg = parse_wind(args.wind) if args.wind is not None else (0.0, 0.0)
+    turbulence = Turbulence(args.turbulence) if args.turbulence else None
+    return WindSettings(speed, from_deg, turbulence)
 
 
 def _outputs(args: argparse.Namespace):
@@ -255,65 +333,118 @@ def _check_z_mode_override(script: Script, z_mode_option: str | None) -> None:
     )
 
 
-def _fly_script(
-    args: argparse.Namespace, script_name: str | None, realtime: bool, live: LiveSetup | None = None
+def _fly_script(args: argparse.Namespace, script_name: str, realtime: bool) -> int:
+    from quadsim.drivers.scripted import ScriptedDriver, load_script
+
+    script = load_script(script_name)
+    _check_z_mode_override(script, args.z_mode)
+    duration = args.duration if args.duration is not None else script.duration_s
+    run_info = {"command": "run", "script": script.name, "duration_s": duration, "realtime": realtime}
+    return _fly_headless(
+        args,
+        _config(args, script.z_mode),
+        ScriptedDriver(script),
+        f"'{script.name}' for {duration:.1f} s",
+        duration,
+        realtime,
+        f"{Path(script.name).stem}_{args.controller}",
+        run_info,
+    )
+
+
+#: `run --commands-from` flies this long after the last command (the dead-man timeout, and settling)
+COMMANDS_TAIL_S = 2.0
+
+
+def _fly_bag(args: argparse.Namespace, realtime: bool) -> int:
+    from quadsim.drivers.replay import ReplayDriver
+    from quadsim.recording.bag_commands import command_steps, read_bag_commands
+
+    bag = read_bag_commands(args.commands_from)
+    config = _config(args, bag.z_mode)
+    driver = ReplayDriver(command_steps(bag, config.rates.physics_hz), str(bag.path))
+    duration = args.duration if args.duration is not None else bag.span_ns / 1e9 + COMMANDS_TAIL_S
+    run_info = {"command": "run", "commands_from": str(bag.path), "duration_s": duration, "realtime": realtime}
+    what = f"the {len(bag.commands)} commands of {bag.path.name} for {duration:.1f} s"
+    return _fly_headless(
+        args, config, driver, what, duration, realtime, f"{bag.path.stem}_{config.controller.value}", run_info
+    )
+
+
+def _fly_subscribed(args: argparse.Namespace, command: str) -> int:
+    """Fly the Twists Foxglove clients or ROS 2 nodes publish (--input), in real time, until
+    Ctrl-C or --duration."""
+    from quadsim.drivers.subscribed import SubscribedDriver
+
+    driver = SubscribedDriver(args.input)
+    duration = args.duration if args.duration is not None else MAX_DURATION_S
+    until = f"for {duration:.1f} s" if args.duration is not None else "until Ctrl-C"
+    run_info = {"command": command, "input": args.input, "duration_s": duration, "realtime": True}
+    who = "Foxglove clients" if args.input == "foxglove" else "ROS 2 nodes"
+    return _fly_headless(
+        args,
+        _config(args, None),
+        driver,
+        f"the Twists {who} publish on {driver.topic} {until}",
+        duration,
+        True,
+        f"{args.input}_{args.controller}",
+        run_info,
+        commands=driver,
+    )
+
+
+def _fly_headless(
+    args: argparse.Namespace,
+    config: SimConfig,
+    driver: InputDriver,
+    what: str,
+    duration: float,
+    realtime: bool,
+    label: str,
+    run_info: dict,
+    commands: SubscribedDriver | None = None,
 ) -> int:
-    """Fly a script headless, or (`script_name` None) the commands of `live.driver`, paced to real
-    time until a signal or --duration."""
     from quadsim.apps.headless import run_headless
     from quadsim.apps.outputs import RecordedRun
     from quadsim.apps.progress import ProgressBar
-    from quadsim.drivers.scripted import ScriptedDriver, load_script
     from quadsim.sim.simulator import Simulator
 
-    outputs = _outputs(args)
-    if live is not None:
-        outputs = replace(outputs, live=live.consumers)
-    if not outputs.record and not outputs.live and outputs.cameras:  # nobody would see a frame
+    outputs: OutputOptions = _outputs(args)
+    live_wanted = args.foxglove is not None or args.ros2 or commands is not None
+    if not outputs.record and outputs.cameras and not live_wanted:  # nobody would see a frame
         outputs = replace(outputs, cameras=())
-    driver: InputDriver
-    if script_name is None:
-        assert live is not None and live.driver is not None
-        config, driver, realtime = _config(args, None), live.driver, True
-        outputs = replace(outputs, ordered_delivery=False)  # live: frames as they come, the loop never waits
-        duration = args.duration if args.duration is not None else MAX_DURATION_S
-        what, label = f"the Twists on {live.driver.topic} (ROS 2)", f"ros2_{config.controller.value}"
-        until = f"for {duration:.1f} s" if args.duration is not None else "until Ctrl-C"
-        run_info = {"command": "run", "input": "ros2", "duration_s": args.duration, "realtime": True}
-    else:
-        script = load_script(script_name)
-        _check_z_mode_override(script, args.z_mode)
-        config, driver = _config(args, script.z_mode), ScriptedDriver(script)
-        duration = args.duration if args.duration is not None else script.duration_s
-        what, label = f"'{script.name}'", f"{Path(script.name).stem}_{config.controller.value}"
-        until = f"for {duration:.1f} s"
-        run_info = {"command": "run", "script": script.name, "duration_s": duration, "realtime": realtime}
+    if commands is not None:  # flown live: the flight keeps real time, the cameras drop frames (as the window)
+        outputs = replace(outputs, ordered_delivery=False)
     if not duration > 0:
         raise QuadsimError(f"--duration must be > 0 s, got {duration}")
     cams = ", ".join(f"{c.name} {c.width_px}x{c.height_px}@{c.rate_hz}Hz" for c in outputs.cameras) or "none"
+    live = _live_outputs(args, commands)
     print(
-        f"flying {what} {until}: controller {config.controller.value}, "
-        f"z-mode {config.z_mode.value}, physics {config.rates.physics_hz} Hz, control {config.rates.control_hz} Hz, "
-        f"cameras {cams}"
+        f"flying {what}: controller {config.controller.value}, "
+        f"z-mode {(config.z_mode or ZMode.VELOCITY).value}, physics {config.rates.physics_hz} Hz, control {config.rates.control_hz} Hz, "
+        f"cameras {cams}" + (f", {config.wind.describe()}" if config.wind.enabled else "")
     )
-    if args.ros2:
-        print(f"publishing on ROS 2 (domain {_ros2_domain()}): every recorded topic and /clock", flush=True)
-    bar = ProgressBar(duration, "sim time")
+    bar = ProgressBar(duration, "sim time") if commands is None else None
     summary, run, sim_time = None, None, 0.0
     try:
-        with Simulator(config, driver) as sim:
+        with Simulator(config, driver, **_flight_settings(args)) as sim:
             try:
-                with RecordedRun(sim, sim.description(), outputs, label, run_info) as run:
+                with RecordedRun(sim, sim.description(), outputs, label, run_info, live=live) as run:
                     if run.path is not None:
                         print(f"recording to {run.path}", flush=True)
-                    progress = bar.update if duration < MAX_DURATION_S else None
-                    summary = run_headless(sim, duration, progress=progress, realtime=realtime)
+                    summary = run_headless(
+                        sim, duration, progress=bar.update if bar is not None else None, realtime=realtime
+                    )
             finally:
                 sim_time = sim.time_s
     except StopRequested:
         pass  # the summary of what was flown follows; the exit code says why it stopped
     finally:
-        bar.close()
+        if bar is not None:
+            bar.close()
+        for output in live:  # closed with the run, or here if the run never started
+            output.close()
     if summary is not None:
         for line in summary.lines():
             print(line)
@@ -335,21 +466,19 @@ def _fly_script(
     return 0
 
 
-def _ros2_domain() -> int:
-    from quadsim.live.ros2 import domain_id
-
-    return domain_id(os.environ)
-
-
 def cmd_run(args: argparse.Namespace) -> int:
-    from quadsim.apps.live import open_live
-
-    if args.input == "ros2" and args.script is not None:
-        raise QuadsimError("--input ros2 flies the Twists a ROS 2 node publishes: drop --script")
-    if args.input == "script" and args.script is None:
-        raise QuadsimError("run needs --script NAME|FILE (or --input ros2)")
-    with open_live(args.ros2, args.input) as live:
-        return _fly_script(args, args.script, args.gui or args.realtime, live)
+    inputs = [args.script is not None, args.commands_from is not None, args.input in ("foxglove", "ros2")]
+    if sum(inputs) > 1:
+        what = f"--input {args.input}" if args.input != "script" else "--input"
+        raise QuadsimError(f"--script, --commands-from and {what} each say where commands come from; give one")
+    if args.input in ("foxglove", "ros2"):
+        return _fly_subscribed(args, "run")
+    realtime = args.gui or args.realtime
+    if args.commands_from is not None:
+        return _fly_bag(args, realtime)
+    if args.script is None:
+        raise QuadsimError("say what to fly: --script NAME|FILE, --commands-from FILE.mcap, or --input foxglove|ros2")
+    return _fly_script(args, args.script, realtime)
 
 
 def has_display() -> bool:
@@ -371,19 +500,13 @@ def _window_size(text: str) -> tuple[int, int]:
 
 
 def cmd_fly(args: argparse.Namespace) -> int:
-    from quadsim.apps.live import open_live
-
-    with open_live(args.ros2, args.input) as live:
-        return _fly(args, live)
-
-
-def _fly(args: argparse.Namespace, live: LiveSetup) -> int:
     if args.gui and not has_display():
         raise QuadsimError("--gui needs a display (DISPLAY is not set); run without --gui")
-    if not has_display() and live.driver is not None:
-        print("No display found: flying the ROS 2 commands headless.")
+    if not has_display() and args.input in ("foxglove", "ros2"):
+        who = "Foxglove clients" if args.input == "foxglove" else "ROS 2 nodes"
+        print(f"No display found: flying headless, in real time, what {who} publish.")
         args.gui = False
-        return _fly_script(args, None, True, live)
+        return _fly_subscribed(args, "fly")
     if not has_display():
         print(
             f"No display found: the teleop window cannot open. Recording the scripted demo '{DEMO_SCENARIO}' "
@@ -391,7 +514,7 @@ def _fly(args: argparse.Namespace, live: LiveSetup) -> int:
             f"python main.py scenarios)"
         )
         args.gui = False
-        return _fly_script(args, DEMO_SCENARIO, False, live)
+        return _fly_script(args, DEMO_SCENARIO, realtime=False)
     from quadsim.apps.window.teleop import TeleopApp, TeleopOptions
     from quadsim.drivers.joystick import JoystickMapping, load_mapping
 
@@ -401,13 +524,19 @@ def _fly(args: argparse.Namespace, live: LiveSetup) -> int:
         keyboard_layout=args.keys,
         joystick_mapping=load_mapping(args.joy_map) if args.joy_map else JoystickMapping(),
         window_size=(width, height),
-        subscribed=live.driver,
+        **_flight_settings(args),
     )
     config = _config(args, None)
-    outputs = replace(_outputs(args), live=live.consumers)
+    outputs = _outputs(args)
+    commands = None
+    if args.input in ("foxglove", "ros2"):
+        from quadsim.drivers.subscribed import SubscribedDriver
+
+        commands = SubscribedDriver(args.input)
+    live = _live_outputs(args, commands)
     flown, recordings, lost = 0.0, [], None
     try:
-        with TeleopApp(config, outputs, options) as app:
+        with TeleopApp(config, outputs, options, live=live, commands=commands) as app:
             print(f"flying with {app.driver.name}; press H or F1 in the window for the keys, Esc to quit")
             try:
                 app.run(stop=stop_requested)  # a signal ends the window loop at its next frame
@@ -416,6 +545,9 @@ def _fly(args: argparse.Namespace, live: LiveSetup) -> int:
         lost = app.display_lost  # the window was destroyed from outside or its X connection lost
     except StopRequested:
         pass
+    finally:
+        for output in live:  # closed with the run, or here if the window never opened
+            output.close()
     print(f"flew {flown:.1f} s of simulation time")
     for path in recordings:
         print(f"recording       {path}")
@@ -442,29 +574,26 @@ def cmd_scenarios(args: argparse.Namespace) -> int:
 
 
 def cmd_evaluate(args: argparse.Namespace) -> int:
-    from quadsim.apps.evaluate import SCENARIO_METRICS, TARGETS, evaluate
+    from quadsim.apps.evaluate import MANOEUVRE_TARGETS, PHYSICS_TARGETS, SCENARIO_METRICS, TARGETS, evaluate
 
     controllers = [ControllerKind(c) for c in args.controller] if args.controller else list(ControllerKind)
     results = {c: evaluate(controller=c) for c in controllers}
-    rows = [
-        (s, m)
-        for s, fn in SCENARIO_METRICS.items()
-        for m in results[controllers[0]][s]
-        if m not in ("max_tilt_deg", "min_z_m", "max_z_m", "rate_mean_radps", "peak_mps")
-    ]
-    targets = {(s, m): bound for s, m, bound in TARGETS}
+    details = {"max_tilt_deg", "min_z_m", "max_z_m", "rate_mean_radps", "peak_mps"}
+    details |= {"landed", "final_z_m", "drops", "heading_rate_radps", "bank_deg"}
+    rows = [(s, m) for s, metrics in results[controllers[0]].items() for m in metrics if m not in details]
+    targets = {(s, m): "< " + format(bound, "g") for s, m, bound in (*TARGETS, *MANOEUVRE_TARGETS)}
+    targets.update({(s, m): f"{low:g} .. {high:g}" if low else f"< {high:g}" for s, m, low, high in PHYSICS_TARGETS})
     header = "| scenario | metric | target (cascade) | " + " | ".join(c.value for c in controllers) + " |"
     print(header)
     print("|" + "---|" * (3 + len(controllers)))
     for s, m in rows:
-        bound = targets.get((s, m))
         cells = " | ".join(f"{results[c][s][m]:.3f}" for c in controllers)
-        print(f"| {s} | {m} | {'< ' + format(bound, 'g') if bound is not None else ''} | {cells} |")
+        print(f"| {s} | {m} | {targets.get((s, m), '')} | {cells} |")
     print(
         "| "
         + " | ".join(
-            ["all", "max tilt (deg)", ""]
-            + [f"{max(r['max_tilt_deg'] for r in results[c].values()):.1f}" for c in controllers]
+            ["all scenarios", "max tilt (deg)", ""]
+            + [f"{max(results[c][s]['max_tilt_deg'] for s in SCENARIO_METRICS):.1f}" for c in controllers]
         )
         + " |"
     )
@@ -543,8 +672,9 @@ def cmd_replay(args: argparse.Namespace) -> int:
         _check_output_file("--plot", args.plot, PLOT_SUFFIXES)
     if args.mp4 is not None:
         _check_output_dir("--mp4", args.mp4)
-    if args.resim and args.ros2:
-        raise QuadsimError("--ros2 publishes a recording as it plays; --resim flies it again: choose one")
+    if (args.foxglove is not None or args.ros2) and args.resim:
+        option = "--foxglove" if args.foxglove is not None else "--ros2"
+        raise QuadsimError(f"{option} plays the recording as it is; with --resim nothing would be played (drop one)")
     flight = load_flight(args.file)
     if args.resim:
         from quadsim.apps.progress import ProgressBar
@@ -565,50 +695,6 @@ def cmd_replay(args: argparse.Namespace) -> int:
             "for pictures, or --resim to fly it again)."
         )
         headless = True
-    with ExitStack() as stack:
-        feed = _replay_feed(args, stack)
-        return _replay(args, flight, headless, (width, height), feed)
-
-
-def _replay_feed(args: argparse.Namespace, stack: ExitStack) -> RecordedFeed | None:
-    """With --ros2: the recording's messages, to publish as it plays."""
-    if not args.ros2:
-        return None
-    from quadsim.live.playback import RecordedFeed
-    from quadsim.live.ros2 import Ros2Bridge
-
-    bridge = stack.enter_context(Ros2Bridge())
-    feed = RecordedFeed(args.file, [bridge])
-    print(f"publishing on ROS 2 (domain {bridge.domain_id}) as it plays: {len(feed.messages)} messages and /clock")
-    return feed
-
-
-def _play_headless(feed: RecordedFeed, speed: float, loop: bool) -> None:
-    """Publish the recording paced to the wall clock (at `speed`), until its end or a stop request."""
-    import time
-
-    end_ns = feed.messages[-1][1] if feed.messages else 0
-    start = time.perf_counter()
-    while not stop_requested():
-        t_ns = int((time.perf_counter() - start) * speed * 1e9)
-        if t_ns > end_ns:
-            feed.advance(end_ns)
-            if not loop:
-                return
-            start = time.perf_counter()
-            t_ns = 0
-        feed.advance(t_ns)
-        time.sleep(0.005)
-
-
-def _replay(
-    args: argparse.Namespace,
-    flight: RecordedFlight,
-    headless: bool,
-    size: tuple[int, int],
-    feed: RecordedFeed | None,
-) -> int:
-    width, height = size
     if headless:
         from quadsim.apps.flight_plot import export_plot
         from quadsim.apps.replay_export import export_mp4, summary_lines
@@ -625,23 +711,68 @@ def _replay(
                 print(f"video       {path} (VP9)")
         if args.plot is not None:
             print(f"plot        {export_plot(flight, args.plot)}")
-        if feed is not None:
-            _play_headless(feed, args.speed, args.loop)
-            stop = SignalStop.current()
-            if stop is not None and stop.signum is not None:
-                return stop_exit_code(stop.signum)
+        if args.foxglove is not None or args.ros2:
+            return _replay_live(args)
         return 0
     from quadsim.apps.window.replay import ReplayApp
 
-    on_time = feed.advance if feed is not None else None
-    with ReplayApp(flight, (width, height), speed=args.speed, loop=args.loop, on_time=on_time) as app:
-        print("replaying; press H or F1 in the window for the keys, Esc to quit")
-        app.run()
+    live = _live_outputs(args)
+    try:
+        feed = _feed(args.file, live)
+        with ReplayApp(flight, (width, height), speed=args.speed, loop=args.loop, feed=feed) as app:
+            print("replaying; press H or F1 in the window for the keys, Esc to quit")
+            app.run()
+    finally:
+        for output in live:
+            output.close()
     if app.display_lost is not None:
         from quadsim.apps.window.x11_guard import EXIT_DISPLAY_LOST
 
         print(f"the window's display was lost ({app.display_lost})", file=sys.stderr)
         return EXIT_DISPLAY_LOST
+    return 0
+
+
+def _feed(path: Path, live: list[LiveOutput]):
+    if not live:
+        return None
+    from quadsim.live.playback import RecordingFeed
+
+    return RecordingFeed(path, live)
+
+
+def _replay_live(args: argparse.Namespace) -> int:
+    """replay --foxglove/--ros2 with no window: play the recording live in real time (times
+    --speed), once or --loop, until its end or Ctrl-C."""
+    import time
+
+    live = _live_outputs(args)
+    try:
+        feed = _feed(args.file, live)
+        assert feed is not None
+        print(
+            f"playing {len(feed.messages)} messages on {len(feed.topics)} topics ({feed.end_ns / 1e9:.1f} s) "
+            f"at {args.speed:g}x{', looping' if args.loop else ''}; Ctrl-C stops",
+            flush=True,
+        )
+        t0 = time.monotonic()
+        while not stop_requested():
+            t_ns = int((time.monotonic() - t0) * args.speed * 1e9)
+            if t_ns > feed.end_ns:
+                feed.play_to(feed.end_ns)
+                if not args.loop:
+                    break
+                t0, t_ns = time.monotonic(), 0
+            feed.play_to(t_ns)
+            time.sleep(0.01)
+    finally:
+        for output in live:
+            output.close()
+    print(f"played {feed.played} messages")
+    stop = SignalStop.current()
+    if stop is not None and stop.signum is not None:
+        print(describe_stop(stop.signum), file=sys.stderr)
+        return stop_exit_code(stop.signum)
     return 0
 
 
@@ -654,48 +785,38 @@ def _warn(lines: list[str], path: Path, most: int = 8) -> None:
 
 
 def cmd_check(args: argparse.Namespace) -> int:
-    from quadsim.apps.resim import resimulate
-    from quadsim.recording.flight import load_flight
+    from quadsim.apps.check import CheckOutcome, CheckTask, check_one, recordings_in
+    from quadsim.apps.sweep.backends import RAY_MISSING, default_jobs, ray_available, run_tasks
 
-    files: list[Path] = []
-    for path in args.paths:
-        if path.is_dir():
-            files += sorted(path.rglob("*.mcap")) or [path]  # an empty folder is reported as unusable
-        else:
-            files.append(path)
-    failed, unusable = 0, 0
-    for path in files:
-        try:
-            if path.is_dir():
-                raise QuadsimError("no .mcap recordings in this folder")
-            flight = load_flight(path)
-            report = resimulate(
-                flight,
-                record=False,
-                position_tolerance_m=args.tolerance_m,
-                attitude_tolerance_rad=args.tolerance_rad,
-            )
-        except QuadsimError as exc:
-            unusable += 1
-            print(f"ERROR {path}: {str(exc).removeprefix(f'{path}: ')}")
-            continue
-        ok = report.within(args.tolerance_m, args.tolerance_rad)
-        failed += not ok
-        print(
-            f"{'ok   ' if ok else 'FAIL '} {path}: position off by up to {report.position.max_error:.3g} m, "
-            f"attitude by up to {report.attitude.max_error:.3g} rad"
-        )
-        if not ok:
-            for line in report.lines()[1:]:
-                print("     " + line)
-        for line in flight.warnings():
-            print(f"      note: {line}")
+    files = recordings_in(args.paths)
+    jobs = args.jobs if args.jobs is not None else 1
+    if not 1 <= jobs <= 1024:
+        raise QuadsimError(f"--jobs must be from 1 to 1024, got {jobs}")
+    use_ray = args.ray is not None
+    if use_ray and not ray_available():
+        raise QuadsimError(RAY_MISSING)
+    tasks = [CheckTask(path, args.tolerance_m, args.tolerance_rad) for path in files]
+    if use_ray and args.jobs is None:
+        jobs = default_jobs()
+    # results come in completion order; the report keeps the order of the files
+    outcomes: dict[Path, CheckOutcome] = {}
+    shown = 0
+    for outcome in run_tasks(check_one, tasks, jobs, None if args.ray in (None, "local") else args.ray, use_ray):
+        outcomes[outcome.path] = outcome
+        while shown < len(files) and files[shown] in outcomes:
+            for line in outcomes[files[shown]].lines:
+                print(line, flush=True)
+            shown += 1
+    failed = sum(o.status == "changed" for o in outcomes.values())
+    unusable = sum(o.status == "unusable" for o in outcomes.values())
     total = len(files)
+    not_checked = total - len(outcomes)
     print(
-        f"{total - failed - unusable} of {total} recordings re-fly within {args.tolerance_m:g} m and "
+        f"{total - failed - unusable - not_checked} of {total} recordings re-fly within {args.tolerance_m:g} m and "
         f"{args.tolerance_rad:g} rad"
         + (f"; {failed} changed" if failed else "")
         + (f"; {unusable} unusable" if unusable else "")
+        + (f"; {not_checked} not checked (stopped)" if not_checked else "")
     )
     return 2 if unusable else (1 if failed else 0)
 
@@ -711,14 +832,26 @@ def cmd_bench(args: argparse.Namespace) -> int:
         from quadsim.apps.bench import run_interactive_bench
 
         run_interactive_bench()
+    if args.section in ("all", "autonomy"):
+        from quadsim.apps.bench_autonomy import run_autonomy_bench
+
+        run_autonomy_bench()
     if args.section in ("all", "replay"):
         from quadsim.apps.bench import run_replay_bench
 
         run_replay_bench()
+    if args.section in ("all", "live"):
+        from quadsim.apps.bench import run_live_bench
+
+        run_live_bench()
     if args.section in ("all", "ros2"):
         from quadsim.apps.bench import run_ros2_bench
 
         run_ros2_bench()
+    if args.section in ("all", "sweep"):
+        from quadsim.apps.sweep.bench import run_sweep_bench
+
+        run_sweep_bench()
     return 0
 
 
@@ -735,32 +868,45 @@ def build_parser() -> argparse.ArgumentParser:
     p = sub.add_parser(
         "run",
         help="fly a scripted flight headless, as fast as possible, and summarise it",
-        description="Fly a built-in scenario or a script file headless as fast as the machine allows, "
-        "showing progress, then print sim time, wall time, real-time factor, final pose "
-        "and distance flown. Script format: see README (or quadsim/drivers/scripted.py).",
+        description="Fly a built-in scenario, a script file or the /quad_cmd_twist commands of any MCAP "
+        "headless as fast as the machine allows, showing progress, then print sim time, wall time, "
+        "real-time factor, final pose and distance flown. Script format: see README (or "
+        "quadsim/drivers/scripted.py).",
     )
-    p.add_argument(
+    what = p.add_mutually_exclusive_group()
+    what.add_argument(
         "--script",
         default=None,
         metavar="NAME|FILE",
         help="a built-in scenario (python main.py scenarios lists them) or a script file",
     )
+    what.add_argument(
+        "--commands-from",
+        type=Path,
+        metavar="FILE.mcap",
+        help="fly the geometry_msgs/msg/Twist messages on /quad_cmd_twist of any MCAP (a ros2 bag in MCAP "
+        "storage, a quadsim recording) at their log times, counted from the first of them; z-mode: a quadsim "
+        "recording's, else --z-mode (default velocity)",
+    )
     p.add_argument(
         "--input",
-        choices=["script", "ros2"],
+        choices=["script", "foxglove", "ros2"],
         default="script",
-        help="script (default): fly --script; ros2: fly the geometry_msgs/Twist messages a ROS 2 node publishes "
-        "on /quad_cmd_twist, paced to real time until Ctrl-C or --duration (add --ros2 to publish the sensors)",
+        help="script (default): fly --script; foxglove: fly the Twists Foxglove clients publish on /quad_cmd_twist "
+        "(the Teleop panel), in real time, until Ctrl-C or --duration (implies --foxglove); ros2: the same with the "
+        "geometry_msgs/Twist a ROS 2 node publishes on /quad_cmd_twist (implies --ros2)",
     )
     p.add_argument(
         "--duration",
         type=_number(1e-3, MAX_DURATION_S, "seconds"),
         default=None,
         metavar="S",
-        help="seconds of sim time (default: the script's length; beyond it the vehicle holds)",
+        help="seconds of sim time (default: the script's length, or the commands' span plus "
+        f"{COMMANDS_TAIL_S:g} s; beyond it the vehicle holds)",
     )
     p.add_argument("--realtime", action="store_true", help="pace simulation time to the wall clock (as --gui does)")
     _add_sim_options(p)
+    _add_live_options(p)
     p.set_defaults(func=cmd_run)
 
     p = sub.add_parser(
@@ -781,11 +927,12 @@ def build_parser() -> argparse.ArgumentParser:
     t = p.add_argument_group("teleop window")
     t.add_argument(
         "--input",
-        choices=["auto", "keyboard", "joystick", "ros2"],
+        choices=["auto", "keyboard", "joystick", "foxglove", "ros2"],
         default="auto",
         help="auto (default): a gamepad if one is plugged in, else the keyboard until one is plugged in; "
-        "joystick: wait for a gamepad even if none is plugged in; ros2: the geometry_msgs/Twist messages a ROS 2 "
-        "node publishes on /quad_cmd_twist",
+        "joystick: wait for a gamepad even if none is plugged in; foxglove: the Twists Foxglove clients publish "
+        "on /quad_cmd_twist (the Teleop panel), served as --foxglove says; ros2: the geometry_msgs/Twist a ROS 2 "
+        "node publishes on /quad_cmd_twist (implies --ros2); with no display, these two fly headless in real time",
     )
     t.add_argument(
         "--keys",
@@ -804,6 +951,7 @@ def build_parser() -> argparse.ArgumentParser:
     )
     t.add_argument("--window", default="1280x720", metavar="WxH", help="initial window size (default 1280x720)")
     _add_sim_options(p)
+    _add_live_options(p)
     p.set_defaults(func=cmd_fly)
 
     p = sub.add_parser("scenarios", help="list the built-in scripted scenarios")
@@ -884,8 +1032,8 @@ def build_parser() -> argparse.ArgumentParser:
         help="playback speed, 0.25 to 16 (default 1)",
     )
     p.add_argument("--loop", action="store_true", help="start again at the end")
-    _add_ros2_option(p)
     p.add_argument("--window", default="1280x720", metavar="WxH", help="initial window size")
+    _add_live_options(p, "the recorded messages, as they are played (put FILE first),")
     p.set_defaults(func=cmd_replay)
 
     p = sub.add_parser(
@@ -905,7 +1053,14 @@ def build_parser() -> argparse.ArgumentParser:
         default=1e-3,
         help="attitude tolerance (default 0.001 rad)",
     )
+    from quadsim.apps.sweep.command import add_parallel_arguments
+    from quadsim.apps.sweep.command import add_parser as add_sweep_parser
+
+    add_parallel_arguments(
+        p, "re-fly N recordings at once in worker processes (default 1; the report stays in file order)"
+    )
     p.set_defaults(func=cmd_check)
+    add_sweep_parser(sub, _recordings_default())
 
     p = sub.add_parser(
         "bench",
@@ -924,11 +1079,12 @@ def build_parser() -> argparse.ArgumentParser:
     )
     p.add_argument(
         "--section",
-        choices=["all", "flight", "recording", "window", "replay", "ros2"],
+        choices=["all", "flight", "recording", "window", "autonomy", "replay", "live", "ros2", "sweep"],
         default="all",
         help="flight: the flight core; recording: cameras and recording; window: the teleop "
-        "window headless; replay: playback and re-simulation; ros2: the ROS 2 bridge beside a real rclpy node "
-        "(default: all)",
+        "window headless; autonomy: camera images in code; replay: playback and re-simulation; live: "
+        "Foxglove streaming; ros2: the ROS 2 bridge beside a real rclpy node; sweep: a 64-run sweep on 1 worker, "
+        "every core and Ray (default: all)",
     )
     p.set_defaults(func=cmd_bench)
     return parser

@@ -9,6 +9,7 @@ from dataclasses import dataclass
 
 from quadsim.apps.stopping import stop_requested
 from quadsim.core.types import VehicleState
+from quadsim.sim.flight_events import EventKind, FlightEvent
 from quadsim.sim.loop import StateLog
 from quadsim.sim.simulator import Simulator
 
@@ -26,6 +27,8 @@ class RunSummary:
     commands_received: int
     commands_rejected: int
     stopped_early: bool = False  # a signal asked the run to stop before its end
+    events: tuple[FlightEvent, ...] = ()  # take-off, touchdown, landed, crash, reset
+    physics_hz: int = 240  # the events' steps -> seconds
 
     @property
     def real_time_factor(self) -> float:
@@ -43,7 +46,17 @@ class RunSummary:
             f"yaw={math.degrees(s.yaw_rad()):+.1f} deg  roll={math.degrees(roll):+.1f}  pitch={math.degrees(pitch):+.1f}",
             f"distance flown  {self.distance_m:.2f} m (max altitude {self.max_altitude_m:.2f} m)",
             f"commands        {self.commands_received} received, {self.commands_rejected} rejected",
+            f"flight events   {self._events_line()}",
+            *(
+                f"crash           at t={e.step / self.physics_hz:.2f} s: {e.value}"
+                for e in self.events
+                if e.kind is EventKind.CRASH
+            ),
         ]
+
+    def _events_line(self) -> str:
+        counts = {kind: sum(e.kind is kind for e in self.events) for kind in EventKind}
+        return ", ".join(f"{n} {kind.value}" for kind, n in counts.items() if n) or "none"
 
 
 class _Odometer:
@@ -82,6 +95,7 @@ def run_headless(
     total_steps = round(duration_s * hz)
     chunk = max(1, round((1.0 / 60.0 if realtime else _CHUNK_S) * hz))
     start_step = sim.step_count
+    first_event = len(sim.events)
     t0 = time.perf_counter()
     done = 0
     while done < total_steps and not stop_requested():  # a signal stops it between two chunks
@@ -105,4 +119,6 @@ def run_headless(
         commands_received=odo.commands,
         commands_rejected=sim.gate.rejected_count,
         stopped_early=done < total_steps,
+        events=tuple(sim.events[first_event:]),
+        physics_hz=hz,
     )

@@ -1,57 +1,55 @@
-"""The live outputs and inputs a command line asks for (--ros2, --input ros2), opened together and
-closed with the run. Each bridge module is imported only when asked for."""
+"""The live bridges a command line asks for (--foxglove, --ros2, --input foxglove|ros2), opened
+together; they are fed by the run's topic fan-out and closed with the run. Each bridge's module
+(foxglove-sdk, Cyclone DDS) is imported only when asked for.
+
+An input from a bridge implies that bridge: `--input foxglove` serves Foxglove, `--input ros2`
+joins the ROS 2 graph and publishes there too (all but /quad_cmd_twist, which the user's node
+publishes)."""
 
 from __future__ import annotations
 
-from contextlib import ExitStack
-from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
 
+from quadsim.live import FOXGLOVE_DEFAULT_ENDPOINT
 from quadsim.recording.contract import TWIST
-from quadsim.recording.fanout import TopicConsumer
 
 if TYPE_CHECKING:
+    from quadsim.apps.outputs import LiveOutput
     from quadsim.drivers.subscribed import SubscribedDriver
 
-
-@dataclass
-class LiveSetup:
-    """What the live options opened: consumers for the fan-out, and the driver fed from outside
-    (None: the run's own input flies)."""
-
-    consumers: tuple[TopicConsumer, ...] = ()
-    driver: SubscribedDriver | None = None
-    stack: ExitStack = field(default_factory=ExitStack)
-
-    def close(self) -> None:
-        self.stack.close()
-
-    def __enter__(self) -> LiveSetup:
-        return self
-
-    def __exit__(self, *exc: object) -> None:
-        self.close()
+#: the inputs a live bridge provides (SubscribedDriver names)
+LIVE_INPUTS = ("foxglove", "ros2")
 
 
-def open_live(ros2: bool, input_name: str | None) -> LiveSetup:
-    """Open the ROS 2 bridge for `--ros2` (publish) and/or `--input ros2` (take /quad_cmd_twist).
-
-    With ROS 2 input, /quad_cmd_twist is not published back: the user's node is its publisher."""
-    setup = LiveSetup()
-    ros2_input = input_name == "ros2"
-    if not (ros2 or ros2_input):
-        return setup
+def open_live_outputs(foxglove: str | None, ros2: bool, commands: SubscribedDriver | None = None) -> list[LiveOutput]:
+    """Open the bridges: a Foxglove server at `foxglove` (HOST:PORT) or when it is the input, a
+    ROS 2 bridge with `ros2` or when it is the input; `commands` is fed by the bridge it names."""
+    outputs: list[LiveOutput] = []
+    source = commands.name if commands is not None else None
     try:
-        from quadsim.drivers.subscribed import SubscribedDriver
-        from quadsim.live.ros2 import Ros2Bridge
+        if foxglove is not None or source == "foxglove":
+            from quadsim.live.foxglove import FoxgloveBridge, parse_endpoint
 
-        bridge = setup.stack.enter_context(Ros2Bridge(exclude=(TWIST.name,) if ros2_input else ()))
-        if ros2:
-            setup.consumers += (bridge,)
-        if ros2_input:
-            setup.driver = SubscribedDriver("ros2", TWIST.name)
-            bridge.subscribe_twist(setup.driver)
+            host, port = parse_endpoint(foxglove or FOXGLOVE_DEFAULT_ENDPOINT)
+            bridge = FoxgloveBridge(host, port, commands if source == "foxglove" else None)
+            takes = f"; it takes Twists on {TWIST.name} (Teleop panel)" if source == "foxglove" else ""
+            print(f"Foxglove: serving {bridge.url} (Open connection -> Foxglove WebSocket){takes}", flush=True)
+            outputs.append(bridge)
+        if ros2 or source == "ros2":
+            from quadsim.live.ros2 import Ros2Bridge
+
+            ros2_bridge = Ros2Bridge(exclude=(TWIST.name,) if source == "ros2" else ())
+            outputs.append(ros2_bridge)
+            if source == "ros2":
+                assert commands is not None
+                ros2_bridge.subscribe_twist(commands)
+            takes = f"; it takes geometry_msgs/Twist on {TWIST.name}" if source == "ros2" else ""
+            print(
+                f"ROS 2: publishing on domain {ros2_bridge.domain_id} every recorded topic and /clock{takes}",
+                flush=True,
+            )
     except BaseException:
-        setup.close()
+        for output in outputs:
+            output.close()
         raise
-    return setup
+    return outputs

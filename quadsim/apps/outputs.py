@@ -1,5 +1,5 @@
-"""A run's outputs: the camera pipeline, the topic fan-out and the MCAP recorder it feeds,
-opened together and always finished together (normal end, Ctrl-C, SIGTERM, an exception).
+"""A run's outputs: the camera pipeline, the topic fan-out and what it feeds (the MCAP recorder,
+live bridges), opened together and always finished together (normal end, Ctrl-C, SIGTERM, an exception).
 
 They attach to the run through its OutputPort (the Simulator is one) and know it by its typed
 RunDescription: they never hold the simulator. The recorder's and the cameras' modules (and so
@@ -8,9 +8,10 @@ mcap, foxglove, rosbags, cv2) are imported only when a run records or has camera
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, Protocol
 
 from quadsim.apps.stopping import shielded_from_signals
 from quadsim.errors import QuadsimError
@@ -19,9 +20,20 @@ from quadsim.sensors.camera import CameraSpec, RendererKind, default_cameras
 from quadsim.sim.description import RunDescription
 from quadsim.sim.loop import OutputPort
 
+#: the kind of the events that say a recording started or stopped (on /rosout: "recording: started")
+RECORDING_EVENT = "recording"
+
 if TYPE_CHECKING:
     from quadsim.recording.writer import McapRecorder
     from quadsim.sensors.pipeline import CameraPipeline
+    from quadsim.sim.cameras import Cameras
+    from quadsim.sim.simulator import Simulator
+
+
+class LiveOutput(TopicConsumer, Protocol):
+    """A live bridge (Foxglove, ROS 2): fed by the fan-out for the whole run, closed with it."""
+
+    def close(self) -> None: ...
 
 
 @dataclass(frozen=True)
@@ -32,9 +44,6 @@ class OutputOptions:
     renderer: RendererKind = RendererKind.TINY
     render_workers: int = 2  # 0: render in this process
     ordered_delivery: bool = True  # headless: frames in capture order at fixed points
-    #: live outputs (the ROS 2 bridge) fed by the fan-out for the whole run, recorded or not;
-    #: their owner opens and closes them
-    live: tuple[TopicConsumer, ...] = ()
 
 
 class RecordedRun:
@@ -43,7 +52,13 @@ class RecordedRun:
 
     The fan-out (`fanout`) turns the run into the contract's messages once for every consumer;
     it listens to the loop and the cameras only while it has one. Recording can be stopped and
-    started again (the window's key for it); each start makes a new file."""
+    started again (the window's key for it); each start makes a new file. The `live` outputs
+    (bridges) consume it from the start to the end of the run, recording or not, and are closed
+    with it.
+
+    `cameras`: record the frames of a camera pipeline that is already capturing (that of
+    quadsim.Cameras, SYNC or PIPELINED) instead of starting one from `options.cameras`; the
+    run then leaves it running when it closes."""
 
     def __init__(
         self,
@@ -52,6 +67,8 @@ class RecordedRun:
         options: OutputOptions,
         label: str,
         run_info: dict[str, Any] | None = None,
+        cameras: CameraPipeline | None = None,
+        live: Sequence[LiveOutput] = (),
     ) -> None:
         self.port = port
         self.description = description
@@ -59,16 +76,23 @@ class RecordedRun:
         self.label = label
         self.run_info = run_info or {}
         self.recorder: McapRecorder | None = None
-        self.cameras: CameraPipeline | None = None
+        self.cameras: CameraPipeline | None = cameras
+        self._own_cameras = cameras is None
         self.path: Path | None = None
+        self.live: list[LiveOutput] = list(live)
         vehicle, world = description.vehicle_model, description.world_model
         if vehicle is None or world is None:
             raise QuadsimError("outputs need the description of a live run (with its vehicle and world)")
-        mounts = tuple((spec, vehicle.camera_mount(spec.link_name)) for spec in options.cameras)
-        self.fanout = TopicFanout(description.config.rates.physics_hz, mounts)
+        self.camera_specs = options.cameras if cameras is None else cameras.specs
+        mounts = tuple((spec, vehicle.camera_mount(spec.link_name)) for spec in self.camera_specs)
+        self.fanout = TopicFanout(description.config.rates.physics_hz, mounts, vehicle, world)
         self._listening = False
         try:
-            if options.cameras:
+            if cameras is not None:
+                from quadsim.sensors.camera import ImageKind
+
+                cameras.want(ImageKind.JPEG)
+            elif options.cameras:
                 from quadsim.sensors.pipeline import CameraPipeline
 
                 self.cameras = CameraPipeline(
@@ -82,8 +106,9 @@ class RecordedRun:
                     scene_client=port.scene_client,
                 )
                 port.add_tap(self.cameras.tap_interval_steps, self.cameras.capture)
-            for consumer in options.live:
-                self.fanout.add_consumer(consumer, port.step_count)
+            for output in self.live:
+                self.fanout.add_consumer(output, port.step_count)
+            if self.live:
                 self._listen(True)
             if options.record:
                 self.start_recording()
@@ -106,11 +131,12 @@ class RecordedRun:
 
         path = recording_path(out, self.label)
         check_writable(path)
-        description = self.description.with_outputs(self.options.cameras, self.port.step_count, self.run_info)
+        description = self.description.with_outputs(self.camera_specs, self.port.step_count, self.run_info)
         recorder = McapRecorder(path, description)
         self.fanout.add_consumer(recorder, self.port.step_count)
         self._listen(True)
         self.recorder, self.path = recorder, path
+        self.note_event(self.port.step_count, RECORDING_EVENT, "started")
         return path
 
     def _listen(self, on: bool) -> None:
@@ -129,7 +155,8 @@ class RecordedRun:
                 self.cameras.sinks.remove(fanout)
 
     def note_event(self, step: int, kind: str, value: str) -> None:
-        """An event the recording keeps (a z-mode switch, an input device change) at `step`."""
+        """An event the recording keeps (a z-mode switch, an input device change, recording
+        started or stopped) at `step`: the one way events reach /rosout."""
         self.fanout.note_event(step, kind, value)
 
     def stop_recording(self) -> None:
@@ -140,31 +167,50 @@ class RecordedRun:
         with shielded_from_signals():  # a signal now must not cut the file short
             if self.cameras is not None:
                 self.cameras.drain()
-            self.fanout.remove_consumer(rec)
-            if not self.fanout.consumers:
-                self._listen(False)
-            rec.close()
+            self._finish(rec)
+
+    def _finish(self, rec: McapRecorder) -> None:
+        """Say in the file that recording stops, and close it."""
+        if not rec.closed:
+            self.note_event(self.port.step_count, RECORDING_EVENT, "stopped")
+        self.fanout.remove_consumer(rec)
+        if not self.fanout.consumers:
+            self._listen(False)
+        rec.close()
 
     def close(self) -> None:
         with shielded_from_signals():  # a signal now must not cut the file short
             try:
                 if self.cameras is not None:
-                    self.port.remove_tap(self.cameras.capture)
+                    if self._own_cameras:
+                        self.port.remove_tap(self.cameras.capture)
                     try:
                         self.cameras.drain()  # the frames still being rendered belong in the file
                     finally:
-                        self.cameras.close()
+                        if self._own_cameras:
+                            self.cameras.close()
             finally:
-                for consumer in self.options.live:
-                    self.fanout.remove_consumer(consumer)
-                if self.recorder is not None:
-                    self.fanout.remove_consumer(self.recorder)
-                    self.recorder.close()
-                if not self.fanout.consumers:
-                    self._listen(False)
+                try:
+                    if self.recorder is not None:
+                        self._finish(self.recorder)
+                finally:
+                    for output in self.live:
+                        self.fanout.remove_consumer(output)
+                        output.close()
+                    self._listen(bool(self.fanout.consumers))
 
     def __enter__(self) -> RecordedRun:
         return self
 
     def __exit__(self, *exc: object) -> None:
         self.close()
+
+
+def record(
+    sim: Simulator, out: Path | str | None = None, cameras: Cameras | None = None, label: str = "api"
+) -> RecordedRun:
+    """Record `sim` from now on to `out` (a .mcap file or a folder; default: the recordings
+    folder), with the frames of `cameras` if given (SYNC or PIPELINED alike). Close it (or use
+    it as a context manager) to finish the file."""
+    options = OutputOptions(out=None if out is None else Path(out), cameras=())
+    return RecordedRun(sim, sim.description(), options, label, cameras=None if cameras is None else cameras.pipeline)

@@ -19,6 +19,9 @@ class ProgressBar:
         self._last_draw = 0.0
         self._next_quarter = 0.25
 
+    def _amount(self, value: float) -> str:
+        return f"{value:g}" if isinstance(self.total, int) else f"{value:.1f}"
+
     def update(self, done: float, extra: str = "") -> None:
         frac = 0.0 if self.total <= 0 else min(1.0, done / self.total)
         if self._tty:
@@ -29,12 +32,16 @@ class ProgressBar:
             width = 30
             filled = int(frac * width)
             bar = "#" * filled + "-" * (width - filled)
-            self.stream.write(f"\r{self.label} [{bar}] {done:7.1f}/{self.total:.1f} {self.unit} {extra}")
+            self.stream.write(
+                f"\r{self.label} [{bar}] {self._amount(done):>7}/{self._amount(self.total)} {self.unit} {extra}"
+            )
             self.stream.flush()
         elif frac >= self._next_quarter:
             while frac >= self._next_quarter:
                 self._next_quarter += 0.25
-            self.stream.write(f"{self.label}: {frac * 100:3.0f}% ({done:.1f}/{self.total:.1f} {self.unit}) {extra}\n")
+            self.stream.write(
+                f"{self.label}: {frac * 100:3.0f}% ({self._amount(done)}/{self._amount(self.total)} {self.unit}) {extra}\n"
+            )
             self.stream.flush()
 
     def close(self) -> None:

@@ -7,10 +7,12 @@ from __future__ import annotations
 import math
 import tempfile
 import time
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, fields, replace
 from pathlib import Path
+from typing import Any
 
 from quadsim.apps.outputs import OutputOptions, RecordedRun
+from quadsim.control.landing import LandingSettings
 from quadsim.core.kinematics import body_velocity
 from quadsim.core.types import VehicleState, ZMode
 from quadsim.drivers.replay import ReplayDriver
@@ -148,6 +150,24 @@ def _deviation(topic: str, quantity: str, unit: str, errors: list[tuple[float, f
     return Deviation(topic, quantity, unit, worst, rms, worst_t, beyond)
 
 
+def _flight_settings(flight: RecordedFlight) -> dict[str, Any]:
+    """The landing settings and reset-on-crash the run was flown with (as the controller's details
+    record them; recordings older than those: the defaults)."""
+    details = flight.description.controller.details if flight.description is not None else {}
+    landing = details.get("landing", {})
+    kept: dict[str, Any] = {}
+    if isinstance(landing, dict):
+        for f in fields(LandingSettings):
+            value = landing.get(f.name)
+            if isinstance(value, bool) if f.type in (bool, "bool") else _finite(value):
+                kept[f.name] = value
+    return {"landing": LandingSettings(**kept), "reset_on_crash": details.get("reset_on_crash") is True}
+
+
+def _finite(value: object) -> bool:
+    return isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value)
+
+
 def resimulate(
     flight: RecordedFlight,
     out: Path | None = None,
@@ -161,7 +181,7 @@ def resimulate(
         config, gains = _config_from(flight, Path(tmp))
         driver = ReplayDriver(flight.command_steps(), str(flight.path))
         try:
-            sim = Simulator(config, driver, controller_gains=gains, texture_required=False)
+            sim = Simulator(config, driver, controller_gains=gains, texture_required=False, **_flight_settings(flight))
         except (QuadsimError, ValueError) as exc:
             # name the recording's attachments, not the temporary folder they were written to
             why = str(exc).replace(f"{tmp}/", "attachment ")

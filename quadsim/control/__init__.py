@@ -33,21 +33,14 @@ class Controller(Protocol):
 
 
 def make_controller(kind: ControllerKind, vehicle: VehicleParams, gains: dict[str, Any] | None = None) -> Controller:
-    """A controller of `kind`; `gains` (as `describe()` gives them) replace the defaults."""
-    import dataclasses
+    """A controller of `kind` with the gains of the vehicle's gains file (NAME.gains.toml);
+    `gains` (as `describe()` gives them, e.g. from a recording) replace any of them."""
+    from quadsim.control.gains import load_gains
 
     if kind is ControllerKind.CASCADE:
         from quadsim.control.cascade import CascadeController, CascadeGains
 
-        cls, gains_cls = CascadeController, CascadeGains
-    else:
-        from quadsim.control.seed import SeedController, SeedGains
+        return CascadeController(vehicle, load_gains(vehicle, kind.value, CascadeGains, gains))
+    from quadsim.control.seed import SeedController, SeedGains
 
-        cls, gains_cls = SeedController, SeedGains  # type: ignore[assignment]
-    if not gains:
-        return cls(vehicle)
-    known = {f.name for f in dataclasses.fields(gains_cls)}
-    unknown = set(gains) - known
-    if unknown:
-        raise ValueError(f"unknown {kind.value} gains: {', '.join(sorted(unknown))}")
-    return cls(vehicle, gains_cls(**gains))
+    return SeedController(vehicle, load_gains(vehicle, kind.value, SeedGains, gains))

@@ -1,9 +1,10 @@
 """The cascade controller: velocity -> attitude (thrust direction) -> body rate -> mixer.
 
 Each axis either tracks the commanded rate (horizontal velocity in the heading frame, climb
-rate, yaw rate) or, when that part of the command is zero or the dead-man has fired, holds
+rate, heading rate about world z) or, when that part of the command is zero or the dead-man has fired, holds
 what it had once the vehicle has slowed down (position, altitude, heading). Hover thrust is fed
-forward; tilt, climb rate and body rates are saturated; integrators stop while saturated.
+forward, less near the ground by the airframe's ground-effect ratio (or a vehicle armed on the
+ground would lift off its skids before the integrator caught up); tilt, climb rate and body rates are saturated; integrators stop while saturated.
 
 The update is written with plain floats, not numpy: at 240 Hz it is the hot path.
 """
@@ -15,34 +16,37 @@ from dataclasses import asdict, dataclass
 from typing import Any
 
 from quadsim.control import ControllerKind
+from quadsim.control.gains import load_gains
 from quadsim.core.kinematics import clamp, matrix_from_quaternion
 from quadsim.core.types import HEIGHT_MODE_BASE_M, ActiveCommand, RotorForces, VehicleState, ZMode
+from quadsim.vehicle.aero import ground_effect_ratio, rotor_speed_radps
 from quadsim.vehicle.mixer import Mixer
 from quadsim.vehicle.params import VehicleParams
 
 
 @dataclass(frozen=True)
 class CascadeGains:
-    """Gains and saturations of the cascade; units in the names (1/s is a loop bandwidth)."""
+    """Gains and saturations of the cascade; units in the names (1/s is a loop bandwidth).
+    Their values are data: the [cascade] table of the airframe's NAME.gains.toml."""
 
-    position_p_per_s: float = 1.2  # horizontal position hold -> velocity
-    altitude_p_per_s: float = 2.0  # altitude hold / height z-mode -> climb rate
-    heading_p_per_s: float = 2.5  # heading hold -> yaw rate
-    velocity_p_xy_per_s: float = 3.0  # velocity error -> acceleration
-    velocity_i_xy_per_s2: float = 1.5
-    velocity_p_z_per_s: float = 5.0
-    velocity_i_z_per_s2: float = 3.0
-    velocity_i_limit_mps2: float = 3.0
-    velocity_i_band_mps: float = 0.25  # integrate only near the set-point (no wind-up in transients)
-    attitude_p_per_s: float = 9.0  # tilt error -> roll/pitch rate
-    rate_p_rp_per_s: float = 28.0  # roll/pitch rate error -> angular acceleration
-    rate_p_yaw_per_s: float = 10.0
-    max_tilt_rad: float = 0.61  # 35 degrees
-    max_rate_rp_radps: float = 7.0
-    max_up_accel_mps2: float = 7.0
-    max_down_accel_mps2: float = 6.0
-    hold_latch_speed_mps: float = 0.08  # a hold is taken once the vehicle is slower than this
-    hold_latch_yaw_rate_radps: float = 0.05
+    position_p_per_s: float
+    altitude_p_per_s: float
+    heading_p_per_s: float
+    velocity_p_xy_per_s: float
+    velocity_i_xy_per_s2: float
+    velocity_p_z_per_s: float
+    velocity_i_z_per_s2: float
+    velocity_i_limit_mps2: float
+    velocity_i_band_mps: float
+    attitude_p_per_s: float
+    rate_p_rp_per_s: float
+    rate_p_yaw_per_s: float
+    max_tilt_rad: float
+    max_rate_rp_radps: float
+    max_up_accel_mps2: float
+    max_down_accel_mps2: float
+    hold_latch_speed_mps: float
+    hold_latch_yaw_rate_radps: float
 
 
 def _wrap(angle: float) -> float:
@@ -52,7 +56,9 @@ def _wrap(angle: float) -> float:
 class CascadeController:
     kind = ControllerKind.CASCADE
 
-    def __init__(self, vehicle: VehicleParams, gains: CascadeGains = CascadeGains()) -> None:
+    def __init__(self, vehicle: VehicleParams, gains: CascadeGains | None = None) -> None:
+        if gains is None:
+            gains = load_gains(vehicle, ControllerKind.CASCADE.value, CascadeGains)
         self.vehicle = vehicle
         self.gains = gains
         self.mixer = Mixer(vehicle)
@@ -62,10 +68,21 @@ class CascadeController:
         self._jxx = vehicle.inertia_kgm2[0][0]
         self._jyy = vehicle.inertia_kgm2[1][1]
         self._jzz = vehicle.inertia_kgm2[2][2]
-        # drag feed-forward: the acceleration lost to body drag at the wanted velocity
-        self._drag_xy = vehicle.drag_coefficients_ns_per_m[0] / vehicle.mass_kg
-        self._drag_z = vehicle.drag_coefficients_ns_per_m[2] / vehicle.mass_kg
+        # drag feed-forward: the acceleration lost to drag at the wanted velocity in still air,
+        # level, in hover (body drag, linear and quadratic, and rotor drag at hover speed)
+        aero, m = vehicle.aero, vehicle.mass_kg
+        hover_speed_sum = len(vehicle.rotors) * rotor_speed_radps(
+            vehicle.hover_thrust_per_rotor_n, vehicle.thrust_coefficient_n_per_rad2s2
+        )
+        self._drag_xy = (aero.body_drag_linear_ns_per_m[0] + aero.rotor_drag_ns_per_m_rad * hover_speed_sum) / m
+        self._drag_z = aero.body_drag_linear_ns_per_m[2] / m
+        self._drag_q_xy = aero.body_drag_quadratic_ns2_per_m2[0] / m
+        self._drag_q_z = aero.body_drag_quadratic_ns2_per_m2[2] / m
         self._tan_tilt = math.tan(gains.max_tilt_rad)
+        # the rotor hubs' mean position relative to the base origin, for their height above the floor
+        n = len(vehicle.rotors)
+        self._hub = tuple(sum(c + r.position_m[i] for r in vehicle.rotors) / n for i, c in enumerate(vehicle.com_m))
+        self._ground_effect = aero.ground_effect
         self.reset()
 
     def describe(self) -> dict[str, Any]:
@@ -113,9 +130,9 @@ class CascadeController:
             c, s = math.cos(yaw), math.sin(yaw)
             vsx, vsy = c * ux - s * uy, s * ux + c * uy
             # while turning, that set-point rotates with the heading: feed its rate of change
-            # (yaw rate x velocity) forward, or the loop lags it and the vehicle slips sideways
-            yaw_rate = r20 * wp + r21 * wq + r22 * wr
-            turn_ax, turn_ay = -yaw_rate * vsy, yaw_rate * vsx
+            # (heading rate x velocity) forward, or the loop lags it and the vehicle slips sideways
+            heading_rate = r20 * wp + r21 * wq + r22 * wr
+            turn_ax, turn_ay = -heading_rate * vsy, heading_rate * vsx
         else:
             if self._xy_hold is None and vx * vx + vy * vy < latch2:
                 self._xy_hold = (px, py)
@@ -149,20 +166,22 @@ class CascadeController:
         elif vsz < -lim.max_descent_rate_mps:
             vsz = -lim.max_descent_rate_mps
 
-        # yaw: track the commanded rate, or hold the heading
+        # heading: track the commanded heading rate (about world z), or hold the heading
+        heading_rate = r20 * wp + r21 * wq + r22 * wr
         if ur != 0.0:
             self._yaw_hold = None
-            rs = ur
+            hs = ur
         else:
-            if self._yaw_hold is None and -g.hold_latch_yaw_rate_radps < wr < g.hold_latch_yaw_rate_radps:
+            if self._yaw_hold is None and -g.hold_latch_yaw_rate_radps < heading_rate < g.hold_latch_yaw_rate_radps:
                 self._yaw_hold = yaw
-            rs = 0.0 if self._yaw_hold is None else g.heading_p_per_s * _wrap(self._yaw_hold - yaw)
+            hs = 0.0 if self._yaw_hold is None else g.heading_p_per_s * _wrap(self._yaw_hold - yaw)
 
         # velocity loop (world frame) -> wanted acceleration, with drag feed-forward
         ex, ey, ez = vsx - vx, vsy - vy, vsz - vz
-        ax = g.velocity_p_xy_per_s * ex + self._ix + self._drag_xy * vsx + turn_ax
-        ay = g.velocity_p_xy_per_s * ey + self._iy + self._drag_xy * vsy + turn_ay
-        az = g.velocity_p_z_per_s * ez + self._iz + self._drag_z * vsz
+        drag_xy = self._drag_xy + self._drag_q_xy * math.hypot(vsx, vsy)
+        ax = g.velocity_p_xy_per_s * ex + self._ix + drag_xy * vsx + turn_ax
+        ay = g.velocity_p_xy_per_s * ey + self._iy + drag_xy * vsy + turn_ay
+        az = g.velocity_p_z_per_s * ez + self._iz + (self._drag_z + self._drag_q_z * abs(vsz)) * vsz
         sat_z = False
         if az > g.max_up_accel_mps2:
             az, sat_z = g.max_up_accel_mps2, True
@@ -189,6 +208,12 @@ class CascadeController:
         thrust = fx * r02 + fy * r12 + fz * r22
         if thrust < 0.0:
             thrust = 0.0
+        if self._ground_effect:
+            hx, hy, hz = self._hub
+            aero = self.vehicle.aero
+            thrust /= ground_effect_ratio(
+                pz + r20 * hx + r21 * hy + r22 * hz, aero.rotor_radius_m, aero.ground_effect_max_ratio
+            )
         norm = math.sqrt(fx * fx + fy * fy + fz * fz)
         bx, by, bz = fx / norm, fy / norm, fz / norm
         # wanted body z expressed in the body frame; tilt error about e3 x d
@@ -201,8 +226,11 @@ class CascadeController:
         mr = g.max_rate_rp_radps
         ps = clamp(ps, -mr, mr)
         qs = clamp(qs, -mr, mr)
+        # the heading rate is the body rates' world-z component (r20 p + r21 q + r22 r): in a bank,
+        # the body z rate that gives the wanted heading rate, with the roll/pitch rates wanted
         my = lim.max_yaw_rate_radps
-        rs = clamp(rs, -my, my)
+        hs = clamp(hs, -my, my)
+        rs = clamp((hs - r20 * ps - r21 * qs) / max(r22, 0.5), -mr, mr)
 
         # rate loop -> body torques (with the gyroscopic term), then the mixer
         ap = g.rate_p_rp_per_s * (ps - wp)

@@ -22,7 +22,8 @@ class CommandGate:
     """Holds the last good command and decides what the controller acts on.
 
     - Commands are clamped to the vehicle's limits: horizontal speed (as a vector, keeping its
-      direction), climb/descent rate or, in height z-mode, the altitude range; yaw rate.
+      direction), climb/descent rate or, in height z-mode, the altitude wanted (from the ground
+      to max_altitude_m); heading rate.
     - A command with a NaN or infinite field is rejected: the last good command stands and a
       warning is logged once.
     - With no command for longer than `timeout_steps`, `hold` is set (dead-man switch).
@@ -76,7 +77,8 @@ class CommandGate:
         if self.z_mode is ZMode.VELOCITY:
             vz = clamp(twist.linear_z, -lim.max_descent_rate_mps, lim.max_climb_rate_mps)
         else:
-            vz = clamp(twist.linear_z, lim.min_altitude_m - HEIGHT_MODE_BASE_M, lim.max_altitude_m - HEIGHT_MODE_BASE_M)
+            # down to the ground: an altitude wanted below min_altitude_m lands (control/landing.py)
+            vz = clamp(twist.linear_z, -HEIGHT_MODE_BASE_M, lim.max_altitude_m - HEIGHT_MODE_BASE_M)
         wz = clamp(twist.angular_z, -lim.max_yaw_rate_radps, lim.max_yaw_rate_radps)
         return Twist(vx, vy, vz, twist.angular_x, twist.angular_y, wz)
 

@@ -23,8 +23,15 @@ heading, with V-REP's X-Y-Z convention (R = Rx(alpha) Ry(beta) Rz(gamma)); the h
 gamma of the body's own X-Y-Z angles. Both are computed the same way here.
 
 z-modes. In `height` mode linear.z is, as in the original, an offset above 2 m. In `velocity`
-mode the height reference integrates linear.z (the original had no such mode).
+mode (the original had none) the height reference sits linear.z x (-vParam / pParam) = 1 s away
+from the current altitude, so the altitude PID's P and vertical-velocity terms make a climb-rate
+loop with the original's gains (thrust change 2 x (wanted - actual climb rate)), its integral
+paused; released, the altitude reached is held. Altitude limits and landing are the landing layer's (control/landing.py).
 When the dead-man holds, the velocity and yaw-rate references are zero and the height stands.
+
+Heading rate. angular.z is compared with the original's vel_ang[3], the world-frame z component
+of the angular velocity (V-REP's simGetObjectVelocity), which is the heading rate: the port
+keeps that, so in a banked turn the heading turns at the rate asked (no change was needed).
 """
 
 from __future__ import annotations
@@ -34,6 +41,7 @@ from dataclasses import asdict, dataclass
 from typing import Any
 
 from quadsim.control import ControllerKind
+from quadsim.control.gains import load_gains
 from quadsim.core.kinematics import clamp, matrix_from_quaternion
 from quadsim.core.types import HEIGHT_MODE_BASE_M, ActiveCommand, RotorForces, VehicleState, ZMode
 from quadsim.errors import ConfigError
@@ -47,18 +55,18 @@ _IDLE: RotorForces = (0.0, 0.0, 0.0, 0.0)
 
 @dataclass(frozen=True)
 class SeedGains:
-    """The original script's constants, unchanged."""
+    """The original script's constants, unchanged: the [seed] table of the airframe's NAME.gains.toml."""
 
-    p: float = 2.0  # pParam
-    i: float = 0.001  # iParam (per DT_REF step)
-    d: float = 0.001  # dParam (per DT_REF step)
-    v: float = -2.0  # vParam
-    attitude_p: float = 0.25
-    attitude_d: float = 2.1  # per DT_REF step
-    velocity_p: float = 0.05
-    velocity_d: float = 0.05  # per DT_REF step
-    yaw_p: float = 1.0
-    yaw_d: float = 1.0  # per DT_REF step
+    p: float
+    i: float
+    d: float
+    v: float
+    attitude_p: float
+    attitude_d: float
+    velocity_p: float
+    velocity_d: float
+    yaw_p: float
+    yaw_d: float
 
 
 def _check_layout(vehicle: VehicleParams) -> None:
@@ -82,11 +90,14 @@ def _check_layout(vehicle: VehicleParams) -> None:
 class SeedController:
     kind = ControllerKind.SEED
 
-    def __init__(self, vehicle: VehicleParams, gains: SeedGains = SeedGains()) -> None:
+    def __init__(self, vehicle: VehicleParams, gains: SeedGains | None = None) -> None:
         _check_layout(vehicle)
+        if gains is None:
+            gains = load_gains(vehicle, ControllerKind.SEED.value, SeedGains)
         self.vehicle = vehicle
         self.gains = gains
         self._newton_per_command = vehicle.hover_thrust_per_rotor_n / HOVER_COMMAND
+        self._climb_lead_s = -gains.v / gains.p
         self._max = vehicle.max_thrust_n
         self.reset()
 
@@ -102,6 +113,7 @@ class SeedController:
     def reset(self) -> None:
         self._armed = False
         self._height: float | None = None
+        self._climbing = False
         self._cumul = 0.0
         self._last_e = 0.0
         self._p_alpha = self._p_beta = 0.0
@@ -138,22 +150,26 @@ class SeedController:
         beta = math.asin(clamp(m02, -1.0, 1.0))
         wz_world = r20 * bp + r21 * bq + r22 * br  # V-REP's vel_ang[3] is in the world frame
 
+        tw = command.twist
         if command.hold:
-            ref_vx = ref_vy = ref_wz = 0.0
+            ref_vx = ref_vy = ref_wz = ref_vz = 0.0
         else:
-            tw = command.twist
-            ref_vx, ref_vy, ref_wz = tw.linear_x, tw.linear_y, tw.angular_z
+            ref_vx, ref_vy, ref_wz, ref_vz = tw.linear_x, tw.linear_y, tw.angular_z, tw.linear_z
             if command.z_mode is ZMode.HEIGHT:
-                self._height = HEIGHT_MODE_BASE_M + tw.linear_z
-            else:
-                lim = self.vehicle.limits
-                h = self._height + tw.linear_z * dt_s  # type: ignore[operator]
-                self._height = clamp(h, lim.min_altitude_m, lim.max_altitude_m) if tw.linear_z else h
+                self._height = HEIGHT_MODE_BASE_M + ref_vz
+        if command.z_mode is ZMode.VELOCITY:
+            if ref_vz:  # a climb-rate loop (see the module docstring)
+                self._height = pz + ref_vz * self._climb_lead_s
+                self._climbing = True
+            elif self._climbing:  # stopped: hold the altitude reached
+                self._height = pz
+                self._climbing = False
         height = self._height
 
         # vertical control
         e = height - pz  # type: ignore[operator]
-        self._cumul += e / k
+        if not self._climbing:  # a climb's lead is no altitude error to integrate
+            self._cumul += e / k
         thrust = HOVER_COMMAND + gn.p * e + gn.i * self._cumul + gn.d * (e - self._last_e) * k + vel_local_z * gn.v
         self._last_e = e
 

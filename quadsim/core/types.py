@@ -57,6 +57,13 @@ class ActiveCommand(NamedTuple):
     hold: bool
 
 
+class ImuReading(NamedTuple):
+    """An IMU sample: body rates (rad/s) and specific force (m/s^2), in base_link, noise included."""
+
+    angular_velocity_body_rps: tuple[float, float, float]
+    specific_force_body_mps2: tuple[float, float, float]
+
+
 class VehicleState(NamedTuple):
     """Rigid-body state of the vehicle at one simulation step (REP 103 frames, SI units).
 
@@ -65,6 +72,8 @@ class VehicleState(NamedTuple):
     rotor_thrusts_n: the forces the N rotors (rotor_1..rotor_N) produced during the last physics step.
     specific_force_body_mps2: what an accelerometer at the base reads (acceleration minus
     gravity, in base_link; +9.81 along z at rest), over the last physics step.
+    wind_mps: the wind at the vehicle over the last physics step, in `world` (None: no wind).
+    imu: what the IMU measured, with its noise (None: no IMU noise; the true values stand).
     """
 
     step: int
@@ -74,6 +83,8 @@ class VehicleState(NamedTuple):
     angular_velocity_body_rps: tuple[float, float, float]
     rotor_thrusts_n: tuple[float, ...]
     specific_force_body_mps2: tuple[float, float, float]
+    wind_mps: tuple[float, float, float] | None = None
+    imu: ImuReading | None = None
 
     def yaw_rad(self) -> float:
         """Heading: rotation about world z, counter-clockwise from world x, in (-pi, pi]."""

@@ -1,5 +1,10 @@
-"""A recording's messages fed to live consumers (the ROS 2 bridge) as its playback time moves:
-the bytes as recorded, each topic with the QoS it was recorded with."""
+"""A recording played to a live consumer (the Foxglove bridge): its messages, as recorded, handed
+over as playback time passes them, so `replay --foxglove` shows in Foxglove what the window plays.
+
+Only the channels a live bridge can serve are played: CDR with a `ros2msg` schema (every topic of
+a quadsim recording, and of ROS 2 bags). Seeking back plays again from the start of the file up
+to the new time the latched topics' last messages only, as a late joiner would get them.
+"""
 
 from __future__ import annotations
 
@@ -7,43 +12,57 @@ from bisect import bisect_right
 from collections.abc import Sequence
 from pathlib import Path
 
-from quadsim.recording.contract import QOS_VOLATILE, Topic
+from quadsim.recording.contract import QOS_LATCHED, QOS_VOLATILE, Topic
 from quadsim.recording.fanout import Message, TopicConsumer
 from quadsim.recording.reader import RecordingReader
 
 
-class RecordedFeed:
-    """The ROS 2 (CDR) messages of a recording, in log-time order, handed to `consumers` up to the
-    playback time given to `advance`. Going back (a seek, a loop) plays on from there."""
+def _topic(name: str, type_name: str, metadata: dict[str, str]) -> Topic:
+    return Topic(name, type_name, metadata.get("offered_qos_profiles", QOS_VOLATILE))
 
-    def __init__(self, path: Path | str, consumers: Sequence[TopicConsumer]) -> None:
+
+class RecordingFeed:
+    """The servable messages of a recording, in log-time order, handed to `consumers` by
+    `play_to(t_ns)`."""
+
+    def __init__(self, path: Path, consumers: Sequence[TopicConsumer]) -> None:
         self.consumers = list(consumers)
         self.messages: list[Message] = []
         with RecordingReader(path, require_topics=False, allow_damage=True) as reader:
+            f = reader.file
             topics: dict[int, Topic] = {}
-            for ch in reader.file.channels:
-                if ch.message_encoding == "cdr" and ch.schema is not None and ch.schema.encoding == "ros2msg":
-                    qos = ch.metadata.get("offered_qos_profiles") or QOS_VOLATILE
-                    topics[ch.key] = Topic(ch.topic, ch.schema.name, qos)
-            self.messages = [(topics[m.channel.key], m.log_time, m.data) for m in reader.file.messages(set(topics))]
-        self.messages.sort(key=lambda m: m[1])
-        self._times = [ns for _, ns, _ in self.messages]
-        self._next = 0  # index of the first message not yet played
-        self._played_ns = -1
-        for topic in dict.fromkeys(t for t, _, _ in self.messages):
-            for consumer in self.consumers:
+            for ch in f.channels:
+                s = ch.schema
+                if ch.message_encoding == "cdr" and s is not None and s.encoding == "ros2msg":
+                    topics[ch.key] = _topic(ch.topic, s.name, ch.metadata)
+            for m in f.messages(set(topics)):
+                self.messages.append((topics[m.channel.key], m.log_time, m.data))
+        self._times = [m[1] for m in self.messages]
+        self.topics = list({t.name: t for t, _, _ in self.messages}.values())
+        for consumer in self.consumers:
+            for topic in self.topics:
                 consumer.add_topic(topic)
+        self._next = 0  # index of the next message to hand over
+        self.played = 0
 
-    def advance(self, t_ns: int) -> int:
-        """Hand over the messages logged up to `t_ns`; returns how many."""
-        if t_ns < self._played_ns:
-            self._next = bisect_right(self._times, t_ns)
-            self._played_ns = t_ns
-            return 0
+    @property
+    def end_ns(self) -> int:
+        return self._times[-1] if self._times else 0
+
+    def play_to(self, t_ns: int) -> None:
+        """Hand over every message up to `t_ns`; back in time, start again there (latched first)."""
         end = bisect_right(self._times, t_ns)
-        batch = self.messages[self._next : end]
-        self._next, self._played_ns = end, t_ns
-        if batch:
-            for consumer in self.consumers:
-                consumer.on_messages(batch)
-        return len(batch)
+        if end < self._next:
+            latched = {m[0].name: m for m in self.messages[:end] if m[0].qos == QOS_LATCHED}
+            self._send(list(latched.values()))
+            self._next = end
+            return
+        self._send(self.messages[self._next : end])
+        self._next = end
+
+    def _send(self, messages: list[Message]) -> None:
+        if not messages:
+            return
+        for consumer in self.consumers:
+            consumer.on_messages(messages)
+        self.played += len(messages)

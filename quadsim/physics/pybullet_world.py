@@ -6,14 +6,20 @@ the vehicle's state. It is the only flight module that imports pybullet.
 
 from __future__ import annotations
 
+import math
 import os
+from typing import NamedTuple
 
-from quadsim.core.kinematics import matrix_from_quaternion
+import numpy as np
+
+from quadsim.core.kinematics import Vec3, matrix_from_quaternion
 from quadsim.core.types import RotorForces, StartPose, VehicleState
 from quadsim.errors import QuadsimError
 from quadsim.physics.pybullet_quiet import pb
 from quadsim.physics.scene import build_world, load_vehicle_body
+from quadsim.physics.wind import WindField, WindSettings
 from quadsim.physics.world_spec import WorldSpec
+from quadsim.vehicle.aero import drag_force_body_n, ground_effect_ratio
 from quadsim.vehicle.motors import MotorBank
 from quadsim.vehicle.params import VehicleParams
 
@@ -23,14 +29,23 @@ _SPAWN_CLEARANCE_M = 0.001
 _ORIGIN = (0.0, 0.0, 0.0)
 
 
+class Contact(NamedTuple):
+    """The vehicle touching one other body after a physics step."""
+
+    other: str  # what it touches: 'floor' or a landmark's name
+    normal_z: float  # world z of the contact normal, pointing at the vehicle (1: resting on it; 0: a wall)
+
+
 class PhysicsWorld:
     """A PyBullet client with the world and one vehicle in it. Composition, not inheritance:
     the client is private, and only what the simulator needs is exposed.
 
-    Every step: the motors move toward the commanded forces; each rotor's force is applied at
-    its link along body z; the summed yaw reaction torque on a rotor link in its own frame (see
-    STYLE.md on the base-link torque frame bug); linear body drag at the base; then one
-    `stepSimulation`. PyBullet clears external forces after each step, so all are re-applied.
+    Every step: the wind advances; the motors move toward the commanded forces; each rotor's
+    force, times its ground-effect ratio, is applied at its link along body z; the summed yaw
+    reaction torque on a rotor link in its own frame (see STYLE.md on the base-link torque frame
+    bug); body and rotor drag through the airspeed (quadsim.vehicle.aero) at the centre of mass;
+    then one `stepSimulation`. PyBullet clears external forces after each step, so all are
+    re-applied. The ground effect sees the floor (z = 0) only, not the landmarks.
 
     It keeps no clock: the simulation loop (quadsim.sim.loop.SimLoop) is the only caller of
     `_step` and owns the step count, which it hands to `state`.
@@ -43,6 +58,8 @@ class PhysicsWorld:
         physics_hz: int,
         start: StartPose = StartPose(),
         gui: bool = False,
+        wind: WindSettings = WindSettings(),
+        wind_seed: np.random.SeedSequence | None = None,
     ) -> None:
         if gui and not os.environ.get("DISPLAY") and os.name != "nt":
             raise QuadsimError("--gui needs a display (DISPLAY is not set); run without --gui")
@@ -60,6 +77,7 @@ class PhysicsWorld:
         if gui:
             pb.configureDebugVisualizer(pb.COV_ENABLE_GUI, 0, physicsClientId=cid)
         self.landmark_ids = build_world(world, cid)
+        self._body_names = {body: name for name, body in self.landmark_ids.items()}
         self.start = start
         self.body_id = load_vehicle_body(vehicle, cid, self._spawn_position(), self._spawn_orientation())
         links = {
@@ -71,10 +89,32 @@ class PhysicsWorld:
         # reaction torque per newton on each rotor, about body z (CCW rotor -> negative yaw)
         c = vehicle.yaw_torque_per_thrust_m
         self._yaw_per_n = tuple(-r.spin.sign * c for r in vehicle.rotors)
-        self._drag = vehicle.drag_coefficients_ns_per_m
+        self._aero = vehicle.aero
+        self._com: Vec3 = vehicle.com_m
+        # rotor hubs relative to the base_link origin, for their height above the floor
+        self._hubs = tuple(tuple(c + r for c, r in zip(vehicle.com_m, rotor.position_m)) for rotor in vehicle.rotors)
+        self._inv_kf = 1.0 / vehicle.thrust_coefficient_n_per_rad2s2
+        self.wind_settings = wind
+        self._wind_seed = wind_seed if wind_seed is not None else np.random.SeedSequence(0)
+        self._wind: WindField | None = None
+        self._reset_wind()
         self.motors = MotorBank(len(vehicle.rotors), vehicle.motor_time_constant_s, vehicle.max_thrust_n, self.dt_s)
         self._read_kinematics()
         self._previous_velocity = self._linear_velocity
+
+    def reseed(self, wind_seed: np.random.SeedSequence) -> None:
+        """The turbulence's random stream from `wind_seed` from the next reset on."""
+        self._wind_seed = wind_seed
+
+    def _reset_wind(self) -> None:
+        if self.wind_settings.enabled:
+            rng = np.random.Generator(np.random.PCG64(self._wind_seed))
+            self._wind = WindField(self.wind_settings, self.dt_s, rng)
+
+    @property
+    def wind_mps(self) -> Vec3 | None:
+        """The wind at the vehicle over the last step, world frame (None: no wind in this run)."""
+        return None if self._wind is None else self._wind.wind_mps
 
     # --- building ---------------------------------------------------------------------------
 
@@ -99,15 +139,66 @@ class PhysicsWorld:
             self._rest_z = 10.0 - lo
         return self._rest_z
 
+    @property
+    def rest_height_m(self) -> float:
+        """Height of base_link above the floor when the vehicle rests on it."""
+        return self._resting_height()
+
     # --- stepping ---------------------------------------------------------------------------
+
+    def contacts(self) -> tuple[Contact, ...]:
+        """What the vehicle touches after the last physics step, one entry per other body (with
+        the most upward of its contact normals)."""
+        points = pb.getContactPoints(self.body_id, physicsClientId=self._cid)
+        if not points:
+            return ()
+        normal_z: dict[int, float] = {}
+        for point in points:
+            other, nz = point[2], point[7][2]
+            if nz > normal_z.get(other, -2.0):
+                normal_z[other] = nz
+        return tuple(Contact(self._body_names.get(b, f"body {b}"), nz) for b, nz in normal_z.items())
+
+    @property
+    def body_z_up(self) -> float:
+        """World z component of the body's z axis (1: level, 0: on its side, -1: upside down)."""
+        return self._rotation[2][2]
+
+    @property
+    def velocity_before_step_mps(self) -> tuple[float, float, float]:
+        """The world-frame velocity before the last physics step (an impact's speed)."""
+        return self._previous_velocity
 
     def reset(self) -> None:
         """Put the vehicle back at its start pose, at rest, rotors stopped."""
+        # away from everything first, so that PyBullet forgets the contacts it had (their cached
+        # impulses warm-start the solver): a reset then flies the same whatever came before it
+        far = (0.0, 0.0, 1e4)
+        pb.resetBasePositionAndOrientation(self.body_id, far, (0.0, 0.0, 0.0, 1.0), physicsClientId=self._cid)
+        pb.performCollisionDetection(physicsClientId=self._cid)
         pb.resetBasePositionAndOrientation(
             self.body_id, self._spawn_position(), self._spawn_orientation(), physicsClientId=self._cid
         )
         pb.resetBaseVelocity(self.body_id, (0.0, 0.0, 0.0), (0.0, 0.0, 0.0), physicsClientId=self._cid)
         self.motors.reset()
+        self._reset_wind()
+        self._read_kinematics()
+        self._previous_velocity = self._linear_velocity
+
+    def place(
+        self,
+        position_m: Vec3,
+        orientation_xyzw: tuple[float, float, float, float] | None = None,
+        thrusts_n: tuple[float, ...] | None = None,
+    ) -> None:
+        """Put the vehicle at `position_m` (base_link origin), at rest, in `orientation_xyzw`
+        (default: level, facing its start heading), the motors producing `thrusts_n` (default:
+        stopped). For drop tests, measurements and tests that start in the air; the loop's clock
+        is not touched."""
+        orientation = orientation_xyzw if orientation_xyzw is not None else self._spawn_orientation()
+        pb.resetBasePositionAndOrientation(self.body_id, position_m, orientation, physicsClientId=self._cid)
+        pb.resetBaseVelocity(self.body_id, (0.0, 0.0, 0.0), (0.0, 0.0, 0.0), physicsClientId=self._cid)
+        self.motors.reset(thrusts_n)
         self._read_kinematics()
         self._previous_velocity = self._linear_velocity
 
@@ -119,22 +210,33 @@ class PhysicsWorld:
         # the hot path: PyBullet's calls get positional arguments (parsing the keyword
         # physicsClientId costs about a quarter of a microsecond a call)
         body, cid, link_frame, apply_force = self.body_id, self._cid, pb.LINK_FRAME, pb.applyExternalForce
+        (m00, m01, m02), (m10, m11, m12), (m20, m21, m22) = self._rotation
+        aero = self._aero
+        ground = aero.ground_effect
+        pz = self._position[2]
         yaw = 0.0
-        for link, thrust, yaw_per_n in zip(self._rotor_links, self.motors.advance(command_n), self._yaw_per_n):
-            apply_force(body, link, (0.0, 0.0, thrust), _ORIGIN, link_frame, cid)
+        omega_sum = 0.0
+        inv_kf = self._inv_kf
+        for link, thrust, yaw_per_n, (hx, hy, hz) in zip(
+            self._rotor_links, self.motors.advance(command_n), self._yaw_per_n, self._hubs
+        ):
             yaw += yaw_per_n * thrust
+            if thrust > 0.0:
+                omega_sum += math.sqrt(thrust * inv_kf)
+                if ground:
+                    height = pz + m20 * hx + m21 * hy + m22 * hz
+                    thrust *= ground_effect_ratio(height, aero.rotor_radius_m, aero.ground_effect_max_ratio)
+            apply_force(body, link, (0.0, 0.0, thrust), _ORIGIN, link_frame, cid)
         # the rotor links share base_link's axes, so a torque about rotor z is one about body z
         pb.applyExternalTorque(body, self._rotor_links[0], (0.0, 0.0, yaw), link_frame, cid)
-        # drag: velocity into base_link, -c v per axis, applied at the base in its own frame
-        (m00, m01, m02), (m10, m11, m12), (m20, m21, m22) = self._rotation
+        # drag through the airspeed (velocity minus wind) in base_link, applied at the centre of
+        # mass (at the base origin it would pitch the vehicle in free flight)
         vx, vy, vz = self._linear_velocity
-        cx, cy, cz = self._drag
-        drag = (
-            -cx * (m00 * vx + m10 * vy + m20 * vz),
-            -cy * (m01 * vx + m11 * vy + m21 * vz),
-            -cz * (m02 * vx + m12 * vy + m22 * vz),
-        )
-        apply_force(body, -1, drag, _ORIGIN, link_frame, cid)
+        if self._wind is not None:
+            wx, wy, wz = self._wind.advance()
+            vx, vy, vz = vx - wx, vy - wy, vz - wz
+        air = (m00 * vx + m10 * vy + m20 * vz, m01 * vx + m11 * vy + m21 * vz, m02 * vx + m12 * vy + m22 * vz)
+        apply_force(body, -1, drag_force_body_n(aero, air, omega_sum), self._com, link_frame, cid)
         pb.stepSimulation(cid)
         self._previous_velocity = self._linear_velocity
         self._read_kinematics()
@@ -162,6 +264,7 @@ class PhysicsWorld:
             (m00 * wx + m10 * wy + m20 * wz, m01 * wx + m11 * wy + m21 * wz, m02 * wx + m12 * wy + m22 * wz),
             self.motors.thrusts_n,
             (m00 * fx + m10 * fy + m20 * fz, m01 * fx + m11 * fy + m21 * fz, m02 * fx + m12 * fy + m22 * fz),
+            None if self._wind is None else self._wind.wind_mps,
         )
 
     # --- lifetime ---------------------------------------------------------------------------

@@ -100,6 +100,18 @@ def twist(linear: Vec3, angular: Vec3) -> bytes:
     return _TWIST.pack(ENCAPSULATION, *linear, *angular)
 
 
+_TWIST_BODY = {b"\x00\x01": struct.Struct("<6d"), b"\x00\x00": struct.Struct(">6d")}  # CDR_LE, CDR_BE
+
+
+def twist_fields(data: bytes) -> tuple[float, float, float, float, float, float]:
+    """The six fields (linear x y z, angular x y z) of a CDR geometry_msgs/msg/Twist, in either
+    byte order. ValueError for bytes that are not one."""
+    body = _TWIST_BODY.get(bytes(data[:2]))
+    if body is None or len(data) < 4 + body.size:
+        raise ValueError(f"not a CDR geometry_msgs/msg/Twist ({len(data)} bytes, header {bytes(data[:4]).hex()})")
+    return body.unpack_from(data, 4)
+
+
 @lru_cache(maxsize=256)
 def pose_stamped_encoder(frame_id: str) -> Callable[[int, Vec3, Quat], bytes]:
     """geometry_msgs/msg/PoseStamped in `frame_id`: encode(ns, position, orientation)."""
@@ -437,3 +449,73 @@ def log(ns: int, level: int, name: str, msg: str, file: str = "", function: str 
     for text in texts:
         args += (len(text) + 1, text)
     return _log((len(texts[0]), len(texts[1]), len(texts[2]), len(texts[3]))).pack(*args, line)
+
+
+# --- visualization_msgs ------------------------------------------------------------------------
+
+Rgba = Sequence[float]  # r, g, b, a in 0..1 (float32 on the wire)
+
+
+class MarkerType:
+    """visualization_msgs/msg/Marker shapes (the ones quadsim draws)."""
+
+    CUBE = 1
+    SPHERE = 2
+    CYLINDER = 3
+    TEXT_VIEW_FACING = 9
+
+
+class Marker(NamedTuple):
+    """visualization_msgs/msg/Marker: a shape `scale` big at a pose in `frame_id` (action ADD).
+
+    The texture, its UV coordinates and the embedded mesh file (fields since ROS 2 Humble) are
+    always written empty: quadsim draws primitive shapes only."""
+
+    ns: int  # header stamp
+    frame_id: str
+    namespace: str
+    id: int
+    type: int
+    position: Vec3
+    orientation: Quat
+    scale: Vec3
+    color: Rgba
+    action: int = 0
+    lifetime_ns: int = 0  # 0: forever
+    frame_locked: bool = False
+    points: Sequence[Vec3] = ()
+    colors: Sequence[Rgba] = ()
+    texture_resource: str = ""
+    text: str = ""
+    mesh_resource: str = ""
+    mesh_use_embedded_materials: bool = False
+
+
+def _marker(layout: _Layout, args: list[object], m: Marker) -> None:
+    """Append one Marker's layout and values."""
+    frame, namespace, texture, text, mesh = (
+        s.encode() for s in (m.frame_id, m.namespace, m.texture_resource, m.text, m.mesh_resource)
+    )
+    layout.header(len(frame)).string(len(namespace)).scalars("i", 3)  # id, type, action
+    layout.scalars("d", 7).scalars("d", 3).scalars("f", 4)  # pose, scale, color
+    layout.scalars("i").scalars("I").scalars("?")  # lifetime, frame_locked
+    layout.sequence("d", 3 * len(m.points)).sequence("f", 4 * len(m.colors))
+    layout.string(len(texture))
+    layout.header(0).string(0).sequence("B", 0)  # texture: an empty CompressedImage
+    layout.sequence("f", 0)  # uv_coordinates
+    layout.string(len(text)).string(len(mesh))
+    layout.string(0).sequence("B", 0).scalars("?")  # mesh_file (empty), mesh_use_embedded_materials
+    args += (*_stamp(m.ns), len(frame) + 1, frame, len(namespace) + 1, namespace, m.id, m.type, m.action)
+    args += (*m.position, *m.orientation, *m.scale, *m.color, *_stamp(m.lifetime_ns), m.frame_locked)
+    args += (len(m.points), *(v for p in m.points for v in p), len(m.colors), *(v for c in m.colors for v in c))
+    args += (len(texture) + 1, texture, 0, 0, 1, b"", 1, b"", 0, 0)
+    args += (len(text) + 1, text, len(mesh) + 1, mesh, 1, b"", 0, m.mesh_use_embedded_materials)
+
+
+def marker_array(markers: Sequence[Marker]) -> bytes:
+    """visualization_msgs/msg/MarkerArray (encoded once per consumer: not compiled)."""
+    layout = _Layout().scalars("I")
+    args: list[object] = [ENCAPSULATION, len(markers)]
+    for m in markers:
+        _marker(layout, args, m)
+    return layout.build().pack(*args)

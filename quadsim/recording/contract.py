@@ -32,7 +32,7 @@ def _qos(durability: int, depth: int) -> str:
 
 
 QOS_VOLATILE = _qos(2, 10)
-QOS_LATCHED = _qos(1, 1)  # /tf_static: late joiners still get it
+QOS_LATCHED = _qos(1, 1)  # /tf_static, /robot_description, /world/markers: late joiners still get them
 QOS_ROSOUT = _qos(1, 1000)  # as rcl offers /rosout: transient local, the last 1000
 
 
@@ -54,6 +54,10 @@ ROTOR_THRUSTS = Topic("/quad/rotor_thrusts", "std_msgs/msg/Float64MultiArray")
 TF = Topic("/tf", "tf2_msgs/msg/TFMessage")
 TF_STATIC = Topic("/tf_static", "tf2_msgs/msg/TFMessage", QOS_LATCHED)
 ROSOUT = Topic("/rosout", "rcl_interfaces/msg/Log", QOS_ROSOUT)
+ROBOT_DESCRIPTION = Topic("/robot_description", "std_msgs/msg/String", QOS_LATCHED)
+WORLD_MARKERS = Topic("/world/markers", "visualization_msgs/msg/MarkerArray", QOS_LATCHED)
+#: the wind at the vehicle, `world` frame, in runs with wind (a state's sixth message)
+WIND = Topic("/wind", "geometry_msgs/msg/Vector3Stamped")
 STATE_TOPICS = (POSE, ODOM, IMU, ROTOR_THRUSTS, TF)
 #: topics every quadsim recording has (cameras and /joy depend on the run)
 CORE_TOPICS = (TWIST.name, *(t.name for t in STATE_TOPICS), TF_STATIC.name)

@@ -16,6 +16,7 @@ from typing import NamedTuple, Protocol
 
 from quadsim.core.kinematics import body_velocity, quaternion_from_matrix
 from quadsim.core.types import Twist, VehicleState
+from quadsim.physics.world_spec import WorldSpec
 from quadsim.recording import cdr
 from quadsim.recording.contract import (
     BODY_FRAME,
@@ -23,25 +24,31 @@ from quadsim.recording.contract import (
     JOY,
     ODOM,
     POSE,
+    ROBOT_DESCRIPTION,
     ROSOUT,
     ROTOR_THRUSTS,
     STATE_TOPICS,
     TF,
     TF_STATIC,
     TWIST,
+    WIND,
     WORLD_FRAME,
+    WORLD_MARKERS,
     Topic,
     camera_info_topic,
     image_topic,
     optical_rotation,
 )
+from quadsim.recording.scene import link_transforms, robot_description, world_markers
 from quadsim.sensors.camera import CameraFrame, CameraSpec
-from quadsim.vehicle.params import CameraMount
+from quadsim.vehicle.params import CameraMount, VehicleParams
 
 NS_PER_S = 1_000_000_000
 JOY_FRAME = "joy"
 #: the `name` of the /rosout messages quadsim itself writes
 LOGGER_NAME = "quadsim"
+#: event kinds logged at WARN level on /rosout (the rest are INFO)
+WARNING_EVENTS = frozenset({"crash"})
 
 
 #: (topic, log time in ns, CDR bytes with their encapsulation header); a plain tuple, as
@@ -77,9 +84,18 @@ class _Camera(NamedTuple):
 
 class TopicFanout:
     """A loop sink (commands, states) and a camera-frame sink that turns what it receives into the
-    contract's messages and hands them to its consumers. With no consumer it does nothing."""
+    contract's messages and hands them to its consumers. With no consumer it does nothing.
 
-    def __init__(self, physics_hz: int, cameras: Sequence[tuple[CameraSpec, CameraMount]] = ()) -> None:
+    Given the run's `vehicle` and `world`, the latched messages describe the scene as well: the
+    URDF, the world's markers and every link's static transform (`quadsim.recording.scene`)."""
+
+    def __init__(
+        self,
+        physics_hz: int,
+        cameras: Sequence[tuple[CameraSpec, CameraMount]] = (),
+        vehicle: VehicleParams | None = None,
+        world: WorldSpec | None = None,
+    ) -> None:
         self.physics_hz = physics_hz
         # the encoders of the state's messages, compiled for their frames
         self._pose = cdr.pose_stamped_encoder(WORLD_FRAME)
@@ -88,23 +104,34 @@ class TopicFanout:
         self._tf = cdr.transform_encoder(WORLD_FRAME, BODY_FRAME)
         self.consumers: list[TopicConsumer] = []
         self._cameras = {spec.name: _Camera(spec, image_topic(spec), camera_info_topic(spec)) for spec, _ in cameras}
+        self._infos = {spec.name: spec.camera_info() for spec, _ in cameras}
         #: every topic announced so far, in the order consumers get them
         self.topics: list[Topic] = [TWIST, *STATE_TOPICS, TF_STATIC]
         for camera in self._cameras.values():
             self.topics += [camera.image, camera.info]
-        self._static = [
+        self._static = link_transforms(vehicle) if vehicle is not None else []
+        self._static += [
             cdr.TransformStamped(
                 0, BODY_FRAME, spec.optical_frame, mount.position_m, quaternion_from_matrix(optical_rotation(mount))
             )
             for spec, mount in cameras
         ]
+        self._robot_description = cdr.string(robot_description(vehicle.urdf_path)) if vehicle is not None else None
+        self._world = world
+        self.topics += [ROBOT_DESCRIPTION] if vehicle is not None else []
+        self.topics += [WORLD_MARKERS] if world is not None else []
 
     def latched(self, step: int = 0) -> tuple[Message, ...]:
         """The latched messages (transient local), stamped at `step`: every consumer gets them
         first, whenever it joins."""
         ns = self.ns(step)
         static = [t._replace(ns=ns) for t in self._static]
-        return ((TF_STATIC, ns, cdr.tf_message(static)),)
+        messages: list[Message] = [(TF_STATIC, ns, cdr.tf_message(static))]
+        if self._robot_description is not None:
+            messages.append((ROBOT_DESCRIPTION, ns, self._robot_description))
+        if self._world is not None:
+            messages.append((WORLD_MARKERS, ns, cdr.marker_array(world_markers(self._world, ns))))
+        return tuple(messages)
 
     # --- consumers ----------------------------------------------------------------------------
 
@@ -143,45 +170,48 @@ class TopicFanout:
             self._publish(((TWIST, self.ns(step), cdr.twist(twist[:3], twist[3:])),))
 
     def on_state(self, state: VehicleState) -> None:
-        """A state -> pose, odometry, IMU, rotor thrusts and /tf, all stamped at its step."""
+        """A state -> pose, odometry, IMU (its noisy reading where the run has one), rotor
+        thrusts, /tf and, in runs with wind, /wind, all stamped at its step."""
         if not self.consumers:
             return
         ns = state.step * NS_PER_S // self.physics_hz
         p, q, rates = state.position_m, state.orientation_xyzw, state.angular_velocity_body_rps
         thrusts = state.rotor_thrusts_n
         velocity = body_velocity(q, state.linear_velocity_mps)  # odometry's twist is in base_link
-        self._publish(
-            (
-                (POSE, ns, self._pose(ns, p, q)),
-                (ODOM, ns, self._odometry(ns, p, q, velocity, rates)),
-                (IMU, ns, self._imu(ns, q, rates, state.specific_force_body_mps2)),
-                (ROTOR_THRUSTS, ns, _thrusts_encoder(len(thrusts))(thrusts)),
-                (TF, ns, self._tf(ns, p, q)),
-            )
-        )
+        imu = state.imu
+        imu_rates, specific_force = (
+            (rates, state.specific_force_body_mps2) if imu is None else imu
+        )  # ground truth stays on pose and odometry
+        messages = [
+            (POSE, ns, self._pose(ns, p, q)),
+            (ODOM, ns, self._odometry(ns, p, q, velocity, rates)),
+            (IMU, ns, self._imu(ns, q, imu_rates, specific_force)),
+            (ROTOR_THRUSTS, ns, _thrusts_encoder(len(thrusts))(thrusts)),
+            (TF, ns, self._tf(ns, p, q)),
+        ]
+        if state.wind_mps is not None:
+            self.declare(WIND)
+            messages.append((WIND, ns, cdr.vector3_stamped(ns, WORLD_FRAME, state.wind_mps)))
+        self._publish(messages)
 
     def on_camera_frame(self, frame: CameraFrame) -> None:
-        """An encoded frame -> its CompressedImage and the matching CameraInfo."""
+        """A rendered frame -> its CompressedImage and the matching CameraInfo."""
         camera = self._cameras.get(frame.camera)
         if camera is None or not self.consumers:
             return
+        jpeg = frame.jpeg
+        if jpeg is None:  # rendered before a recording asked for JPEG (it was in flight)
+            if frame.rgb is None:
+                return
+            from quadsim.sensors.rendering import encode_jpeg
+
+            jpeg = encode_jpeg(frame.rgb, camera.spec.jpeg_quality)
         spec, ns = camera.spec, self.ns(frame.step)
-        f = spec.focal_px
-        cx, cy = spec.principal_point_px
-        info = cdr.camera_info(
-            ns,
-            spec.optical_frame,
-            spec.height_px,
-            spec.width_px,
-            "plumb_bob",
-            (0.0,) * 5,
-            spec.k_matrix(),
-            (1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0),
-            (f, 0.0, cx, 0.0, 0.0, f, cy, 0.0, 0.0, 0.0, 1.0, 0.0),
-        )
+        i = self._infos[frame.camera]
+        info = cdr.camera_info(ns, i.frame_id, i.height_px, i.width_px, i.distortion_model, i.d, i.k, i.r, i.p)
         self._publish(
             (
-                (camera.image, ns, cdr.compressed_image(ns, spec.optical_frame, "jpeg", frame.jpeg)),
+                (camera.image, ns, cdr.compressed_image(ns, spec.optical_frame, "jpeg", jpeg)),
                 (camera.info, ns, info),
             )
         )
@@ -193,13 +223,19 @@ class TopicFanout:
             ns = self.ns(step)
             self._publish(((JOY, ns, cdr.joy(ns, JOY_FRAME, axes, buttons)),))
 
+    def on_event(self, step: int, kind: str, value: str) -> None:
+        """A flight event from the loop (take-off, touchdown, landed, crash, reset) -> /rosout."""
+        self.note_event(step, kind, value)
+
     def note_event(self, step: int, kind: str, value: str) -> None:
-        """An event (a z-mode switch) -> /rosout, and `on_event` for consumers that keep it apart."""
+        """An event (a z-mode switch, a flight event) -> /rosout (a crash as a warning), and
+        `on_event` for consumers that keep it apart."""
         if not self.consumers:
             return
         self.declare(ROSOUT)
         ns = self.ns(step)
-        message = (ROSOUT, ns, cdr.log(ns, cdr.LogLevel.INFO, LOGGER_NAME, f"{kind}: {value}"))
+        level = cdr.LogLevel.WARN if kind in WARNING_EVENTS else cdr.LogLevel.INFO
+        message = (ROSOUT, ns, cdr.log(ns, level, LOGGER_NAME, f"{kind}: {value}"))
         for consumer in self.consumers:
             consumer.on_event(step, kind, value)
             consumer.on_messages((message,))

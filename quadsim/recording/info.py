@@ -80,6 +80,8 @@ class RecordingInfo:
                 f"  vehicle {d.vehicle.name} ({d.vehicle.rotor_count} rotors), mass {d.vehicle.mass_kg:.3f} kg, "
                 f"command timeout {timeout}"
             )
+            noise = "IMU noise on" if cfg.sensor_noise else "IMU noise off"
+            out.append(f"  {cfg.wind.describe()}, {noise}, seed {cfg.seed}")
             for cam in d.cameras:
                 out.append(
                     f"  camera {cam.name}: {cam.width_px}x{cam.height_px} @ {cam.rate_hz} Hz, "

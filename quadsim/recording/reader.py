@@ -46,7 +46,16 @@ def _event(metadata: dict[str, str]) -> tuple[int, str, str] | str:
 
 def _contract_type(topic: str) -> str | None:
     """The message type the recording contract gives a topic (None: not one of its topics)."""
-    for t in (rm.TWIST, rm.JOY, *rm.STATE_TOPICS, rm.TF_STATIC):
+    for t in (
+        rm.TWIST,
+        rm.JOY,
+        *rm.STATE_TOPICS,
+        rm.WIND,
+        rm.TF_STATIC,
+        rm.ROBOT_DESCRIPTION,
+        rm.WORLD_MARKERS,
+        rm.ROSOUT,
+    ):
         if t.name == topic:
             return t.type_name
     if topic.endswith("/image_raw/compressed"):

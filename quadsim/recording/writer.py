@@ -80,6 +80,22 @@ def check_writable(path: Path, min_free_bytes: int = MIN_FREE_BYTES) -> None:
         )
 
 
+def ros2_channel(topic: Topic, context: Any) -> Any:
+    """A foxglove-sdk channel for `topic` in `context` as the contract has it: CDR messages, its
+    `ros2msg` schema, its QoS in `offered_qos_profiles` (the recorder's file and the live
+    Foxglove server use the same)."""
+    import foxglove
+
+    schema = foxglove.Schema(name=topic.type_name, encoding="ros2msg", data=schema_text(topic.type_name).encode())
+    return foxglove.Channel(
+        topic.name,
+        schema=schema,
+        message_encoding="cdr",
+        context=context,
+        metadata={"offered_qos_profiles": topic.qos},
+    )
+
+
 class _GuardedStream:
     """A caller's stream under the MCAP writer: it remembers the first write error, which the
     Rust writer would report only as "I/O error", and from then on it is a null device (writes
@@ -222,7 +238,6 @@ class McapRecorder:
         self._chunk_size = chunk_size
         self._chunk_bytes = 0
         self._last_fsync_wall = time.monotonic()
-        self._foxglove = foxglove
         self._context = foxglove.Context()  # this file's channels, apart from any other sink's
         self._channels: dict[str, Any] = {}
         self._log: dict[str, Any] = {}  # topic -> its channel's log(data, log_time)
@@ -276,15 +291,7 @@ class McapRecorder:
         """A channel for `topic` (one schema per type: the writer shares equal schemas)."""
         if topic.name in self._channels:
             return
-        foxglove = self._foxglove
-        schema = foxglove.Schema(name=topic.type_name, encoding="ros2msg", data=schema_text(topic.type_name).encode())
-        channel = foxglove.Channel(
-            topic.name,
-            schema=schema,
-            message_encoding="cdr",
-            context=self._context,
-            metadata={"offered_qos_profiles": topic.qos},
-        )
+        channel = ros2_channel(topic, self._context)
         self._channels[topic.name] = channel
         # the typed core of Channel.log, without its checks for JSON and str messages
         self._log[topic.name] = channel.base.log

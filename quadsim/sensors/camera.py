@@ -10,14 +10,26 @@ from __future__ import annotations
 import enum
 import math
 from dataclasses import asdict, dataclass
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from quadsim.core.kinematics import Mat3, matrix_from_quaternion, rotate
 from quadsim.errors import ConfigError
 from quadsim.vehicle.params import CameraMount
 
+if TYPE_CHECKING:
+    import numpy as np
+
 #: optical frame axes expressed in the camera link frame: x_opt = -y_link, y_opt = -z_link, z_opt = x_link
 LINK_FROM_OPTICAL: Mat3 = ((0.0, 0.0, 1.0), (-1.0, 0.0, 0.0), (0.0, -1.0, 0.0))
+
+
+class ImageKind(enum.Enum):
+    """What a rendered frame carries: what its consumers asked for."""
+
+    JPEG = "jpeg"  # the RGB image JPEG-encoded (recordings, the window)
+    RGB = "rgb"  # height x width x 3 uint8 (code)
+    DEPTH = "depth"  # height x width float32, metres along the optical axis, inf where nothing was drawn
+    SEGMENTATION = "segmentation"  # height x width int32: the body drawn at each pixel, -1 for none
 
 
 class RendererKind(enum.Enum):
@@ -76,8 +88,51 @@ class CameraSpec:
         cx, cy = self.principal_point_px
         return (f, 0.0, cx, 0.0, f, cy, 0.0, 0.0, 1.0)
 
+    def camera_info(self) -> CameraInfo:
+        """The intrinsics of this camera's images, as sensor_msgs/CameraInfo has them (no distortion)."""
+        f = self.focal_px
+        cx, cy = self.principal_point_px
+        return CameraInfo(
+            frame_id=self.optical_frame,
+            width_px=self.width_px,
+            height_px=self.height_px,
+            k=self.k_matrix(),
+            p=(f, 0.0, cx, 0.0, 0.0, f, cy, 0.0, 0.0, 0.0, 1.0, 0.0),
+        )
+
     def to_dict(self) -> dict[str, Any]:
         return asdict(self)
+
+
+@dataclass(frozen=True)
+class CameraInfo:
+    """A camera's intrinsics, field for field as sensor_msgs/msg/CameraInfo (row-major matrices):
+    a pixel (u, v) sees the ray ((u - cx) / fx, (v - cy) / fy, 1) in the optical frame."""
+
+    frame_id: str
+    width_px: int
+    height_px: int
+    k: tuple[float, ...]  # 3x3 camera matrix (fx, 0, cx, 0, fy, cy, 0, 0, 1)
+    p: tuple[float, ...]  # 3x4 projection matrix
+    d: tuple[float, ...] = (0.0,) * 5  # plumb_bob distortion: none (a rendered image)
+    r: tuple[float, ...] = (1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0)  # rectification: identity
+    distortion_model: str = "plumb_bob"
+
+    @property
+    def fx(self) -> float:
+        return self.k[0]
+
+    @property
+    def fy(self) -> float:
+        return self.k[4]
+
+    @property
+    def cx(self) -> float:
+        return self.k[2]
+
+    @property
+    def cy(self) -> float:
+        return self.k[5]
 
 
 def default_cameras(width_px: int = 320, height_px: int = 240, rate_hz: int = 30) -> tuple[CameraSpec, CameraSpec]:
@@ -113,10 +168,14 @@ def camera_pose(
 
 @dataclass(frozen=True)
 class CameraFrame:
-    """One encoded image, stamped with the simulation step at which it was captured."""
+    """One rendered image, stamped with the simulation step at which it was captured. It carries
+    what was asked of the renderer (ImageKind); the rest is None."""
 
     camera: str
     step: int
-    jpeg: bytes
+    jpeg: bytes | None
     width_px: int
     height_px: int
+    rgb: np.ndarray | None = None
+    depth_m: np.ndarray | None = None
+    segmentation: np.ndarray | None = None

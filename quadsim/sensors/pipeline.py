@@ -28,8 +28,8 @@ import quadsim
 from quadsim.core.types import VehicleState
 from quadsim.errors import ConfigError, QuadsimError
 from quadsim.physics.world_spec import WorldSpec
-from quadsim.sensors.camera import CameraFrame, CameraSpec, RendererKind
-from quadsim.sensors.rig import CameraRig
+from quadsim.sensors.camera import CameraFrame, CameraSpec, ImageKind, RendererKind
+from quadsim.sensors.rig import JPEG_ONLY, CameraRig
 from quadsim.vehicle.params import VehicleParams
 
 #: how much lower the render workers' priority is when a window is in front of a person
@@ -80,12 +80,16 @@ class CameraPipeline:
         ordered_delivery: bool = True,
         worker_start_timeout_s: float = 60.0,
         scene_client: int | None = None,
+        worker_niceness: int | None = None,
     ) -> None:
+        """`worker_niceness`: how much lower the workers run (default: WINDOW_WORKER_NICENESS
+        without ordered delivery, where a person flies, else 0)."""
         if len({s.name for s in specs}) != len(specs):
             raise ConfigError("camera names must be unique")
         self.specs = specs
         self.renderer = renderer
         self.sinks: list[FrameSink] = []
+        self.kinds: frozenset[ImageKind] = JPEG_ONLY
         self._every = {}
         for spec in specs:
             if physics_hz % spec.rate_hz:
@@ -95,6 +99,9 @@ class CameraPipeline:
             self._every[spec.name] = physics_hz // spec.rate_hz
         self._tick = math.gcd(*self._every.values()) if specs else 1
         self._ordered = ordered_delivery
+        self._niceness = (
+            (0 if ordered_delivery else WINDOW_WORKER_NICENESS) if worker_niceness is None else worker_niceness
+        )
         self._result_timeout_s = worker_start_timeout_s
         self._seq = 0
         self._pending: deque[tuple[int, int]] = deque()  # (seq, worker index)
@@ -122,6 +129,10 @@ class CameraPipeline:
         """Physics steps between two calls of `capture` the pipeline needs."""
         return self._tick
 
+    def want(self, *kinds: ImageKind) -> None:
+        """Frames captured from now on also carry `kinds` (frames in flight do not)."""
+        self.kinds = self.kinds.union(kinds)
+
     # --- workers ----------------------------------------------------------------------------
 
     def _start_workers(self, v: VehicleParams, world: WorldSpec, count: int, timeout_s: float) -> None:
@@ -131,7 +142,7 @@ class CameraPipeline:
             "world": str(world.path),
             "specs": self.specs,
             "renderer": self.renderer.value,
-            "niceness": 0 if self._ordered else WINDOW_WORKER_NICENESS,
+            "niceness": self._niceness,
         }
         try:
             for _ in range(count):
@@ -192,11 +203,18 @@ class CameraPipeline:
     def capture(self, state: VehicleState) -> None:
         """Render the cameras due at `state.step` (a loop tap)."""
         step = state.step
-        names = tuple(s.name for s in self.specs if step % self._every[s.name] == 0)
+        self._submit(tuple(s.name for s in self.specs if step % self._every[s.name] == 0), state)
+
+    def capture_all(self, state: VehicleState) -> None:
+        """Render every camera at `state`, due or not (a first image, or one after a reset)."""
+        self._submit(tuple(s.name for s in self.specs), state)
+
+    def _submit(self, names: tuple[str, ...], state: VehicleState) -> None:
         if not names:
             return
+        step = state.step
         if self._rig is not None:
-            self._deliver(self._rig.render(names, step, state.position_m, state.orientation_xyzw))
+            self._deliver(self._rig.render(names, step, state.position_m, state.orientation_xyzw, self.kinds))
             return
         if not self._ordered:
             self.poll()
@@ -209,7 +227,8 @@ class CameraPipeline:
         while len(self._pending) >= self._in_flight:
             self._receive_oldest()
         index = self._seq % len(self._conns)
-        self._conns[index].send((self._seq, step, names, state.position_m, state.orientation_xyzw))
+        job = (self._seq, step, names, state.position_m, state.orientation_xyzw, self.kinds)
+        self._conns[index].send(job)
         self._pending.append((self._seq, index))
         self._seq += 1
 

@@ -6,7 +6,7 @@ receives its settings as the first message. It runs in a session of its own, so 
 signals to the parent's process group are the parent's to act on; it exits when the parent
 says so or goes away (end of file), so it never outlives the parent.
 
-Protocol (parent -> worker): (seq, step, names, position, orientation), or None to stop.
+Protocol (parent -> worker): (seq, step, names, position, orientation, image kinds), or None to stop.
 Worker -> parent: ("ready",) once set up, then (seq, [CameraFrame, ...]) per job, or
 ("error", message) if it cannot go on.
 """
@@ -40,8 +40,8 @@ def worker_main(conn, urdf: str, params: str, world: str, specs: tuple, renderer
             job = conn.recv()
             if job is None:
                 break
-            seq, step, names, position, orientation = job
-            conn.send((seq, rig.render(names, step, position, orientation)))
+            seq, step, names, position, orientation, kinds = job
+            conn.send((seq, rig.render(names, step, position, orientation, kinds)))
     except (EOFError, KeyboardInterrupt, OSError):
         pass  # the parent went away or was interrupted: nothing to report to
     except Exception:

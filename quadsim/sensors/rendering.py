@@ -27,22 +27,36 @@ def render_raw(
     cid: int,
     renderer: RendererKind = RendererKind.TINY,
     projection: tuple[float, ...] | None = None,
-) -> tuple[np.ndarray, np.ndarray]:
-    """What the renderer drew: RGB (height x width x 3, uint8, row 0 at the top) and the depth
-    buffer (float32, 1.0 where nothing was drawn). No segmentation mask."""
+    segmentation: bool = False,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
+    """What the renderer drew: RGB (height x width x 3, uint8, row 0 at the top), the depth
+    buffer (float32, 1.0 where nothing was drawn) and, if asked, the segmentation mask (int32:
+    the PyBullet body id drawn at each pixel, -1 for none)."""
     args = (spec.width_px, spec.height_px, view_matrix(pose), projection or projection_matrix(spec))
+    flags = 0 if segmentation else pb.ER_NO_SEGMENTATION_MASK
     if renderer is RendererKind.TINY:
-        _, _, rgba, depth, _ = pb.getCameraImage(
-            *args, renderer=pb.ER_TINY_RENDERER, flags=pb.ER_NO_SEGMENTATION_MASK, physicsClientId=cid
+        _, _, rgba, depth, seg = pb.getCameraImage(
+            *args, renderer=pb.ER_TINY_RENDERER, flags=flags, physicsClientId=cid
         )
     else:
         with c_output_silenced():  # the EGL plugin prints its GL vendor as it renders
-            _, _, rgba, depth, _ = pb.getCameraImage(
-                *args, renderer=pb.ER_BULLET_HARDWARE_OPENGL, flags=pb.ER_NO_SEGMENTATION_MASK, physicsClientId=cid
+            _, _, rgba, depth, seg = pb.getCameraImage(
+                *args, renderer=pb.ER_BULLET_HARDWARE_OPENGL, flags=flags, physicsClientId=cid
             )
     shape = (spec.height_px, spec.width_px)
     rgb = np.ascontiguousarray(np.reshape(np.asarray(rgba, dtype=np.uint8), (*shape, 4))[:, :, :3])
-    return rgb, np.reshape(np.asarray(depth, dtype=np.float32), shape)
+    mask = np.reshape(np.asarray(seg, dtype=np.int32), shape) if segmentation else None
+    return rgb, np.reshape(np.asarray(depth, dtype=np.float32), shape), mask
+
+
+def depth_metres(spec: CameraSpec, depth_buffer: np.ndarray) -> np.ndarray:
+    """The depth buffer as metres along the optical axis (float32; inf where nothing was drawn,
+    as REP 118 has it for out-of-range pixels)."""
+    near, far = np.float32(spec.near_m), np.float32(spec.far_m)
+    with np.errstate(divide="ignore"):
+        metres = far * near / (far - (far - near) * depth_buffer)
+    metres[depth_buffer >= np.float32(0.99999)] = np.inf
+    return metres.astype(np.float32, copy=False)
 
 
 def render_rgb(
@@ -55,7 +69,7 @@ def render_rgb(
 ) -> np.ndarray:
     """Render one RGB image. With `atmosphere`, the empty background becomes sky and distance
     softens and hazes the scene (see Atmosphere)."""
-    rgb, depth = render_raw(spec, pose, cid, renderer, projection)
+    rgb, depth, _ = render_raw(spec, pose, cid, renderer, projection)
     return rgb if atmosphere is None else atmosphere.apply(rgb, depth, pose)
 
 

@@ -1,4 +1,5 @@
-"""A camera rig: renders and JPEG-encodes the onboard cameras for a body pose, in one client.
+"""A camera rig: renders the onboard cameras for a body pose, in one client, into what was asked
+(JPEG, RGB array, depth in metres, segmentation: ImageKind).
 
 Used in-process (rendering in the physics client) and inside each render worker process (in a
 client of its own holding the same scene).
@@ -12,9 +13,20 @@ from quadsim.errors import ConfigError
 from quadsim.physics.pybullet_quiet import c_output_silenced, pb
 from quadsim.physics.scene import build_world, load_vehicle_body
 from quadsim.physics.world_spec import WorldSpec
-from quadsim.sensors.camera import CameraFrame, CameraSpec, RendererKind, camera_pose
-from quadsim.sensors.rendering import Atmosphere, enable_egl, encode_jpeg, is_blank, projection_matrix, render_raw
+from quadsim.sensors.camera import CameraFrame, CameraSpec, ImageKind, RendererKind, camera_pose
+from quadsim.sensors.rendering import (
+    Atmosphere,
+    depth_metres,
+    enable_egl,
+    encode_jpeg,
+    is_blank,
+    projection_matrix,
+    render_raw,
+)
 from quadsim.vehicle.params import VehicleParams
+
+#: what a frame carries unless asked otherwise: what recordings and the window need
+JPEG_ONLY = frozenset({ImageKind.JPEG})
 
 
 class CameraRig:
@@ -56,18 +68,31 @@ class CameraRig:
         step: int,
         position: tuple[float, float, float],
         orientation: tuple[float, float, float, float],
+        kinds: frozenset[ImageKind] = JPEG_ONLY,
     ) -> list[CameraFrame]:
         if self._body is not None:
             pb.resetBasePositionAndOrientation(self._body, position, orientation, physicsClientId=self._cid)
+        segmentation = ImageKind.SEGMENTATION in kinds
         frames = []
         for name in names:
             spec = self.specs[name]
             pose = camera_pose(self._mounts[name], position, orientation)
-            rgb, depth = render_raw(spec, pose, self._cid, self._renderer, self._projections[name])
+            rgb, depth, mask = render_raw(spec, pose, self._cid, self._renderer, self._projections[name], segmentation)
             if name not in self._checked:
                 self._check_not_blank(name, rgb, depth)
             rgb = self._atmospheres[name].apply(rgb, depth, pose)
-            frames.append(CameraFrame(name, step, encode_jpeg(rgb, spec.jpeg_quality), spec.width_px, spec.height_px))
+            frames.append(
+                CameraFrame(
+                    name,
+                    step,
+                    encode_jpeg(rgb, spec.jpeg_quality) if ImageKind.JPEG in kinds else None,
+                    spec.width_px,
+                    spec.height_px,
+                    rgb if ImageKind.RGB in kinds else None,
+                    depth_metres(spec, depth) if ImageKind.DEPTH in kinds else None,
+                    mask,
+                )
+            )
         return frames
 
     def _check_not_blank(self, name: str, rgb: np.ndarray, depth: np.ndarray) -> None:

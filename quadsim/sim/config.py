@@ -10,6 +10,7 @@ from typing import Any
 from quadsim.control import ControllerKind
 from quadsim.core.types import StartPose, ZMode
 from quadsim.errors import ConfigError
+from quadsim.physics.wind import WindSettings
 
 #: the highest physics rate accepted (PyBullet steps get unreasonably slow past this)
 MAX_PHYSICS_HZ = 10_000
@@ -17,6 +18,8 @@ MAX_PHYSICS_HZ = 10_000
 MAX_START_OFFSET_M = 10_000.0
 #: the longest dead-man timeout accepted; None disables the dead-man switch altogether
 MAX_COMMAND_TIMEOUT_S = 3600.0
+#: seeds are whole numbers in [0, MAX_SEED]
+MAX_SEED = 2**63 - 1
 
 
 @dataclass(frozen=True)
@@ -66,8 +69,17 @@ class SimConfig:
     command_timeout_s: float | None = 0.5  # dead-man switch; None disables it
     start: StartPose = field(default_factory=StartPose)
     gui: bool = False
+    wind: WindSettings = field(default_factory=WindSettings)  # mean wind and turbulence
+    sensor_noise: bool = True  # IMU noise on /quad/imu (the vehicle parameter file's [imu])
+    #: the run's one random seed: every random stream (turbulence, sensor noise) derives from it
+    seed: int = 0
 
     def __post_init__(self) -> None:
+        seed = self.seed
+        if isinstance(seed, bool) or not isinstance(seed, int) or not 0 <= seed <= MAX_SEED:
+            raise ConfigError(f"seed must be a whole number in [0, 2^63 - 1], got {seed!r}")
+        if not isinstance(self.wind, WindSettings):
+            raise ConfigError(f"wind must be a WindSettings, got {type(self.wind).__name__}")
         timeout = self.command_timeout_s
         if timeout is None:
             return
@@ -103,4 +115,7 @@ class SimConfig:
             "rates": self.rates.to_dict(),
             "command_timeout_s": self.command_timeout_s,
             "start": {"x_m": self.start.x_m, "y_m": self.start.y_m, "yaw_rad": self.start.yaw_rad},
+            "wind": self.wind.to_dict(),
+            "sensor_noise": self.sensor_noise,
+            "seed": self.seed,
         }

@@ -7,7 +7,9 @@ missing, of the wrong type or absurd in a recording is refused with a `QuadsimEr
 field (`parameters.config.rates.physics_hz: expected a positive whole number, got 'abc'`).
 
 The JSON layout (`to_parameters`) is the one recordings have always carried, plus
-`schema_version`; files without it are version 1.
+`schema_version`; files without it are version 1. Version 2 adds the run's wind, sensor noise
+and seed (`config.wind`, `config.sensor_noise`, `config.seed`); a version 1 file had no wind and
+no sensor noise.
 """
 
 from __future__ import annotations
@@ -20,13 +22,14 @@ from typing import Any
 from quadsim.control import ControllerKind
 from quadsim.core.types import StartPose, ZMode
 from quadsim.errors import QuadsimError
+from quadsim.physics.wind import Turbulence, WindSettings
 from quadsim.physics.world_spec import WorldSpec
 from quadsim.sensors.camera import CameraSpec
-from quadsim.sim.config import Rates, SimConfig
+from quadsim.sim.config import MAX_SEED, Rates, SimConfig
 from quadsim.vehicle.params import VehicleParams
 
 #: the layout version of the parameters this code writes
-SCHEMA_VERSION = 1
+SCHEMA_VERSION = 2
 
 
 class DescriptionError(QuadsimError):
@@ -128,6 +131,20 @@ class RunDescription:
         rates_f = cfg.section("rates")
         rates_kw = {f.name: rates_f.integer(f.name, low=1, high=1_000_000) for f in fields(Rates)}
         start_f = cfg.section("start", optional=True)
+        wind_f = cfg.section("wind", optional=True)
+        turbulence = wind_f.raw("turbulence")
+        wind = _build(
+            WindSettings,
+            {
+                "speed_mps": wind_f.number("speed_mps", default=0.0, low=0.0, high=1e3),
+                "from_deg": wind_f.number("from_deg", default=0.0),
+                "turbulence": None if turbulence is None else wind_f.choice("turbulence", Turbulence),
+            },
+            wind_f.where,
+        )
+        noise = cfg.raw("sensor_noise", default=version >= 2)
+        if not isinstance(noise, bool):
+            raise DescriptionError(f"{cfg.where}.sensor_noise: expected true or false, got {noise!r}")
         config = SimConfig(
             urdf=cfg.path("urdf"),
             vehicle_params=cfg.path("vehicle_params"),
@@ -141,6 +158,9 @@ class RunDescription:
                 start_f.number("y_m", default=0.0),
                 start_f.number("yaw_rad", default=0.0),
             ),
+            wind=wind,
+            sensor_noise=noise,
+            seed=cfg.integer("seed", default=0, low=0, high=MAX_SEED),
         )
         v = p.section("vehicle")
         rotors = v.raw("rotors", default=[])

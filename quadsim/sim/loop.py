@@ -3,10 +3,14 @@
 Stepping order, once per physics step n (time n / physics_hz):
   1. input   (n % input_every == 0, or n >= driver.next_poll_step):
                                        poll the driver; the gate takes its command, stamped n
-  2. control (n % control_every == 0): the controller turns state + active command into rotor forces
+  2. control (n % control_every == 0): the landing layer and the controller turn state + active
+                                       command into rotor forces (take-off, landed: events at n)
   3. physics:                          motors, forces, one PyBullet step -> step n + 1 (only here)
-  4. publish ((n + 1) % state_every == 0): sinks receive the state at step n + 1
-  5. taps    ((n + 1) % every == 0):       e.g. the cameras capture the state at step n + 1
+  4. contacts:                         touchdown and crash events at n + 1 (and the reset after a
+                                       crash, if asked for)
+  5. publish ((n + 1) % state_every == 0): the IMU noise takes its sample (sinks or not), and
+                                       sinks receive the state at step n + 1
+  6. taps    ((n + 1) % every == 0):       e.g. the cameras capture the state at step n + 1
 Nothing here reads the wall clock; only a window paces these steps to real time.
 """
 
@@ -17,11 +21,14 @@ from typing import Protocol
 
 from quadsim.control import Controller
 from quadsim.control.gate import CommandGate
+from quadsim.control.landing import FlightPhase, LandingLayer, LandingSettings
 from quadsim.core.types import RotorForces, Twist, VehicleState
 from quadsim.drivers import InputDriver
 from quadsim.errors import ConfigError
 from quadsim.physics.pybullet_world import PhysicsWorld
+from quadsim.sensors.imu import ImuNoise
 from quadsim.sim.config import Rates
+from quadsim.sim.flight_events import WALL_NORMAL_Z, ContactMonitor, EventKind, FlightEvent
 
 
 class Sink(Protocol):
@@ -32,6 +39,9 @@ class Sink(Protocol):
 
     def on_state(self, state: VehicleState) -> None:
         """The vehicle's state, at the state rate."""
+
+    # optional: def on_event(self, step: int, kind: str, value: str) -> None, a flight event
+    # (take-off, touchdown, landed, crash, reset; see sim/flight_events.py) at `step`
 
 
 class OutputPort(Protocol):
@@ -79,15 +89,29 @@ class SimLoop:
         gate: CommandGate,
         rates: Rates,
         driver: InputDriver | None = None,
+        landing: LandingSettings = LandingSettings(),
+        reset_on_crash: bool = False,
+        imu: ImuNoise | None = None,
     ) -> None:
         if abs(physics.dt_s * rates.physics_hz - 1.0) > 1e-12:
             raise ConfigError("the physics world and the loop disagree on the physics rate")
         self.physics = physics
-        self.controller = controller
         self.gate = gate
         self.rates = rates
         self.driver = driver
+        self.imu = imu
         self.sinks: list[Sink] = []
+        self.landing = LandingLayer(
+            controller, physics.vehicle.limits, physics.rest_height_m, len(physics.vehicle.rotors), landing
+        )
+        self.contact_monitor = ContactMonitor(rates.physics_hz)
+        #: every flight event since the start (or the last reset), in order
+        self.events: list[FlightEvent] = []
+        #: called with each flight event as it happens (a Gymnasium env ends an episode on a crash)
+        self.event_callbacks: list[Callable[[FlightEvent], None]] = []
+        #: put the vehicle back at its start pose after a crash (the clock and the command go on)
+        self.reset_on_crash = reset_on_crash
+        self._on_ground = True
         self._taps: list[tuple[int, Callable[[VehicleState], None]]] = []
         self.step_count = 0
         self._input_every = rates.every(rates.input_hz)
@@ -96,6 +120,15 @@ class SimLoop:
         self._control_dt_s = 1.0 / rates.control_hz
         self._idle: RotorForces = (0.0,) * len(physics.vehicle.rotors)
         self._rotor_command = self._idle
+
+    @property
+    def controller(self) -> Controller:
+        """The controller, under the landing layer."""
+        return self.landing.controller
+
+    @controller.setter
+    def controller(self, controller: Controller) -> None:
+        self.landing.controller = controller
 
     def add_tap(self, every_steps: int, callback: Callable[[VehicleState], None]) -> None:
         """Call `callback(state)` after every `every_steps`-th physics step (cameras use this)."""
@@ -123,17 +156,53 @@ class SimLoop:
     def reset(self) -> None:
         """Back to step 0: vehicle at its start pose, controller and gate cleared."""
         self.physics.reset()
-        self.controller.reset()
+        self.landing.reset()
+        self.contact_monitor.reset()
         self.gate.reset()
+        if self.imu is not None:
+            self.imu.reset()
         self.step_count = 0
         self._rotor_command = self._idle
+        self._on_ground = True
+        self.events.clear()
+
+    def _emit(self, event: FlightEvent) -> None:
+        self.events.append(event)
+        for sink in self.sinks:
+            on_event = getattr(sink, "on_event", None)
+            if on_event is not None:
+                on_event(event.step, event.kind.value, event.value)
+        for callback in self.event_callbacks:
+            callback(event)
+
+    def _after_contact(self, n: int) -> bool:
+        """Contacts after the physics step that ended at `n`: events, and the reset after a crash
+        if asked for. True if the vehicle was put back at its start pose."""
+        physics = self.physics
+        contacts = physics.contacts()
+        self._on_ground = any(c.normal_z >= WALL_NORMAL_Z for c in contacts)
+        monitor = self.contact_monitor
+        if not contacts and not monitor.touching:
+            return False
+        events = monitor.update(n, contacts, physics.velocity_before_step_mps, physics.body_z_up)
+        for event in events:
+            self._emit(event)
+        if self.reset_on_crash and any(e.kind is EventKind.CRASH for e in events):
+            physics.reset()
+            self.landing.reset()
+            monitor.reset()
+            self._on_ground = True
+            self._rotor_command = self._idle
+            self._emit(FlightEvent(n, EventKind.RESET, "back at the start after a crash"))
+            return True
+        return False
 
     def run(self, steps: int) -> None:
         """Advance `steps` physics steps (see the module docstring for the order)."""
-        physics, controller, gate, driver = self.physics, self.controller, self.gate, self.driver
+        physics, landing, gate, driver = self.physics, self.landing, self.gate, self.driver
         input_every, control_every, state_every = self._input_every, self._control_every, self._state_every
         control_dt, hz = self._control_dt_s, self.rates.physics_hz
-        sinks, taps = self.sinks, self._taps
+        sinks, taps, imu = self.sinks, self._taps, self.imu
         n = self.step_count
         command = self._rotor_command
         # the state after a step is built once, only if someone takes it: the sinks and taps of
@@ -148,14 +217,28 @@ class SimLoop:
                         for sink in sinks:
                             sink.on_command(n, accepted)
             if n % control_every == 0:
-                command = controller.update(physics.state(n) if state is None else state, gate.active(n), control_dt)
+                phase = landing.phase
+                command = landing.update(
+                    physics.state(n) if state is None else state, gate.active(n), self._on_ground, control_dt
+                )
+                if landing.phase is not phase:
+                    if landing.phase is FlightPhase.FLYING:
+                        self._emit(FlightEvent(n, EventKind.TAKEOFF, "climbing from the ground"))
+                    else:
+                        self._emit(FlightEvent(n, EventKind.LANDED, "on the ground, rotors idle"))
             physics._step(command)
             n += 1
             state = None
-            if n % state_every == 0 and sinks:
-                state = physics.state(n)
-                for sink in sinks:
-                    sink.on_state(state)
+            if self._after_contact(n):
+                command = self._idle
+            if n % state_every == 0:
+                if imu is not None:
+                    state = imu.measure(physics.state(n))
+                if sinks:
+                    if state is None:
+                        state = physics.state(n)
+                    for sink in sinks:
+                        sink.on_state(state)
             for every, tap in taps:
                 if n % every == 0:
                     if state is None:

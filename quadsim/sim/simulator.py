@@ -12,19 +12,24 @@ This is also the API for autonomy code:
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import replace
+from dataclasses import asdict, replace
 from typing import Any
+
+import numpy as np
 
 from quadsim.control import make_controller
 from quadsim.control.gate import CommandGate
+from quadsim.control.landing import FlightPhase, LandingSettings
 from quadsim.core.types import Twist, VehicleState, ZMode
 from quadsim.drivers import InputDriver
 from quadsim.drivers.programmatic import ProgrammaticDriver
 from quadsim.errors import QuadsimError
 from quadsim.physics.pybullet_world import PhysicsWorld
 from quadsim.physics.world_spec import load_world
+from quadsim.sensors.imu import ImuNoise
 from quadsim.sim.config import SimConfig
 from quadsim.sim.description import ControllerDescription, RunDescription, VehicleDescription
+from quadsim.sim.flight_events import FlightEvent
 from quadsim.sim.loop import SimLoop, Sink
 from quadsim.vehicle.params import load_vehicle
 
@@ -38,6 +43,8 @@ class Simulator:
         driver: InputDriver | None = None,
         controller_gains: dict[str, Any] | None = None,
         texture_required: bool = True,
+        landing: LandingSettings = LandingSettings(),
+        reset_on_crash: bool = False,
     ) -> None:
         self.driver: InputDriver = driver if driver is not None else ProgrammaticDriver()
         if config.z_mode is None:  # the driver's wish (a script's z_mode line), else velocity
@@ -52,8 +59,21 @@ class Simulator:
         self.gate = CommandGate(
             self.vehicle.limits, self.z_mode, None if timeout is None else round(timeout * rates.physics_hz)
         )
-        self.physics = PhysicsWorld(self.vehicle, self.world, rates.physics_hz, config.start, config.gui)
-        self.loop = SimLoop(self.physics, self.controller, self.gate, rates, self.driver)
+        wind_seed, imu_seed = _streams(config.seed)
+        self.physics = PhysicsWorld(
+            self.vehicle, self.world, rates.physics_hz, config.start, config.gui, config.wind, wind_seed
+        )
+        imu = ImuNoise(self.vehicle.imu_noise, rates.state_hz, imu_seed) if config.sensor_noise else None
+        self.loop = SimLoop(
+            self.physics,
+            self.controller,
+            self.gate,
+            rates,
+            self.driver,
+            landing=landing,
+            reset_on_crash=reset_on_crash,
+            imu=imu,
+        )
 
     # --- commanding -------------------------------------------------------------------------
 
@@ -97,13 +117,43 @@ class Simulator:
         """Stop calling `callback` (no error if it was not added)."""
         self.loop.remove_tap(callback)
 
+    # --- flight events ------------------------------------------------------------------------
+
+    @property
+    def events(self) -> list[FlightEvent]:
+        """Every flight event (take-off, touchdown, landed, crash, reset) since the start or the last
+        reset, in order; each has its step, kind, text, impact speed and what was hit."""
+        return self.loop.events
+
+    def add_event_callback(self, callback: Callable[[FlightEvent], None]) -> None:
+        """Call `callback(event)` as each flight event happens (a Gymnasium env ends on a crash)."""
+        self.loop.event_callbacks.append(callback)
+
+    @property
+    def phase(self) -> FlightPhase:
+        """Landed (rotors idle) or flying."""
+        return self.loop.landing.phase
+
+    @property
+    def reset_on_crash(self) -> bool:
+        """Whether a crash puts the vehicle back at its start pose (the clock and commands go on)."""
+        return self.loop.reset_on_crash
+
     @property
     def scene_client(self) -> int | None:
         """The physics world's PyBullet client, which holds the scene (in-process rendering)."""
         return self.physics.client_id
 
-    def reset(self) -> None:
-        """Back to step 0: the vehicle at its start pose, rotors idle, controller and gate cleared."""
+    def reset(self, seed: int | None = None) -> None:
+        """Back to step 0: the vehicle at its start pose, rotors idle, controller and gate cleared.
+        With `seed`, the run's random streams (turbulence, sensor noise) start again from that
+        seed instead of the run's own (a Gymnasium env's seeded reset); the description says so."""
+        if seed is not None:
+            self.config = replace(self.config, seed=seed)  # validated like any SimConfig
+            wind_seed, imu_seed = _streams(seed)
+            self.physics.reseed(wind_seed)
+            if self.loop.imu is not None:
+                self.loop.imu.reseed(imu_seed)
         self.loop.reset()
 
     @property
@@ -129,7 +179,11 @@ class Simulator:
             vehicle=VehicleDescription(
                 v.name, v.urdf_path.name, v.params_path.name, v.mass_kg, len(v.rotors), v.to_dict()
             ),
-            controller=ControllerDescription(self.controller.kind, dict(ctrl.get("gains", {})), ctrl),
+            controller=ControllerDescription(
+                self.controller.kind,
+                dict(ctrl.get("gains", {})),
+                {**ctrl, "landing": asdict(self.loop.landing.settings), "reset_on_crash": self.loop.reset_on_crash},
+            ),
             driver=self.driver.describe(),
             vehicle_model=v,
             world_model=self.world,
@@ -150,3 +204,10 @@ class Simulator:
 
     def __exit__(self, *exc: object) -> None:
         self.close()
+
+
+def _streams(seed: int) -> tuple[np.random.SeedSequence, np.random.SeedSequence]:
+    """One seed per run; each random stream (wind, IMU noise) gets its own child of it, so adding
+    a stream or turning one off leaves the others unchanged."""
+    wind_seed, imu_seed = np.random.SeedSequence(seed).spawn(2)
+    return wind_seed, imu_seed

@@ -1,5 +1,5 @@
 """Vehicle parameters: read once from the URDF (mass, inertia, rotor and camera links) and the
-parameter file beside it (rotor coefficients, limits, drag), validated, frozen."""
+parameter file beside it (rotor coefficients, limits, aerodynamics, IMU noise), validated, frozen."""
 
 from __future__ import annotations
 
@@ -15,12 +15,14 @@ from quadsim.assets import asset_path
 from quadsim.core.kinematics import IDENTITY, Mat3, Vec3, mat_mul, matrix_from_rpy, rotate, transpose
 from quadsim.core.toml_compat import tomllib
 from quadsim.errors import ConfigError
+from quadsim.vehicle.aero import AeroParams
 
 #: The airframes the project ships, by the names `--vehicle` takes (each URDF has its
 #: NAME.params.toml beside it).
 SHIPPED_VEHICLES: dict[str, Path] = {
     "quad": asset_path("urdf", "quadsim_x.urdf"),
     "hexa": asset_path("urdf", "quadsim_hexa.urdf"),
+    "crazyflie": asset_path("urdf", "crazyflie.urdf"),
 }
 #: The vehicle flown when no other is asked for.
 DEFAULT_VEHICLE = "quad"
@@ -57,6 +59,16 @@ class CameraMount:
 
 
 @dataclass(frozen=True)
+class LinkFrame:
+    """Where a URDF link's frame sits on the body: its pose relative to the base_link origin
+    (what /tf_static says, so viewers place the model's parts)."""
+
+    link_name: str
+    position_m: Vec3
+    rotation: Mat3  # base_link <- link
+
+
+@dataclass(frozen=True)
 class CommandLimits:
     max_horizontal_speed_mps: float
     max_climb_rate_mps: float
@@ -64,6 +76,20 @@ class CommandLimits:
     max_yaw_rate_radps: float
     min_altitude_m: float
     max_altitude_m: float
+
+
+@dataclass(frozen=True)
+class ImuNoiseParams:
+    """The [imu] section: white noise densities and bias random walks of the IMU (continuous
+    time; a sensor sampled at f Hz has white noise of standard deviation density * sqrt(f))."""
+
+    gyro_noise_density_radps_per_rthz: float
+    gyro_bias_random_walk_radps2_per_rthz: float
+    accel_noise_density_mps2_per_rthz: float
+    accel_bias_random_walk_mps3_per_rthz: float
+
+    def to_dict(self) -> dict[str, float]:
+        return vars(self).copy()
 
 
 @dataclass(frozen=True)
@@ -81,10 +107,13 @@ class VehicleParams:
     torque_coefficient_nm_per_rad2s2: float
     max_thrust_n: float
     motor_time_constant_s: float
-    drag_coefficients_ns_per_m: Vec3
+    aero: AeroParams
+    imu_noise: ImuNoiseParams
     limits: CommandLimits
     camera_mounts: tuple[CameraMount, ...]
     gravity_mps2: float = 9.81
+    #: every link but base_link, in the URDF's order
+    link_frames: tuple[LinkFrame, ...] = ()
 
     @property
     def camera_links(self) -> tuple[str, ...]:
@@ -129,7 +158,8 @@ class VehicleParams:
             "torque_coefficient_nm_per_rad2s2": self.torque_coefficient_nm_per_rad2s2,
             "max_thrust_n": self.max_thrust_n,
             "motor_time_constant_s": self.motor_time_constant_s,
-            "drag_coefficients_ns_per_m": list(self.drag_coefficients_ns_per_m),
+            "aero": self.aero.to_dict(),
+            "imu_noise": self.imu_noise.to_dict(),
             "limits": vars(self.limits).copy(),
         }
 
@@ -308,6 +338,33 @@ def _number(table: dict[str, Any], section: str, key: str, path: Path, *, low: f
     return float(value)
 
 
+def _vector(table: dict[str, Any], section: str, key: str, path: Path, *, low: float, high: float) -> Vec3:
+    value = table.get(section, {}).get(key) if isinstance(table.get(section), dict) else None
+    if (
+        not isinstance(value, list)
+        or len(value) != 3
+        or not all(isinstance(v, (int, float)) and not isinstance(v, bool) and low <= v <= high for v in value)
+    ):
+        raise ConfigError(f"{path}: [{section}] {key} must be 3 numbers in [{low}, {high}], got {value!r}")
+    return (float(value[0]), float(value[1]), float(value[2]))
+
+
+def _aero(table: dict[str, Any], path: Path) -> AeroParams:
+    ground_effect = table.get("aero", {}).get("ground_effect") if isinstance(table.get("aero"), dict) else None
+    if not isinstance(ground_effect, bool):
+        raise ConfigError(f"{path}: [aero] ground_effect must be true or false, got {ground_effect!r}")
+    return AeroParams(
+        body_drag_linear_ns_per_m=_vector(table, "aero", "body_drag_linear_ns_per_m", path, low=0.0, high=100.0),
+        body_drag_quadratic_ns2_per_m2=_vector(
+            table, "aero", "body_drag_quadratic_ns2_per_m2", path, low=0.0, high=100.0
+        ),
+        rotor_drag_ns_per_m_rad=_number(table, "aero", "rotor_drag_ns_per_m_rad", path, low=0.0, high=1.0),
+        rotor_radius_m=_number(table, "aero", "rotor_radius_m", path, low=1e-3, high=10.0),
+        ground_effect=ground_effect,
+        ground_effect_max_ratio=_number(table, "aero", "ground_effect_max_ratio", path, low=1.0, high=3.0),
+    )
+
+
 #: The fewest rotors that can give thrust and three independent torques.
 MIN_ROTORS = 4
 
@@ -368,13 +425,21 @@ def _build(urdf: Path, params: Path, links: dict[str, _Link], table: dict[str, A
             f"{params}: [rotors] max_thrust_n = {max_thrust} gives {len(rotors) * max_thrust:.2f} N in all, "
             f"too little to fly a {weight:.2f} N vehicle (need at least 1.2x its weight)"
         )
-    drag = table.get("drag", {}).get("linear_coefficients_ns_per_m")
-    if (
-        not isinstance(drag, list)
-        or len(drag) != 3
-        or not all(isinstance(v, (int, float)) and not isinstance(v, bool) and 0.0 <= v < 100.0 for v in drag)
-    ):
-        raise ConfigError(f"{params}: [drag] linear_coefficients_ns_per_m must be 3 numbers in [0, 100), got {drag!r}")
+    aero = _aero(table, params)
+    imu = ImuNoiseParams(
+        gyro_noise_density_radps_per_rthz=_number(
+            table, "imu", "gyro_noise_density_radps_per_rthz", params, low=0.0, high=1.0
+        ),
+        gyro_bias_random_walk_radps2_per_rthz=_number(
+            table, "imu", "gyro_bias_random_walk_radps2_per_rthz", params, low=0.0, high=1.0
+        ),
+        accel_noise_density_mps2_per_rthz=_number(
+            table, "imu", "accel_noise_density_mps2_per_rthz", params, low=0.0, high=10.0
+        ),
+        accel_bias_random_walk_mps3_per_rthz=_number(
+            table, "imu", "accel_bias_random_walk_mps3_per_rthz", params, low=0.0, high=10.0
+        ),
+    )
     limits = CommandLimits(
         max_horizontal_speed_mps=_number(table, "limits", "max_horizontal_speed_mps", params, low=0.1, high=50.0),
         max_climb_rate_mps=_number(table, "limits", "max_climb_rate_mps", params, low=0.1, high=20.0),
@@ -404,7 +469,11 @@ def _build(urdf: Path, params: Path, links: dict[str, _Link], table: dict[str, A
         torque_coefficient_nm_per_rad2s2=km,
         max_thrust_n=max_thrust,
         motor_time_constant_s=tau,
-        drag_coefficients_ns_per_m=(float(drag[0]), float(drag[1]), float(drag[2])),
+        aero=aero,
+        imu_noise=imu,
         limits=limits,
         camera_mounts=cameras,
+        link_frames=tuple(
+            LinkFrame(n, link.origin_in_base_m, link.rotation_in_base) for n, link in links.items() if n != "base_link"
+        ),
     )

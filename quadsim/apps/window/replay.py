@@ -10,7 +10,6 @@ from __future__ import annotations
 import os
 import sys
 import time
-from collections.abc import Callable
 from pathlib import Path
 
 os.environ.setdefault("PYGAME_HIDE_SUPPORT_PROMPT", "1")
@@ -20,6 +19,7 @@ from quadsim.apps.window.view import TeleopView, ViewModel
 from quadsim.apps.window.x11_guard import X11Guard
 from quadsim.core.kinematics import clamp
 from quadsim.core.types import Twist, VehicleState
+from quadsim.live.playback import RecordingFeed
 from quadsim.physics.world_spec import FloorSpec, WorldSpec, load_world
 from quadsim.recording.flight import NS, RecordedFlight
 from quadsim.sensors.camera import CameraFrame
@@ -60,10 +60,10 @@ class ReplayApp:
         speed: float = 1.0,
         loop: bool = False,
         frame_s: float | None = None,
-        on_time: Callable[[int], object] | None = None,
+        feed: RecordingFeed | None = None,
     ) -> None:
-        """`frame_s`: advance playback by this much per frame instead of by the wall clock (tests).
-        `on_time`: told the playback time (ns) every frame (a live feed of the recorded messages)."""
+        """`frame_s`: advance playback by this much per frame instead of by the wall clock (tests);
+        `feed`: handed the recorded messages as playback passes them (replay --foxglove)."""
         import tempfile
 
         pygame.display.init()
@@ -83,7 +83,7 @@ class ReplayApp:
         self.quit = False
         self.frame_count = 0
         self._frame_s = frame_s
-        self._on_time = on_time
+        self.feed = feed
         self._last_wall = time.perf_counter()
         self._track = [s.position_m[:2] for s in flight.states[::6]]
         self._walls: list[float] = []
@@ -180,8 +180,8 @@ class ReplayApp:
                 else:
                     self.t_ns = self.end_ns
                     self.playing = False
-        if self._on_time is not None:
-            self._on_time(self.t_ns)
+        if self.feed is not None:
+            self.feed.play_to(self.t_ns)
         self.view.draw(self.screen, self.model())
         pygame.display.flip()
         if self._display_gone():

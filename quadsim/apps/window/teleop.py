@@ -13,7 +13,8 @@ x11_guard.end_process, since SDL's own teardown would hang on the dead connectio
 
 Input: the keyboard or a gamepad. With --input auto a gamepad flies if one is plugged in at the
 start, and one plugged in later takes over from the keyboard; every plug and unplug is said in
-the HUD and recorded as an "input" event.
+the HUD and recorded as an "input" event. Flight events (take-off, touchdown, landed, crash, reset)
+come from the simulator to the HUD, as they go to the recording's /rosout.
 """
 
 from __future__ import annotations
@@ -22,7 +23,7 @@ import os
 import sys
 import time
 from collections import deque
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
@@ -30,10 +31,11 @@ from typing import Any
 os.environ.setdefault("PYGAME_HIDE_SUPPORT_PROMPT", "1")
 import pygame
 
-from quadsim.apps.outputs import OutputOptions, RecordedRun
+from quadsim.apps.outputs import LiveOutput, OutputOptions, RecordedRun
 from quadsim.apps.window.pacing import FixedStepPacer, RealTimePacer
 from quadsim.apps.window.view import TeleopView, ViewModel
 from quadsim.apps.window.x11_guard import X11Guard
+from quadsim.control.landing import LandingSettings
 from quadsim.core.types import Twist, VehicleState, ZMode
 from quadsim.drivers import ASAP
 from quadsim.drivers.gamepad import Pad
@@ -41,6 +43,7 @@ from quadsim.drivers.joystick import JoystickDriver, JoystickMapping
 from quadsim.drivers.keyboard import LAYOUTS, KeyboardDriver
 from quadsim.drivers.subscribed import SubscribedDriver
 from quadsim.errors import QuadsimError
+from quadsim.recording.fanout import WARNING_EVENTS
 from quadsim.sensors.camera import CameraFrame
 from quadsim.sim.config import SimConfig
 from quadsim.sim.simulator import Simulator
@@ -62,13 +65,15 @@ APP_KEYS = [
 
 @dataclass(frozen=True)
 class TeleopOptions:
-    input: str = "auto"  # auto | keyboard | joystick | ros2
-    #: with input ros2: the driver the ROS 2 bridge feeds (the window's keys then only steer the app)
-    subscribed: SubscribedDriver | None = None
+    input: str = (
+        "auto"  # auto | keyboard | joystick | foxglove | ros2 (the last two: the `commands` given to TeleopApp)
+    )
     keyboard_layout: str = "default"
     joystick_mapping: JoystickMapping = field(default_factory=JoystickMapping)
     window_size: tuple[int, int] = (1280, 720)
     max_fps: int = 60
+    landing: LandingSettings = field(default_factory=LandingSettings)  # hard landings allowed or not
+    reset_on_crash: bool = False  # a crash puts the vehicle back at the start pose
 
 
 class _Track:
@@ -85,6 +90,35 @@ class _Track:
             self.points.append(state.position_m[:2])
 
 
+class _FlightNotices:
+    """A sink keeping the last flight event (take-off, touchdown, landed, crash, reset) for the HUD,
+    shown for a few seconds (a crash for longer)."""
+
+    def __init__(self) -> None:
+        self.text = ""
+        self.alert = False
+        self._until = 0.0
+
+    def on_command(self, step: int, twist: object) -> None:
+        pass
+
+    def on_state(self, state: VehicleState) -> None:
+        pass
+
+    def on_event(self, step: int, kind: str, value: str) -> None:
+        if kind == "reset" and self.alert and time.monotonic() < self._until:
+            self.text += f"; {kind}: {value}"  # the crash stays on screen, with what followed
+            return
+        self.alert = kind in WARNING_EVENTS
+        self.text = f"{kind.upper() if self.alert else kind}: {value}"
+        self._until = time.monotonic() + (8.0 if self.alert else 4.0)
+
+    def current(self) -> tuple[str, bool]:
+        if time.monotonic() > self._until:
+            self.text, self.alert = "", False
+        return self.text, self.alert
+
+
 class _ActiveInput:
     """The simulator's input driver: whichever of the keyboard and the gamepad flies now (with
     --input auto a gamepad plugged in later takes over from the keyboard)."""
@@ -93,7 +127,7 @@ class _ActiveInput:
         self.driver = driver
         self.name = driver.name
 
-    def use(self, driver: KeyboardDriver | JoystickDriver) -> None:
+    def use(self, driver: KeyboardDriver | JoystickDriver | SubscribedDriver) -> None:
         self.driver = driver
         self.name = driver.name
         driver.next_poll_step = ASAP  # its command replaces the other's at once
@@ -124,13 +158,16 @@ class TeleopApp:
         outputs: OutputOptions,
         options: TeleopOptions = TeleopOptions(),
         pacer: RealTimePacer | FixedStepPacer | None = None,
+        live: Sequence[LiveOutput] = (),
+        commands: SubscribedDriver | None = None,
     ) -> None:
+        """`live`: bridges fed for the whole run; `commands`: what flies with --input foxglove."""
         if options.keyboard_layout not in LAYOUTS:
             raise QuadsimError(f"unknown keyboard layout {options.keyboard_layout!r}; choose from {', '.join(LAYOUTS)}")
-        if options.input not in ("auto", "keyboard", "joystick", "ros2"):
-            raise QuadsimError(f"--input must be auto, keyboard, joystick or ros2, got {options.input!r}")
-        if (options.input == "ros2") != (options.subscribed is not None):
-            raise QuadsimError("--input ros2 needs the driver its bridge feeds (and only it does)")
+        if options.input not in ("auto", "keyboard", "joystick", "foxglove", "ros2"):
+            raise QuadsimError(f"--input must be auto, keyboard, joystick, foxglove or ros2, got {options.input!r}")
+        if (options.input in ("foxglove", "ros2")) != (commands is not None):
+            raise ValueError(f"--input {options.input} flies the `commands` driver, and only it does")
         pygame.display.init()
         pygame.font.init()
         pygame.joystick.init()
@@ -143,14 +180,16 @@ class TeleopApp:
         if options.input in ("auto", "joystick"):
             self.joystick.attach_first()
         use_joystick = options.input == "joystick" or (options.input == "auto" and self.joystick.pad is not None)
-        self.input = _ActiveInput(options.subscribed or (self.joystick if use_joystick else self.keyboard))
+        self.input = _ActiveInput(commands or (self.joystick if use_joystick else self.keyboard))
         try:
-            self.sim = Simulator(config, self.input)
+            self.sim = Simulator(config, self.input, landing=options.landing, reset_on_crash=options.reset_on_crash)
         except BaseException:
             self.joystick.close()
             raise
         self.track = _Track()
         self.sim.add_sink(self.track)
+        self.flight_notices = _FlightNotices()
+        self.sim.add_sink(self.flight_notices)
         self.frames: dict[str, CameraFrame] = {}
         try:
             self.outputs = replace(outputs, ordered_delivery=False)  # show frames as soon as they are ready
@@ -160,6 +199,7 @@ class TeleopApp:
                 self.outputs,
                 f"fly_{config.controller.value}",
                 {"command": "fly", "input": self.driver.name},
+                live=live,
             )
         except BaseException:
             self.sim.close()
@@ -267,6 +307,14 @@ class TeleopApp:
             self.joystick.handle_event(event)
             if self.joystick.pad is not before:
                 self._pad_changed(before)
+
+    def _input_status(self) -> str:
+        driver = self.driver
+        if driver is self.joystick:
+            return self.joystick.status
+        if isinstance(driver, SubscribedDriver):
+            return f"{driver.name}: Twists on {driver.topic} ({driver.received} received)"
+        return f"keyboard ({self.keyboard.layout.name}, speed x{self.keyboard.scale:.2f})"
 
     def _pad_changed(self, before: Pad | None) -> None:
         """A gamepad appeared or went: switch to it (--input auto), say so, and record it."""
@@ -378,6 +426,7 @@ class TeleopApp:
         warnings = self.joystick.warnings() if self.driver is self.joystick else []
         if time.monotonic() > self._notice_until:
             self.notice = ""
+        flight_event, flight_alert = self.flight_notices.current()
         return ViewModel(
             state=self.sim.state,
             command=gate.last_command,
@@ -385,13 +434,10 @@ class TeleopApp:
             armed=active.armed,
             z_mode=gate.z_mode.value,
             controller=self.sim.config.controller.value,
-            input_status=(
-                self.joystick.status
-                if self.driver is self.joystick
-                else f"ROS 2 {self.driver.topic} ({self.driver.received} received)"
-                if isinstance(self.driver, SubscribedDriver)
-                else f"keyboard ({self.keyboard.layout.name}, speed x{self.keyboard.scale:.2f})"
-            ),
+            phase=self.sim.phase.value,
+            flight_event=flight_event,
+            flight_alert=flight_alert,
+            input_status=self._input_status(),
             recording_path=str(self.session.path) if self.session.recording else None,
             recording_error=rec.error if rec is not None else None,
             paused=self.paused,

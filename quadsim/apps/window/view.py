@@ -52,6 +52,9 @@ class ViewModel:
     camera_rate_hz: int = 0  # the rate the cameras were asked for
     playback: str | None = None  # replay: shown instead of the recording state
     timeline: tuple[float, float] | None = None  # replay: (time, duration) s, drawn as a clickable bar
+    phase: str = ""  # landed / flying (empty: not known, as in replay)
+    flight_event: str = ""  # the last flight event (take-off, touchdown, landed, crash, reset), while shown
+    flight_alert: bool = False  # that event is a crash
 
 
 class TeleopView:
@@ -92,7 +95,12 @@ class TeleopView:
     def _image(self, frame: CameraFrame) -> pygame.Surface:
         cached = self._decoded.get(frame.camera)
         if cached is None or cached[0] != frame.step:
-            rgb = decode_jpeg(frame.jpeg)
+            if frame.rgb is not None:
+                rgb = frame.rgb
+            elif frame.jpeg is not None:
+                rgb = decode_jpeg(frame.jpeg)
+            else:
+                return pygame.Surface((frame.width_px, frame.height_px))
             surf = pygame.image.frombuffer(rgb.tobytes(), (rgb.shape[1], rgb.shape[0]), "RGB")
             self._decoded[frame.camera] = (frame.step, surf)
             return surf
@@ -177,7 +185,11 @@ class TeleopView:
                 TEXT,
             ),
             (f"command  {cmd}", TEXT),
-            (f"z-mode {m.z_mode}   controller {m.controller}   input {m.input_status}", TEXT),
+            (
+                (f"{m.phase.upper()}   " if m.phase else "")
+                + f"z-mode {m.z_mode}   controller {m.controller}   input {m.input_status}",
+                TEXT,
+            ),
             (rec, ALERT if m.recording_error else (OK if m.recording_path or m.playback else WARN)),
             (f"{m.fps:4.1f} fps   {m.real_time_factor:4.2f}x real time   sim {m.sim_time_s:7.2f} s   H/F1: help", TEXT),
         ]
@@ -196,6 +208,8 @@ class TeleopView:
         if m.lagging:
             lines.append(("SLOW: this machine cannot keep real time; the simulation runs slower", ALERT))
         lines += [(w, WARN) for w in m.warnings]
+        if m.flight_event:
+            lines.append((m.flight_event, ALERT if m.flight_alert else OK))
         if m.notice:
             lines.append((m.notice, OK))
         height = 8 + 20 * len(lines)

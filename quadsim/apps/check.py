@@ -1,0 +1,61 @@
+"""`check`: re-fly recordings as regression tests, one after another or in parallel (a process
+pool or Ray), with the same report, in the same order, and the same exit codes either way."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+from quadsim.errors import QuadsimError
+
+
+@dataclass(frozen=True)
+class CheckTask:
+    path: Path
+    tolerance_m: float
+    tolerance_rad: float
+
+
+@dataclass(frozen=True)
+class CheckOutcome:
+    path: Path
+    status: str  # "ok", "changed" or "unusable"
+    lines: tuple[str, ...]
+
+
+def recordings_in(paths: list[Path]) -> list[Path]:
+    """The files named, and the .mcap files under the folders named (an empty folder stays, to be
+    reported as unusable)."""
+    files: list[Path] = []
+    for path in paths:
+        if path.is_dir():
+            files += sorted(path.rglob("*.mcap")) or [path]
+        else:
+            files.append(path)
+    return files
+
+
+def check_one(task: CheckTask) -> CheckOutcome:
+    """Re-fly one recording and say how it went (never raises for a bad file: it is 'unusable')."""
+    from quadsim.apps.resim import resimulate
+    from quadsim.recording.flight import load_flight
+
+    path = task.path
+    try:
+        if path.is_dir():
+            raise QuadsimError("no .mcap recordings in this folder")
+        flight = load_flight(path)
+        report = resimulate(
+            flight, record=False, position_tolerance_m=task.tolerance_m, attitude_tolerance_rad=task.tolerance_rad
+        )
+    except QuadsimError as exc:
+        return CheckOutcome(path, "unusable", (f"ERROR {path}: {str(exc).removeprefix(f'{path}: ')}",))
+    ok = report.within(task.tolerance_m, task.tolerance_rad)
+    lines = [
+        f"{'ok   ' if ok else 'FAIL '} {path}: position off by up to {report.position.max_error:.3g} m, "
+        f"attitude by up to {report.attitude.max_error:.3g} rad"
+    ]
+    if not ok:
+        lines += ["     " + line for line in report.lines()[1:]]
+    lines += [f"      note: {line}" for line in flight.warnings()]
+    return CheckOutcome(path, "ok" if ok else "changed", tuple(lines))

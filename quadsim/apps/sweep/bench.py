@@ -1,0 +1,80 @@
+"""The sweep section of `bench`: a 64-run sweep of 20 s flights without cameras, with one worker
+(in this process), a process pool over every core, and a local Ray instance; speed-up against
+one worker, and Ray's overhead per run."""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable
+from pathlib import Path
+
+from quadsim.apps.sweep.backends import default_jobs, ray_available, run_tasks
+from quadsim.apps.sweep.run import RunTask, fly_run
+from quadsim.apps.sweep.spec import RunSpec, SweepSpec, load_sweep
+
+BENCH_SWEEP = """
+name = "bench"
+scenarios = ["hover", "square", "figure8", "step_forward"]
+duration_s = 20.0
+seeds = 8
+[controllers.cascade]
+kind = "cascade"
+[controllers.seed]
+kind = "seed"
+"""
+
+
+def _bench_spec(folder: Path) -> SweepSpec:
+    path = folder / "bench_sweep.toml"
+    path.write_text(BENCH_SWEEP)
+    return load_sweep(path)
+
+
+def _timed(tasks: list[RunTask], jobs: int, use_ray: bool = False) -> tuple[float, list[dict]]:
+    t0 = time.perf_counter()
+    rows = list(run_tasks(fly_run, tasks, jobs, None, use_ray))
+    return time.perf_counter() - t0, sorted(rows, key=lambda r: r["index"])
+
+
+def _same(rows: list[dict], reference: list[dict]) -> str:
+    """Whether two back-ends gave the same rows (compared as text: NaN equals NaN)."""
+    return "same table" if [repr(r) for r in rows] == [repr(r) for r in reference] else "TABLE DIFFERS"
+
+
+def run_sweep_bench(out: Callable[[str], None] = print) -> None:
+    import tempfile
+
+    with tempfile.TemporaryDirectory(prefix="quadsim-bench-") as tmp:
+        spec = _bench_spec(Path(tmp))
+    runs: tuple[RunSpec, ...] = spec.runs
+    tasks = [RunTask(run) for run in runs]
+    cores = default_jobs()
+    out(f"sweep: {len(runs)} runs of 20 s flights, no cameras, on {cores} cores")
+    serial_s, reference = _timed(tasks, 1)
+    out(f"  1 worker (this process)   {serial_s:6.2f} s   {len(runs) / serial_s:6.1f} runs/s   1.00x")
+    pool_s, rows = _timed(tasks, cores)
+    same = _same(rows, reference)
+    speedup = serial_s / pool_s
+    out(
+        f"  {cores} worker processes      {pool_s:6.2f} s   {len(runs) / pool_s:6.1f} runs/s   {speedup:.2f}x "
+        f"({speedup / cores:.2f} of the core count, start-up included; target 0.8) [{same}]"
+    )
+    if not ray_available():
+        out("  Ray                       not installed (pip install 'quadsim[ray]')")
+        return
+    import ray
+
+    t0 = time.perf_counter()
+    ray.init(num_cpus=cores, include_dashboard=False, log_to_driver=False, configure_logging=False)
+    start_s = time.perf_counter() - t0
+    try:
+        ray_s, rows = _timed(tasks, cores, use_ray=True)
+    finally:
+        ray.shutdown()
+    same = _same(rows, reference)
+    # the time Ray adds to each run beyond the flying, per run of a core's share
+    overhead_ms = (ray_s - serial_s / cores) * cores / len(runs) * 1000
+    out(
+        f"  local Ray, {cores} CPUs        {ray_s:6.2f} s   {len(runs) / ray_s:6.1f} runs/s   {serial_s / ray_s:.2f}x "
+        f"(+{start_s:.1f} s to start Ray; overhead {overhead_ms:.0f} ms per run, target < 50) [{same}]"
+    )

@@ -1,0 +1,119 @@
+"""`quadsim sweep SPEC.toml`: its arguments and what it prints."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+
+def add_parser(sub: argparse._SubParsersAction, recordings_default: str) -> None:
+    p = sub.add_parser(
+        "sweep",
+        help="fly every combination of a sweep file (scenarios x controllers x airframes x wind x seeds) "
+        "and tabulate their flight metrics",
+        description="Fly the runs a sweep file stands for (see examples/sweep_wind.toml), each a headless "
+        "run measured with flight metrics, on a pool of processes (--jobs) or on Ray (--ray). Results go "
+        "to one table (results.parquet with pyarrow installed, else results.csv) in --out, with a summary "
+        "printed (mean and worst per group) and a plot (plot.png, with matplotlib). The same sweep file "
+        "gives the same table whatever runs it. Ctrl-C stops cleanly and keeps the runs flown; --resume "
+        "flies only the runs missing from the table. Exit code 0 when every run is within the file's "
+        "[limits], 1 when one is not or could not fly, 2 on a bad sweep file.",
+    )
+    p.add_argument("spec", type=Path, metavar="SPEC.toml", help="the sweep file")
+    p.add_argument(
+        "--out",
+        type=Path,
+        default=None,
+        metavar="DIR",
+        help=f"where the table, plot and recordings go (default: {recordings_default}/sweeps/NAME)",
+    )
+    add_parallel_arguments(
+        p, "worker processes (default: every core of this machine); with --ray, CPUs of a local Ray instance"
+    )
+    rec = p.add_mutually_exclusive_group()
+    rec.add_argument("--record", action="store_true", help="keep an MCAP recording of every run")
+    rec.add_argument("--record-failures", action="store_true", help="keep recordings of runs beyond the limits only")
+    p.add_argument("--resume", action="store_true", help="fly only the runs missing from the table in --out")
+    p.add_argument(
+        "--format",
+        choices=["parquet", "csv"],
+        default=None,
+        help="table format (default: parquet when pyarrow is installed, else csv)",
+    )
+    p.add_argument("--no-plot", action="store_true", help="do not draw plot.png")
+    p.set_defaults(func=cmd_sweep)
+
+
+def add_parallel_arguments(p: argparse.ArgumentParser, jobs_help: str) -> None:
+    """--jobs N and --ray [ADDRESS], as `sweep` and `check` take them."""
+    p.add_argument("--jobs", type=int, default=None, metavar="N", help=jobs_help)
+    p.add_argument(
+        "--ray",
+        nargs="?",
+        const="local",
+        default=None,
+        metavar="ADDRESS",
+        help="run as Ray tasks: on a local Ray instance (no ADDRESS), or on a cluster "
+        "(auto, ray://HOST:10001); needs pip install 'quadsim[ray]'",
+    )
+
+
+def cmd_sweep(args: argparse.Namespace) -> int:
+    from quadsim.apps.stopping import SignalStop, exit_code
+    from quadsim.apps.stopping import describe as describe_stop
+    from quadsim.apps.sweep.backends import RAY_MISSING, default_jobs, ray_available
+    from quadsim.apps.sweep.execute import run_sweep
+    from quadsim.apps.sweep.report import plot, summary_lines
+    from quadsim.apps.sweep.spec import load_sweep
+    from quadsim.errors import QuadsimError
+    from quadsim.recording.paths import default_recordings_dir
+
+    spec = load_sweep(args.spec)
+    jobs = args.jobs if args.jobs is not None else default_jobs()
+    if not 1 <= jobs <= 1024:
+        raise QuadsimError(f"--jobs must be from 1 to 1024, got {jobs}")
+    use_ray = args.ray is not None
+    if use_ray and not ray_available():
+        raise QuadsimError(RAY_MISSING)
+    if args.format == "parquet":
+        from quadsim.apps.sweep.table import parquet_available
+
+        if not parquet_available():
+            raise QuadsimError("--format parquet needs pyarrow: pip install pyarrow")
+    out = args.out if args.out is not None else default_recordings_dir() / "sweeps" / spec.name
+    where = (
+        f"Ray ({'local, ' + str(jobs) + ' CPUs' if args.ray == 'local' else args.ray})"
+        if use_ray
+        else (f"{jobs} worker process{'es' if jobs > 1 else ''}")
+    )
+    print(f"sweep '{spec.name}': {len(spec.runs)} runs on {where}; results in {out}", flush=True)
+    result = run_sweep(
+        spec,
+        out,
+        jobs=jobs,
+        use_ray=use_ray,
+        ray_address=None if args.ray in (None, "local") else args.ray,
+        record="all" if args.record else "failures" if args.record_failures else None,
+        resume=args.resume,
+        table_format=args.format,
+    )
+    for line in summary_lines(result.rows, [a for a in spec.varied]):
+        print(line)
+    skipped = f" ({result.skipped} already in the table)" if result.skipped else ""
+    print(f"table           {result.table} ({len(result.rows)} of {len(spec.runs)} runs{skipped})")
+    if not args.no_plot and result.rows:
+        try:
+            png = plot(result.rows, spec.varied, out / "plot.png", f"sweep '{spec.name}'")
+            print(f"plot            {png}")
+        except ImportError:
+            print("plot            skipped: matplotlib is not installed: pip install 'quadsim[plot]'")
+    stop = SignalStop.current()
+    if result.stopped and stop is not None and stop.signum is not None:
+        print(
+            f"{describe_stop(stop.signum)} after {result.flown} runs; --resume flies the "
+            f"{len(spec.runs) - len(result.rows)} left",
+            file=sys.stderr,
+        )
+        return exit_code(stop.signum)
+    return 0 if all(r["status"] == "ok" for r in result.rows) else 1

@@ -1,0 +1,95 @@
+"""A whole sweep: the runs not yet in the table are flown on the chosen back-end, the table is
+rewritten as results arrive (at most every 2 s) and at the end, whatever ended it."""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from quadsim.apps.progress import ProgressBar
+from quadsim.apps.stopping import shielded_from_signals, stop_requested
+from quadsim.apps.sweep.backends import Eta, run_tasks
+from quadsim.apps.sweep.run import RunTask, fly_run
+from quadsim.apps.sweep.spec import SweepSpec
+from quadsim.apps.sweep.table import existing_table, read_table, table_path, write_table
+from quadsim.errors import QuadsimError
+
+_SAVE_EVERY_S = 2.0
+
+
+@dataclass
+class SweepResult:
+    table: Path
+    rows: list[dict[str, Any]]
+    flown: int  # runs flown now (not taken from an earlier table)
+    skipped: int  # runs already in the table (--resume)
+    stopped: bool  # a signal ended it before every run was flown
+    wall_s: float
+
+
+def run_sweep(
+    spec: SweepSpec,
+    out: Path,
+    jobs: int = 1,
+    use_ray: bool = False,
+    ray_address: str | None = None,
+    record: str | None = None,
+    resume: bool = False,
+    table_format: str | None = None,
+    progress: bool = True,
+) -> SweepResult:
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise QuadsimError(f"cannot create the sweep folder {out}: {exc.strerror}") from None
+    previous = existing_table(out)
+    rows: dict[int, dict[str, Any]] = {}
+    if previous is not None:
+        if not resume:
+            raise QuadsimError(
+                f"{previous} already exists: add --resume to fly only the runs missing from it, "
+                f"or choose another --out (nothing is overwritten)"
+            )
+        keys = {run.key: run.index for run in spec.runs}
+        for row in read_table(previous):
+            if row.get("key") in keys and row.get("status") in ("ok", "fail"):
+                rows[keys[row["key"]]] = {**row, "index": keys[row["key"]]}  # a run that could not fly is retried
+        path = previous
+    else:
+        path = table_path(out, table_format)
+    todo = [
+        RunTask(run, tuple(sorted(spec.limits.items())), record, str(out / "recordings") if record else None)
+        for run in spec.runs
+        if run.index not in rows
+    ]
+    skipped = len(rows)
+    bar = ProgressBar(len(spec.runs), "sweep", unit="runs") if progress else None
+    eta = Eta(len(todo))
+    t0 = time.monotonic()
+    last_save = t0
+    flown = 0
+    try:
+        for row in run_tasks(fly_run, todo, jobs, ray_address, use_ray):
+            rows[row["index"]] = row
+            flown += 1
+            if bar is not None:
+                bar.update(skipped + flown, eta.text(flown))
+            if time.monotonic() - last_save > _SAVE_EVERY_S:
+                with shielded_from_signals():
+                    write_table(path, rows.values())
+                last_save = time.monotonic()
+    finally:
+        with shielded_from_signals():  # what was flown is never lost
+            write_table(path, rows.values())
+        if bar is not None:
+            bar.close()
+    return SweepResult(
+        path,
+        sorted(rows.values(), key=lambda r: r["index"]),
+        flown,
+        skipped,
+        stop_requested() and len(rows) < len(spec.runs),
+        time.monotonic() - t0,
+    )

@@ -1,0 +1,248 @@
+"""A sweep file (TOML) and the runs it stands for.
+
+    name = "wind"                        # optional; default: the file's name
+    scenarios = ["hover", "square"]      # built-in names or .qscript paths (relative to this file)
+    airframes = ["quad"]                 # shipped presets (quad, hexa, crazyflie); default: quad
+    seeds = 3                            # runs per combination, seeded 0, 1, 2 (default 1)
+    duration_s = 20.0                    # optional; default: each scenario's own duration
+    wind = ["0,0", "3,90", "5,90"]       # SPEED,FROM_DEG as --wind takes it; default: no wind
+    turbulence = ["none", "moderate"]    # as --turbulence gives it; default: none
+
+    [controllers.cascade]                # a name of your choice; kind = cascade or seed
+    kind = "cascade"
+    [controllers.cascade_soft]
+    kind = "cascade"
+    gains = { velocity_p_xy_per_s = 2.0 }  # replaces the named gains of that controller
+
+    [limits]                             # a run fails when a metric is above its limit
+    max_tilt_deg = 45
+    crashes = 0
+
+The runs are the product scenarios x airframes x controllers x wind x turbulence x seeds, in
+that order; each has a key naming its values, by which `--resume` recognises it.
+"""
+
+from __future__ import annotations
+
+import itertools
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from quadsim.control import ControllerKind
+from quadsim.core.toml_compat import tomllib
+from quadsim.errors import ConfigError
+from quadsim.physics.wind import Turbulence, WindSettings, parse_wind
+
+#: the keys a sweep file may have at its top level
+KNOWN_KEYS = {"name", "scenarios", "airframes", "seeds", "duration_s", "wind", "turbulence", "controllers", "limits"}
+#: the most runs one sweep file may stand for (a typo in `seeds` should not queue a million runs)
+MAX_RUNS = 100_000
+
+
+@dataclass(frozen=True)
+class ControllerChoice:
+    """A named controller: its kind and the gains that replace its defaults."""
+
+    name: str
+    kind: ControllerKind
+    gains: tuple[tuple[str, float], ...] = ()
+
+
+@dataclass(frozen=True)
+class RunSpec:
+    """One run of a sweep: everything it takes to fly it (plain data, picklable)."""
+
+    index: int
+    scenario: str  # a built-in name or an absolute script path
+    airframe: str
+    controller: ControllerChoice
+    wind: str
+    turbulence: str
+    seed: int
+    duration_s: float | None
+
+    @property
+    def key(self) -> str:
+        """The run's values, named: equal keys are the same run."""
+        return " ".join(f"{k}={v}" for k, v in self.axes().items())
+
+    def axes(self) -> dict[str, Any]:
+        """The swept values of this run, as table columns."""
+        return {
+            "scenario": Path(self.scenario).name if "/" in self.scenario else self.scenario,
+            "airframe": self.airframe,
+            "controller": self.controller.name,
+            "wind": self.wind,
+            "turbulence": self.turbulence,
+            "seed": self.seed,
+        }
+
+
+@dataclass(frozen=True)
+class SweepSpec:
+    name: str
+    path: Path
+    runs: tuple[RunSpec, ...]
+    limits: dict[str, float] = field(default_factory=dict)
+    #: the axes with more than one value, in sweep order (what the summary and plot group by)
+    varied: tuple[str, ...] = ()
+
+
+def _list_of_str(data: dict[str, Any], key: str, default: list[str], where: str) -> list[str]:
+    value = data.get(key, default)
+    if isinstance(value, str):
+        value = [value]
+    if not isinstance(value, list) or not value or not all(isinstance(v, (str, int, float)) for v in value):
+        raise ConfigError(f"{where}: '{key}' must be a non-empty list of strings, got {value!r}")
+    out = [str(v) for v in value]
+    dupes = sorted({v for v in out if out.count(v) > 1})
+    if dupes:
+        raise ConfigError(f"{where}: '{key}' lists {dupes[0]!r} twice")
+    return out
+
+
+def _controllers(data: Any, where: str) -> list[ControllerChoice]:
+    if data is None:
+        return [ControllerChoice("cascade", ControllerKind.CASCADE)]
+    if not isinstance(data, dict) or not data:
+        raise ConfigError(f'{where}: [controllers] must be tables like [controllers.cascade] with kind = "cascade"')
+    kinds = [k.value for k in ControllerKind]
+    out = []
+    for name, table in data.items():
+        if not isinstance(table, dict):
+            raise ConfigError(f"{where}: controllers.{name} must be a table (kind = ..., gains = {{...}})")
+        unknown = set(table) - {"kind", "gains"}
+        if unknown:
+            raise ConfigError(f"{where}: controllers.{name}: unknown key {sorted(unknown)[0]!r} (kind, gains)")
+        kind = table.get("kind", name)
+        if kind not in kinds:
+            raise ConfigError(f"{where}: controllers.{name}: kind must be one of {', '.join(kinds)}, got {kind!r}")
+        gains = table.get("gains", {})
+        if not isinstance(gains, dict):
+            raise ConfigError(f"{where}: controllers.{name}.gains must be a table of numbers")
+        for g, v in gains.items():
+            if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
+                raise ConfigError(f"{where}: controllers.{name}.gains.{g} must be a finite number, got {v!r}")
+        _check_gains(ControllerKind(kind), gains, f"{where}: controllers.{name}")
+        out.append(ControllerChoice(name, ControllerKind(kind), tuple(sorted((k, float(v)) for k, v in gains.items()))))
+    return out
+
+
+def _check_gains(kind: ControllerKind, gains: dict[str, Any], where: str) -> None:
+    import dataclasses
+
+    if kind is ControllerKind.CASCADE:
+        from quadsim.control.cascade import CascadeGains as gains_cls
+    else:
+        from quadsim.control.seed import SeedGains as gains_cls  # type: ignore[assignment]
+    known = [f.name for f in dataclasses.fields(gains_cls)]
+    for g in gains:
+        if g not in known:
+            raise ConfigError(f"{where}: unknown {kind.value} gain {g!r}; its gains are {', '.join(known)}")
+
+
+def load_sweep(path: Path) -> SweepSpec:
+    """Read and check a sweep file; every mistake is a ConfigError naming the file and the key."""
+    from quadsim.drivers.scripted import load_script
+    from quadsim.vehicle.params import SHIPPED_VEHICLES
+
+    where = str(path)
+    try:
+        data = tomllib.loads(path.read_text(encoding="utf-8"))
+    except FileNotFoundError:
+        raise ConfigError(f"sweep file not found: {path}") from None
+    except (OSError, UnicodeDecodeError) as exc:
+        raise ConfigError(f"cannot read sweep file {path}: {exc}") from None
+    except tomllib.TOMLDecodeError as exc:
+        raise ConfigError(f"{where}: not valid TOML: {exc}") from None
+    unknown = sorted(set(data) - KNOWN_KEYS)
+    if unknown:
+        raise ConfigError(f"{where}: unknown key {unknown[0]!r}; a sweep file has {', '.join(sorted(KNOWN_KEYS))}")
+    name = data.get("name", path.stem)
+    if not isinstance(name, str) or not name.strip():
+        raise ConfigError(f"{where}: 'name' must be a non-empty string")
+
+    scenarios = []
+    for s in _list_of_str(data, "scenarios", [], where):
+        candidate = (path.parent / s).resolve()
+        ref = str(candidate) if (s.endswith(".qscript") or "/" in s) else s
+        try:
+            load_script(ref)  # a missing scenario is found now, not in run 37
+        except ConfigError as exc:
+            raise ConfigError(f"{where}: scenarios: {exc}") from None
+        except Exception as exc:  # ScriptError is a QuadsimError, not a ConfigError
+            raise ConfigError(f"{where}: scenarios: {exc}") from None
+        scenarios.append(ref)
+    airframes = _list_of_str(data, "airframes", ["quad"], where)
+    for a in airframes:
+        if a not in SHIPPED_VEHICLES:
+            raise ConfigError(f"{where}: airframes: unknown airframe {a!r}; choose from {', '.join(SHIPPED_VEHICLES)}")
+    seeds = data.get("seeds", 1)
+    if isinstance(seeds, bool) or not isinstance(seeds, int) or not 1 <= seeds <= 10_000:
+        raise ConfigError(f"{where}: 'seeds' must be a whole number from 1 to 10000, got {seeds!r}")
+    duration = data.get("duration_s")
+    if duration is not None and (
+        isinstance(duration, bool) or not isinstance(duration, (int, float)) or not 0 < duration <= 3600
+    ):
+        raise ConfigError(f"{where}: 'duration_s' must be a number of seconds in (0, 3600], got {duration!r}")
+    winds = _list_of_str(data, "wind", ["0,0"], where)
+    turbulences = _list_of_str(data, "turbulence", ["none"], where)
+    for w in winds:
+        check_wind(w, f"{where}: wind")
+    for t in turbulences:
+        check_turbulence(t, f"{where}: turbulence")
+    controllers = _controllers(data.get("controllers"), where)
+    limits = data.get("limits", {})
+    if not isinstance(limits, dict):
+        raise ConfigError(f"{where}: [limits] must be a table of metric = highest allowed value")
+    for k, v in limits.items():
+        if isinstance(v, bool) or not isinstance(v, (int, float)):
+            raise ConfigError(f"{where}: limits.{k} must be a number, got {v!r}")
+
+    count = len(scenarios) * len(airframes) * len(controllers) * len(winds) * len(turbulences) * seeds
+    if count > MAX_RUNS:
+        raise ConfigError(f"{where}: {count} runs is more than {MAX_RUNS}; sweep fewer values at once")
+    runs = tuple(
+        RunSpec(i, s, a, c, w, t, seed, float(duration) if duration is not None else None)
+        for i, (s, a, c, w, t, seed) in enumerate(
+            itertools.product(scenarios, airframes, controllers, winds, turbulences, range(seeds))
+        )
+    )
+    axes: dict[str, list[Any]] = {
+        "scenario": scenarios,
+        "airframe": airframes,
+        "controller": controllers,
+        "wind": winds,
+        "turbulence": turbulences,
+    }
+    varied = tuple(k for k, values in axes.items() if len(values) > 1)
+    from quadsim.apps.sweep.metrics import METRICS
+
+    for k in limits:
+        if k not in METRICS:
+            raise ConfigError(f"{where}: limits.{k}: no such metric; metrics are {', '.join(METRICS)}")
+    return SweepSpec(name.strip(), path, runs, {k: float(v) for k, v in limits.items()}, varied)
+
+
+def wind_settings(wind: str, turbulence: str) -> WindSettings:
+    """A run's wind from the sweep file's values: `SPEED,FROM_DEG` as --wind takes it, and a
+    turbulence level or "none"."""
+    speed, from_deg = parse_wind(wind)
+    return WindSettings(speed, from_deg, None if turbulence == "none" else Turbulence(turbulence))
+
+
+TURBULENCE_LEVELS = ("none", *(t.value for t in Turbulence))
+
+
+def check_wind(text: str, where: str) -> None:
+    try:
+        wind_settings(text, "none")
+    except ConfigError as exc:
+        raise ConfigError(f"{where}: {str(exc).replace('--wind', 'a wind')}") from None
+
+
+def check_turbulence(text: str, where: str) -> None:
+    if text not in TURBULENCE_LEVELS:
+        raise ConfigError(f"{where}: {text!r} is not one of {', '.join(TURBULENCE_LEVELS)}")

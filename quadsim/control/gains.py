@@ -1,0 +1,60 @@
+"""Controller gains as data: each airframe's NAME.gains.toml beside its URDF, one table per
+controller ([cascade], [seed]), read and checked against the controller's gain fields."""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from pathlib import Path
+from typing import Any, TypeVar
+
+from quadsim.core.toml_compat import tomllib
+from quadsim.errors import ConfigError
+from quadsim.vehicle.params import DEFAULT_URDF, VehicleParams
+
+G = TypeVar("G")
+
+
+def gains_path(vehicle: VehicleParams) -> Path:
+    """NAME.gains.toml beside the vehicle's URDF; a vehicle without one flies with the default
+    airframe's gains (tune your own by copying that file beside your URDF)."""
+    own = vehicle.urdf_path.with_suffix(".gains.toml")
+    return own if own.is_file() else DEFAULT_URDF.with_suffix(".gains.toml")
+
+
+def load_gains(vehicle: VehicleParams, section: str, gains_type: type[G], overrides: dict[str, Any] | None = None) -> G:
+    """The `[section]` gains of the vehicle's gains file, `overrides` (as a recording holds them)
+    replacing any of them. Raises ConfigError naming the file and the gain at fault."""
+    path = gains_path(vehicle)
+    try:
+        with path.open("rb") as fh:
+            table = tomllib.load(fh).get(section)
+    except OSError as exc:
+        raise ConfigError(f"cannot read controller gains {path}: {exc.strerror}") from None
+    except tomllib.TOMLDecodeError as exc:
+        raise ConfigError(f"{path}: not valid TOML ({exc})") from None
+    if not isinstance(table, dict):
+        raise ConfigError(f"{path}: missing the [{section}] table of controller gains")
+    names = {f.name for f in dataclasses.fields(gains_type)}  # type: ignore[arg-type]
+    unknown = sorted(set(overrides or {}) - names)
+    if unknown:
+        raise ValueError(f"unknown {section} gains: {', '.join(unknown)}")
+    values = {**table, **(overrides or {})}
+    extra = sorted(set(values) - names)
+    missing = sorted(names - set(values))
+    if extra or missing:
+        raise ConfigError(
+            f"{path}: [{section}] "
+            + "; ".join(
+                part
+                for part in (
+                    f"unknown gains {', '.join(extra)}" if extra else "",
+                    f"missing gains {', '.join(missing)}" if missing else "",
+                )
+                if part
+            )
+        )
+    for key, value in values.items():
+        if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+            raise ConfigError(f"{path}: [{section}] {key} must be a finite number, got {value!r}")
+    return gains_type(**{k: float(v) for k, v in values.items()})

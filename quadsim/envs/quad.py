@@ -1,0 +1,233 @@
+"""The Gymnasium environments: a Simulator wrapped (not subclassed) as an agent acting at 30 Hz.
+
+Action (both): the Twist, Box(4) = (linear.x, linear.y, linear.z climb rate, angular.z) in the
+heading frame, within the vehicle's command limits. It goes through the same command gate as
+every driver (clamping, dead-man timeout): the agent is the programmatic driver publishing at
+the agent rate, and each env step is 240 / 30 = 8 physics steps.
+
+Termination: leaving the arena (ARENA_HALF_M around the origin, ARENA_TOP_M high), tipping over
+(tilt beyond MAX_TILT_DEG), or a crash (the simulator's crash event: a contact other than a
+landing, with a wall or the ground at speed or tilted). Truncation: the time limit of the
+registration (gymnasium's TimeLimit).
+
+Randomness: `reset(seed=...)` seeds the start pose and the run's seed, from which the wind's
+turbulence and the IMU noise derive (`gymnasium.make("quadsim/Hover-v0",
+wind=WindSettings(3.0, 90.0, Turbulence.LIGHT))`: a wind for every episode, its gusts drawn
+from the episode's seed).
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import gymnasium as gym
+import numpy as np
+from gymnasium import spaces
+
+from quadsim.core.kinematics import body_velocity
+from quadsim.core.types import StartPose, Twist, VehicleState, ZMode
+from quadsim.physics.wind import WindSettings
+from quadsim.sensors.camera import CameraSpec
+from quadsim.sim.cameras import Cameras
+from quadsim.sim.config import Rates, SimConfig
+from quadsim.sim.flight_events import EventKind
+from quadsim.sim.simulator import Simulator
+
+AGENT_HZ = 30
+HOVER_EPISODE_S = 10
+TOWER_EPISODE_S = 20
+ARENA_HALF_M = 20.0
+ARENA_TOP_M = 10.0
+MAX_TILT_DEG = 80.0
+#: the seeds the env hands the simulator (SimConfig's range)
+_SIM_SEEDS = 2**63 - 1
+#: what render() shows: the front camera, small
+VIEW = CameraSpec("front", "front_camera_link", 160, 120, rate_hz=AGENT_HZ)
+
+
+class QuadEnv(gym.Env):
+    """What both environments share: the simulator, the action, termination, rendering."""
+
+    metadata = {"render_modes": ["rgb_array"], "render_fps": AGENT_HZ}  # noqa: RUF012 - gymnasium declares it so
+
+    def __init__(self, render_mode: str | None = None, wind: WindSettings | None = None) -> None:
+        if render_mode is not None and render_mode not in self.metadata["render_modes"]:
+            raise ValueError(f"render_mode must be one of {self.metadata['render_modes']}, got {render_mode!r}")
+        self.render_mode = render_mode
+        # commands are polled at the agent rate: an action reaches the gate at its first physics step
+        config = SimConfig(z_mode=ZMode.VELOCITY, rates=Rates(input_hz=AGENT_HZ), wind=wind or WindSettings())
+        self.sim = Simulator(config)
+        self.steps_per_action = config.rates.physics_hz // AGENT_HZ
+        limits = self.sim.vehicle.limits
+        v, yaw = limits.max_horizontal_speed_mps, limits.max_yaw_rate_radps
+        self.action_space: spaces.Box = spaces.Box(
+            low=np.array([-v, -v, -limits.max_descent_rate_mps, -yaw], np.float32),
+            high=np.array([v, v, limits.max_climb_rate_mps, yaw], np.float32),
+            dtype=np.float32,
+        )
+        self._view: Cameras | None = None
+
+    # --- what the subclasses say ----------------------------------------------------------
+
+    def _start(self, rng: np.random.Generator, options: dict[str, Any]) -> StartPose:
+        raise NotImplementedError
+
+    def _observe(self, state: VehicleState) -> Any:
+        raise NotImplementedError
+
+    def _reward(self, state: VehicleState) -> tuple[float, bool]:
+        """(reward, task done) for the state after an action."""
+        raise NotImplementedError
+
+    # --- the Gymnasium API ----------------------------------------------------------------
+
+    def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None) -> tuple[Any, dict[str, Any]]:
+        super().reset(seed=seed)
+        self.sim.physics.start = self._start(self.np_random, options or {})
+        self.sim.reset(seed=int(self.np_random.integers(_SIM_SEEDS)))  # gusts and sensor noise
+        self.sim.send(Twist())
+        state = self.sim.state
+        self._after_reset()
+        return self._observe(state), self._info(state)
+
+    def _after_reset(self) -> None:
+        if self._view is not None:
+            self._view.capture_now()
+
+    def step(self, action: Any) -> tuple[Any, float, bool, bool, dict[str, Any]]:
+        a = np.clip(np.asarray(action, np.float64), self.action_space.low, self.action_space.high)
+        self.sim.send(Twist(linear_x=a[0], linear_y=a[1], linear_z=a[2], angular_z=a[3]))
+        events_before = len(self.sim.events)
+        state = self.sim.step(self.steps_per_action)
+        reward, done = self._reward(state)
+        crashed = any(e.kind is EventKind.CRASH for e in self.sim.events[events_before:])
+        failed = crashed or self.out_of_arena(state) or self.tipped_over(state)
+        if failed:
+            reward -= 10.0
+        return self._observe(state), reward, done or failed, False, self._info(state)
+
+    def render(self) -> np.ndarray | None:
+        if self.render_mode != "rgb_array":
+            return None
+        if self._view is None:
+            self._view = Cameras(self.sim, (VIEW,))
+        image = self._view.latest("front")
+        assert image is not None  # SYNC cameras always have one
+        return image.rgb
+
+    def close(self) -> None:
+        if self._view is not None:
+            self._view.close()
+            self._view = None
+        self.sim.close()
+
+    # --- termination ------------------------------------------------------------------------
+
+    @staticmethod
+    def out_of_arena(state: VehicleState) -> bool:
+        x, y, z = state.position_m
+        return abs(x) > ARENA_HALF_M or abs(y) > ARENA_HALF_M or z > ARENA_TOP_M
+
+    @staticmethod
+    def tipped_over(state: VehicleState) -> bool:
+        roll, pitch = state.roll_pitch_rad()
+        return math.cos(roll) * math.cos(pitch) < math.cos(math.radians(MAX_TILT_DEG))
+
+    def _info(self, state: VehicleState) -> dict[str, Any]:
+        return {"step": state.step, "position_m": np.array(state.position_m)}
+
+
+class HoverEnv(QuadEnv):
+    """quadsim/Hover-v0: take off from a random start and reach and hold a target position.
+
+    Observation, Box(15) float32: position (3, m, world), velocity (3, m/s, world), roll, pitch,
+    yaw (rad), body rates (3, rad/s), target position (3, m, world). Reward per step: minus the
+    distance to the target (m) and a little of the speed. Starts on the ground within 1 m of the
+    origin, any heading; the target is within 2 m horizontally, 1 to 2.5 m high."""
+
+    def __init__(self, render_mode: str | None = None, wind: WindSettings | None = None) -> None:
+        super().__init__(render_mode, wind)
+        high = np.full(15, np.inf, np.float32)
+        self.observation_space = spaces.Box(-high, high, dtype=np.float32)
+        self.target_m = np.zeros(3)
+
+    def _start(self, rng: np.random.Generator, options: dict[str, Any]) -> StartPose:
+        self.target_m = np.array([rng.uniform(-2, 2), rng.uniform(-2, 2), rng.uniform(1.0, 2.5)])
+        return StartPose(float(rng.uniform(-1, 1)), float(rng.uniform(-1, 1)), float(rng.uniform(-math.pi, math.pi)))
+
+    def _observe(self, state: VehicleState) -> np.ndarray:
+        roll, pitch = state.roll_pitch_rad()
+        return np.array(
+            [
+                *state.position_m,
+                *state.linear_velocity_mps,
+                roll,
+                pitch,
+                state.yaw_rad(),
+                *state.angular_velocity_body_rps,
+                *self.target_m,
+            ],
+            np.float32,
+        )
+
+    def _reward(self, state: VehicleState) -> tuple[float, bool]:
+        distance = float(np.linalg.norm(np.asarray(state.position_m) - self.target_m))
+        return -distance - 0.1 * float(np.linalg.norm(state.linear_velocity_mps)), False
+
+
+class TowerVisionEnv(QuadEnv):
+    """quadsim/TowerVision-v0: fly to the red tower, seen through the front camera.
+
+    Observation, Dict: "image" (64 x 64 x 3 uint8, the front camera at the agent's step) and
+    "velocity" (3, m/s, in base_link). Reward per step: the metres closed on the tower's face;
+    +10 and the end of the episode on stopping within 1.5 m of it. Starts on the ground within
+    1 m of the origin, heading within 20 deg of the tower (6 m ahead: in view); reset's options
+    "start_xy_m" and "start_yaw_rad" choose them instead."""
+
+    IMAGE = CameraSpec("front", "front_camera_link", 64, 64, rate_hz=AGENT_HZ)
+
+    def __init__(self, render_mode: str | None = None, wind: WindSettings | None = None) -> None:
+        super().__init__(render_mode, wind)
+        self.observation_space = spaces.Dict(
+            {
+                "image": spaces.Box(0, 255, (64, 64, 3), np.uint8),
+                "velocity": spaces.Box(-np.inf, np.inf, (3,), np.float32),
+            }
+        )
+        tower = next(lm for lm in self.sim.world.landmarks if lm.name == "red_tower")
+        self._tower = (tower.position_m, tower.size_m)
+        self.cameras = Cameras(self.sim, (self.IMAGE,))
+        self._distance_m = 0.0
+
+    def distance_to_tower_m(self, state: VehicleState) -> float:
+        (tx, ty, _), (sx, sy, _) = self._tower
+        x, y, _ = state.position_m
+        return math.hypot(max(abs(x - tx) - sx / 2, 0.0), max(abs(y - ty) - sy / 2, 0.0))
+
+    def _start(self, rng: np.random.Generator, options: dict[str, Any]) -> StartPose:
+        x, y = rng.uniform(-1, 1, 2)
+        yaw = rng.uniform(-math.radians(20), math.radians(20))
+        x, y = options.get("start_xy_m", (x, y))
+        return StartPose(float(x), float(y), float(options.get("start_yaw_rad", yaw)))
+
+    def _after_reset(self) -> None:
+        super()._after_reset()
+        self.cameras.capture_now()
+        self._distance_m = self.distance_to_tower_m(self.sim.state)
+
+    def _observe(self, state: VehicleState) -> dict[str, np.ndarray]:
+        image = self.cameras.latest("front")
+        assert image is not None and image.step == state.step  # SYNC, captured at the agent rate
+        velocity = body_velocity(state.orientation_xyzw, state.linear_velocity_mps)
+        return {"image": image.rgb, "velocity": np.array(velocity, np.float32)}
+
+    def _reward(self, state: VehicleState) -> tuple[float, bool]:
+        distance = self.distance_to_tower_m(state)
+        closed, self._distance_m = self._distance_m - distance, distance
+        arrived = distance < 1.5 and float(np.linalg.norm(state.linear_velocity_mps)) < 0.2
+        return closed + (10.0 if arrived else 0.0), arrived
+
+    def close(self) -> None:
+        self.cameras.close()
+        super().close()

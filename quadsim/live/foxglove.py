@@ -1,0 +1,241 @@
+"""The Foxglove bridge: a Foxglove WebSocket server (foxglove-sdk) that streams a run's topics
+live and takes the Twists a client publishes on /quad_cmd_twist (Foxglove's Teleop panel).
+
+A consumer of the topic fan-out: its channels are the recording's (CDR messages, `ros2msg`
+schemas, the QoS in `offered_qos_profiles`), in a foxglove Context of its own, so the server
+sees none of a recorder's channels and a recorder none of its clients. Latched topics (those
+offered transient-local with depth 1: /tf_static, the robot description, the world markers)
+keep their last message, and a client that subscribes to one gets it then, whenever it
+connects. foxglove-sdk 0.30's Python `Client` names no sink id (the C++ and Rust APIs do), so
+that message goes to every subscriber of the channel: the others get again the message they
+already have, unchanged.
+
+The server speaks the Foxglove WebSocket protocol under the subprotocol name `foxglove.sdk.v1`
+(the same protocol as `foxglove.websocket.v1`, renamed by foxglove-sdk); the Foxglove app and
+foxglove_bridge 3.x clients use it. Clients may publish on /quad_cmd_twist in `json` (what the
+Foxglove app sends, as the server lists it first) or `cdr`; anything else is refused with a
+status message to that client.
+"""
+
+from __future__ import annotations
+
+import json
+import logging
+import math
+import threading
+from collections.abc import Callable, Sequence
+from typing import TYPE_CHECKING, Any
+
+import foxglove
+from foxglove.websocket import Capability, ChannelView, Client, ClientChannel, ServerListener, StatusLevel
+
+from quadsim.errors import QuadsimError
+from quadsim.live import FOXGLOVE_DEFAULT_HOST as DEFAULT_HOST
+from quadsim.live import FOXGLOVE_DEFAULT_PORT as DEFAULT_PORT
+from quadsim.recording import cdr
+from quadsim.recording.contract import QOS_LATCHED, TWIST, Topic
+from quadsim.recording.writer import ros2_channel
+
+if TYPE_CHECKING:
+    from quadsim.drivers.subscribed import SubscribedDriver
+    from quadsim.recording.fanout import Message
+
+log = logging.getLogger(__name__)
+
+#: encodings a client may publish Twists in, the Foxglove app's choice first (it takes the first
+#: of the server's list it knows)
+PUBLISH_ENCODINGS = ("json", "cdr")
+
+TwistFields = tuple[tuple[float, float, float], float]  # linear x y z, angular z
+
+
+def parse_endpoint(text: str) -> tuple[str, int]:
+    """`HOST:PORT`, `HOST`, `:PORT` or `PORT` (IPv6 as `[::1]:PORT`) -> (host, port); the
+    default host is 127.0.0.1 and the default port 8765. Port 0 lets the system choose."""
+    text = text.strip()
+    host, port_text = DEFAULT_HOST, str(DEFAULT_PORT)
+    if text.startswith("["):  # [IPv6]:PORT
+        end = text.find("]")
+        if end < 0 or (text[end + 1 :] and not text[end + 1 :].startswith(":")):
+            raise QuadsimError(f"--foxglove {text!r}: expected HOST:PORT, e.g. 127.0.0.1:8765 or [::1]:8765")
+        host, port_text = text[1:end], text[end + 2 :] or port_text
+    elif text.count(":") == 1:
+        host, port_text = text.split(":")
+        host = host or DEFAULT_HOST
+    elif text.isdigit():
+        port_text = text
+    elif text and ":" not in text:
+        host = text
+    else:
+        raise QuadsimError(f"--foxglove {text!r}: expected HOST:PORT, e.g. 127.0.0.1:8765 or [::1]:8765")
+    if not port_text.isdigit() or not 0 <= int(port_text) <= 65535 or not host or any(c.isspace() for c in host):
+        raise QuadsimError(f"--foxglove {text!r}: expected HOST:PORT with a port within 0..65535, e.g. 127.0.0.1:8765")
+    return host, int(port_text)
+
+
+def twist_from_json(data: bytes) -> TwistFields:
+    """A geometry_msgs/Twist as the Foxglove app sends it in JSON; a field left out is 0, as in
+    a ROS message. ValueError for anything else."""
+    msg = json.loads(data)
+    if not isinstance(msg, dict):
+        raise ValueError("not a JSON object")
+
+    def vector(name: str) -> tuple[float, float, float]:
+        v = msg.get(name) or {}
+        if not isinstance(v, dict):
+            raise ValueError(f"{name} is not an object")
+        values = (v.get("x", 0.0), v.get("y", 0.0), v.get("z", 0.0))
+        if not all(isinstance(x, (int, float)) and not isinstance(x, bool) for x in values):
+            raise ValueError(f"{name} has a field that is not a number")
+        return float(values[0]), float(values[1]), float(values[2])
+
+    return vector("linear"), vector("angular")[2]
+
+
+def twist_from_cdr(data: bytes) -> TwistFields:
+    lx, ly, lz, _, _, az = cdr.twist_fields(data)
+    return (lx, ly, lz), az
+
+
+DECODERS: dict[str, Callable[[bytes], TwistFields]] = {"json": twist_from_json, "cdr": twist_from_cdr}
+
+
+class _Listener(ServerListener):
+    """The server's callbacks (they come on the server's threads) handed to the bridge."""
+
+    def __init__(self, bridge: FoxgloveBridge) -> None:
+        self.bridge = bridge
+
+    def on_subscribe(self, client: Client, channel: ChannelView) -> None:
+        self.bridge._send_latched(client, channel.topic)
+
+    def on_client_advertise(self, client: Client, channel: ClientChannel) -> None:
+        self.bridge._advertised(client, channel)
+
+    def on_client_unadvertise(self, client: Client, client_channel_id: int) -> None:
+        self.bridge._publishers.pop((client.id, client_channel_id), None)
+
+    def on_message_data(self, client: Client, client_channel_id: int, data: bytes) -> None:
+        self.bridge._received(client, client_channel_id, data)
+
+
+class FoxgloveBridge:
+    """A Foxglove WebSocket server fed by the topic fan-out (a `TopicConsumer`). With
+    `commands`, clients may publish Twists on its topic, which it `deliver`s; without, the
+    server takes nothing from clients. `close` stops the server."""
+
+    def __init__(
+        self,
+        host: str = DEFAULT_HOST,
+        port: int = DEFAULT_PORT,
+        commands: SubscribedDriver | None = None,
+        name: str = "quadsim",
+    ) -> None:
+        self.commands = commands
+        self._context = foxglove.Context()  # the server's channels, apart from a recorder's
+        self._channels: dict[str, Any] = {}
+        self._log: dict[str, Callable[[bytes, int], None]] = {}
+        self._latched: dict[str, tuple[int, bytes]] = {}  # topic -> its last (log time, message)
+        self._latched_topics: set[str] = set()
+        self._publishers: dict[tuple[int, int], Callable[[bytes], TwistFields]] = {}  # (client, channel) -> decoder
+        self._lock = threading.Lock()
+        self._warned: set[str] = set()
+        self.closed = False
+        try:
+            self.server = foxglove.start_server(
+                name=name,
+                host=host,
+                port=port,
+                capabilities=[Capability.ClientPublish] if commands is not None else [],
+                server_listener=_Listener(self),
+                supported_encodings=list(PUBLISH_ENCODINGS) if commands is not None else None,
+                context=self._context,
+            )
+        except RuntimeError as exc:  # foxglove's errors: "FoxgloveError: Failed to bind port: ..."
+            reason = str(exc).split("Failed to bind port: ")[-1].removeprefix("FoxgloveError: ")
+            raise QuadsimError(f"--foxglove {host}:{port}: cannot serve there ({reason})") from None
+        self.host = host
+        self.port = int(self.server.port)  # the one the system chose, for port 0
+
+    @property
+    def url(self) -> str:
+        host = f"[{self.host}]" if ":" in self.host else self.host
+        return f"ws://{host}:{self.port}"
+
+    # --- what the fan-out calls -----------------------------------------------------------------
+
+    def add_topic(self, topic: Topic) -> None:
+        if topic.name in self._channels:
+            return
+        channel = ros2_channel(topic, self._context)
+        self._channels[topic.name] = channel
+        self._log[topic.name] = channel.base.log  # the typed core of Channel.log
+        if topic.qos == QOS_LATCHED:
+            self._latched_topics.add(topic.name)
+
+    def on_messages(self, messages: Sequence[Message]) -> None:
+        if self.closed:
+            return
+        log_to, latched = self._log, self._latched_topics
+        for topic, ns, data in messages:
+            if topic.name in latched:
+                with self._lock:
+                    self._latched[topic.name] = (ns, data)
+            log_to[topic.name](data, ns)
+
+    def on_event(self, step: int, kind: str, value: str) -> None:
+        """Events reach clients as /rosout messages; nothing else to do."""
+
+    # --- what clients do (on the server's threads) ------------------------------------------
+
+    def _send_latched(self, client: Client, topic: str) -> None:
+        with self._lock:
+            last = self._latched.get(topic)
+        if last is not None and not self.closed:
+            ns, data = last
+            # to this client alone where the SDK names its sink; else to the channel's subscribers
+            self._channels[topic].base.log(data, ns, sink_id=getattr(client, "sink_id", None))
+
+    def _advertised(self, client: Client, channel: ClientChannel) -> None:
+        commands = self.commands
+        if commands is None:
+            return
+        decoder = DECODERS.get(channel.encoding)
+        if channel.topic != commands.topic or decoder is None or not channel.schema_name.endswith("Twist"):
+            self._tell(
+                client,
+                f"quadsim takes only {TWIST.type_name} on {commands.topic}, in "
+                f"{' or '.join(PUBLISH_ENCODINGS)}; {channel.topic} ({channel.schema_name}, {channel.encoding}) "
+                f"is ignored",
+            )
+            return
+        self._publishers[(client.id, channel.id)] = decoder
+
+    def _received(self, client: Client, channel_id: int, data: bytes) -> None:
+        decoder = self._publishers.get((client.id, channel_id))
+        if decoder is None or self.commands is None:
+            return
+        try:
+            linear, angular_z = decoder(data)
+        except (ValueError, TypeError) as exc:  # json's errors are ValueErrors too
+            self._tell(client, f"a message on {self.commands.topic} was not a Twist ({exc}); it is ignored")
+            return
+        if not self.commands.deliver(linear, angular_z) and not all(map(math.isfinite, (*linear, angular_z))):
+            self._tell(client, f"a Twist on {self.commands.topic} with a field that is not finite is ignored")
+
+    def _tell(self, client: Client, message: str) -> None:
+        """Say it once: in the log, and to the clients as a warning status (the SDK sends a status to all)."""
+        if message in self._warned:
+            return
+        self._warned.add(message)
+        log.warning("Foxglove client %s: %s", client.id, message)
+        try:
+            self.server.publish_status(message, StatusLevel.Warning)
+        except (RuntimeError, AttributeError, TypeError):
+            pass
+
+    def close(self) -> None:
+        if self.closed:
+            return
+        self.closed = True
+        self.server.stop()

@@ -1,0 +1,72 @@
+"""The IMU's noise: white noise and a bias random walk on the gyro and the accelerometer.
+
+Sampled once per published state, from its own random stream, whether or not anyone listens,
+so a run's noise depends on its seed and step count alone. Only `/quad/imu` carries it: the
+state's true values stay untouched for the controllers, odometry and pose.
+
+Discrete form of the continuous densities (parameter file [imu]) at sample period dt:
+white noise std = density / sqrt(dt); bias += random_walk * sqrt(dt) * N(0, 1).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from quadsim.core.types import ImuReading, VehicleState
+from quadsim.vehicle.params import ImuNoiseParams
+
+#: samples drawn from the generator at a time (the stream is the same whatever the block)
+_BLOCK = 256
+
+
+class ImuNoise:
+    """Adds an MEMS IMU's noise to the true body rates and specific force."""
+
+    def __init__(self, params: ImuNoiseParams, rate_hz: int, seed: np.random.SeedSequence) -> None:
+        self.params = params
+        self._seed = seed
+        root_hz = math.sqrt(rate_hz)
+        root_dt = 1.0 / root_hz
+        # per sample: gyro white, gyro bias step, accel white, accel bias step (3 axes each)
+        self._scales = np.repeat(
+            [
+                params.gyro_noise_density_radps_per_rthz * root_hz,
+                params.gyro_bias_random_walk_radps2_per_rthz * root_dt,
+                params.accel_noise_density_mps2_per_rthz * root_hz,
+                params.accel_bias_random_walk_mps3_per_rthz * root_dt,
+            ],
+            3,
+        )
+        self.reset()
+
+    def reseed(self, seed: np.random.SeedSequence) -> None:
+        """The noise's random stream from `seed` from the next reset on."""
+        self._seed = seed
+
+    def reset(self) -> None:
+        """Back to the start of the stream, biases zero."""
+        self._rng = np.random.Generator(np.random.PCG64(self._seed))
+        self._samples: list[list[float]] = []
+        self._next = 0
+        self.gyro_bias_radps = (0.0, 0.0, 0.0)
+        self.accel_bias_mps2 = (0.0, 0.0, 0.0)
+
+    def measure(self, state: VehicleState) -> VehicleState:
+        """The state with its `imu` reading: true values plus bias plus white noise."""
+        if self._next >= len(self._samples):
+            self._samples = (self._rng.standard_normal((_BLOCK, 12)) * self._scales).tolist()
+            self._next = 0
+        n = self._samples[self._next]
+        self._next += 1
+        gb, ab = self.gyro_bias_radps, self.accel_bias_mps2
+        gb = (gb[0] + n[3], gb[1] + n[4], gb[2] + n[5])
+        ab = (ab[0] + n[9], ab[1] + n[10], ab[2] + n[11])
+        self.gyro_bias_radps, self.accel_bias_mps2 = gb, ab
+        w, f = state.angular_velocity_body_rps, state.specific_force_body_mps2
+        reading = ImuReading(
+            (w[0] + gb[0] + n[0], w[1] + gb[1] + n[1], w[2] + gb[2] + n[2]),
+            (f[0] + ab[0] + n[6], f[1] + ab[1] + n[7], f[2] + ab[2] + n[8]),
+        )
+        return state._replace(imu=reading)

@@ -1,0 +1,155 @@
+"""An independent Foxglove WebSocket client, run as its own process by the tests.
+
+Written from the protocol's specification (foxglove/ws-protocol docs/spec.md) on a generic
+WebSocket library (`websockets`), not with foxglove-sdk: it subscribes to every channel the
+server advertises, decodes what arrives (CDR with rosbags), and may advertise /quad_cmd_twist
+and publish Twists on it, then go quiet. It prints one JSON report on stdout.
+
+    python foxglove_client.py ws://127.0.0.1:8765 --listen-s 3 [--publish json|cdr --twist 1,0,0,0 --publish-s 2]
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import struct
+import time
+from typing import Any
+
+import cv2
+import numpy as np
+from rosbags.typesys import Stores, get_typestore
+from websockets.exceptions import ConnectionClosed
+from websockets.sync.client import connect
+
+#: the protocol's subprotocol; foxglove-sdk serves the same protocol under its newer name
+SUBPROTOCOLS = ["foxglove.sdk.v1", "foxglove.websocket.v1"]
+MESSAGE_DATA = 0x01  # server binary opcode: subscription id u32, log time u64, payload
+CLIENT_MESSAGE_DATA = 0x01  # client binary opcode: channel id u32, payload
+
+
+def twist_payload(encoding: str, lx: float, ly: float, lz: float, az: float) -> bytes:
+    if encoding == "json":
+        return json.dumps({"linear": {"x": lx, "y": ly, "z": lz}, "angular": {"x": 0.0, "y": 0.0, "z": az}}).encode()
+    # CDR little endian: encapsulation header 00 01 00 00, then six float64
+    return b"\x00\x01\x00\x00" + struct.pack("<6d", lx, ly, lz, 0.0, 0.0, az)
+
+
+def summarise(type_name: str, msg: Any) -> dict[str, Any]:
+    """What the tests look at in a decoded message."""
+    if type_name == "nav_msgs/msg/Odometry":
+        p = msg.pose.pose.position
+        return {"x": p.x, "y": p.y, "z": p.z}
+    if type_name == "sensor_msgs/msg/CompressedImage":
+        image = cv2.imdecode(np.frombuffer(bytes(msg.data), np.uint8), cv2.IMREAD_COLOR)
+        return {
+            "format": msg.format,
+            "shape": list(image.shape) if image is not None else None,
+            "mean": float(image.mean()) if image is not None else None,
+        }
+    if type_name == "tf2_msgs/msg/TFMessage":
+        return {"children": [t.child_frame_id for t in msg.transforms]}
+    if type_name == "std_msgs/msg/String":
+        return {"length": len(msg.data)}
+    if type_name == "visualization_msgs/msg/MarkerArray":
+        return {"markers": len(msg.markers)}
+    return {}
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser()
+    ap.add_argument("url")
+    ap.add_argument("--listen-s", type=float, default=2.0)
+    ap.add_argument("--publish", choices=["json", "cdr"], default=None)
+    ap.add_argument("--twist", default="0,0,0,0", help="linear x,y,z, angular z")
+    ap.add_argument("--publish-s", type=float, default=0.0)
+    ap.add_argument("--start-s", type=float, default=0.0, help="wait this long before publishing")
+    args = ap.parse_args()
+    store = get_typestore(Stores.ROS2_HUMBLE)
+    channels: dict[int, dict[str, Any]] = {}
+    subscriptions: dict[int, int] = {}  # subscription id -> channel id
+    topics: dict[str, dict[str, Any]] = {}
+    report: dict[str, Any] = {"topics": topics, "odom": [], "undecodable": 0}
+    twist = [float(v) for v in args.twist.split(",")]
+    with connect(args.url, subprotocols=SUBPROTOCOLS, compression=None, max_size=None) as ws:
+        report["subprotocol"] = ws.subprotocol
+        start = time.monotonic()
+        published, next_publish, advertised = 0, start + args.start_s, False
+        while time.monotonic() - start < args.listen_s:
+            now = time.monotonic()
+            publishing = args.publish and args.start_s <= now - start < args.start_s + args.publish_s
+            if publishing and "serverInfo" in report and now >= next_publish:
+                if not advertised:
+                    ws.send(
+                        json.dumps(
+                            {
+                                "op": "advertise",
+                                "channels": [
+                                    {
+                                        "id": 7,
+                                        "topic": "/quad_cmd_twist",
+                                        "encoding": args.publish,
+                                        "schemaName": "geometry_msgs/msg/Twist",
+                                    }
+                                ],
+                            }
+                        )
+                    )
+                    advertised = True
+                ws.send(struct.pack("<BI", CLIENT_MESSAGE_DATA, 7) + twist_payload(args.publish, *twist))
+                published += 1
+                next_publish += 0.05  # 20 Hz, as the Teleop panel and the joy node publish
+            try:
+                frame = ws.recv(timeout=0.01)
+            except TimeoutError:
+                continue
+            except ConnectionClosed:  # the run ended
+                report["closed"] = True
+                break
+            if isinstance(frame, str):
+                msg = json.loads(frame)
+                if msg["op"] == "serverInfo":
+                    report["serverInfo"] = msg
+                elif msg["op"] == "advertise":
+                    subscribe = []
+                    for ch in msg["channels"]:
+                        channels[ch["id"]] = ch
+                        sub_id = len(subscriptions) + 100
+                        subscriptions[sub_id] = ch["id"]
+                        subscribe.append({"id": sub_id, "channelId": ch["id"]})
+                    ws.send(json.dumps({"op": "subscribe", "subscriptions": subscribe}))
+                elif msg["op"] == "status":
+                    report.setdefault("status", []).append(msg["message"])
+                continue
+            if frame[0] != MESSAGE_DATA:
+                continue
+            sub_id, log_time_ns = struct.unpack_from("<IQ", frame, 1)
+            ch = channels[subscriptions[sub_id]]
+            payload = bytes(frame[13:])
+            entry = topics.setdefault(
+                ch["topic"],
+                {
+                    "count": 0,
+                    "type": ch["schemaName"],
+                    "encoding": ch["encoding"],
+                    "schemaEncoding": ch.get("schemaEncoding"),
+                },
+            )
+            entry["count"] += 1
+            try:
+                decoded = store.deserialize_cdr(payload, ch["schemaName"])
+            except Exception:
+                report["undecodable"] += 1
+                continue
+            summary = summarise(ch["schemaName"], decoded)
+            entry.setdefault("first", summary)
+            entry["last"] = summary
+            entry["last_ns"] = log_time_ns
+            if ch["schemaName"] == "nav_msgs/msg/Odometry":
+                report["odom"].append([log_time_ns, summary["x"], summary["y"], summary["z"]])
+        report["published"] = published
+    print(json.dumps(report))
+
+
+if __name__ == "__main__":
+    main()

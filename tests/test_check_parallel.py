@@ -1,0 +1,51 @@
+"""`check --jobs N` and `check --ray` re-fly recordings in parallel with the same report, in the
+same order, and the same exit codes as one after another."""
+
+from __future__ import annotations
+
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parent.parent
+
+
+def _check(*args: str) -> subprocess.CompletedProcess:
+    return subprocess.run(
+        [sys.executable, str(ROOT / "main.py"), "check", *args], capture_output=True, text=True, timeout=600
+    )
+
+
+@pytest.fixture(scope="module")
+def folder(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """The regression recordings plus a damaged file, so every kind of line is in the report."""
+    out = tmp_path_factory.mktemp("check")
+    for f in sorted((ROOT / "tests" / "recordings").glob("*.mcap")):
+        shutil.copy(f, out / f.name)
+    (out / "broken.mcap").write_bytes(b"\x89MCAP0\r\nnot really")
+    return out
+
+
+def test_jobs_gives_the_serial_report(folder: Path) -> None:
+    serial = _check(str(folder))
+    parallel = _check(str(folder), "--jobs", "2")
+    assert serial.returncode == parallel.returncode == 2  # the broken file is unusable
+    assert parallel.stdout == serial.stdout
+    lines = parallel.stdout.splitlines()
+    assert [line.split()[1].rstrip(":") for line in lines[:-1] if not line.startswith(" ")] == [
+        str(p) for p in sorted(folder.glob("*.mcap"))
+    ]
+    count = len(list((ROOT / "tests" / "recordings").glob("*.mcap")))
+    assert lines[-1] == f"{count} of {count + 1} recordings re-fly within 0.001 m and 0.001 rad; 1 unusable"
+
+
+def test_ray_gives_the_serial_report(folder: Path) -> None:
+    pytest.importorskip("ray", reason="Ray (the ray extra) is not installed")
+    good = [str(p) for p in sorted(folder.glob("*_cascade.mcap"))]
+    serial = _check(*good)
+    on_ray = _check(*good, "--ray", "--jobs", "2")
+    assert serial.returncode == on_ray.returncode == 0, on_ray.stderr[-2000:]
+    assert on_ray.stdout == serial.stdout

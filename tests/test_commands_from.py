@@ -1,0 +1,117 @@
+"""`run --commands-from FILE.mcap` flies the /quad_cmd_twist of a bag quadsim did not write (rosbags'
+rosbag2 writer, MCAP storage, as `ros2 bag record -s mcap` makes them) at its log times, records
+the flight, and refuses what it cannot fly with one line."""
+
+from __future__ import annotations
+
+import math
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+from rosbags.rosbag2 import StoragePlugin, Writer
+from rosbags.typesys import Stores, get_typestore
+
+from quadsim.recording.reader import RecordingReader
+from tests.test_cli_errors import assert_one_line_error, run_cli
+
+ROOT = Path(__file__).resolve().parent.parent
+TS = get_typestore(Stores.ROS2_HUMBLE)
+T = TS.types
+#: a bag's log times are wall-clock times: the flight counts from its first command
+BAG_START_NS = 1_700_000_000_123_000_000
+PERIOD_NS = 50_000_000  # 20 Hz, as teleop_twist_joy publishes
+
+
+def _twist(x: float = 0.0, z: float = 0.0):
+    vec = T["geometry_msgs/msg/Vector3"]
+    return T["geometry_msgs/msg/Twist"](linear=vec(x=x, y=0.0, z=z), angular=vec(x=0.0, y=0.0, z=0.0))
+
+
+def _bag(folder: Path, topic: str, type_name: str, messages: list) -> Path:
+    """A rosbag2 bag in MCAP storage; the path of its .mcap file."""
+    with Writer(folder, version=8, storage_plugin=StoragePlugin.MCAP) as writer:
+        connection = writer.add_connection(topic, type_name, typestore=TS)
+        for ns, msg in messages:
+            writer.write(connection, ns, TS.serialize_cdr(msg, type_name))
+    (mcap,) = folder.glob("*.mcap")
+    return mcap
+
+
+def test_a_ros2_bags_commands_fly_the_vehicle_where_they_say(tmp_path):
+    # 4 s climbing at 0.5 m/s, then 3 s forward at 1 m/s, then nothing (the dead-man holds)
+    commands = [_twist(z=0.5)] * 80 + [_twist(x=1.0)] * 60
+    bag = _bag(
+        tmp_path / "teleop_session",
+        "/quad_cmd_twist",
+        "geometry_msgs/msg/Twist",
+        [(BAG_START_NS + i * PERIOD_NS, t) for i, t in enumerate(commands)],
+    )
+    out = tmp_path / "flown.mcap"
+    result = subprocess.run(
+        [sys.executable, str(ROOT / "main.py"), "run", "--commands-from", str(bag), "--cameras", "none", "--out", out],
+        capture_output=True,
+        text=True,
+        cwd=ROOT,
+    )
+    assert result.returncode == 0, result.stderr
+    assert "flying the 140 commands of teleop_session.mcap for 8.9 s" in result.stdout
+    with RecordingReader(out) as flown:
+        recorded = list(flown.commands())
+        poses = list(flown.poses())
+        assert flown.description is not None and flown.description.driver["source"] == str(bag)
+    # every command, at its log time from the first (50 ms = 12 physics steps: exact)
+    assert [(ns, (t.linear_x, t.linear_z)) for ns, t in recorded] == [
+        (i * PERIOD_NS, (c.linear.x, c.linear.z)) for i, c in enumerate(commands)
+    ]
+    assert poses[-1][0] == pytest.approx(8.95e9, abs=1e7)  # the span of the commands plus 2 s
+    z_at_4s = next(p for ns, p, _ in poses if ns >= 4_000_000_000)[2]
+    assert z_at_4s == pytest.approx(2.0, abs=0.25)  # 4 s at 0.5 m/s
+    x, y, z = poses[-1][1]
+    assert x == pytest.approx(3.0, abs=0.5) and abs(y) < 0.1 and z == pytest.approx(2.0, abs=0.25)
+    assert math.isclose(x, poses[-20][1][0], abs_tol=0.02)  # holding still once the commands stopped
+
+
+def test_errors_are_one_line(tmp_path, capsys):
+    quick = ["--cameras", "none", "--no-record"]
+    code, _, err = run_cli(capsys, "run", "--commands-from", str(tmp_path / "nope.mcap"), *quick)
+    assert_one_line_error(code, err, "nope.mcap", "no such file")
+
+    text = tmp_path / "notes.mcap"
+    text.write_text("not a bag\n")
+    code, _, err = run_cli(capsys, "run", "--commands-from", str(text), *quick)
+    assert_one_line_error(code, err, "notes.mcap", "not an MCAP file")
+
+    chatter = _bag(
+        tmp_path / "chatter", "/chatter", "std_msgs/msg/String", [(BAG_START_NS, T["std_msgs/msg/String"](data="hi"))]
+    )
+    code, _, err = run_cli(capsys, "run", "--commands-from", str(chatter), *quick)
+    assert_one_line_error(code, err, "no /quad_cmd_twist channel", "its topics: /chatter")
+
+    header = T["std_msgs/msg/Header"](stamp=T["builtin_interfaces/msg/Time"](sec=1, nanosec=0), frame_id="")
+    stamped = T["geometry_msgs/msg/TwistStamped"](header=header, twist=_twist(x=1.0))
+    wrong = _bag(tmp_path / "stamped", "/quad_cmd_twist", "geometry_msgs/msg/TwistStamped", [(BAG_START_NS, stamped)])
+    code, _, err = run_cli(capsys, "run", "--commands-from", str(wrong), *quick)
+    assert_one_line_error(
+        code, err, "/quad_cmd_twist carries geometry_msgs/msg/TwistStamped, not geometry_msgs/msg/Twist"
+    )
+
+    code, _, err = run_cli(capsys, "run", "--commands-from", str(wrong), "--script", "hover", *quick)
+    assert code == 2 and "not allowed with argument" in err
+
+
+def test_a_quadsim_recordings_commands_fly_the_same_flight_in_its_z_mode(tmp_path, capsys):
+    """A recording flown in height z-mode: its commands, flown again, give the same poses."""
+    from tests.recording_helpers import record_flight
+
+    first = tmp_path / "first.mcap"
+    record_flight(first, cameras=False)  # height z-mode: 2 s hover at 2 m, 1 s forward and turning
+    again = tmp_path / "again.mcap"
+    code, out, err = run_cli(capsys, "run", "--commands-from", str(first), "--cameras", "none", "--out", str(again))
+    assert code == 0, err
+    assert "z-mode height" in out
+    with RecordingReader(first) as a, RecordingReader(again) as b:
+        original, flown = list(a.poses()), list(b.poses())
+    assert len(flown) > len(original)  # 2 s more
+    assert flown[: len(original)] == original

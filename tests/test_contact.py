@@ -1,0 +1,210 @@
+"""Contact: the collision shapes (drops land upright; walls keep the rotors and the front camera
+out), crashes as events with their impact speed and what was hit, in the recording, the window
+and the API, and --reset-on-crash."""
+
+import math
+import re
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pybullet as pb
+import pygame
+import pytest
+from mcap.reader import make_reader
+from mcap_ros2.decoder import DecoderFactory
+
+from quadsim import SimConfig, Simulator, StartPose, Twist, ZMode
+from quadsim.apps.evaluate import DROP_HEIGHTS_M, DROP_ROLLS_DEG, drop_grid
+from quadsim.apps.window.teleop import TeleopOptions
+from quadsim.sensors.camera import RendererKind, default_cameras
+from quadsim.sensors.rendering import decode_jpeg
+from quadsim.sensors.rig import CameraRig
+from quadsim.sim.flight_events import EventKind
+from tests.test_teleop import key, make_app, run_with
+
+ROOT = Path(__file__).resolve().parent.parent
+HEXA = ROOT / "quadsim" / "assets" / "urdf" / "quadsim_hexa.urdf"
+#: the red tower's faces (world x, y ranges) in the default world: 0.8 m square, centred at x = 6
+TOWER_X, TOWER_Y = (5.6, 6.4), (-0.4, 0.4)
+
+
+@pytest.mark.parametrize("urdf", [None, HEXA], ids=["quad", "hexa"])
+def test_motors_off_drops_land_upright(urdf):
+    grid = drop_grid(SimConfig(urdf=urdf))
+    assert set(grid) == {(h, r) for h in DROP_HEIGHTS_M for r in DROP_ROLLS_DEG}
+    flipped = sorted(k for k, upright in grid.items() if not upright)
+    assert not flipped, f"landed upside down or on a side from (height m, roll deg): {flipped}"
+
+
+def _inside_tower(x: float, y: float) -> float:
+    """How far (m) a point is inside the tower's footprint (negative: outside)."""
+    return min(x - TOWER_X[0], TOWER_X[1] - x, y - TOWER_Y[0], TOWER_Y[1] - y)
+
+
+@pytest.fixture(scope="module")
+def tower_push():
+    """Climb to 1.5 m and fly into the red tower at 2 m/s, then keep pushing for 3 s. Keeps the
+    deepest any rotor disc's rim or the front camera got, and the pose with the camera closest
+    while aloft (pressed against the wall; later the vehicle slides down it)."""
+    deepest = {"rotor": -math.inf, "camera": -math.inf}
+    closest = None
+    with Simulator(SimConfig(z_mode=ZMode.VELOCITY)) as sim:
+        sim.send(Twist(linear_z=1.0))
+        sim.run_for(1.5)
+        sim.send(Twist(linear_x=2.0))
+        physics = sim.physics
+        rotor_links = [physics.link_index[r.link_name] for r in sim.vehicle.rotors]
+        camera_link = physics.link_index["front_camera_link"]
+        for _ in range(6 * 60):
+            sim.run_for(1 / 60)
+            for link in [*rotor_links, camera_link]:
+                position, orientation = pb.getLinkState(physics.body_id, link, physicsClientId=physics.client_id)[4:6]
+                m = np.array(pb.getMatrixFromQuaternion(orientation)).reshape(3, 3)
+                if link == camera_link:
+                    depth = _inside_tower(*position[:2])
+                    deepest["camera"] = max(deepest["camera"], depth)
+                    s = sim.state
+                    if s.position_m[2] > 1.0 and (closest is None or depth > closest[0]):  # against it, aloft
+                        closest = (depth, s.position_m, s.orientation_xyzw)
+                    continue
+                for a in np.linspace(0, 2 * math.pi, 24, endpoint=False):  # the disc's rim, r = 6.5 cm
+                    rim = np.array(position) + 0.065 * (m[:, 0] * math.cos(a) + m[:, 1] * math.sin(a))
+                    if rim[2] < 3.0:
+                        deepest["rotor"] = max(deepest["rotor"], _inside_tower(rim[0], rim[1]))
+        events = list(sim.events)
+        vehicle, world = sim.vehicle, sim.world
+    return deepest, closest, events, vehicle, world
+
+
+def test_rotors_and_camera_stay_out_of_a_wall(tower_push):
+    deepest, _, _, _, _ = tower_push
+    assert deepest["rotor"] < 0.0, f"a rotor disc went {deepest['rotor'] * 100:.1f} cm into the tower"
+    assert deepest["camera"] < -0.05, f"the front camera came within {-deepest['camera'] * 100:.1f} cm of the tower"
+
+
+def test_hitting_the_tower_is_a_crash_with_its_speed(tower_push):
+    _, _, events, _, _ = tower_push
+    crashes = [e for e in events if e.kind is EventKind.CRASH]
+    assert crashes, [e.value for e in events]
+    first = crashes[0]
+    assert first.hit == "red_tower" and 1.5 < first.speed_mps < 2.5
+    assert "red_tower" in first.value and "side" in first.value
+    assert events[0].kind is EventKind.TAKEOFF
+    assert not any(e.kind is EventKind.TOUCHDOWN and e.hit == "red_tower" for e in events)
+
+
+def _red_fraction(rgb: np.ndarray) -> float:
+    region = rgb.astype(int)
+    return float(((region[..., 0] > 120) & (region[..., 1] < 70) & (region[..., 2] < 70)).mean())
+
+
+def test_front_camera_pressed_against_a_wall_shows_the_wall(tower_push):
+    _, (depth, position, orientation), _, vehicle, world = tower_push
+    spec = default_cameras()[0]
+    rig = CameraRig.standalone(vehicle, world, (spec,), RendererKind.TINY)
+    try:
+        (frame,) = rig.render(("front",), 0, position, orientation)
+        pressed = _red_fraction(decode_jpeg(frame.jpeg))
+        # the same pose 10 cm further in (the lens 4 cm behind the wall's face, closer than
+        # the near plane): the camera sees through the wall; the check must be able to fail
+        through = (position[0] - depth + 0.04, position[1], position[2])
+        (frame,) = rig.render(("front",), 0, through, orientation)
+        seen_through = _red_fraction(decode_jpeg(frame.jpeg))
+    finally:
+        rig.close()
+    assert pressed > 0.9, f"only {pressed:.0%} of the picture is the wall it is pressed against"
+    assert seen_through < 0.5
+
+
+def test_crash_reset_and_events_in_the_recording_and_the_api(tmp_path):
+    # the real path: the CLI flies a script into the tower with --reset-on-crash and records it
+    script = tmp_path / "tower.qscript"
+    script.write_text("z_mode velocity\n1.5 linear.z=1.0\n4.0 linear.x=2.0\n1.0\n")
+    out = tmp_path / "tower.mcap"
+    cmd = [sys.executable, str(ROOT / "main.py"), "run", "--script", str(script), "--cameras", "none"]
+    result = subprocess.run([*cmd, "--reset-on-crash", "--out", str(out)], capture_output=True, text=True, cwd=ROOT)
+    assert result.returncode == 0, result.stderr
+    assert "flight events   1 takeoff, 1 crash, 1 reset" in result.stdout
+    assert re.search(r"crash           at t=\d\.\d\d s: hit red_tower at [12]\.\d\d m/s \(side\)", result.stdout)
+    with open(out, "rb") as fh:
+        reader = make_reader(fh, decoder_factories=[DecoderFactory()])
+        rosout = [(m.log_time, d) for _, _, m, d in reader.iter_decoded_messages(topics=["/rosout"])]
+        poses = [d for _, _, _, d in reader.iter_decoded_messages(topics=["/quad/pose"])]
+    texts = [d.msg for _, d in rosout if not d.msg.startswith("recording: ")]
+    assert texts[0] == "takeoff: climbing from the ground"
+    crash = next(d for _, d in rosout if d.msg.startswith("crash: hit red_tower at "))
+    assert crash.level == 30  # WARN
+    assert texts[-1] == "reset: back at the start after a crash"
+    end = poses[-1].pose.position
+    assert abs(end.x) < 0.01 and abs(end.y) < 0.01 and end.z < 0.06  # back at the start, landed
+    # the recording re-flies, reset and all
+    check = subprocess.run(
+        [sys.executable, str(ROOT / "main.py"), "check", str(out)], capture_output=True, text=True, cwd=ROOT
+    )
+    assert check.returncode == 0, check.stdout + check.stderr
+
+
+class _EventSink:
+    def __init__(self):
+        self.events = []
+
+    def on_command(self, step, twist):
+        pass
+
+    def on_state(self, state):
+        pass
+
+    def on_event(self, step, kind, value):
+        self.events.append((step, kind, value))
+
+
+class _PlainSink:  # no on_event: still a sink
+    def on_command(self, step, twist):
+        pass
+
+    def on_state(self, state):
+        pass
+
+
+def test_sinks_and_callbacks_get_the_events_a_gym_env_would_end_on():
+    sink, seen = _EventSink(), []
+    with Simulator(SimConfig(z_mode=ZMode.VELOCITY, start=StartPose(x_m=4.0))) as sim:
+        sim.add_sink(sink)
+        sim.add_sink(_PlainSink())
+        sim.add_event_callback(seen.append)
+        sim.send(Twist(linear_z=1.0))
+        sim.run_for(1.5)
+        sim.send(Twist(linear_x=2.0))
+        while not any(e.kind is EventKind.CRASH for e in seen) and sim.time_s < 5.0:
+            sim.run_for(0.1)
+        assert seen == sim.events and seen[-1].kind is EventKind.CRASH
+        assert [(e.step, e.kind.value, e.value) for e in seen] == sink.events
+        assert not sim.reset_on_crash and sim.state.position_m[0] > 5.0  # no reset unless asked
+        sim.reset()
+        assert sim.events == []
+
+
+def test_the_window_shows_a_crash_and_resets(tmp_path):
+    app = make_app(
+        tmp_path,
+        options=TeleopOptions(input="keyboard", reset_on_crash=True),
+        config=SimConfig(start=StartPose(x_m=4.0)),
+    )
+    try:
+        shown = []
+        run_with(app, 30, {0: [lambda: key(pygame.K_w)], 25: [lambda: key(pygame.K_w, False)]})
+        assert app._model().phase == "flying"
+        for _ in range(120):
+            run_with(app, 1, {0: [lambda: key(pygame.K_UP)]} if not shown else {})
+            model = app._model()
+            if model.flight_alert:
+                shown.append(model.flight_event)
+                break
+        assert shown and shown[0].startswith("CRASH: hit red_tower"), shown
+        assert shown[0].endswith("; reset: back at the start after a crash")
+        run_with(app, 2)
+        assert app._model().phase == "landed" and abs(app.sim.state.position_m[0] - 4.0) < 0.05
+    finally:
+        app.close()

@@ -1,0 +1,161 @@
+"""The Gymnasium environments (quadsim.envs): the checker, seeded resets, a hand-written policy
+that solves Hover, the tower in TowerVision's images, vector envs, and the missing-extra message."""
+
+from __future__ import annotations
+
+import math
+import subprocess
+import sys
+
+import gymnasium as gym
+import numpy as np
+import pytest
+from gymnasium.utils.env_checker import check_env
+
+import quadsim.envs
+from quadsim.envs.quad import AGENT_HZ, HOVER_EPISODE_S
+
+
+@pytest.mark.parametrize("env_id", quadsim.envs.ENV_IDS)
+def test_every_env_passes_the_checker(env_id):
+    env = gym.make(env_id, render_mode="rgb_array")
+    try:
+        check_env(env.unwrapped, skip_render_check=False)
+        env.reset(seed=0)
+        frame = env.render()
+        assert frame.shape == (120, 160, 3) and frame.dtype == np.uint8
+        assert env.spec.max_episode_steps is not None  # truncation on a time limit
+    finally:
+        env.close()
+
+
+def _p_policy(observation: np.ndarray) -> np.ndarray:
+    """Fly toward the target: world velocity proportional to the error, turned into the heading frame."""
+    position, yaw, target = observation[0:3], observation[8], observation[12:15]
+    error = target - position
+    vx, vy = np.clip(1.0 * error[:2], -1.5, 1.5)
+    c, s = math.cos(yaw), math.sin(yaw)
+    return np.array([c * vx + s * vy, -s * vx + c * vy, np.clip(1.5 * error[2], -1.0, 1.0), 0.0], np.float32)
+
+
+def test_seeded_resets_are_reproducible_and_a_p_controller_solves_hover():
+    env = gym.make("quadsim/Hover-v0")
+    try:
+        runs = []
+        for seed in (7, 7, 8):
+            observation, _ = env.reset(seed=seed)
+            observations = [observation]
+            for _ in range(HOVER_EPISODE_S * AGENT_HZ):
+                observation, _, terminated, truncated, _ = env.step(_p_policy(observation))
+                observations.append(observation)
+                if terminated or truncated:
+                    break
+            runs.append(np.array(observations))
+        same, again, other = runs
+        assert np.array_equal(same, again)  # the same seed: the same start, target and flight
+        assert not np.array_equal(same[0], other[0])  # another seed: another start
+        for run in (same, other):
+            assert len(run) == HOVER_EPISODE_S * AGENT_HZ + 1  # ended by the time limit, not a failure
+            final = run[-1]
+            assert np.linalg.norm(final[12:15] - final[0:3]) < 0.05  # reached and holding the target
+            assert np.linalg.norm(final[3:6]) < 0.05
+    finally:
+        env.close()
+
+
+def test_the_seed_draws_the_gusts_and_a_crash_ends_the_episode():
+    from quadsim.physics.wind import Turbulence, WindSettings
+
+    env = gym.make("quadsim/Hover-v0", wind=WindSettings(3.0, 90.0, Turbulence.MODERATE))
+    try:
+        flights, winds = [], []
+        for seed in (5, 5, 6):
+            observation, _ = env.reset(seed=seed)
+            for _ in range(AGENT_HZ):  # take off
+                observation, *_ = env.step(np.array([0.0, 0.0, 1.0, 0.0], np.float32))
+            gusts = []
+            for _ in range(2 * AGENT_HZ):  # hold still: only the wind moves it
+                observation, *_ = env.step(np.zeros(4, np.float32))
+                gusts.append(env.unwrapped.sim.state.wind_mps)
+            flights.append(observation)
+            winds.append(np.array(gusts))
+        assert np.array_equal(flights[0], flights[1])  # the same seed, the same start and gusts
+        assert np.array_equal(winds[0], winds[1])
+        assert np.abs(winds[0] - winds[2]).max() > 0.1  # another seed, other gusts
+        assert np.linalg.norm(flights[0][3:6]) > 0.01  # the gusts move it
+
+        # fly into the red tower (6 m ahead of the origin, 3 m tall): the crash ends the episode
+        observation, _ = env.reset(seed=1)
+        for _ in range(AGENT_HZ):  # up to about 1.5 m
+            observation, *_ = env.step(np.array([0.0, 0.0, 1.5, 0.0], np.float32))
+        terminated, reward = False, 0.0
+        for _ in range(5 * AGENT_HZ):
+            yaw, (x, y) = observation[8], observation[0:2]
+            wx, wy = 6.0 - x, 0.0 - y
+            d = math.hypot(wx, wy)
+            c, sn = math.cos(yaw), math.sin(yaw)
+            action = np.array([4.0 * (c * wx + sn * wy) / d, 4.0 * (-sn * wx + c * wy) / d, 0.0, 0.0], np.float32)
+            observation, reward, terminated, truncated, _ = env.step(action)
+            if terminated or truncated:
+                break
+        assert terminated and reward < -5.0
+        events = env.unwrapped.sim.events
+        assert any(e.kind.value == "crash" and e.hit == "red_tower" for e in events), events
+        assert abs(observation[0] - 6.0) < 1.5  # it ended at the tower, not out of the arena
+    finally:
+        env.close()
+
+
+def test_tower_vision_images_show_the_tower_when_facing_it():
+    env = gym.make("quadsim/TowerVision-v0")
+    try:
+        red_fraction = {}
+        for yaw in (0.0, math.pi):
+            observation, _ = env.reset(seed=1, options={"start_yaw_rad": yaw})
+            for _ in range(45):  # climb for 1.5 s
+                observation, *_ = env.step(np.array([0.0, 0.0, 1.0, 0.0], np.float32))
+            image = observation["image"].astype(int)
+            red = (image[:, :, 0] > 120) & (image[:, :, 0] > 2 * image[:, :, 1]) & (image[:, :, 0] > 2 * image[:, :, 2])
+            red_fraction[yaw] = red.mean()
+            if yaw == 0.0:
+                columns = np.nonzero(red.any(axis=0))[0]
+                assert 20 < columns.mean() < 44  # near the middle of the 64-pixel image
+        assert red_fraction[0.0] > 0.04 and red_fraction[math.pi] < 0.01  # the floor has red specks
+        # flying straight at it ends the episode with the reward for arriving, before touching it
+        observation, _ = env.reset(seed=1, options={"start_xy_m": (0.0, 0.0), "start_yaw_rad": 0.0})
+        unwrapped = env.unwrapped
+        start_m = unwrapped.distance_to_tower_m(unwrapped.sim.state)
+        total, terminated = 0.0, False
+        for _ in range(20 * AGENT_HZ):
+            distance = unwrapped.distance_to_tower_m(unwrapped.sim.state)
+            forward = 0.0 if distance < 1.2 else 1.0
+            climb = 1.5 - unwrapped.sim.state.position_m[2]
+            observation, reward, terminated, truncated, _ = env.step(np.array([forward, 0, climb, 0], np.float32))
+            total += reward
+            if terminated or truncated:
+                break
+        assert terminated and 0.5 < unwrapped.distance_to_tower_m(unwrapped.sim.state) < 1.5
+        assert total == pytest.approx(start_m - unwrapped.distance_to_tower_m(unwrapped.sim.state) + 10.0, abs=1e-6)
+    finally:
+        env.close()
+
+
+def test_make_vec_steps_two_envs_in_processes():
+    envs = gym.make_vec("quadsim/Hover-v0", num_envs=2, vectorization_mode="async")
+    try:
+        observations, _ = envs.reset(seed=3)
+        assert observations.shape == (2, 15)
+        assert not np.array_equal(observations[0], observations[1])  # each env its own seed
+        for _ in range(30):
+            observations, rewards, terminated, truncated, _ = envs.step(np.array([_p_policy(o) for o in observations]))
+        assert rewards.shape == (2,) and not terminated.any()
+        assert (observations[:, 2] > 0.5).all()  # both took off
+    finally:
+        envs.close()
+
+
+def test_without_gymnasium_the_message_says_what_to_install():
+    code = "import sys; sys.modules['gymnasium'] = None\nimport quadsim.envs"
+    result = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
+    assert result.returncode != 0
+    assert "pip install 'quadsim[gym]'" in result.stderr.strip().splitlines()[-1]

@@ -1,0 +1,219 @@
+"""The Foxglove bridge, from outside: quadsim runs as its own process with --foxglove, and an
+independent WebSocket client (tests/foxglove_client.py, another process, written from the
+protocol's spec) watches it and flies it."""
+
+from __future__ import annotations
+
+import json
+import os
+import re
+import socket
+import struct
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+
+from quadsim.errors import QuadsimError
+from quadsim.live.foxglove import parse_endpoint, twist_from_cdr, twist_from_json
+from quadsim.recording import cdr
+
+ROOT = Path(__file__).resolve().parents[1]
+CLIENT = Path(__file__).with_name("foxglove_client.py")
+ENV = {**os.environ, "SDL_VIDEODRIVER": "dummy", "SDL_AUDIODRIVER": "dummy", "PYTHONUNBUFFERED": "1"}
+IMAGES = ("/quad/front_camera/image_raw/compressed", "/quad/floor_camera/image_raw/compressed")
+
+
+def _quadsim(*args: str) -> subprocess.Popen:
+    return subprocess.Popen(
+        [sys.executable, str(ROOT / "main.py"), *args],
+        cwd=ROOT,
+        env=ENV,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+
+
+def _served_url(proc: subprocess.Popen) -> str:
+    """The ws:// address quadsim says it serves (it chose the port: --foxglove 127.0.0.1:0)."""
+    assert proc.stdout is not None
+    for _ in range(20):
+        line = proc.stdout.readline()
+        found = re.search(r"serving (ws://\S+)", line)
+        if found:
+            return found.group(1)
+    raise AssertionError("quadsim never said where it serves")
+
+
+def _client(url: str, *args: str) -> dict:
+    out = subprocess.run(
+        [sys.executable, str(CLIENT), url, *args], env=ENV, capture_output=True, text=True, timeout=60, check=True
+    )
+    return json.loads(out.stdout)
+
+
+def _x_at(odom: list, ns: int) -> float:
+    return [x for t, x, _, _ in odom if t <= ns][-1]
+
+
+def test_a_client_watches_every_topic_and_flies_it_with_twists(tmp_path: Path) -> None:
+    proc = _quadsim(
+        "run", "--input", "foxglove", "--foxglove", "127.0.0.1:0", "--duration", "10", "--out", str(tmp_path)
+    )
+    try:
+        url = _served_url(proc)
+        time.sleep(1.0)  # the client joins late: latched topics must still reach it
+        # forward and up at 1 m/s and 0.5 m/s for 2 s, in JSON as the Foxglove app sends it, then silence
+        flown = _client(url, "--listen-s", "4", "--publish", "json", "--twist", "1,0,0.5,0", "--publish-s", "2")
+        # a second client, later still: CDR Twists, left (y) for 1 s
+        left = _client(url, "--listen-s", "1.5", "--publish", "cdr", "--twist", "0,1,0,0", "--publish-s", "1")
+        out, err = proc.communicate(timeout=60)
+    finally:
+        proc.kill()
+    assert proc.returncode == 0, err
+    assert flown["subprotocol"] in ("foxglove.sdk.v1", "foxglove.websocket.v1")
+    assert "clientPublish" in flown["serverInfo"]["capabilities"]
+    assert set(flown["serverInfo"]["supportedEncodings"]) >= {"json", "cdr"}
+    topics = flown["topics"]
+    expected = {"/quad_cmd_twist", "/quad/pose", "/quad/odom", "/quad/imu", "/quad/rotor_thrusts", "/tf", "/tf_static"}
+    expected |= {"/robot_description", "/world/markers"}
+    expected |= {*IMAGES, "/quad/front_camera/camera_info", "/quad/floor_camera/camera_info"}
+    assert expected <= set(topics), sorted(set(expected) - set(topics))
+    assert flown["undecodable"] == 0
+    for name, entry in topics.items():
+        assert entry["encoding"] == "cdr" and entry["schemaEncoding"] == "ros2msg", name
+    for name in IMAGES:  # real JPEGs of the scene, not black frames
+        image = topics[name]["last"]
+        assert image["format"] == "jpeg" and image["shape"] == [240, 320, 3] and image["mean"] > 20.0, name
+    for report in (flown, left):  # latched, though both joined after it was published
+        children = report["topics"]["/tf_static"]["first"]["children"]
+        assert {"front_camera_optical", "floor_camera_optical", "rotor_1", "front_camera_link"} <= set(children)
+    odom = flown["odom"]
+    stop_ns = odom[0][0] + 2_000_000_000
+    assert _x_at(odom, stop_ns) > 1.0  # x forward -> position x grew
+    assert odom[-1][3] > 0.5  # and it climbed
+    # silence: the dead-man timeout holds it (what it still travels is the braking after 0.5 s)
+    assert abs(odom[-1][1] - _x_at(odom, stop_ns + 1_000_000_000)) < 0.1
+    assert left["odom"][-1][2] - left["odom"][0][2] > 0.3  # the CDR client's y command moved it left
+    assert "commands" in out and "rejected" in out
+    recordings = list(tmp_path.glob("*.mcap"))
+    assert len(recordings) == 1  # recorded as every run is
+
+
+def test_a_port_in_use_is_one_line_and_exit_2() -> None:
+    with socket.socket() as taken:
+        taken.bind(("127.0.0.1", 0))
+        taken.listen()
+        port = taken.getsockname()[1]
+        proc = _quadsim("run", "--script", "hover", "--no-record", "--foxglove", f"127.0.0.1:{port}")
+        out, err = proc.communicate(timeout=60)
+    assert proc.returncode == 2
+    lines = err.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith(f"quadsim: error: --foxglove 127.0.0.1:{port}: cannot serve there")
+    assert "in use" in lines[0]
+
+
+@pytest.mark.parametrize("text", ["127.0.0.1:99999", "a:b:c", "host:port", "[::1", ""])
+def test_a_bad_endpoint_is_refused(text: str) -> None:
+    with pytest.raises(QuadsimError, match="--foxglove"):
+        parse_endpoint(text)
+
+
+def test_endpoints() -> None:
+    assert parse_endpoint("0.0.0.0:9000") == ("0.0.0.0", 9000)
+    assert parse_endpoint("9000") == ("127.0.0.1", 9000)
+    assert parse_endpoint(":9000") == ("127.0.0.1", 9000)
+    assert parse_endpoint("localhost") == ("localhost", 8765)
+    assert parse_endpoint("[::1]:9000") == ("::1", 9000)
+
+
+def test_twists_decode_from_json_and_cdr_in_both_byte_orders() -> None:
+    assert twist_from_json(b'{"linear": {"x": 1, "y": -2.5}, "angular": {"z": 0.5}}') == ((1.0, -2.5, 0.0), 0.5)
+    assert twist_from_cdr(cdr.twist((1.0, 2.0, 3.0), (4.0, 5.0, 6.0))) == ((1.0, 2.0, 3.0), 6.0)
+    big_endian = b"\x00\x00\x00\x00" + struct.pack(">6d", 1.5, 0.0, 0.0, 0.0, 0.0, 0.0)
+    assert twist_from_cdr(big_endian) == ((1.5, 0.0, 0.0), 0.0)
+    for bad in (b"[]", b'{"linear": {"x": "fast"}}', b"not json"):
+        with pytest.raises(ValueError):
+            twist_from_json(bad)
+    with pytest.raises(ValueError):
+        twist_from_cdr(b"\x00\x01\x00\x00" + bytes(8))
+
+
+def test_bad_endpoint_from_the_command_line_is_exit_2() -> None:
+    proc = _quadsim("run", "--script", "hover", "--no-record", "--foxglove", "127.0.0.1:http")
+    out, err = proc.communicate(timeout=60)
+    assert proc.returncode == 2
+    assert len(err.strip().splitlines()) == 1 and "--foxglove" in err and "Traceback" not in err
+
+
+def test_replay_streams_the_recorded_messages_as_they_are_played(tmp_path: Path) -> None:
+    recording = tmp_path / "hover.mcap"
+    fly = ["run", "--script", "hover", "--duration", "3", "--cameras", "none", "--out", str(recording)]
+    subprocess.run(
+        [sys.executable, str(ROOT / "main.py"), *fly],
+        cwd=ROOT,
+        env=ENV,
+        check=True,
+        capture_output=True,
+    )
+    proc = _quadsim("replay", str(recording), "--headless", "--foxglove", "127.0.0.1:0")
+    try:
+        url = _served_url(proc)
+        watched = _client(url, "--listen-s", "2")
+        out, err = proc.communicate(timeout=60)
+    finally:
+        proc.kill()
+    assert proc.returncode == 0, err
+    assert watched["topics"]["/tf_static"]["count"] >= 1  # latched: sent when the client subscribed
+    odom = watched["odom"]
+    assert len(odom) > 30  # 60 Hz states, as they are played
+    assert [t for t, *_ in odom] == sorted(t for t, *_ in odom)
+    assert abs(odom[-1][3] - 2.0) < 0.1  # the recorded hover, at 2 m
+    assert re.search(r"played \d+ messages", out)
+
+
+class _Collect:
+    """A live consumer that keeps what it is handed."""
+
+    def __init__(self) -> None:
+        self.topics: list[str] = []
+        self.messages: list[tuple[str, int]] = []
+
+    def add_topic(self, topic) -> None:
+        self.topics.append(topic.name)
+
+    def on_messages(self, messages) -> None:
+        self.messages += [(topic.name, ns) for topic, ns, _ in messages]
+
+    def on_event(self, step: int, kind: str, value: str) -> None:
+        pass
+
+
+def test_the_replay_window_hands_the_recording_to_its_feed_as_it_plays(tmp_path: Path) -> None:
+    from quadsim.apps.window.replay import ReplayApp
+    from quadsim.live.playback import RecordingFeed
+    from quadsim.recording.flight import load_flight
+    from tests.recording_helpers import record_flight
+
+    path = tmp_path / "flight.mcap"
+    record_flight(path)
+    sink = _Collect()
+    feed = RecordingFeed(path, [sink])
+    assert {"/tf_static", "/quad/odom", *IMAGES} <= set(sink.topics)
+    with ReplayApp(load_flight(path), (640, 360), frame_s=0.1, feed=feed) as app:
+        app.run(max_frames=10)  # 1 s of playback
+        played = list(sink.messages)
+        assert played and max(ns for _, ns in played) <= app.t_ns <= 1_000_000_000
+        assert [ns for _, ns in played] == sorted(ns for _, ns in played)
+        assert {"/tf_static", "/quad/odom", *IMAGES} <= {name for name, _ in played}
+        app.seek(0.0)  # back to the start: the latched topics again, as a late joiner gets them
+        app.playing = False
+        app.frame()
+        assert sorted(name for name, _ in sink.messages[len(played) :]) == [
+            "/robot_description",
+            "/tf_static",
+            "/world/markers",
+        ]

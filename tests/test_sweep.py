@@ -1,0 +1,288 @@
+"""`quadsim sweep`: the runs a sweep file stands for, flown on one process, a pool and Ray, give
+the same table; limits decide the exit code; Ctrl-C at random moments keeps every finished run
+and --resume completes the table to what an uninterrupted sweep gives."""
+
+from __future__ import annotations
+
+import os
+import random
+import re
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+
+from quadsim.apps.sweep.metrics import METRICS
+from quadsim.apps.sweep.spec import load_sweep
+from quadsim.apps.sweep.table import read_table
+from quadsim.errors import ConfigError
+
+ROOT = Path(__file__).resolve().parent.parent
+
+SMALL = """
+name = "small"
+scenarios = ["hover", "step_forward"]
+duration_s = 6.0
+
+[controllers.cascade]
+kind = "cascade"
+[controllers.seed]
+kind = "seed"
+[controllers.slow]
+kind = "cascade"
+gains = { velocity_p_xy_per_s = 0.8 }
+
+[limits]
+max_tilt_deg = 45
+"""
+
+
+def _sweep(
+    tmp_path: Path, text: str, *args: str, name: str = "spec.toml", timeout: float = 300
+) -> subprocess.CompletedProcess:
+    spec = tmp_path / name
+    spec.write_text(text)
+    return subprocess.run(
+        [sys.executable, str(ROOT / "main.py"), "sweep", str(spec), *args],
+        capture_output=True,
+        text=True,
+        timeout=timeout,
+        cwd=tmp_path,
+    )
+
+
+def _group_members(pgid: int) -> str:
+    return subprocess.run(
+        ["ps", "-o", "pid,args", "--no-headers", "-g", str(pgid)], capture_output=True, text=True
+    ).stdout
+
+
+def _group_gone(pgid: int, wait_s: float = 5.0) -> bool:
+    """True once no process of the group is left (multiprocessing's resource tracker may take a
+    moment to see its parent gone)."""
+    deadline = time.monotonic() + wait_s
+    while time.monotonic() < deadline:
+        try:
+            os.killpg(pgid, 0)
+        except ProcessLookupError:
+            return True
+        time.sleep(0.05)
+    return False
+
+
+def test_the_runs_are_the_product_of_the_axes_in_order(tmp_path: Path) -> None:
+    spec_file = tmp_path / "s.toml"
+    spec_file.write_text("seeds = 2\n" + SMALL)
+    spec = load_sweep(spec_file)
+    assert len(spec.runs) == 2 * 3 * 2
+    assert [r.index for r in spec.runs] == list(range(12))
+    assert spec.runs[0].key == "scenario=hover airframe=quad controller=cascade wind=0,0 turbulence=none seed=0"
+    assert spec.runs[1].seed == 1 and spec.runs[2].controller.name == "seed"
+    assert spec.runs[4].controller.gains == (("velocity_p_xy_per_s", 0.8),)
+    assert spec.varied == ("scenario", "controller")
+    assert len({r.key for r in spec.runs}) == 12
+
+
+@pytest.mark.parametrize(
+    ("text", "expected"),
+    [
+        ('scenarios = ["hover"]\nwhat = 1', "unknown key 'what'"),
+        ('scenarios = ["nowhere"]', "unknown scenario 'nowhere'"),
+        ('scenarios = ["hover"]\nairframes = ["tricopter"]', "unknown airframe 'tricopter'"),
+        ('scenarios = ["hover"]\nseeds = 0', "'seeds' must be a whole number"),
+        ('scenarios = ["hover"]\nwind = ["fast"]', "a wind must look like SPEED,FROM_DEG"),
+        ('scenarios = ["hover"]\nturbulence = ["gusty"]', "is not one of none, light, moderate, severe"),
+        (
+            'scenarios = ["hover"]\n[controllers.c]\nkind = "cascade"\ngains = { speed = 2 }',
+            "unknown cascade gain 'speed'",
+        ),
+        ('scenarios = ["hover"]\n[limits]\nwobble = 3', "limits.wobble: no such metric"),
+        ('scenarios = ["hover"', "not valid TOML"),
+    ],
+)
+def test_a_bad_sweep_file_is_one_line_and_exit_2(tmp_path: Path, text: str, expected: str) -> None:
+    spec = tmp_path / "bad.toml"
+    spec.write_text(text)
+    with pytest.raises(ConfigError, match=expected):
+        load_sweep(spec)
+    done = _sweep(tmp_path, text, "--out", str(tmp_path / "out"), name="bad.toml")
+    assert done.returncode == 2, done.stderr
+    assert expected.split("'")[0] in done.stderr and "Traceback" not in done.stderr
+    assert len(done.stderr.strip().splitlines()) == 1
+
+
+def test_pool_and_one_process_give_the_same_table(tmp_path: Path) -> None:
+    one = _sweep(tmp_path, SMALL, "--jobs", "1", "--out", str(tmp_path / "one"), "--format", "csv", "--no-plot")
+    two = _sweep(tmp_path, SMALL, "--jobs", "2", "--out", str(tmp_path / "two"), "--format", "csv")
+    assert one.returncode == 0, one.stderr
+    assert two.returncode == 0, two.stderr
+    a, b = (tmp_path / "one" / "results.csv").read_bytes(), (tmp_path / "two" / "results.csv").read_bytes()
+    assert a == b
+    rows = read_table(tmp_path / "two" / "results.csv")
+    assert [r["index"] for r in rows] == list(range(6)) and all(r["status"] == "ok" for r in rows)
+    by = {(r["scenario"], r["controller"]): r for r in rows}
+    # the metrics measure the flights: the cascade holds a hover tighter than the seed controller,
+    # a softer velocity gain tracks the step worse, a step tilts the vehicle and a hover does not
+    assert by["hover", "cascade"]["end_drift_m"] < by["hover", "seed"]["end_drift_m"]
+    assert by["step_forward", "slow"]["tracking_rms_mps"] > by["step_forward", "cascade"]["tracking_rms_mps"]
+    assert by["step_forward", "cascade"]["max_tilt_deg"] > 5 > by["hover", "cascade"]["max_tilt_deg"]
+    assert set(METRICS) <= set(rows[0])
+    assert re.search(r"^hover\s+cascade\s+1\s", two.stdout, re.M) and "6 runs: 6 ok" in two.stdout
+    png = tmp_path / "two" / "plot.png"
+    assert png.stat().st_size > 10_000 and png.read_bytes()[:4] == b"\x89PNG"
+
+
+def test_parquet_table_equals_the_csv_one(tmp_path: Path) -> None:
+    pytest.importorskip("pyarrow", reason="pyarrow (the parquet extra) is not installed")
+    text = SMALL.replace('["hover", "step_forward"]', '["hover"]')
+    assert (
+        _sweep(tmp_path, text, "--jobs", "1", "--out", str(tmp_path / "c"), "--format", "csv", "--no-plot").returncode
+        == 0
+    )
+    assert (
+        _sweep(
+            tmp_path, text, "--jobs", "1", "--out", str(tmp_path / "p"), "--format", "parquet", "--no-plot"
+        ).returncode
+        == 0
+    )
+    csv_rows, parquet_rows = read_table(tmp_path / "c" / "results.csv"), read_table(tmp_path / "p" / "results.parquet")
+    assert [repr(r) for r in csv_rows] == [repr(r) for r in parquet_rows]  # repr: NaN equals NaN
+
+
+def test_the_wind_example_on_ray_and_on_the_pool_gives_the_readme_table(tmp_path: Path) -> None:
+    """examples/sweep_wind.toml (the README's sweep) on a process pool and on a local Ray instance
+    with two workers: the same table, and the summary the README shows."""
+    pytest.importorskip("ray", reason="Ray (the ray extra) is not installed")
+    spec = str(ROOT / "examples" / "sweep_wind.toml")
+    common = ["--format", "csv", "--no-plot"]
+    pool = _run("sweep", spec, "--jobs", "2", "--out", str(tmp_path / "pool"), *common)
+    ray = _run("sweep", spec, "--ray", "--jobs", "2", "--out", str(tmp_path / "ray"), *common)
+    assert pool.returncode == ray.returncode == 1, ray.stderr[-2000:]  # the seed controller drifts off
+    assert "on Ray (local, 2 CPUs)" in ray.stdout
+    assert (tmp_path / "pool" / "results.csv").read_bytes() == (tmp_path / "ray" / "results.csv").read_bytes()
+    rows = read_table(tmp_path / "pool" / "results.csv")
+    cascade = [r for r in rows if r["controller"] == "cascade"]
+    seed = [r for r in rows if r["controller"] == "seed"]
+    assert all(r["status"] == "ok" for r in cascade) and all(r["failed_limits"] == "end_drift_m" for r in seed)
+    # the seed decides the turbulence: three seeds, three different flights, in every wind
+    for wind in ("0,90", "6,90"):
+        assert len({r["end_drift_m"] for r in cascade if r["wind"] == wind}) == 3
+    # more wind, more tilt to hold against it
+    tilt = {w: sum(r["max_tilt_deg"] for r in cascade if r["wind"] == w) for w in ("0,90", "6,90")}
+    assert tilt["6,90"] > tilt["0,90"]
+    readme = (ROOT / "README.md").read_text()
+    block = readme.split("$ python main.py sweep examples/sweep_wind.toml", 1)[1].split("```", 1)[0]
+    shown = [line for line in block.strip().splitlines()[2:] if not line.startswith(("table", "plot"))]
+    printed = [line for line in pool.stdout.splitlines()[1:] if not line.startswith(("table", "plot"))]
+    assert printed == shown
+
+
+def _run(*args: str) -> subprocess.CompletedProcess:
+    return subprocess.run(
+        [sys.executable, str(ROOT / "main.py"), *args], capture_output=True, text=True, timeout=600, cwd=ROOT
+    )
+
+
+def test_limits_fail_runs_and_only_failures_are_recorded(tmp_path: Path) -> None:
+    text = SMALL.replace("max_tilt_deg = 45", "max_tilt_deg = 5")
+    done = _sweep(
+        tmp_path, text, "--jobs", "2", "--out", str(tmp_path / "o"), "--format", "csv", "--record-failures", "--no-plot"
+    )
+    assert done.returncode == 1, done.stderr
+    rows = read_table(tmp_path / "o" / "results.csv")
+    failed = [r for r in rows if r["status"] == "fail"]
+    assert failed and all(r["scenario"] == "step_forward" and r["failed_limits"] == "max_tilt_deg" for r in failed)
+    assert all(r["status"] == "ok" for r in rows if r["scenario"] == "hover")
+    kept = sorted((tmp_path / "o" / "recordings").glob("*.mcap"))
+    assert len(kept) == len(failed)
+    assert sorted(Path(r["recording"]).name for r in failed) == [p.name for p in kept]
+    check = subprocess.run(
+        [sys.executable, str(ROOT / "main.py"), "check", str(tmp_path / "o" / "recordings"), "--jobs", "2"],
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
+    assert check.returncode == 0, check.stdout + check.stderr  # each kept failure re-flies exactly
+    assert f"{len(kept)} of {len(kept)} recordings re-fly" in check.stdout
+
+
+def test_a_crash_and_a_landing_are_in_the_table(tmp_path: Path) -> None:
+    """A script file beside the sweep file flies into the red tower (6 m ahead); another lands."""
+    (tmp_path / "into_tower.qscript").write_text(
+        "# into the tower\nz_mode height\n4.0 linear.z=1.5\n6.0 linear.x=2.0\n"
+    )
+    (tmp_path / "land.qscript").write_text("# up and down\nz_mode velocity\n2.0 linear.z=1.0\n8.0 linear.z=-1.0\n")
+    text = 'scenarios = ["into_tower.qscript", "land.qscript"]\n[limits]\ncrashes = 0\n'
+    done = _sweep(tmp_path, text, "--jobs", "1", "--out", str(tmp_path / "o"), "--format", "csv", "--no-plot")
+    assert done.returncode == 1, done.stderr
+    tower, land = read_table(tmp_path / "o" / "results.csv")
+    assert tower["scenario"] == "into_tower.qscript" and tower["crashes"] >= 1 and tower["status"] == "fail"
+    assert tower["failed_limits"] == "crashes"
+    assert land["crashes"] == 0 and land["status"] == "ok"
+    assert 0.0 < land["touchdown_speed_mps"] <= 0.5  # the landing layer's gentle touchdown
+
+
+def test_existing_table_needs_resume(tmp_path: Path) -> None:
+    text = SMALL.replace('["hover", "step_forward"]', '["hover"]')
+    out = str(tmp_path / "o")
+    assert _sweep(tmp_path, text, "--jobs", "1", "--out", out, "--format", "csv", "--no-plot").returncode == 0
+    again = _sweep(tmp_path, text, "--jobs", "1", "--out", out, "--no-plot")
+    assert again.returncode == 2 and "--resume" in again.stderr
+    resumed = _sweep(tmp_path, text, "--jobs", "1", "--out", out, "--resume", "--no-plot")
+    assert resumed.returncode == 0 and "(3 already in the table)" in resumed.stdout
+
+
+def test_ctrl_c_at_random_moments_keeps_finished_runs_and_resume_completes(tmp_path: Path) -> None:
+    text = "seeds = 3\n" + SMALL.replace("duration_s = 6.0", "duration_s = 15.0")  # 18 runs
+    t0 = time.monotonic()
+    reference = _sweep(tmp_path, text, "--jobs", "2", "--out", str(tmp_path / "ref"), "--format", "csv", "--no-plot")
+    assert reference.returncode == 0, reference.stderr
+    wall_s = time.monotonic() - t0  # the moments are spread over a whole sweep, on this machine
+    ref_bytes = (tmp_path / "ref" / "results.csv").read_bytes()
+    rng = random.Random(13)
+    spec = tmp_path / "spec.toml"
+    interrupted = 0
+    for trial in range(6):
+        out = tmp_path / f"t{trial}"
+        signum = rng.choice([signal.SIGINT, signal.SIGTERM])
+        proc = subprocess.Popen(
+            [
+                sys.executable,
+                str(ROOT / "main.py"),
+                "sweep",
+                str(spec),
+                "--jobs",
+                "2",
+                "--out",
+                str(out),
+                "--format",
+                "csv",
+                "--no-plot",
+            ],
+            stdout=subprocess.PIPE,
+            stderr=subprocess.PIPE,
+            text=True,
+            start_new_session=True,
+        )
+        time.sleep(rng.uniform(0.3, 0.9 * wall_s))
+        os.killpg(proc.pid, signum)  # as a terminal's Ctrl-C does: the whole group
+        stdout, stderr = proc.communicate(timeout=120)
+        assert "Traceback" not in stderr, stderr
+        if proc.returncode == 0:  # it had finished: nothing to resume
+            assert (out / "results.csv").read_bytes() == ref_bytes
+            continue
+        assert proc.returncode == 128 + signum, (proc.returncode, stderr)
+        interrupted += 1
+        assert _group_gone(proc.pid), _group_members(proc.pid)  # no worker left behind
+        if (out / "results.csv").exists():
+            rows = read_table(out / "results.csv")
+            assert all(r["status"] == "ok" for r in rows)
+            if len(rows) < 18:  # stopped with runs left: it says how to fly them
+                assert "--resume flies the" in stderr
+        resumed = _sweep(tmp_path, text, "--jobs", "2", "--out", str(out), "--resume", "--no-plot")
+        assert resumed.returncode == 0, resumed.stderr
+        assert (out / "results.csv").read_bytes() == ref_bytes
+    assert interrupted >= 4  # the moments fell inside the sweep, not after it
