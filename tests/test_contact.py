@@ -46,8 +46,10 @@ def _inside_tower(x: float, y: float) -> float:
 @pytest.fixture(scope="module")
 def tower_push():
     """Climb to 1.5 m and fly into the red tower at 2 m/s, then keep pushing for 3 s. Keeps the
-    deepest any rotor disc's rim or the front camera got, and the pose with the camera closest
-    while aloft (pressed against the wall; later the vehicle slides down it)."""
+    deepest any rotor disc's rim got, and the front camera while it looks at the wall (within
+    45 degrees of it: pitched over further, after the crash, it looks down at the floor and the
+    wall is not in its view), and the pose with the camera closest while aloft and looking at
+    the wall (pressed against it; later the vehicle slides down it)."""
     deepest = {"rotor": -math.inf, "camera": -math.inf}
     closest = None
     with Simulator(SimConfig(z_mode=ZMode.VELOCITY)) as sim:
@@ -63,6 +65,8 @@ def tower_push():
                 position, orientation = pb.getLinkState(physics.body_id, link, physicsClientId=physics.client_id)[4:6]
                 m = np.array(pb.getMatrixFromQuaternion(orientation)).reshape(3, 3)
                 if link == camera_link:
+                    if m[0, 0] < math.cos(math.radians(45.0)):  # not looking at the wall (+x)
+                        continue
                     depth = _inside_tower(*position[:2])
                     deepest["camera"] = max(deepest["camera"], depth)
                     s = sim.state

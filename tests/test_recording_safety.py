@@ -235,7 +235,9 @@ def test_a_write_error_on_the_file_itself_stops_recording_not_the_flight(tmp_pat
     assert result.returncode == 1 and "Traceback" not in result.stderr
     assert "its recording did not" in result.stderr
     assert "recording stopped at sim time" in result.stdout and "quadsim recover" in result.stdout
-    assert "File too large" in result.stdout  # the reason the OS gave
+    # the reason: the OS's (File too large) when our flush meets it, the MCAP writer's own I/O error
+    # when it meets it closing a chunk (a flight event's metadata record closes one)
+    assert "File too large" in result.stdout or "I/O error from writing" in result.stdout
     assert "final pose" in result.stdout  # the flight went on to the end
     assert "WARNING" not in result.stderr  # one clear message, no noise from the writer
     found = scan(out)

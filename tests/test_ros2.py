@@ -104,7 +104,7 @@ def test_replay_publishes_the_recording_as_it_plays(
     sim, report = _beside_peer(
         ros2_peer_python, ["replay", "--headless", "--ros2", "--speed", "2", str(recording)], tmp_path
     )
-    assert "publishing on ROS 2" in sim.stdout
+    assert "ROS 2: publishing on domain" in sim.stdout
     _odometry_as_recorded(report, recording)  # the recorded bytes, as they were
     assert report["image_count"] > 20
     first, last = report["clock_ns"]

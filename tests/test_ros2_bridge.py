@@ -137,5 +137,5 @@ def test_ros2_input_and_a_script_are_refused_together() -> None:
     )
     assert proc.returncode == 2
     assert proc.stderr.strip() == (
-        "quadsim: error: --input ros2 flies the Twists a ROS 2 node publishes: drop --script"
+        "quadsim: error: --script, --commands-from and --input ros2 each say where commands come from; give one"
     )
