@@ -80,7 +80,7 @@ def test_a_ros2_node_flies_quadsim_and_reads_what_it_publishes(ros2_flight: tupl
         assert sum(1 for _ in reader.commands()) >= 80  # the node's 20 Hz Twists, as the controller got them
     x, y, z = poses[-1][1]
     assert 2.0 < x < 3.5 and abs(y) < 0.2 and 1.8 < z < 3.2, poses[-1]
-    assert "flying the Twists on /quad_cmd_twist (ROS 2) for 9.0 s" in stdout
+    assert "flying the Twists ROS 2 nodes publish on /quad_cmd_twist for 9.0 s" in stdout
 
     # the node got odometry equal to quadsim's, stamped as recorded
     assert report["odom_count"] > 100
