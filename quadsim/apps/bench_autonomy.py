@@ -5,14 +5,26 @@
 - PIPELINED: how old the newest frame is when code reads it, with the simulation paced to real
   time (as a live robot program would be), in ms of simulation time;
 - the Gymnasium environments (with the `gym` extra): env steps per second at the 30 Hz agent
-  rate, one env and gymnasium.make_vec over two processes, random actions.
+  rate, one env and gymnasium.make_vec over two processes, random actions;
+- beside them, the peers' hover envs (PyFlyt's QuadX-Hover, gym-pybullet-drones' HoverAviary)
+  timed by the same loop in their own processes, where they are installed (bench_peers).
 """
 
 from __future__ import annotations
 
+import subprocess
 import time
 from collections.abc import Callable
 
+from quadsim.apps.bench_peers import (
+    PEERS,
+    PeerResult,
+    SteppingTimes,
+    measure_peer,
+    not_installed_line,
+    peer_python,
+    step_randomly,
+)
 from quadsim.core.types import Twist, ZMode
 from quadsim.physics.pybullet_quiet import pb
 from quadsim.sensors.camera import CameraSpec
@@ -81,6 +93,18 @@ def pipelined_frame_age(wall_s: float = 5.0, workers: int = 2) -> tuple[float, f
         return sum(ages) / len(ages) * to_ms, max(ages) * to_ms, len(ages), cams.frames_dropped
 
 
+def env_stepping(env_id: str, steps: int = 300) -> SteppingTimes:
+    """One env, timed by the loop the peers are timed by (random actions, resets when episodes end)."""
+    import gymnasium as gym
+
+    import quadsim.envs  # noqa: F401 - registers the environments
+
+    env = gym.make(env_id)
+    times = step_randomly(env, steps)
+    env.close()
+    return times
+
+
 def env_steps_per_s(env_id: str, num_envs: int, steps: int = 300) -> float:
     """Env steps per second (summed over the envs), random actions, after one reset."""
     import gymnasium as gym
@@ -89,16 +113,7 @@ def env_steps_per_s(env_id: str, num_envs: int, steps: int = 300) -> float:
     import quadsim.envs  # noqa: F401 - registers the environments
 
     if num_envs == 1:
-        env = gym.make(env_id)
-        env.reset(seed=0)
-        env.action_space.seed(0)
-        start = time.perf_counter()
-        for _ in range(steps):
-            if any(env.step(env.action_space.sample())[2:4]):
-                env.reset()
-        elapsed = time.perf_counter() - start
-        env.close()
-        return steps / elapsed
+        return env_stepping(env_id, steps).steps_per_s
     envs = gym.make_vec(env_id, num_envs=num_envs, vectorization_mode="async")
     envs.reset(seed=0)
     envs.action_space.seed(0)
@@ -109,6 +124,47 @@ def env_steps_per_s(env_id: str, num_envs: int, steps: int = 300) -> float:
     elapsed = time.perf_counter() - start
     envs.close()
     return float(np.float64(steps * num_envs / elapsed))
+
+
+def peer_lines(quadsim_hover: SteppingTimes, agent_hz: int = 30) -> list[str]:
+    """The peers' hover envs at `agent_hz` (and at their own default rate where it differs), each
+    against quadsim's Hover-v0 measured in this run, or why a peer is not measured."""
+    lines = [
+        f"  peers' hover envs, one env each in its own process, same loop  {'env steps/s':>12s} "
+        f"{'x real time':>12s} {'w/o resets':>11s} {'quadsim is':>11s} {'w/o resets':>11s}"
+    ]
+    for peer in PEERS:
+        python = peer_python(peer)
+        if python is None:
+            lines.append("  " + not_installed_line(peer))
+            continue
+        rates = (agent_hz,) if peer.default_agent_hz == agent_hz else (agent_hz, peer.default_agent_hz)
+        for hz in rates:
+            try:
+                found = measure_peer(peer, python, hz)
+            except (RuntimeError, OSError, subprocess.TimeoutExpired) as error:
+                lines.append(f"  {peer.name}: not measured: {error}")
+                break
+            lines.append(_peer_line(found, quadsim_hover, agent_hz))
+    lines.append(
+        f"  (quadsim/Hover-v0 here: {quadsim_hover.steps_per_s:.0f} env steps/s, "
+        f"{quadsim_hover.stepping_steps_per_s:.0f} w/o its {quadsim_hover.resets} resets; all physics at 240 Hz; "
+        "'quadsim is' compares sim-seconds per wall-second)"
+    )
+    return lines
+
+
+def _peer_line(found: PeerResult, quadsim_hover: SteppingTimes, agent_hz: int) -> str:
+    what = f"{found.peer.name} {found.version} {found.peer.env_name} @ {found.agent_hz} Hz"
+    if found.agent_hz == found.peer.default_agent_hz:
+        what += " (its default)"
+    # sim-seconds per wall-second, so that a peer at another agent rate compares honestly
+    ratio = (quadsim_hover.steps_per_s / agent_hz) / found.sim_s_per_wall_s
+    stepping_ratio = (quadsim_hover.stepping_steps_per_s / agent_hz) / (found.stepping_steps_per_s / found.agent_hz)
+    return (
+        f"  {what:62s} {found.steps_per_s:12.0f} {found.sim_s_per_wall_s:11.1f}x "
+        f"{found.stepping_steps_per_s:11.0f} {ratio:10.2f}x {stepping_ratio:10.2f}x  ({found.resets} resets)"
+    )
 
 
 def run_autonomy_bench(out: Callable[[str], None] = print) -> None:
@@ -129,9 +185,15 @@ def run_autonomy_bench(out: Callable[[str], None] = print) -> None:
         out("  Gymnasium environments: skipped (pip install 'quadsim[gym]')")
         return
     out(f"  Gymnasium envs at 30 Hz, random actions            {'env steps/s':>12s} {'x real time':>12s}")
+    hover = env_stepping("quadsim/Hover-v0")
     for env_id, what in (("quadsim/Hover-v0", "state obs"), ("quadsim/TowerVision-v0", "64x64 image obs")):
         for num_envs in (1, 2):
-            rate = env_steps_per_s(env_id, num_envs)
+            rate = (
+                hover.steps_per_s
+                if env_id == "quadsim/Hover-v0" and num_envs == 1
+                else env_steps_per_s(env_id, num_envs)
+            )
             how = "one env" if num_envs == 1 else "make_vec, 2 processes"
             out(f"  {what:16s} {how:22s}        {rate:12.0f} {rate / 30:11.1f}x")
-    out("  (PyFlyt's and gym-pybullet-drones' envs, the issue's comparison, are not measured yet)")
+    for line in peer_lines(hover):
+        out(line)
