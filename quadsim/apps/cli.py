@@ -21,7 +21,7 @@ from quadsim.control import ControllerKind
 from quadsim.core.types import StartPose, ZMode
 from quadsim.errors import QuadsimError
 from quadsim.live import FOXGLOVE_DEFAULT_ENDPOINT
-from quadsim.physics.wind import Turbulence, WindSettings, parse_wind
+from quadsim.physics.wind import Turbulence, wind_from_text
 from quadsim.recording.paths import ENV_VAR as RECORDINGS_ENV_VAR
 from quadsim.recording.paths import default_recordings_dir
 from quadsim.sensors.camera import RendererKind
@@ -267,7 +267,7 @@ def _config(args: argparse.Namespace, script_z_mode: ZMode | None):
         command_timeout_s=args.timeout,
         start=StartPose(),
         gui=args.gui,
-        wind=_wind(args),
+        wind=wind_from_text(args.wind, args.turbulence),
         sensor_noise=not args.no_sensor_noise,
         seed=args.seed,
     )
@@ -278,12 +278,6 @@ def _flight_settings(args: argparse.Namespace) -> dict[str, Any]:
     from quadsim.control.landing import LandingSettings
 
     return {"landing": LandingSettings(hard_landing=args.hard_landing), "reset_on_crash": args.reset_on_crash}
-
-
-def _wind(args: argparse.Namespace) -> WindSettings:
-    speed, from_deg = parse_wind(args.wind) if args.wind is not None else (0.0, 0.0)
-    turbulence = Turbulence(args.turbulence) if args.turbulence else None
-    return WindSettings(speed, from_deg, turbulence)
 
 
 def _outputs(args: argparse.Namespace):

@@ -32,15 +32,28 @@ class Controller(Protocol):
         """The controller's name and every gain, as plain data for recordings."""
 
 
+def gains_type(kind: ControllerKind) -> type:
+    """The frozen dataclass of `kind`'s gains (its fields are the gain names a gains file and a
+    recording use)."""
+    if kind is ControllerKind.CASCADE:
+        from quadsim.control.cascade import CascadeGains
+
+        return CascadeGains
+    from quadsim.control.seed import SeedGains
+
+    return SeedGains
+
+
 def make_controller(kind: ControllerKind, vehicle: VehicleParams, gains: dict[str, Any] | None = None) -> Controller:
     """A controller of `kind` with the gains of the vehicle's gains file (NAME.gains.toml);
     `gains` (as `describe()` gives them, e.g. from a recording) replace any of them."""
     from quadsim.control.gains import load_gains
 
+    loaded: Any = load_gains(vehicle, kind.value, gains_type(kind), gains)  # CascadeGains or SeedGains
     if kind is ControllerKind.CASCADE:
-        from quadsim.control.cascade import CascadeController, CascadeGains
+        from quadsim.control.cascade import CascadeController
 
-        return CascadeController(vehicle, load_gains(vehicle, kind.value, CascadeGains, gains))
-    from quadsim.control.seed import SeedController, SeedGains
+        return CascadeController(vehicle, loaded)
+    from quadsim.control.seed import SeedController
 
-    return SeedController(vehicle, load_gains(vehicle, kind.value, SeedGains, gains))
+    return SeedController(vehicle, loaded)

@@ -129,6 +129,13 @@ def parse_wind(text: str) -> tuple[float, float]:
     return speed, from_deg
 
 
+def wind_from_text(wind: str | None, turbulence: str | None) -> WindSettings:
+    """A run's wind as the command line and sweep files give it: `SPEED,FROM_DEG` (None: no
+    mean wind) and a turbulence level (None or "none": no turbulence)."""
+    speed, from_deg = parse_wind(wind) if wind is not None else (0.0, 0.0)
+    return WindSettings(speed, from_deg, None if turbulence in (None, "none") else Turbulence(turbulence))
+
+
 class _FirstOrder:
     """A Gauss-Markov process: the Dryden longitudinal filter, exact for its pole."""
 

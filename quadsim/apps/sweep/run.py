@@ -28,14 +28,14 @@ class RunTask:
 
 
 def _config(run: RunSpec):
-    from quadsim.apps.sweep.spec import wind_settings
+    from quadsim.physics.wind import wind_from_text
     from quadsim.sim.config import SimConfig
     from quadsim.vehicle.params import SHIPPED_VEHICLES
 
     return SimConfig(
         urdf=SHIPPED_VEHICLES[run.airframe],
         controller=run.controller.kind,
-        wind=wind_settings(run.wind, run.turbulence),
+        wind=wind_from_text(run.wind, run.turbulence),
         seed=run.seed,
     )
 

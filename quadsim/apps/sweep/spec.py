@@ -30,10 +30,10 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from quadsim.control import ControllerKind
+from quadsim.control import ControllerKind, gains_type
 from quadsim.core.toml_compat import tomllib
 from quadsim.errors import ConfigError
-from quadsim.physics.wind import Turbulence, WindSettings, parse_wind
+from quadsim.physics.wind import Turbulence, wind_from_text
 
 #: the keys a sweep file may have at its top level
 KNOWN_KEYS = {"name", "scenarios", "airframes", "seeds", "duration_s", "wind", "turbulence", "controllers", "limits"}
@@ -131,13 +131,10 @@ def _controllers(data: Any, where: str) -> list[ControllerChoice]:
 
 
 def _check_gains(kind: ControllerKind, gains: dict[str, Any], where: str) -> None:
+    """Gains the controller does not have are named now, not when a worker builds it."""
     import dataclasses
 
-    if kind is ControllerKind.CASCADE:
-        from quadsim.control.cascade import CascadeGains as gains_cls
-    else:
-        from quadsim.control.seed import SeedGains as gains_cls  # type: ignore[assignment]
-    known = [f.name for f in dataclasses.fields(gains_cls)]
+    known = [f.name for f in dataclasses.fields(gains_type(kind))]
     for g in gains:
         if g not in known:
             raise ConfigError(f"{where}: unknown {kind.value} gain {g!r}; its gains are {', '.join(known)}")
@@ -226,19 +223,12 @@ def load_sweep(path: Path) -> SweepSpec:
     return SweepSpec(name.strip(), path, runs, {k: float(v) for k, v in limits.items()}, varied)
 
 
-def wind_settings(wind: str, turbulence: str) -> WindSettings:
-    """A run's wind from the sweep file's values: `SPEED,FROM_DEG` as --wind takes it, and a
-    turbulence level or "none"."""
-    speed, from_deg = parse_wind(wind)
-    return WindSettings(speed, from_deg, None if turbulence == "none" else Turbulence(turbulence))
-
-
 TURBULENCE_LEVELS = ("none", *(t.value for t in Turbulence))
 
 
 def check_wind(text: str, where: str) -> None:
     try:
-        wind_settings(text, "none")
+        wind_from_text(text, None)
     except ConfigError as exc:
         raise ConfigError(f"{where}: {str(exc).replace('--wind', 'a wind')}") from None
 
