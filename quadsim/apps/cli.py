@@ -815,37 +815,29 @@ def cmd_check(args: argparse.Namespace) -> int:
     return 2 if unusable else (1 if failed else 0)
 
 
+#: `bench --section NAME`: (module, function, what it measures), run in this order by `all`
+BENCH_SECTIONS: dict[str, tuple[str, str, str]] = {
+    "flight": ("quadsim.apps.bench", "run_flight_core_bench", "the flight core"),
+    "recording": ("quadsim.apps.bench", "run_recording_bench", "cameras and recording"),
+    "window": ("quadsim.apps.bench", "run_interactive_bench", "the teleop window headless"),
+    "autonomy": ("quadsim.apps.bench_autonomy", "run_autonomy_bench", "camera images in code, the Gymnasium envs"),
+    "replay": ("quadsim.apps.bench", "run_replay_bench", "playback and re-simulation"),
+    "live": ("quadsim.apps.bench", "run_live_bench", "Foxglove streaming"),
+    "ros2": ("quadsim.apps.bench", "run_ros2_bench", "the ROS 2 bridge beside a real rclpy node"),
+    "sweep": ("quadsim.apps.sweep.bench", "run_sweep_bench", "a 64-run sweep on 1 worker, every core and Ray"),
+}
+
+
 def cmd_bench(args: argparse.Namespace) -> int:
-    from quadsim.apps.bench import run_flight_core_bench, run_recording_bench
+    import importlib
 
-    if args.section in ("all", "flight"):
-        run_flight_core_bench(steps=args.steps, repeats=args.repeats)
-    if args.section in ("all", "recording"):
-        run_recording_bench()
-    if args.section in ("all", "window"):
-        from quadsim.apps.bench import run_interactive_bench
-
-        run_interactive_bench()
-    if args.section in ("all", "autonomy"):
-        from quadsim.apps.bench_autonomy import run_autonomy_bench
-
-        run_autonomy_bench()
-    if args.section in ("all", "replay"):
-        from quadsim.apps.bench import run_replay_bench
-
-        run_replay_bench()
-    if args.section in ("all", "live"):
-        from quadsim.apps.bench import run_live_bench
-
-        run_live_bench()
-    if args.section in ("all", "ros2"):
-        from quadsim.apps.bench import run_ros2_bench
-
-        run_ros2_bench()
-    if args.section in ("all", "sweep"):
-        from quadsim.apps.sweep.bench import run_sweep_bench
-
-        run_sweep_bench()
+    for name, (module, function, _) in BENCH_SECTIONS.items():
+        if args.section in ("all", name):
+            run = getattr(importlib.import_module(module), function)
+            if name == "flight":
+                run(steps=args.steps, repeats=args.repeats)
+            else:
+                run()
     return 0
 
 
@@ -1073,12 +1065,9 @@ def build_parser() -> argparse.ArgumentParser:
     )
     p.add_argument(
         "--section",
-        choices=["all", "flight", "recording", "window", "autonomy", "replay", "live", "ros2", "sweep"],
+        choices=["all", *BENCH_SECTIONS],
         default="all",
-        help="flight: the flight core; recording: cameras and recording; window: the teleop "
-        "window headless; autonomy: camera images in code; replay: playback and re-simulation; live: "
-        "Foxglove streaming; ros2: the ROS 2 bridge beside a real rclpy node; sweep: a 64-run sweep on 1 worker, "
-        "every core and Ray (default: all)",
+        help="; ".join(f"{name}: {what}" for name, (_, _, what) in BENCH_SECTIONS.items()) + " (default: all)",
     )
     p.set_defaults(func=cmd_bench)
     return parser
