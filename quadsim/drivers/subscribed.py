@@ -40,7 +40,12 @@ class SubscribedDriver:
         and y are not part of the command). Returns False, and keeps nothing, for a message
         with a field that is not a finite number."""
         try:
-            twist = Twist(float(linear[0]), float(linear[1]), float(linear[2]), float(angular_z))
+            twist = Twist(
+                linear_x=float(linear[0]),
+                linear_y=float(linear[1]),
+                linear_z=float(linear[2]),
+                angular_z=float(angular_z),
+            )
         except (TypeError, ValueError, IndexError):
             twist = None
         with self._lock:
