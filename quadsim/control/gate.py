@@ -80,7 +80,7 @@ class CommandGate:
             # down to the ground: an altitude wanted below min_altitude_m lands (control/landing.py)
             vz = clamp(twist.linear_z, -HEIGHT_MODE_BASE_M, lim.max_altitude_m - HEIGHT_MODE_BASE_M)
         wz = clamp(twist.angular_z, -lim.max_yaw_rate_radps, lim.max_yaw_rate_radps)
-        return Twist(vx, vy, vz, twist.angular_x, twist.angular_y, wz)
+        return twist._replace(linear_x=vx, linear_y=vy, linear_z=vz, angular_z=wz)
 
     def set_z_mode(self, z_mode: ZMode) -> None:
         """Switch how linear.z is read; the standing command is re-clamped under the new mode."""

@@ -32,7 +32,7 @@ class ProgrammaticDriver:
                 raise TypeError(f"Twist.{name} must be a number, got {type(value).__name__}: {value!r}")
             if not math.isfinite(value):
                 raise ValueError(f"Twist.{name} must be finite, got {value}")
-        self._twist = Twist(*(float(v) for v in twist))
+        self._twist = Twist(**{name: float(v) for name, v in twist._asdict().items()})
 
     def stop(self) -> None:
         self._twist = None

@@ -78,7 +78,9 @@ def parse_script(text: str, name: str = "<script>") -> Script:
             if not sep or key not in values:
                 raise ScriptError(f"{where}: expected FIELD=VALUE with FIELD one of {', '.join(_FIELDS)}, got {word!r}")
             values[key] = _number(value, where, key)
-        segments.append(Segment(duration, None if silence else Twist(*values.values())))
+        segments.append(
+            Segment(duration, None if silence else Twist(**{f.replace(".", "_"): v for f, v in values.items()}))
+        )
     if not segments:
         raise ScriptError(f"{name}: the script has no command lines")
     return Script(name, tuple(segments), z_mode, text)

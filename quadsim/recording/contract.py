@@ -13,6 +13,7 @@ from functools import cache
 from typing import Any
 
 from quadsim.core.kinematics import Mat3, mat_mul
+from quadsim.core.types import Twist
 from quadsim.sensors.camera import LINK_FROM_OPTICAL, CameraSpec
 from quadsim.vehicle.params import CameraMount
 
@@ -61,6 +62,12 @@ WIND = Topic("/wind", "geometry_msgs/msg/Vector3Stamped")
 STATE_TOPICS = (POSE, ODOM, IMU, ROTOR_THRUSTS, TF)
 #: topics every quadsim recording has (cameras and /joy depend on the run)
 CORE_TOPICS = (TWIST.name, *(t.name for t in STATE_TOPICS), TF_STATIC.name)
+
+
+def twist_from_msg(msg: Any) -> Twist:
+    """A decoded geometry_msgs/msg/Twist as quadsim's Twist, field by field."""
+    lin, ang = msg.linear, msg.angular
+    return Twist(linear_x=lin.x, linear_y=lin.y, linear_z=lin.z, angular_x=ang.x, angular_y=ang.y, angular_z=ang.z)
 
 
 def image_topic(spec: CameraSpec) -> Topic:

@@ -152,9 +152,7 @@ def load_flight(path: Path | str) -> RecordedFlight:
                 else:
                     reader.undecodable[topic] = reader.undecodable.get(topic, 0) + 1
             elif topic == rm.TWIST.name:
-                flight.commands.append(
-                    (ns, Twist(msg.linear.x, msg.linear.y, msg.linear.z, msg.angular.x, msg.angular.y, msg.angular.z))
-                )
+                flight.commands.append((ns, rm.twist_from_msg(msg)))
             else:
                 flight.frames.setdefault(camera_of[topic], []).append((ns, bytes(msg.data)))
         flight.undecodable = dict(reader.undecodable)

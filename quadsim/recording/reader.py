@@ -195,7 +195,7 @@ class RecordingReader:
 
     def commands(self) -> Iterator[tuple[int, Twist]]:
         for ns, m in self.messages(rm.TWIST.name):
-            yield ns, Twist(m.linear.x, m.linear.y, m.linear.z, m.angular.x, m.angular.y, m.angular.z)
+            yield ns, rm.twist_from_msg(m)
 
     def poses(self) -> Iterator[tuple[int, tuple[float, float, float], tuple[float, float, float, float]]]:
         for ns, m in self.messages(rm.POSE.name):
