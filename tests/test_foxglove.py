@@ -7,6 +7,7 @@ from __future__ import annotations
 import json
 import os
 import re
+import shutil
 import socket
 import struct
 import subprocess
@@ -23,6 +24,8 @@ from quadsim.recording import cdr
 ROOT = Path(__file__).resolve().parents[1]
 CLIENT = Path(__file__).with_name("foxglove_client.py")
 ENV = {**os.environ, "SDL_VIDEODRIVER": "dummy", "SDL_AUDIODRIVER": "dummy", "PYTHONUNBUFFERED": "1"}
+OLD_NAME = ("--subprotocol", "foxglove.websocket.v1")
+NEW_NAME = ("--subprotocol", "foxglove.sdk.v1")
 IMAGES = ("/quad/front_camera/image_raw/compressed", "/quad/floor_camera/image_raw/compressed")
 
 
@@ -66,15 +69,20 @@ def test_a_client_watches_every_topic_and_flies_it_with_twists(tmp_path: Path) -
     try:
         url = _served_url(proc)
         time.sleep(1.0)  # the client joins late: latched topics must still reach it
-        # forward and up at 1 m/s and 0.5 m/s for 2 s, in JSON as the Foxglove app sends it, then silence
-        flown = _client(url, "--listen-s", "4", "--publish", "json", "--twist", "1,0,0.5,0", "--publish-s", "2")
-        # a second client, later still: CDR Twists, left (y) for 1 s
-        left = _client(url, "--listen-s", "1.5", "--publish", "cdr", "--twist", "0,1,0,0", "--publish-s", "1")
+        # forward and up at 1 m/s and 0.5 m/s for 2 s, in JSON as the Foxglove app sends it, then
+        # silence; under the protocol's original name, as Foxglove Studio 1.x and Lichtblick <= 1.21 offer
+        flown = _client(
+            url, *("--listen-s", "4", "--publish", "json", "--twist", "1,0,0.5,0", "--publish-s", "2"), *OLD_NAME
+        )
+        # a second client, later still, under foxglove-sdk's name as current apps offer: CDR Twists, left (y) for 1 s
+        left = _client(
+            url, *("--listen-s", "1.5", "--publish", "cdr", "--twist", "0,1,0,0", "--publish-s", "1"), *NEW_NAME
+        )
         out, err = proc.communicate(timeout=60)
     finally:
         proc.kill()
     assert proc.returncode == 0, err
-    assert flown["subprotocol"] in ("foxglove.sdk.v1", "foxglove.websocket.v1")
+    assert flown["subprotocol"] == "foxglove.websocket.v1" and left["subprotocol"] == "foxglove.sdk.v1"
     assert "clientPublish" in flown["serverInfo"]["capabilities"]
     assert set(flown["serverInfo"]["supportedEncodings"]) >= {"json", "cdr"}
     topics = flown["topics"]
@@ -217,3 +225,70 @@ def test_the_replay_window_hands_the_recording_to_its_feed_as_it_plays(tmp_path:
             "/tf_static",
             "/world/markers",
         ]
+
+
+NODE_CLIENT = Path(__file__).with_name("foxglove_node_client.js")
+#: the npm packages tests/foxglove_node_client.js needs, ws-protocol at the version JavaScript apps ship
+NODE_PACKAGES = (
+    "@foxglove/ws-protocol@0.8",
+    "ws@8",
+    "@foxglove/rosmsg@5",
+    "@foxglove/rosmsg2-serialization@3",
+    "jpeg-js@0.4",
+)
+NODE_CACHE = Path.home() / ".cache" / "quadsim-tests" / "foxglove-node"
+
+
+def _node_modules() -> Path:
+    """The npm client's packages, installed once into the tests' cache; skip (saying why) where
+    node or npm is missing or the registry cannot be reached."""
+    node, npm = shutil.which("node"), shutil.which("npm")
+    if node is None or npm is None:
+        pytest.skip("node and npm are needed for the @foxglove/ws-protocol client")
+    modules = NODE_CACHE / "node_modules"
+    stamp = NODE_CACHE / ".installed"
+    if stamp.exists() and stamp.read_text() == " ".join(NODE_PACKAGES):
+        return modules
+    NODE_CACHE.mkdir(parents=True, exist_ok=True)
+    done = subprocess.run(
+        [npm, "install", "--no-audit", "--no-fund", "--prefix", str(NODE_CACHE), *NODE_PACKAGES],
+        capture_output=True,
+        text=True,
+        timeout=600,
+    )
+    if done.returncode != 0:
+        pytest.skip(f"npm could not install {' '.join(NODE_PACKAGES)}: {done.stderr.strip().splitlines()[-1:]}")
+    stamp.write_text(" ".join(NODE_PACKAGES))
+    return modules
+
+
+def test_the_npm_ws_protocol_client_watches_and_flies_with_its_default_subprotocol() -> None:
+    """The client JavaScript apps build on (as Foxglove Studio 1.x and Lichtblick did), with the
+    name it offers by default: it decodes odometry and a camera frame and its Twists fly."""
+    modules = _node_modules()
+    proc = _quadsim("run", "--input", "foxglove", "--foxglove", "127.0.0.1:0", "--duration", "7", "--no-record")
+    try:
+        url = _served_url(proc)
+        done = subprocess.run(
+            ["node", str(NODE_CLIENT), url, "3.5", "2", "-1,0,0.5,0"],  # backwards and up for 2 s (it starts landed)
+            env={**ENV, "NODE_PATH": str(modules)},
+            capture_output=True,
+            text=True,
+            timeout=60,
+        )
+        out, err = proc.communicate(timeout=60)
+    finally:
+        proc.kill()
+    assert done.returncode == 0, done.stderr
+    report = json.loads(done.stdout)
+    assert proc.returncode == 0, err
+    assert report["subprotocol"] == "foxglove.websocket.v1" and "error" not in report, report
+    assert "clientPublish" in report["serverInfo"]["capabilities"]
+    assert report["undecodable"] == 0 and report["published"] > 20 and report["status"] == []
+    image = report["image"]
+    assert image["format"] == "jpeg" and (image["width"], image["height"]) == (320, 240) and image["mean"] > 20.0
+    odom = report["odom"]
+    assert len(odom) > 50
+    assert odom[-1][1] - odom[0][1] < -0.7  # backwards: x fell
+    assert odom[-1][3] - odom[0][3] > 0.5  # and it climbed
+    assert abs(odom[-1][2] - odom[0][2]) < 0.2  # not sideways

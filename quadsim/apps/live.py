@@ -34,6 +34,12 @@ def open_live_outputs(foxglove: str | None, ros2: bool, commands: SubscribedDriv
             bridge = FoxgloveBridge(host, port, commands if source == "foxglove" else None)
             takes = f"; it takes Twists on {TWIST.name} (Teleop panel)" if source == "foxglove" else ""
             print(f"Foxglove: serving {bridge.url} (Open connection -> Foxglove WebSocket){takes}", flush=True)
+            if bridge.exposed:
+                can = "watch this run and fly the vehicle" if source == "foxglove" else "watch this run"
+                print(
+                    f"Foxglove: warning: {bridge.host} is not loopback: anyone who can reach port {bridge.port} can {can}",
+                    flush=True,
+                )
             outputs.append(bridge)
         if ros2 or source == "ros2":
             from quadsim.live.ros2 import Ros2Bridge
