@@ -8,6 +8,7 @@ import json
 import os
 import re
 import shutil
+import signal
 import socket
 import struct
 import subprocess
@@ -292,3 +293,127 @@ def test_the_npm_ws_protocol_client_watches_and_flies_with_its_default_subprotoc
     assert odom[-1][1] - odom[0][1] < -0.7  # backwards: x fell
     assert odom[-1][3] - odom[0][3] > 0.5  # and it climbed
     assert abs(odom[-1][2] - odom[0][2]) < 0.2  # not sideways
+
+
+HOSTILE_CLIENT = Path(__file__).with_name("foxglove_hostile_client.py")
+
+
+def _rss_mb(pid: int) -> float:
+    for line in Path(f"/proc/{pid}/status").read_text().splitlines():
+        if line.startswith("VmRSS:"):
+            return int(line.split()[1]) / 1024
+    return 0.0
+
+
+def _hostile_run(
+    workdir: Path, hostile_name: str = "foxglove.websocket.v1", legit_name: str = "foxglove.sdk.v1"
+) -> dict:
+    """quadsim flown by a legitimate client while a hostile one sends its cases (both separate
+    processes): the server's RSS (baseline and peak), its stderr, both clients' reports."""
+    reports = {name: (workdir / f"{name}.json").open("w+") for name in ("legit", "hostile", "stderr")}
+    run = ("run", "--input", "foxglove", "--foxglove", "127.0.0.1:0", "--no-record", "--duration", "40")
+    proc = subprocess.Popen(  # stderr to a file: a server that floods it must not block on a pipe
+        [sys.executable, str(ROOT / "main.py"), *run, "--cameras", "none"],  # the case is the server, not frames
+        cwd=ROOT,
+        env=ENV,
+        stdout=subprocess.PIPE,
+        stderr=reports["stderr"],
+        text=True,
+    )
+    peak = 0.0
+    try:
+        url = _served_url(proc)
+        time.sleep(1.0)
+        baseline = _rss_mb(proc.pid)
+        flags = ("--listen-s", "14", "--publish", "json", "--twist", "0.3,0,0.2,0", "--publish-s", "14")
+        clients = [
+            subprocess.Popen(
+                [sys.executable, str(CLIENT), url, "--subprotocol", legit_name, *flags],
+                env=ENV,
+                stdout=reports["legit"],
+            ),
+            subprocess.Popen(
+                [sys.executable, str(HOSTILE_CLIENT), url, "--subprotocol", hostile_name],
+                env=ENV,
+                stdout=reports["hostile"],
+            ),
+        ]
+        while any(c.poll() is None for c in clients):
+            peak = max(peak, _rss_mb(proc.pid))
+            time.sleep(0.1)
+        after = _rss_mb(proc.pid)
+        proc.send_signal(signal.SIGINT)  # Ctrl-C: the run ends as a user ends it
+        out, _ = proc.communicate(timeout=60)
+    finally:
+        proc.kill()
+        for c in locals().get("clients", []):
+            c.kill()
+    result: dict = {"rss_mb": {"baseline": round(baseline), "peak": round(peak), "after": round(after)}}
+    for f in reports.values():
+        f.close()
+    for name in ("legit", "hostile"):
+        result[name] = json.loads((workdir / f"{name}.json").read_text())
+    err = (workdir / "stderr.json").read_bytes()
+    return {**result, "stderr_bytes": len(err), "stderr": err[-2000:].decode(errors="replace"), "stdout": out}
+
+
+@pytest.mark.slow
+def test_hostile_clients_neither_grow_nor_flood_the_server(tmp_path: Path) -> None:
+    """The cases measured in issue 17 (5 MB topic names, a 400-digit number, a 100,000-deep
+    array, floods), sent from another process while a legitimate client flies: the server's
+    memory and log stay bounded, each problem goes to the hostile client alone, the flight goes on."""
+    run = _hostile_run(tmp_path)
+    rss, hostile, legit = run["rss_mb"], run["hostile"], run["legit"]
+    assert rss["peak"] - rss["baseline"] < 40, rss  # it was +330 MB before
+    assert run["stderr_bytes"] < 1500, run["stderr"]  # a few rate-limited lines, no tracebacks
+    assert "Traceback" not in run["stderr"] and "Callback failed" not in run["stderr"]
+    # the legitimate client heard none of it, was never dropped, and flew all along
+    assert legit.get("status") is None and not legit.get("closed"), legit.get("status")
+    odom = legit["odom"]
+    assert odom[-1][1] - odom[0][1] > 2.0 and odom[-1][3] > 1.0  # 0.3 m/s forward, 0.2 m/s up for 14 s
+    # a frame over the limit closes that connection before it is read (1009: message too big)
+    assert hostile["closed"]["huge_topic_names"] == 1009
+    said = hostile["status"]
+    assert "not a Twist (a number too large for a float64)" in said["400_digit_number"][0]
+    assert "not a Twist (nested too deeply)" in said["100000_deep_array"][0]
+    assert "not a Twist" in said["flood_bad_twists"][0]
+    assert "quadsim takes only geometry_msgs/msg/Twist" in said["many_channels"][0]
+    assert all(len(m) <= 300 for m in said["many_channels"])  # client-chosen names come back cut short
+    assert "not JSON" in said["flood_bad_json_ops"][0]
+    assert "has not advertised" in said["flood_unadvertised_data"][0]
+    assert "panel_topics" not in said  # the 3D panel's topics are taken quietly
+    for case, messages in said.items():  # rate-limited: one a second at most
+        assert len(messages) <= hostile["seconds"][case] + 1, (case, len(messages))
+    assert hostile["status_bytes"] < 20_000
+    assert re.search(r"commands\s+\d+ received", run["stdout"])
+
+
+def test_serving_beyond_loopback_says_who_can_fly_and_unknown_subprotocols_get_400() -> None:
+    proc = _quadsim(
+        *("run", "--input", "foxglove", "--foxglove", "0.0.0.0:0", "--duration", "3", "--cameras", "none"),
+        "--no-record",
+    )
+    try:
+        url = _served_url(proc).replace("0.0.0.0", "127.0.0.1")
+        assert proc.stdout is not None
+        said = [proc.stdout.readline() for _ in range(2)]  # what follows the address, before the flight
+        from websockets.exceptions import InvalidStatus
+        from websockets.sync.client import connect
+
+        with pytest.raises(InvalidStatus) as refused:  # as foxglove-sdk answers a name it does not speak
+            connect(url, subprotocols=["foxglove.websocket.v2"]).close()
+        assert refused.value.response.status_code == 400
+        out, err = proc.communicate(timeout=60)
+    finally:
+        proc.kill()
+    assert proc.returncode == 0, err
+    warnings = [line for line in said + out.splitlines() if "warning" in line]
+    assert len(warnings) == 1, said
+    assert "0.0.0.0 is not loopback" in warnings[0] and "watch this run and fly the vehicle" in warnings[0]
+
+
+def test_loopback_serving_says_no_warning() -> None:
+    proc = _quadsim("run", "--script", "hover", "--duration", "0.5", "--cameras", "none", "--no-record", "--foxglove")
+    out, err = proc.communicate(timeout=60)
+    assert proc.returncode == 0, err
+    assert "serving ws://127.0.0.1:8765" in out and "warning" not in out + err

@@ -45,7 +45,7 @@ SDK_SUBPROTOCOL = "foxglove.sdk.v1"
 SUBPROTOCOLS = (SDK_SUBPROTOCOL, "foxglove.websocket.v1")
 
 MAX_FRAME_BYTES = 256 * 1024  # a Twist is 52 bytes in CDR; a subscription to 100 channels ~5 KB
-MAX_FRAMES_PER_S = 200  # the Teleop panel publishes at 10-20 Hz, a joystick node at 50 Hz
+MAX_FRAMES_PER_S = 1000  # the Teleop panel publishes at 10-20 Hz, a joystick node at 50 Hz; ~5 % of a core
 MAX_CLIENT_CHANNELS = 16
 MAX_NAME_CHARS = 256
 MAX_CLIENTS = 16
