@@ -41,7 +41,14 @@ def cases() -> Iterator[tuple[str, list[str | bytes]]]:
     yield "100000_deep_array", [advertise(7, TWIST), *[data(7, deep)] * 50]
     yield "flood_bad_twists", [advertise(7, TWIST), *[data(7, b"{not json")] * 2000]
     yield "flood_bad_json_ops", ["{" * 1000, *['{"op": "' + "z" * 1000 + '"}'] * 2000]
-    yield "flood_unadvertised_data", [data(99, b"\x00" * 100)] * 3000
+    yield "flood_unadvertised_data", [data(99, b"\x00" * 100)] * 2000
+    requests = [  # forwarded to the SDK, which answers the asking client
+        {"op": "subscribe", "subscriptions": [{"id": 5, "channelId": 99_999}]},
+        {"op": "unsubscribe", "subscriptionIds": [77_777]},
+        {"op": "fetchAsset", "uri": "file:///etc/passwd", "requestId": 1},
+        {"op": "getParameters", "parameterNames": ["x" * 1000]},
+    ]
+    yield "flood_requests_the_sdk_answers", [json.dumps(requests[i % 4]) for i in range(2000)]
     yield (
         "panel_topics",
         [

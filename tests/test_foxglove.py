@@ -381,6 +381,8 @@ def test_hostile_clients_neither_grow_nor_flood_the_server(tmp_path: Path) -> No
     assert all(len(m) <= 300 for m in said["many_channels"])  # client-chosen names come back cut short
     assert "not JSON" in said["flood_bad_json_ops"][0]
     assert "has not advertised" in said["flood_unadvertised_data"][0]
+    # the SDK's own answer to a bad request, once a second at most too (it answered each, and logged each)
+    assert "Unknown channel ID" in said["flood_requests_the_sdk_answers"][0]
     assert "panel_topics" not in said  # the 3D panel's topics are taken quietly
     for case, messages in said.items():  # rate-limited: one a second at most
         assert len(messages) <= hostile["seconds"][case] + 1, (case, len(messages))

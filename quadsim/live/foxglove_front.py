@@ -70,6 +70,8 @@ FORWARDED_OPS = frozenset(
 CLIENT_MESSAGE_DATA = 0x01  # client binary opcode: channel id u32, payload
 FORWARDED_BINARY = frozenset({0x02, 0x03})  # service call request, playback control
 STATUS_WARNING = 1
+#: where foxglove-sdk 0.30 logs (an error per bad client request); a logger's filter sees only its own records
+SDK_LOGGERS = ("foxglove.websocket", "foxglove.websocket.server", "foxglove.websocket.connected_client")
 
 
 class ClientInput(Protocol):
@@ -80,22 +82,39 @@ class ClientInput(Protocol):
     def received(self, client: FrontClient, channel_id: int, data: bytes) -> None: ...
 
 
-class _LogLimiter:
-    """One log line every LOG_EVERY_S seconds for all clients; the rest are counted."""
+class _LogLimiter(logging.Filter):
+    """One log line every LOG_EVERY_S seconds for all clients, ours and the SDK's (whose server
+    logs an error for each bad request a client makes); the rest are counted in the next."""
 
     def __init__(self) -> None:
+        super().__init__()
         self.next_s = 0.0
         self.unlogged = 0
 
-    def warning(self, text: str) -> None:
+    def _allow(self) -> str | None:
+        """None to drop the line, else what to add to it."""
         now = time.monotonic()
         if now < self.next_s:
             self.unlogged += 1
-            return
+            return None
         self.next_s = now + LOG_EVERY_S
         more = f" ({self.unlogged} more since not logged)" if self.unlogged else ""
         self.unlogged = 0
-        log.warning("%s%s", text[:MAX_STATUS_CHARS], more)
+        return more
+
+    def warning(self, text: str) -> None:
+        more = self._allow()
+        if more is not None:
+            log.warning("%s%s", text[:MAX_STATUS_CHARS], more)
+
+    def filter(self, record: logging.LogRecord) -> bool:
+        if record.levelno < logging.WARNING:
+            return True
+        more = self._allow()
+        if more is None:
+            return False
+        record.msg, record.args = record.getMessage()[:MAX_STATUS_CHARS] + more, ()
+        return True
 
 
 class FrontClient:
@@ -110,19 +129,27 @@ class FrontClient:
         self._next_status_s = 0.0
         self._untold = 0
 
-    def tell(self, message: str) -> None:
-        """A warning status to this client (one a second at most; the rest counted in the
-        next), and a line in the log when the log limiter allows."""
-        message = message if len(message) <= MAX_STATUS_CHARS else message[: MAX_STATUS_CHARS - 3] + "..."
-        self._logger.warning(f"Foxglove client {self.address}: {message}")
+    def status_allowed(self) -> str | None:
+        """None when this client had a status less than STATUS_EVERY_S ago (counted), else
+        what to add to this one."""
         now = time.monotonic()
         if now < self._next_status_s:
             self._untold += 1
-            return
+            return None
         self._next_status_s = now + STATUS_EVERY_S
-        if self._untold:
-            message += f" ({self._untold} similar problems since not reported)"
-            self._untold = 0
+        more = f" ({self._untold} similar problems since not reported)" if self._untold else ""
+        self._untold = 0
+        return more
+
+    def tell(self, message: str) -> None:
+        """A warning status to this client (one a second at most, with the SDK's answers; the
+        rest counted in the next), and a line in the log when the log limiter allows."""
+        message = message if len(message) <= MAX_STATUS_CHARS else message[: MAX_STATUS_CHARS - 3] + "..."
+        self._logger.warning(f"Foxglove client {self.address}: {message}")
+        more = self.status_allowed()
+        if more is None:
+            return
+        message += more
         text = json.dumps({"op": "status", "level": STATUS_WARNING, "message": message})
         task = asyncio.get_running_loop().create_task(self._ws.send(text))
         task.add_done_callback(lambda t: t.cancelled() or t.exception())  # a closed client is no error
@@ -143,6 +170,8 @@ class FoxgloveFront:
         self._ids = itertools.count(1)
         self._clients = 0
         self._logger = _LogLimiter()
+        for name in SDK_LOGGERS:
+            logging.getLogger(name).addFilter(self._logger)
         self._loop = asyncio.new_event_loop()
         self._server: Server | None = None
         started: list[BaseException | int] = []
@@ -195,7 +224,7 @@ class FoxgloveFront:
             async with connect(
                 self.upstream, subprotocols=[Subprotocol(SDK_SUBPROTOCOL)], max_size=None, compression=None
             ) as upstream:
-                down = asyncio.create_task(self._downstream(upstream, ws))
+                down = asyncio.create_task(self._downstream(upstream, ws, client))
                 try:
                     await self._upstream(ws, upstream, client)
                 finally:
@@ -210,10 +239,13 @@ class FoxgloveFront:
                 self.inputs.unadvertised(client, channel_id)
 
     @staticmethod
-    async def _downstream(upstream: Any, ws: ServerConnection) -> None:
+    async def _downstream(upstream: Any, ws: ServerConnection, client: FrontClient) -> None:
         """The SDK's frames to the client as they are (send waits while the client is slow, so
-        the SDK's backlog for it, bounded and dropping the oldest data, is where they wait)."""
+        the SDK's backlog for it, bounded and dropping the oldest data, is where they wait),
+        but its status answers, one per bad request, at most one a second as ours."""
         async for frame in upstream:
+            if isinstance(frame, str) and '"status"' in frame[:40] and client.status_allowed() is None:
+                continue
             await ws.send(frame)
         await ws.close()
 
@@ -304,6 +336,8 @@ class FoxgloveFront:
                 asyncio.run_coroutine_threadsafe(stop(), self._loop).result(timeout=5)
             self._loop.call_soon_threadsafe(self._loop.stop)
             self._thread.join(timeout=5)
+        for name in SDK_LOGGERS:
+            logging.getLogger(name).removeFilter(self._logger)
 
 
 def _offered(ws: ServerConnection, offered: Any) -> Subprotocol | None:
