@@ -14,11 +14,12 @@ import time
 from collections.abc import Iterator
 from typing import Any
 
-from websockets.exceptions import ConnectionClosed, InvalidHandshake
+from websockets.exceptions import ConnectionClosed, InvalidHandshake, InvalidStatus
 from websockets.sync.client import ClientConnection, connect
 
 TWIST = "/quad_cmd_twist"
 HUGE_NAME_BYTES = 5 * 1024 * 1024
+CONNECTIONS = 24
 
 
 def advertise(channel_id: int, topic: str, encoding: str = "json", schema: str = "geometry_msgs/msg/Twist") -> str:
@@ -97,6 +98,18 @@ def main() -> None:
             report["closed"][case] = code if code is not None else type(exc).__name__
         report["sent"][case] = sent
         report["seconds"][case] = round(time.monotonic() - start, 2)
+    # many connections at once: past the server's limit, each further one is refused
+    held, refused = [], []
+    for _ in range(CONNECTIONS):
+        try:
+            held.append(connect(args.url, subprotocols=[args.subprotocol], compression=None))
+        except InvalidStatus as exc:
+            refused.append(exc.response.status_code)
+        except (InvalidHandshake, OSError) as exc:
+            refused.append(type(exc).__name__)
+    for ws in held:
+        ws.close()
+    report["connections"] = {"held": len(held), "refused": refused}
     print(json.dumps(report))
 
 

@@ -387,6 +387,8 @@ def test_hostile_clients_neither_grow_nor_flood_the_server(tmp_path: Path) -> No
     for case, messages in said.items():  # rate-limited: one a second at most
         assert len(messages) <= hostile["seconds"][case] + 1, (case, len(messages))
     assert hostile["status_bytes"] < 20_000
+    # at most 16 clients at once (the legitimate one among them): the rest are refused with 503
+    assert hostile["connections"]["held"] <= 15 and set(hostile["connections"]["refused"]) == {503}
     assert re.search(r"commands\s+\d+ received", run["stdout"])
 
 
