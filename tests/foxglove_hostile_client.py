@@ -8,6 +8,7 @@ generic WebSocket library. It reconnects whenever the server closes it and print
 from __future__ import annotations
 
 import argparse
+import contextlib
 import json
 import struct
 import time
@@ -41,7 +42,15 @@ def cases() -> Iterator[tuple[str, list[str | bytes]]]:
     deep = b'{"linear": ' + b"[" * 100_000 + b"]" * 100_000 + b"}"
     yield "100000_deep_array", [advertise(7, TWIST), *[data(7, deep)] * 50]
     yield "flood_bad_twists", [advertise(7, TWIST), *[data(7, b"{not json")] * 2000]
-    yield "flood_bad_json_ops", ["{" * 1000, *['{"op": "' + "z" * 1000 + '"}'] * 2000]
+    yield (
+        "flood_bad_json_ops",
+        [
+            "{" * 1000,
+            '{"op": []}',
+            '{"op": "unadvertise", "channelIds": [[1]]}',
+            *['{"op": "' + "z" * 1000 + '"}'] * 2000,
+        ],
+    )
     yield "flood_unadvertised_data", [data(99, b"\x00" * 100)] * 2000
     requests = [  # forwarded to the SDK, which answers the asking client
         {"op": "subscribe", "subscriptions": [{"id": 5, "channelId": 99_999}]},
@@ -99,17 +108,17 @@ def main() -> None:
         report["sent"][case] = sent
         report["seconds"][case] = round(time.monotonic() - start, 2)
     # many connections at once: past the server's limit, each further one is refused
-    held, refused = [], []
-    for _ in range(CONNECTIONS):
-        try:
-            held.append(connect(args.url, subprotocols=[args.subprotocol], compression=None))
-        except InvalidStatus as exc:
-            refused.append(exc.response.status_code)
-        except (InvalidHandshake, OSError) as exc:
-            refused.append(type(exc).__name__)
-    for ws in held:
-        ws.close()
-    report["connections"] = {"held": len(held), "refused": refused}
+    held, refused = 0, []
+    with contextlib.ExitStack() as stack:
+        for _ in range(CONNECTIONS):
+            try:
+                stack.enter_context(connect(args.url, subprotocols=[args.subprotocol], compression=None))
+                held += 1
+            except InvalidStatus as exc:
+                refused.append(exc.response.status_code)
+            except (InvalidHandshake, OSError) as exc:
+                refused.append(type(exc).__name__)
+    report["connections"] = {"held": held, "refused": refused}
     print(json.dumps(report))
 
 

@@ -244,7 +244,7 @@ class FoxgloveFront:
         the SDK's backlog for it, bounded and dropping the oldest data, is where they wait),
         but its status answers, one per bad request, at most one a second as ours."""
         async for frame in upstream:
-            if isinstance(frame, str) and '"status"' in frame[:40] and client.status_allowed() is None:
+            if isinstance(frame, str) and frame.startswith('{"op":"status"') and client.status_allowed() is None:
                 continue
             await ws.send(frame)
         await ws.close()
@@ -261,10 +261,11 @@ class FoxgloveFront:
                     client.tell(f"over {MAX_FRAMES_PER_S} messages a second: the server reads them more slowly")
                     await asyncio.sleep(1.0 - (now - window_s))
                 window_s, frames = time.monotonic(), 1
-            if isinstance(frame, str):
-                forward = self._text(client, frame)
-            else:
-                forward = self._binary(client, frame)
+            try:
+                forward = self._text(client, frame) if isinstance(frame, str) else self._binary(client, frame)
+            except Exception as exc:  # a case the checks above missed: that client is told, the server goes on
+                client.tell(f"a message could not be handled ({type(exc).__name__}); it is ignored")
+                continue
             if forward:
                 await upstream.send(frame)
 
@@ -275,14 +276,14 @@ class FoxgloveFront:
             client.tell(f"a message that is not JSON ({type(exc).__name__}) is ignored")
             return False
         op = msg.get("op") if isinstance(msg, dict) else None
-        if op in FORWARDED_OPS:
+        if isinstance(op, str) and op in FORWARDED_OPS:
             return True
         if op == "advertise" and isinstance(msg.get("channels"), list):
             for channel in msg["channels"]:
                 self._advertise(client, channel)
         elif op == "unadvertise" and isinstance(msg.get("channelIds"), list):
             for channel_id in msg["channelIds"]:
-                if channel_id in client.channels:
+                if isinstance(channel_id, int) and channel_id in client.channels:
                     client.channels.discard(channel_id)
                     self.inputs.unadvertised(client, channel_id)
         else:
