@@ -22,6 +22,7 @@ that client.
 
 from __future__ import annotations
 
+import ipaddress
 import json
 import logging
 import math
@@ -35,6 +36,7 @@ from foxglove.websocket import Capability, ChannelView, Client, ServerListener
 from quadsim.errors import QuadsimError
 from quadsim.live import FOXGLOVE_DEFAULT_HOST as DEFAULT_HOST
 from quadsim.live import FOXGLOVE_DEFAULT_PORT as DEFAULT_PORT
+from quadsim.live.foxglove_front import FoxgloveFront
 from quadsim.recording import cdr
 from quadsim.recording.contract import QOS_LATCHED, TWIST, Topic
 from quadsim.recording.writer import ros2_channel
@@ -164,8 +166,6 @@ class FoxgloveBridge:
             context=self._context,
             message_backlog_size=BACKLOG_MESSAGES,
         )
-        from quadsim.live.foxglove_front import FoxgloveFront
-
         try:
             self.front = FoxgloveFront(host, port, int(self.server.port), self)
         except OSError as exc:
@@ -179,8 +179,6 @@ class FoxgloveBridge:
     def exposed(self) -> bool:
         """Served beyond this machine: anyone who can reach the port can watch (and, with
         commands, fly)."""
-        import ipaddress
-
         try:
             return not ipaddress.ip_address(self.host).is_loopback
         except ValueError:  # a host name: loopback only if it is localhost
