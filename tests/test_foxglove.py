@@ -392,7 +392,7 @@ def test_hostile_clients_neither_grow_nor_flood_the_server(tmp_path: Path) -> No
     assert re.search(r"commands\s+\d+ received", run["stdout"])
 
 
-def test_serving_beyond_loopback_says_who_can_fly_and_unknown_subprotocols_get_400() -> None:
+def test_serving_beyond_loopback_says_who_can_fly_and_the_subprotocol_is_the_clients_choice() -> None:
     proc = _quadsim(
         *("run", "--input", "foxglove", "--foxglove", "0.0.0.0:0", "--duration", "3", "--cameras", "none"),
         "--no-record",
@@ -407,6 +407,9 @@ def test_serving_beyond_loopback_says_who_can_fly_and_unknown_subprotocols_get_4
         with pytest.raises(InvalidStatus) as refused:  # as foxglove-sdk answers a name it does not speak
             connect(url, subprotocols=["foxglove.websocket.v2"]).close()
         assert refused.value.response.status_code == 400
+        for offered in (["foxglove.websocket.v1", "foxglove.sdk.v1"], ["foxglove.sdk.v1", "foxglove.websocket.v1"]):
+            with connect(url, subprotocols=offered) as ws:  # the client's first choice
+                assert ws.subprotocol == offered[0]
         out, err = proc.communicate(timeout=60)
     finally:
         proc.kill()
