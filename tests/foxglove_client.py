@@ -6,6 +6,7 @@ server advertises, decodes what arrives (CDR with rosbags), and may advertise /q
 and publish Twists on it, then go quiet. It prints one JSON report on stdout.
 
     python foxglove_client.py ws://127.0.0.1:8765 --listen-s 3 [--publish json|cdr --twist 1,0,0,0 --publish-s 2]
+        [--subprotocol foxglove.websocket.v1]
 """
 
 from __future__ import annotations
@@ -22,7 +23,7 @@ from rosbags.typesys import Stores, get_typestore
 from websockets.exceptions import ConnectionClosed
 from websockets.sync.client import connect
 
-#: the protocol's subprotocol; foxglove-sdk serves the same protocol under its newer name
+#: the protocol's names: foxglove-sdk's (current apps) and the original one (older apps, ws-protocol)
 SUBPROTOCOLS = ["foxglove.sdk.v1", "foxglove.websocket.v1"]
 MESSAGE_DATA = 0x01  # server binary opcode: subscription id u32, log time u64, payload
 CLIENT_MESSAGE_DATA = 0x01  # client binary opcode: channel id u32, payload
@@ -64,6 +65,7 @@ def main() -> None:
     ap.add_argument("--twist", default="0,0,0,0", help="linear x,y,z, angular z")
     ap.add_argument("--publish-s", type=float, default=0.0)
     ap.add_argument("--start-s", type=float, default=0.0, help="wait this long before publishing")
+    ap.add_argument("--subprotocol", choices=SUBPROTOCOLS, action="append", help="offer this name (default: both)")
     args = ap.parse_args()
     store = get_typestore(Stores.ROS2_HUMBLE)
     channels: dict[int, dict[str, Any]] = {}
@@ -71,7 +73,7 @@ def main() -> None:
     topics: dict[str, dict[str, Any]] = {}
     report: dict[str, Any] = {"topics": topics, "odom": [], "undecodable": 0}
     twist = [float(v) for v in args.twist.split(",")]
-    with connect(args.url, subprotocols=SUBPROTOCOLS, compression=None, max_size=None) as ws:
+    with connect(args.url, subprotocols=args.subprotocol or SUBPROTOCOLS, compression=None, max_size=None) as ws:
         report["subprotocol"] = ws.subprotocol
         start = time.monotonic()
         published, next_publish, advertised = 0, start + args.start_s, False

@@ -7,6 +7,8 @@ from __future__ import annotations
 import json
 import os
 import re
+import shutil
+import signal
 import socket
 import struct
 import subprocess
@@ -23,6 +25,8 @@ from quadsim.recording import cdr
 ROOT = Path(__file__).resolve().parents[1]
 CLIENT = Path(__file__).with_name("foxglove_client.py")
 ENV = {**os.environ, "SDL_VIDEODRIVER": "dummy", "SDL_AUDIODRIVER": "dummy", "PYTHONUNBUFFERED": "1"}
+OLD_NAME = ("--subprotocol", "foxglove.websocket.v1")
+NEW_NAME = ("--subprotocol", "foxglove.sdk.v1")
 IMAGES = ("/quad/front_camera/image_raw/compressed", "/quad/floor_camera/image_raw/compressed")
 
 
@@ -66,15 +70,20 @@ def test_a_client_watches_every_topic_and_flies_it_with_twists(tmp_path: Path) -
     try:
         url = _served_url(proc)
         time.sleep(1.0)  # the client joins late: latched topics must still reach it
-        # forward and up at 1 m/s and 0.5 m/s for 2 s, in JSON as the Foxglove app sends it, then silence
-        flown = _client(url, "--listen-s", "4", "--publish", "json", "--twist", "1,0,0.5,0", "--publish-s", "2")
-        # a second client, later still: CDR Twists, left (y) for 1 s
-        left = _client(url, "--listen-s", "1.5", "--publish", "cdr", "--twist", "0,1,0,0", "--publish-s", "1")
+        # forward and up at 1 m/s and 0.5 m/s for 2 s, in JSON as the Foxglove app sends it, then
+        # silence; under the protocol's original name, as Foxglove Studio 1.x and Lichtblick <= 1.21 offer
+        flown = _client(
+            url, *("--listen-s", "4", "--publish", "json", "--twist", "1,0,0.5,0", "--publish-s", "2"), *OLD_NAME
+        )
+        # a second client, later still, under foxglove-sdk's name as current apps offer: CDR Twists, left (y) for 1 s
+        left = _client(
+            url, *("--listen-s", "1.5", "--publish", "cdr", "--twist", "0,1,0,0", "--publish-s", "1"), *NEW_NAME
+        )
         out, err = proc.communicate(timeout=60)
     finally:
         proc.kill()
     assert proc.returncode == 0, err
-    assert flown["subprotocol"] in ("foxglove.sdk.v1", "foxglove.websocket.v1")
+    assert flown["subprotocol"] == "foxglove.websocket.v1" and left["subprotocol"] == "foxglove.sdk.v1"
     assert "clientPublish" in flown["serverInfo"]["capabilities"]
     assert set(flown["serverInfo"]["supportedEncodings"]) >= {"json", "cdr"}
     topics = flown["topics"]
@@ -217,3 +226,200 @@ def test_the_replay_window_hands_the_recording_to_its_feed_as_it_plays(tmp_path:
             "/tf_static",
             "/world/markers",
         ]
+
+
+NODE_CLIENT = Path(__file__).with_name("foxglove_node_client.js")
+#: the npm packages tests/foxglove_node_client.js needs, ws-protocol at the version JavaScript apps ship
+NODE_PACKAGES = (
+    "@foxglove/ws-protocol@0.8",
+    "ws@8",
+    "@foxglove/rosmsg@5",
+    "@foxglove/rosmsg2-serialization@3",
+    "jpeg-js@0.4",
+)
+NODE_CACHE = Path.home() / ".cache" / "quadsim-tests" / "foxglove-node"
+
+
+def _node_modules() -> Path:
+    """The npm client's packages, installed once into the tests' cache; skip (saying why) where
+    node or npm is missing or the registry cannot be reached."""
+    node, npm = shutil.which("node"), shutil.which("npm")
+    if node is None or npm is None:
+        pytest.skip("node and npm are needed for the @foxglove/ws-protocol client")
+    modules = NODE_CACHE / "node_modules"
+    stamp = NODE_CACHE / ".installed"
+    if stamp.exists() and stamp.read_text() == " ".join(NODE_PACKAGES):
+        return modules
+    NODE_CACHE.mkdir(parents=True, exist_ok=True)
+    done = subprocess.run(
+        [npm, "install", "--no-audit", "--no-fund", "--prefix", str(NODE_CACHE), *NODE_PACKAGES],
+        capture_output=True,
+        text=True,
+        timeout=600,
+    )
+    if done.returncode != 0:
+        pytest.skip(f"npm could not install {' '.join(NODE_PACKAGES)}: {done.stderr.strip().splitlines()[-1:]}")
+    stamp.write_text(" ".join(NODE_PACKAGES))
+    return modules
+
+
+def test_the_npm_ws_protocol_client_watches_and_flies_with_its_default_subprotocol() -> None:
+    """The client JavaScript apps build on (as Foxglove Studio 1.x and Lichtblick did), with the
+    name it offers by default: it decodes odometry and a camera frame and its Twists fly."""
+    modules = _node_modules()
+    proc = _quadsim("run", "--input", "foxglove", "--foxglove", "127.0.0.1:0", "--duration", "7", "--no-record")
+    try:
+        url = _served_url(proc)
+        done = subprocess.run(
+            ["node", str(NODE_CLIENT), url, "3.5", "2", "-1,0,0.5,0"],  # backwards and up for 2 s (it starts landed)
+            env={**ENV, "NODE_PATH": str(modules)},
+            capture_output=True,
+            text=True,
+            timeout=60,
+        )
+        out, err = proc.communicate(timeout=60)
+    finally:
+        proc.kill()
+    assert done.returncode == 0, done.stderr
+    report = json.loads(done.stdout)
+    assert proc.returncode == 0, err
+    assert report["subprotocol"] == "foxglove.websocket.v1" and "error" not in report, report
+    assert "clientPublish" in report["serverInfo"]["capabilities"]
+    assert report["undecodable"] == 0 and report["published"] > 20 and report["status"] == []
+    image = report["image"]
+    assert image["format"] == "jpeg" and (image["width"], image["height"]) == (320, 240) and image["mean"] > 20.0
+    odom = report["odom"]
+    assert len(odom) > 50
+    assert odom[-1][1] - odom[0][1] < -0.7  # backwards: x fell
+    assert odom[-1][3] - odom[0][3] > 0.5  # and it climbed
+    assert abs(odom[-1][2] - odom[0][2]) < 0.2  # not sideways
+
+
+HOSTILE_CLIENT = Path(__file__).with_name("foxglove_hostile_client.py")
+
+
+def _rss_mb(pid: int) -> float:
+    for line in Path(f"/proc/{pid}/status").read_text().splitlines():
+        if line.startswith("VmRSS:"):
+            return int(line.split()[1]) / 1024
+    return 0.0
+
+
+def _hostile_run(
+    workdir: Path, hostile_name: str = "foxglove.websocket.v1", legit_name: str = "foxglove.sdk.v1"
+) -> dict:
+    """quadsim flown by a legitimate client while a hostile one sends its cases (both separate
+    processes): the server's RSS (baseline and peak), its stderr, both clients' reports."""
+    reports = {name: (workdir / f"{name}.json").open("w+") for name in ("legit", "hostile", "stderr")}
+    run = ("run", "--input", "foxglove", "--foxglove", "127.0.0.1:0", "--no-record", "--duration", "40")
+    proc = subprocess.Popen(  # stderr to a file: a server that floods it must not block on a pipe
+        [sys.executable, str(ROOT / "main.py"), *run, "--cameras", "none"],  # the case is the server, not frames
+        cwd=ROOT,
+        env=ENV,
+        stdout=subprocess.PIPE,
+        stderr=reports["stderr"],
+        text=True,
+    )
+    peak = 0.0
+    try:
+        url = _served_url(proc)
+        time.sleep(1.0)
+        baseline = _rss_mb(proc.pid)
+        flags = ("--listen-s", "14", "--publish", "json", "--twist", "0.3,0,0.2,0", "--publish-s", "14")
+        clients = [
+            subprocess.Popen(
+                [sys.executable, str(CLIENT), url, "--subprotocol", legit_name, *flags],
+                env=ENV,
+                stdout=reports["legit"],
+            ),
+            subprocess.Popen(
+                [sys.executable, str(HOSTILE_CLIENT), url, "--subprotocol", hostile_name],
+                env=ENV,
+                stdout=reports["hostile"],
+            ),
+        ]
+        while any(c.poll() is None for c in clients):
+            peak = max(peak, _rss_mb(proc.pid))
+            time.sleep(0.1)
+        after = _rss_mb(proc.pid)
+        proc.send_signal(signal.SIGINT)  # Ctrl-C: the run ends as a user ends it
+        out, _ = proc.communicate(timeout=60)
+    finally:
+        proc.kill()
+        for c in locals().get("clients", []):
+            c.kill()
+    result: dict = {"rss_mb": {"baseline": round(baseline), "peak": round(peak), "after": round(after)}}
+    for f in reports.values():
+        f.close()
+    for name in ("legit", "hostile"):
+        result[name] = json.loads((workdir / f"{name}.json").read_text())
+    err = (workdir / "stderr.json").read_bytes()
+    return {**result, "stderr_bytes": len(err), "stderr": err[-2000:].decode(errors="replace"), "stdout": out}
+
+
+@pytest.mark.slow
+def test_hostile_clients_neither_grow_nor_flood_the_server(tmp_path: Path) -> None:
+    """The cases measured in issue 17 (5 MB topic names, a 400-digit number, a 100,000-deep
+    array, floods), sent from another process while a legitimate client flies: the server's
+    memory and log stay bounded, each problem goes to the hostile client alone, the flight goes on."""
+    run = _hostile_run(tmp_path)
+    rss, hostile, legit = run["rss_mb"], run["hostile"], run["legit"]
+    assert rss["peak"] - rss["baseline"] < 40, rss  # it was +330 MB before
+    assert run["stderr_bytes"] < 1500, run["stderr"]  # a few rate-limited lines, no tracebacks
+    assert "Traceback" not in run["stderr"] and "Callback failed" not in run["stderr"]
+    # the legitimate client heard none of it, was never dropped, and flew all along
+    assert legit.get("status") is None and not legit.get("closed"), legit.get("status")
+    odom = legit["odom"]
+    assert odom[-1][1] - odom[0][1] > 2.0 and odom[-1][3] > 1.0  # 0.3 m/s forward, 0.2 m/s up for 14 s
+    # a frame over the limit closes that connection before it is read (1009: message too big)
+    assert hostile["closed"]["huge_topic_names"] == 1009
+    said = hostile["status"]
+    assert "not a Twist (a number too large for a float64)" in said["400_digit_number"][0]
+    assert "not a Twist (nested too deeply)" in said["100000_deep_array"][0]
+    assert "not a Twist" in said["flood_bad_twists"][0]
+    assert "quadsim takes only geometry_msgs/msg/Twist" in said["many_channels"][0]
+    assert all(len(m) <= 300 for m in said["many_channels"])  # client-chosen names come back cut short
+    assert "not JSON" in said["flood_bad_json_ops"][0]
+    assert "has not advertised" in said["flood_unadvertised_data"][0]
+    # the SDK's own answer to a bad request, once a second at most too (it answered each, and logged each)
+    assert "Unknown channel ID" in said["flood_requests_the_sdk_answers"][0]
+    assert "panel_topics" not in said  # the 3D panel's topics are taken quietly
+    for case, messages in said.items():  # rate-limited: one a second at most
+        assert len(messages) <= hostile["seconds"][case] + 1, (case, len(messages))
+    assert hostile["status_bytes"] < 20_000
+    # at most 16 clients at once (the legitimate one among them): the rest are refused with 503
+    assert hostile["connections"]["held"] <= 15 and set(hostile["connections"]["refused"]) == {503}
+    assert re.search(r"commands\s+\d+ received", run["stdout"])
+
+
+def test_serving_beyond_loopback_says_who_can_fly_and_the_subprotocol_is_the_clients_choice() -> None:
+    proc = _quadsim(
+        *("run", "--input", "foxglove", "--foxglove", "0.0.0.0:0", "--duration", "3", "--cameras", "none"),
+        "--no-record",
+    )
+    try:
+        url = _served_url(proc).replace("0.0.0.0", "127.0.0.1")
+        from websockets.exceptions import InvalidStatus
+        from websockets.sync.client import connect
+
+        with pytest.raises(InvalidStatus) as refused:  # as foxglove-sdk answers a name it does not speak
+            connect(url, subprotocols=["foxglove.websocket.v2"]).close()
+        assert refused.value.response.status_code == 400
+        for offered in (["foxglove.websocket.v1", "foxglove.sdk.v1"], ["foxglove.sdk.v1", "foxglove.websocket.v1"]):
+            with connect(url, subprotocols=offered) as ws:  # the client's first choice
+                assert ws.subprotocol == offered[0]
+        out, err = proc.communicate(timeout=60)
+    finally:
+        proc.kill()
+    assert proc.returncode == 0, err
+    warnings = [line for line in err.splitlines() if "warning" in line]
+    assert len(warnings) == 1, err
+    assert warnings[0].startswith("quadsim: warning: Foxglove: ")
+    assert "0.0.0.0 is not loopback" in warnings[0] and "watch this run and fly the vehicle" in warnings[0]
+
+
+def test_loopback_serving_says_no_warning() -> None:
+    proc = _quadsim("run", "--script", "hover", "--duration", "0.5", "--cameras", "none", "--no-record", "--foxglove")
+    out, err = proc.communicate(timeout=60)
+    assert proc.returncode == 0, err
+    assert "serving ws://127.0.0.1:8765" in out and "warning" not in out + err

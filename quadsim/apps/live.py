@@ -8,6 +8,7 @@ publishes)."""
 
 from __future__ import annotations
 
+import sys
 from typing import TYPE_CHECKING
 
 from quadsim.live import FOXGLOVE_DEFAULT_ENDPOINT
@@ -34,6 +35,14 @@ def open_live_outputs(foxglove: str | None, ros2: bool, commands: SubscribedDriv
             bridge = FoxgloveBridge(host, port, commands if source == "foxglove" else None)
             takes = f"; it takes Twists on {TWIST.name} (Teleop panel)" if source == "foxglove" else ""
             print(f"Foxglove: serving {bridge.url} (Open connection -> Foxglove WebSocket){takes}", flush=True)
+            if bridge.exposed:  # said as the ROS 2 bridge says an unlimited discovery range
+                can = "watch this run and fly the vehicle" if source == "foxglove" else "watch this run"
+                print(
+                    f"quadsim: warning: Foxglove: {bridge.host} is not loopback: anyone who can reach port "
+                    f"{bridge.port} can {can}",
+                    file=sys.stderr,
+                    flush=True,
+                )
             outputs.append(bridge)
         if ros2 or source == "ros2":
             from quadsim.live.ros2 import Ros2Bridge

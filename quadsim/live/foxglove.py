@@ -10,15 +10,19 @@ connects. foxglove-sdk 0.30's Python `Client` names no sink id (the C++ and Rust
 that message goes to every subscriber of the channel: the others get again the message they
 already have, unchanged.
 
-The server speaks the Foxglove WebSocket protocol under the subprotocol name `foxglove.sdk.v1`
-(the same protocol as `foxglove.websocket.v1`, renamed by foxglove-sdk); the Foxglove app and
-foxglove_bridge 3.x clients use it. Clients may publish on /quad_cmd_twist in `json` (what the
-Foxglove app sends, as the server lists it first) or `cdr`; anything else is refused with a
-status message to that client.
+Clients reach it through `FoxgloveFront` (foxglove_front.py), which speaks the protocol under
+both its names (`foxglove.websocket.v1` for Foxglove Studio 1.x, Lichtblick <= 1.21 and the npm
+ws-protocol client; `foxglove.sdk.v1` for current apps) and relays each client to the SDK server
+on loopback; the front hands this bridge what clients publish, with a status line to that client
+alone. Clients may publish on /quad_cmd_twist in `json` (what the Foxglove app sends, as the
+server lists it first) or `cdr`. The topics Foxglove's 3D panel advertises on connect
+(PANEL_TOPICS) are taken quietly and ignored; anything else is refused with a status message to
+that client.
 """
 
 from __future__ import annotations
 
+import ipaddress
 import json
 import logging
 import math
@@ -27,17 +31,19 @@ from collections.abc import Callable, Sequence
 from typing import TYPE_CHECKING, Any
 
 import foxglove
-from foxglove.websocket import Capability, ChannelView, Client, ClientChannel, ServerListener, StatusLevel
+from foxglove.websocket import Capability, ChannelView, Client, ServerListener
 
 from quadsim.errors import QuadsimError
 from quadsim.live import FOXGLOVE_DEFAULT_HOST as DEFAULT_HOST
 from quadsim.live import FOXGLOVE_DEFAULT_PORT as DEFAULT_PORT
+from quadsim.live.foxglove_front import FoxgloveFront
 from quadsim.recording import cdr
 from quadsim.recording.contract import QOS_LATCHED, TWIST, Topic
 from quadsim.recording.writer import ros2_channel
 
 if TYPE_CHECKING:
     from quadsim.drivers.subscribed import SubscribedDriver
+    from quadsim.live.foxglove_front import FrontClient
     from quadsim.recording.fanout import Message
 
 log = logging.getLogger(__name__)
@@ -47,6 +53,14 @@ log = logging.getLogger(__name__)
 PUBLISH_ENCODINGS = ("json", "cdr")
 
 TwistFields = tuple[tuple[float, float, float], float]  # linear x y z, angular z
+
+#: what Foxglove's 3D panel advertises on every connect (its publish tools: click a point, a
+#: pose estimate, a goal) and ROS 2's Nav2 goal topic: taken quietly. Not flown: the command
+#: path takes velocities (Twists), and a goal would need a position controller it has not.
+PANEL_TOPICS = frozenset({"/clicked_point", "/move_base_simple/goal", "/initialpose", "/goal_pose"})
+#: the SDK's per-client queue of outgoing messages: oldest data dropped past it (its default is
+#: 1024, ~50 MB of camera frames for a client that stopped reading)
+BACKLOG_MESSAGES = 256
 
 
 def parse_endpoint(text: str) -> tuple[str, int]:
@@ -100,6 +114,16 @@ def twist_from_cdr(data: bytes) -> TwistFields:
 DECODERS: dict[str, Callable[[bytes], TwistFields]] = {"json": twist_from_json, "cdr": twist_from_cdr}
 
 
+def _reason(exc: BaseException) -> str:
+    """A decoding error in a few words: never the client's whole message back."""
+    if isinstance(exc, RecursionError):
+        return "nested too deeply"
+    if isinstance(exc, OverflowError):
+        return "a number too large for a float64"
+    text = str(exc)
+    return text if len(text) <= 80 else text[:77] + "..."
+
+
 class _Listener(ServerListener):
     """The server's callbacks (they come on the server's threads) handed to the bridge."""
 
@@ -108,15 +132,6 @@ class _Listener(ServerListener):
 
     def on_subscribe(self, client: Client, channel: ChannelView) -> None:
         self.bridge._send_latched(client, channel.topic)
-
-    def on_client_advertise(self, client: Client, channel: ClientChannel) -> None:
-        self.bridge._advertised(client, channel)
-
-    def on_client_unadvertise(self, client: Client, client_channel_id: int) -> None:
-        self.bridge._publishers.pop((client.id, client_channel_id), None)
-
-    def on_message_data(self, client: Client, client_channel_id: int, data: bytes) -> None:
-        self.bridge._received(client, client_channel_id, data)
 
 
 class FoxgloveBridge:
@@ -139,23 +154,35 @@ class FoxgloveBridge:
         self._latched_topics: set[str] = set()
         self._publishers: dict[tuple[int, int], Callable[[bytes], TwistFields]] = {}  # (client, channel) -> decoder
         self._lock = threading.Lock()
-        self._warned: set[str] = set()
         self.closed = False
+        # the SDK serves loopback only, the front the address asked for (clients publish to the front)
+        self.server = foxglove.start_server(
+            name=name,
+            host="127.0.0.1",
+            port=0,
+            capabilities=[Capability.ClientPublish] if commands is not None else [],
+            server_listener=_Listener(self),
+            supported_encodings=list(PUBLISH_ENCODINGS) if commands is not None else None,
+            context=self._context,
+            message_backlog_size=BACKLOG_MESSAGES,
+        )
         try:
-            self.server = foxglove.start_server(
-                name=name,
-                host=host,
-                port=port,
-                capabilities=[Capability.ClientPublish] if commands is not None else [],
-                server_listener=_Listener(self),
-                supported_encodings=list(PUBLISH_ENCODINGS) if commands is not None else None,
-                context=self._context,
-            )
-        except RuntimeError as exc:  # foxglove's errors: "FoxgloveError: Failed to bind port: ..."
-            reason = str(exc).split("Failed to bind port: ")[-1].removeprefix("FoxgloveError: ")
+            self.front = FoxgloveFront(host, port, int(self.server.port), self)
+        except OSError as exc:
+            self.server.stop()
+            reason = (exc.strerror or str(exc)).lower()
             raise QuadsimError(f"--foxglove {host}:{port}: cannot serve there ({reason})") from None
         self.host = host
-        self.port = int(self.server.port)  # the one the system chose, for port 0
+        self.port = self.front.port  # the one the system chose, for port 0
+
+    @property
+    def exposed(self) -> bool:
+        """Served beyond this machine: anyone who can reach the port can watch (and, with
+        commands, fly)."""
+        try:
+            return not ipaddress.ip_address(self.host).is_loopback
+        except ValueError:  # a host name: loopback only if it is localhost
+            return self.host != "localhost"
 
     @property
     def url(self) -> str:
@@ -196,46 +223,51 @@ class FoxgloveBridge:
             # to this client alone where the SDK names its sink; else to the channel's subscribers
             self._channels[topic].base.log(data, ns, sink_id=getattr(client, "sink_id", None))
 
-    def _advertised(self, client: Client, channel: ClientChannel) -> None:
-        commands = self.commands
-        if commands is None:
-            return
-        decoder = DECODERS.get(channel.encoding)
-        if channel.topic != commands.topic or decoder is None or not channel.schema_name.endswith("Twist"):
-            self._tell(
-                client,
-                f"quadsim takes only {TWIST.type_name} on {commands.topic}, in "
-                f"{' or '.join(PUBLISH_ENCODINGS)}; {channel.topic} ({channel.schema_name}, {channel.encoding}) "
-                f"is ignored",
-            )
-            return
-        self._publishers[(client.id, channel.id)] = decoder
+    # --- what clients publish (the front calls these on its thread) ------------------------------
 
-    def _received(self, client: Client, channel_id: int, data: bytes) -> None:
+    def advertised(self, client: FrontClient, channel: dict[str, Any]) -> None:
+        commands, topic = self.commands, channel["topic"]
+        if topic in PANEL_TOPICS:
+            return
+        decoder = DECODERS.get(channel["encoding"])
+        if (
+            commands is None
+            or topic != commands.topic
+            or decoder is None
+            or not channel["schemaName"].endswith("Twist")
+        ):
+            takes = (
+                f"takes only {TWIST.type_name} on {commands.topic}, in {' or '.join(PUBLISH_ENCODINGS)}"
+                if commands is not None
+                else "takes no messages from clients (run it with --input foxglove to fly)"
+            )
+            self._tell(client, f"quadsim {takes}; {topic} ({channel['schemaName']}, {channel['encoding']}) is ignored")
+            return
+        self._publishers[(client.id, channel["id"])] = decoder
+
+    def unadvertised(self, client: FrontClient, channel_id: int) -> None:
+        self._publishers.pop((client.id, channel_id), None)
+
+    def received(self, client: FrontClient, channel_id: int, data: bytes) -> None:
         decoder = self._publishers.get((client.id, channel_id))
         if decoder is None or self.commands is None:
             return
         try:
             linear, angular_z = decoder(data)
-        except (ValueError, TypeError) as exc:  # json's errors are ValueErrors too
-            self._tell(client, f"a message on {self.commands.topic} was not a Twist ({exc}); it is ignored")
+        except (ValueError, TypeError, OverflowError, RecursionError) as exc:  # json's errors are ValueErrors
+            self._tell(client, f"a message on {self.commands.topic} was not a Twist ({_reason(exc)}); it is ignored")
             return
         if not self.commands.deliver(linear, angular_z) and not all(map(math.isfinite, (*linear, angular_z))):
             self._tell(client, f"a Twist on {self.commands.topic} with a field that is not finite is ignored")
 
-    def _tell(self, client: Client, message: str) -> None:
-        """Say it once: in the log, and to the clients as a warning status (the SDK sends a status to all)."""
-        if message in self._warned:
-            return
-        self._warned.add(message)
-        log.warning("Foxglove client %s: %s", client.id, message)
-        try:
-            self.server.publish_status(message, StatusLevel.Warning)
-        except (RuntimeError, AttributeError, TypeError):
-            pass
+    @staticmethod
+    def _tell(client: FrontClient, message: str) -> None:
+        """To that client alone, rate-limited (the front bounds both the status and the log)."""
+        client.tell(message)
 
     def close(self) -> None:
         if self.closed:
             return
         self.closed = True
+        self.front.close()
         self.server.stop()

@@ -1,0 +1,346 @@
+"""The port Foxglove apps reach: a WebSocket front that speaks both names of the Foxglove
+WebSocket protocol, relays each client to the foxglove-sdk server on loopback, and keeps what
+clients send within bounds.
+
+Why a front: foxglove-sdk 0.30 accepts only the subprotocol name `foxglove.sdk.v1` (a constant
+in its handshake, no option) and answers HTTP 400 to `foxglove.websocket.v1`, the name
+Foxglove Studio 1.x, Lichtblick up to 1.21 and the npm `@foxglove/ws-protocol` client offer;
+the protocol under both names is the same. The front answers with the name the client offered
+and relays frames unchanged, so the SDK keeps doing what it does well (channels, subscriptions,
+latched messages, backlogs, assets). What clients publish stops here: its Python API can only
+send a status to every client and keeps client channels whatever their size, so the front takes
+client advertisements and message data itself and hands them to a `ClientInput`, with a status
+channel to that one client.
+
+Bounds, whatever a client sends: a frame over MAX_FRAME_BYTES closes its connection (1009, before
+the frame is read); at most MAX_FRAMES_PER_S frames a second are read from a client (past that
+the front stops reading and TCP slows the sender); at most MAX_CLIENT_CHANNELS advertised channels
+and MAX_NAME_CHARS in a name; at most MAX_CLIENTS connections. Problems go to that client as a
+status message, at most one a second, and to the log at most one line every LOG_EVERY_S seconds
+for all clients together.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import contextlib
+import itertools
+import json
+import logging
+import struct
+import threading
+import time
+from typing import Any, Protocol
+
+from websockets.asyncio.client import connect
+from websockets.asyncio.server import Server, ServerConnection, serve
+from websockets.exceptions import ConnectionClosed
+from websockets.http11 import Request, Response
+from websockets.typing import Subprotocol
+
+log = logging.getLogger(__name__)
+
+#: the protocol's names: foxglove-sdk's, and the one older apps and ws-protocol clients offer
+SDK_SUBPROTOCOL = "foxglove.sdk.v1"
+SUBPROTOCOLS = (SDK_SUBPROTOCOL, "foxglove.websocket.v1")
+
+MAX_FRAME_BYTES = 256 * 1024  # a Twist is 52 bytes in CDR; a subscription to 100 channels ~5 KB
+MAX_FRAMES_PER_S = 1000  # the Teleop panel publishes at 10-20 Hz, a joystick node at 50 Hz; ~5 % of a core
+MAX_CLIENT_CHANNELS = 16
+MAX_NAME_CHARS = 256
+MAX_CLIENTS = 16
+STATUS_EVERY_S = 1.0
+LOG_EVERY_S = 5.0
+MAX_STATUS_CHARS = 300
+
+#: client requests the SDK answers (to the asking client alone); anything else is refused here
+FORWARDED_OPS = frozenset(
+    {
+        "subscribe",
+        "unsubscribe",
+        "fetchAsset",
+        "getParameters",
+        "setParameters",
+        "subscribeParameterUpdates",
+        "unsubscribeParameterUpdates",
+        "subscribeConnectionGraph",
+        "unsubscribeConnectionGraph",
+    }
+)
+CLIENT_MESSAGE_DATA = 0x01  # client binary opcode: channel id u32, payload
+FORWARDED_BINARY = frozenset({0x02, 0x03})  # service call request, playback control
+STATUS_WARNING = 1
+#: where foxglove-sdk 0.30 logs (an error per bad client request); a logger's filter sees only its own records
+SDK_LOGGERS = ("foxglove.websocket", "foxglove.websocket.server", "foxglove.websocket.connected_client")
+
+
+class ClientInput(Protocol):
+    """Who takes what clients publish (called on the front's thread)."""
+
+    def advertised(self, client: FrontClient, channel: dict[str, Any]) -> None: ...
+    def unadvertised(self, client: FrontClient, channel_id: int) -> None: ...
+    def received(self, client: FrontClient, channel_id: int, data: bytes) -> None: ...
+
+
+class _LogLimiter(logging.Filter):
+    """One log line every LOG_EVERY_S seconds for all clients, ours and the SDK's (whose server
+    logs an error for each bad request a client makes); the rest are counted in the next."""
+
+    def __init__(self) -> None:
+        super().__init__()
+        self.next_s = 0.0
+        self.unlogged = 0
+
+    def _allow(self) -> str | None:
+        """None to drop the line, else what to add to it."""
+        now = time.monotonic()
+        if now < self.next_s:
+            self.unlogged += 1
+            return None
+        self.next_s = now + LOG_EVERY_S
+        more = f" ({self.unlogged} more since not logged)" if self.unlogged else ""
+        self.unlogged = 0
+        return more
+
+    def warning(self, text: str) -> None:
+        more = self._allow()
+        if more is not None:
+            log.warning("%s%s", text[:MAX_STATUS_CHARS], more)
+
+    def filter(self, record: logging.LogRecord) -> bool:
+        if record.levelno < logging.WARNING:
+            return True
+        more = self._allow()
+        if more is None:
+            return False
+        record.msg, record.args = record.getMessage()[:MAX_STATUS_CHARS] + more, ()
+        return True
+
+
+class FrontClient:
+    """One connected app: its id, its address, and `tell` for a status to it alone."""
+
+    def __init__(self, client_id: int, ws: ServerConnection, logger: _LogLimiter) -> None:
+        self.id = client_id
+        self.address = ":".join(map(str, ws.remote_address[:2])) if ws.remote_address else "?"
+        self.channels: set[int] = set()
+        self._ws = ws
+        self._logger = logger
+        self._next_status_s = 0.0
+        self._untold = 0
+
+    def status_allowed(self) -> str | None:
+        """None when this client had a status less than STATUS_EVERY_S ago (counted), else
+        what to add to this one."""
+        now = time.monotonic()
+        if now < self._next_status_s:
+            self._untold += 1
+            return None
+        self._next_status_s = now + STATUS_EVERY_S
+        more = f" ({self._untold} similar problems since not reported)" if self._untold else ""
+        self._untold = 0
+        return more
+
+    def tell(self, message: str) -> None:
+        """A warning status to this client (one a second at most, with the SDK's answers; the
+        rest counted in the next), and a line in the log when the log limiter allows."""
+        message = message if len(message) <= MAX_STATUS_CHARS else message[: MAX_STATUS_CHARS - 3] + "..."
+        self._logger.warning(f"Foxglove client {self.address}: {message}")
+        more = self.status_allowed()
+        if more is None:
+            return
+        message += more
+        text = json.dumps({"op": "status", "level": STATUS_WARNING, "message": message})
+        task = asyncio.get_running_loop().create_task(self._ws.send(text))
+        task.add_done_callback(lambda t: t.cancelled() or t.exception())  # a closed client is no error
+
+
+def _short(value: Any) -> str:
+    text = value if isinstance(value, str) else repr(value)
+    return text if len(text) <= 60 else text[:57] + "..."
+
+
+class FoxgloveFront:
+    """Serves `host:port` in a thread of its own, relaying each client to the foxglove-sdk server
+    at `ws://127.0.0.1:upstream_port`; `inputs` takes what clients publish. `close` stops it."""
+
+    def __init__(self, host: str, port: int, upstream_port: int, inputs: ClientInput) -> None:
+        self.upstream = f"ws://127.0.0.1:{upstream_port}"
+        self.inputs = inputs
+        self._ids = itertools.count(1)
+        self._clients = 0
+        self._logger = _LogLimiter()
+        for name in SDK_LOGGERS:
+            logging.getLogger(name).addFilter(self._logger)
+        self._loop = asyncio.new_event_loop()
+        self._server: Server | None = None
+        started: list[BaseException | int] = []
+        ready = threading.Event()
+
+        async def start() -> None:
+            try:
+                self._server = await serve(
+                    self._serve,
+                    host,
+                    port,
+                    subprotocols=[Subprotocol(s) for s in SUBPROTOCOLS],
+                    select_subprotocol=_offered,
+                    process_request=self._admit,
+                    max_size=MAX_FRAME_BYTES,
+                    max_queue=4,
+                    compression=None,  # images are JPEG already; deflate would cost CPU for nothing
+                )
+                started.append(self._server.sockets[0].getsockname()[1])
+            except OSError as exc:
+                started.append(exc)
+            ready.set()
+
+        def run() -> None:
+            asyncio.set_event_loop(self._loop)
+            self._loop.create_task(start())
+            self._loop.run_forever()
+
+        self._thread = threading.Thread(target=run, name="foxglove-front", daemon=True)
+        self._thread.start()
+        ready.wait()
+        if isinstance(started[0], BaseException):
+            self._loop.call_soon_threadsafe(self._loop.stop)
+            self._thread.join()
+            raise started[0]
+        self.port = int(started[0])
+
+    def _admit(self, ws: ServerConnection, request: Request) -> Response | None:
+        offered = {n.strip() for h in request.headers.get_all("Sec-WebSocket-Protocol") for n in h.split(",")}
+        if not offered & set(SUBPROTOCOLS):  # as the SDK answers a client that offers none of its names
+            return ws.respond(400, f"offer the subprotocol {' or '.join(SUBPROTOCOLS)}\n")
+        if self._clients >= MAX_CLIENTS:
+            return ws.respond(503, f"{MAX_CLIENTS} clients are connected already\n")
+        return None
+
+    async def _serve(self, ws: ServerConnection) -> None:
+        self._clients += 1
+        client = FrontClient(next(self._ids), ws, self._logger)
+        try:
+            async with connect(
+                self.upstream, subprotocols=[Subprotocol(SDK_SUBPROTOCOL)], max_size=None, compression=None
+            ) as upstream:
+                down = asyncio.create_task(self._downstream(upstream, ws, client))
+                try:
+                    await self._upstream(ws, upstream, client)
+                finally:
+                    down.cancel()
+                    with contextlib.suppress(asyncio.CancelledError, ConnectionClosed):
+                        await down
+        except (OSError, ConnectionClosed):
+            pass
+        finally:
+            self._clients -= 1
+            for channel_id in client.channels:
+                self.inputs.unadvertised(client, channel_id)
+
+    @staticmethod
+    async def _downstream(upstream: Any, ws: ServerConnection, client: FrontClient) -> None:
+        """The SDK's frames to the client as they are (send waits while the client is slow, so
+        the SDK's backlog for it, bounded and dropping the oldest data, is where they wait),
+        but its status answers, one per bad request, at most one a second as ours."""
+        async for frame in upstream:
+            if isinstance(frame, str) and frame.startswith('{"op":"status"') and client.status_allowed() is None:
+                continue
+            await ws.send(frame)
+        await ws.close()
+
+    async def _upstream(self, ws: ServerConnection, upstream: Any, client: FrontClient) -> None:
+        """The client's frames: requests the SDK answers go on, what it publishes goes to
+        `inputs`, the rest is refused with a status; never more than MAX_FRAMES_PER_S a second."""
+        window_s, frames = time.monotonic(), 0
+        async for frame in ws:
+            frames += 1
+            if frames > MAX_FRAMES_PER_S:
+                now = time.monotonic()
+                if now - window_s < 1.0:
+                    client.tell(f"over {MAX_FRAMES_PER_S} messages a second: the server reads them more slowly")
+                    await asyncio.sleep(1.0 - (now - window_s))
+                window_s, frames = time.monotonic(), 1
+            try:
+                forward = self._text(client, frame) if isinstance(frame, str) else self._binary(client, frame)
+            except Exception as exc:  # a case the checks above missed: that client is told, the server goes on
+                client.tell(f"a message could not be handled ({type(exc).__name__}); it is ignored")
+                continue
+            if forward:
+                await upstream.send(frame)
+
+    def _text(self, client: FrontClient, frame: str) -> bool:
+        try:
+            msg = json.loads(frame)
+        except (ValueError, RecursionError) as exc:  # json's errors are ValueErrors; deep nesting
+            client.tell(f"a message that is not JSON ({type(exc).__name__}) is ignored")
+            return False
+        op = msg.get("op") if isinstance(msg, dict) else None
+        if isinstance(op, str) and op in FORWARDED_OPS:
+            return True
+        if op == "advertise" and isinstance(msg.get("channels"), list):
+            for channel in msg["channels"]:
+                self._advertise(client, channel)
+        elif op == "unadvertise" and isinstance(msg.get("channelIds"), list):
+            for channel_id in msg["channelIds"]:
+                if isinstance(channel_id, int) and channel_id in client.channels:
+                    client.channels.discard(channel_id)
+                    self.inputs.unadvertised(client, channel_id)
+        else:
+            client.tell(f"a message with op {_short(op)} is not one this server takes; it is ignored")
+        return False
+
+    def _advertise(self, client: FrontClient, channel: Any) -> None:
+        fields = ("topic", "encoding", "schemaName")
+        if not (
+            isinstance(channel, dict)
+            and isinstance(channel.get("id"), int)
+            and 0 <= channel["id"] < 2**32
+            and all(isinstance(channel.get(f), str) and len(channel[f]) <= MAX_NAME_CHARS for f in fields)
+        ):
+            client.tell(
+                f"an advertised channel needs an id (u32) and {', '.join(fields)} (text of at most "
+                f"{MAX_NAME_CHARS} characters); it is ignored"
+            )
+            return
+        if channel["id"] not in client.channels and len(client.channels) >= MAX_CLIENT_CHANNELS:
+            client.tell(
+                f"at most {MAX_CLIENT_CHANNELS} advertised channels a client; {_short(channel['topic'])} is ignored"
+            )
+            return
+        client.channels.add(channel["id"])
+        self.inputs.advertised(client, channel)
+
+    def _binary(self, client: FrontClient, frame: bytes) -> bool:
+        if not frame:
+            return False
+        if frame[0] in FORWARDED_BINARY:
+            return True
+        if frame[0] == CLIENT_MESSAGE_DATA and len(frame) >= 5:
+            (channel_id,) = struct.unpack_from("<I", frame, 1)
+            if channel_id in client.channels:
+                self.inputs.received(client, channel_id, bytes(frame[5:]))
+            else:
+                client.tell(f"message data on channel {channel_id}, which this client has not advertised, is ignored")
+            return False
+        client.tell(f"a binary message with opcode {frame[0]} is not one this server takes; it is ignored")
+        return False
+
+    def close(self) -> None:
+        async def stop() -> None:
+            if self._server is not None:
+                self._server.close()
+                await self._server.wait_closed()
+
+        if self._thread.is_alive():
+            with contextlib.suppress(RuntimeError, TimeoutError):
+                asyncio.run_coroutine_threadsafe(stop(), self._loop).result(timeout=5)
+            self._loop.call_soon_threadsafe(self._loop.stop)
+            self._thread.join(timeout=5)
+        for name in SDK_LOGGERS:
+            logging.getLogger(name).removeFilter(self._logger)
+
+
+def _offered(ws: ServerConnection, offered: Any) -> Subprotocol | None:
+    """The client's first choice among the names we speak."""
+    return next((Subprotocol(name) for name in offered if name in SUBPROTOCOLS), None)
