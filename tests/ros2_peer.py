@@ -67,7 +67,14 @@ def main() -> int:
     images: list[bytes] = []
     formats: list[str] = []
     counts = dict.fromkeys(TOPICS, 0)
-    node.create_subscription(Clock, "/clock", lambda m: clock_ns.append(m.clock.sec * 10**9 + m.clock.nanosec), 10)
+    first_clock_wall_s: list[float] = []
+
+    def on_clock(m: Clock) -> None:
+        if not clock_ns:
+            first_clock_wall_s.append(time.time())
+        clock_ns.append(m.clock.sec * 10**9 + m.clock.nanosec)
+
+    node.create_subscription(Clock, "/clock", on_clock, 10)
 
     def on_odom(m: Odometry) -> None:
         p = m.pose.pose.position
@@ -134,6 +141,7 @@ def main() -> int:
         spin_for(0.5)
     report = {
         "first_message_s": first_message_s,
+        "first_clock_wall_s": first_clock_wall_s[0] if first_clock_wall_s else None,
         "clock_ns": clock_ns[:1] + clock_ns[-1:],
         "clock_count": len(clock_ns),
         "odom_count": len(odoms),

@@ -25,6 +25,7 @@ import threading
 import time
 from collections.abc import Callable, Mapping, Sequence
 from functools import cache
+from importlib import import_module
 from typing import TYPE_CHECKING, Any
 
 from quadsim.errors import QuadsimError
@@ -53,6 +54,16 @@ _LOCALHOST_CONFIG = (
     '<CycloneDDS><Domain Id="any"><General><Interfaces><NetworkInterface address="127.0.0.1"/></Interfaces>'
     "<AllowMulticast>false</AllowMulticast></General><Discovery><ParticipantIndex>auto</ParticipantIndex>"
     "<MaxAutoParticipantIndex>64</MaxAutoParticipantIndex>{peers}</Discovery></Domain></CycloneDDS>"
+)
+
+#: SUBNET (ROS 2's default): Cyclone's multicast discovery on the machine's network, plus the loopback
+#: interface, well-known unicast ports and 127.0.0.1 as a peer, so a node that limits itself to
+#: LOCALHOST (Fast DDS then only knocks on 127.0.0.1's well-known ports) still finds quadsim
+_SUBNET_CONFIG = (
+    '<CycloneDDS><Domain Id="any"><General><Interfaces><NetworkInterface autodetermine="true"/>'
+    '<NetworkInterface address="127.0.0.1"/></Interfaces></General><Discovery><ParticipantIndex>auto'
+    '</ParticipantIndex><MaxAutoParticipantIndex>64</MaxAutoParticipantIndex><Peers><Peer address="127.0.0.1"/>'
+    "</Peers></Discovery></Domain></CycloneDDS>"
 )
 
 
@@ -97,16 +108,18 @@ def discovery_config(env: Mapping[str, str]) -> str | None:
     return _LOCALHOST_CONFIG.format(peers=f"<Peers>{xml_peers}</Peers>" if xml_peers else "")
 
 
-def cyclone_config(env: Mapping[str, str]) -> str:
-    """The whole Cyclone DDS configuration: type matching by name with Fast DDS, the discovery range,
-    then the user's CYCLONEDDS_URI (Cyclone reads a comma-separated list, later entries winning)."""
-    parts = [_COMPATIBILITY_CONFIG.format(vendors=EPROSIMA_VENDOR_ID)]
+def cyclone_configs(env: Mapping[str, str]) -> list[str]:
+    """The whole Cyclone DDS configuration, best first: type matching by name with Fast DDS, the
+    discovery range, then the user's CYCLONEDDS_URI (Cyclone reads a comma-separated list, later
+    entries winning). For SUBNET, the second is Cyclone's plain default, for a machine whose only
+    interface is the loopback one (Cyclone refuses to be given it twice)."""
+    compatibility = _COMPATIBILITY_CONFIG.format(vendors=EPROSIMA_VENDOR_ID)
+    if env.get("CYCLONEDDS_URI"):
+        return [f"{compatibility},{env['CYCLONEDDS_URI']}"]
     discovery = discovery_config(env)
     if discovery:
-        parts.append(discovery)
-    if env.get("CYCLONEDDS_URI"):
-        parts.append(env["CYCLONEDDS_URI"])
-    return ",".join(parts)
+        return [f"{compatibility},{discovery}"]
+    return [f"{compatibility},{_SUBNET_CONFIG}", compatibility]
 
 
 def discovery_range(env: Mapping[str, str]) -> str:
@@ -179,14 +192,17 @@ class Ros2Bridge:
         from cyclonedds.domain import Domain, DomainParticipant
 
         self.domain_id = domain_id(env)
-        config = cyclone_config(env)
+        configs = cyclone_configs(env)
         self.discovery_range = discovery_range(env)
         with _DOMAINS_LOCK:
-            if self.domain_id not in _DOMAINS:
+            for k, config in enumerate(configs):
+                if self.domain_id in _DOMAINS:
+                    break
                 try:
                     _DOMAINS[self.domain_id] = Domain(self.domain_id, config)
                 except dds.core.DDSException as e:
-                    raise QuadsimError(f"could not join ROS 2 domain {self.domain_id}: {e}") from None
+                    if k == len(configs) - 1:
+                        raise QuadsimError(f"could not join ROS 2 domain {self.domain_id}: {e}") from None
         # IgnoreLocal: the Twist this bridge republishes (keyboard input) must not come back to it
         # user data as rmw implementations set it, read by ROS 2 tools (the security enclave)
         qos = Qos(Policy.IgnoreLocal.Participant, Policy.Userdata(b"enclave=/;"))
@@ -375,9 +391,10 @@ def _graph_types() -> tuple[Any, Any, Any]:
     """rmw_dds_common's Gid, NodeEntitiesInfo and ParticipantEntitiesInfo as Cyclone IDL types
     (rosbags' typestore does not carry rmw_dds_common; the definitions are three lines of .msg)."""
     from cyclonedds.idl import make_idl_struct
-    from cyclonedds.idl.types import array, bounded_str, sequence, uint8
 
-    gid = make_idl_struct("Gid", dds_type_name("rmw_dds_common/msg/Gid"), {"data": array[uint8, 16]})
+    types: Any = import_module("cyclonedds.idl.types")  # its generic aliases are not typed as such
+    array, bounded_str, sequence = types.array, types.bounded_str, types.sequence
+    gid = make_idl_struct("Gid", dds_type_name("rmw_dds_common/msg/Gid"), {"data": array[types.uint8, 16]})
     node = make_idl_struct(
         "NodeEntitiesInfo",
         dds_type_name("rmw_dds_common/msg/NodeEntitiesInfo"),
