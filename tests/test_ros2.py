@@ -142,14 +142,21 @@ def test_a_ros2_node_flies_quadsim_and_reads_what_it_publishes(ros2_flight: tupl
     first, last = report["clock_ns"]
     assert report["clock_count"] > 100 and last - first > 4_000_000_000
 
-    # the graph: a node /quadsim; its /tf, /tf_static (no tf2_msgs wheels: seen here, not read) and odometry writers
+    # the graph: a node /quadsim; its /tf, /tf_static (no tf2_msgs wheels: seen here, not read) and odometry
+    # writers and its Twist reader, named as quadsim's on Jazzy; Kilted's Fast DDS 3 files them under a
+    # participant key Cyclone does not send, so there they are a bare DDS application's (ros2.py, _announce)
     graph = report["graph"]
-    assert "/quadsim" in graph["nodes"]
+    assert graph["nodes"].count("/quadsim") == 1
+    owner = "_CREATED_BY_BARE_DDS_APP_/_CREATED_BY_BARE_DDS_APP_" if "kilted" in str(recording) else "/quadsim"
     publishers = graph["publishers"]
-    assert [p["type"] for p in publishers["/tf"]] == ["tf2_msgs/msg/TFMessage"]
-    assert [p["durability"] for p in publishers["/tf_static"]] == ["TRANSIENT_LOCAL"]
-    assert [p["type"] for p in publishers["/quad/odom"]] == ["nav_msgs/msg/Odometry"]
-    assert [s["type"] for s in graph["subscriptions"] if s["type"] == "geometry_msgs/msg/Twist"]
+    assert publishers["/tf"] == [
+        {"node": owner, "type": "tf2_msgs/msg/TFMessage", "durability": "VOLATILE", "reliability": "RELIABLE"}
+    ]
+    assert [(p["node"], p["durability"]) for p in publishers["/tf_static"]] == [(owner, "TRANSIENT_LOCAL")]
+    assert [(p["node"], p["type"]) for p in publishers["/quad/odom"]] == [(owner, "nav_msgs/msg/Odometry")]
+    assert [(p["node"], p["type"]) for p in publishers["/clock"]] == [(owner, "rosgraph_msgs/msg/Clock")]
+    twist_readers = [s["node"] for s in graph["subscriptions"] if s["type"] == "geometry_msgs/msg/Twist"]
+    assert twist_readers == [owner], graph["subscriptions"]
 
 
 def test_the_turn_commanded_is_the_turn_flown(ros2_flight: tuple[Path, str, str, dict]) -> None:
@@ -197,3 +204,23 @@ def test_without_cyclonedds_a_one_line_message_says_how_to_install(tmp_path: Pat
     assert sim.stderr.strip().splitlines() == [
         "quadsim: error: --ros2 and --input ros2 need Eclipse Cyclone DDS for Python: pip install 'quadsim[ros2]'"
     ]
+
+
+def test_namespace_and_remapping_name_the_topics_as_ros2_would() -> None:
+    from quadsim.errors import QuadsimError
+    from quadsim.live.ros2 import Ros2Bridge
+
+    env = local_env(free_domain(len(CASES) + 1))
+    with Ros2Bridge(env=env, namespace="robot1", remaps=["/quad_cmd_twist:=/cmd_vel", "/quad/imu:=imu_raw"]) as bridge:
+        assert bridge.graph_name("/quad/odom") == "/robot1/quad/odom"
+        assert bridge.graph_name("/clock") == "/clock"  # one clock for the whole graph
+        assert bridge.graph_name("/quad_cmd_twist") == "/cmd_vel"
+        assert bridge.graph_name("/quad/imu") == "/robot1/imu_raw"  # a relative target lands in the namespace
+        (line, warning), *rest = bridge.startup_lines(takes_twist=True)
+        assert line.startswith("ROS 2: node /robot1/quadsim on domain ") and "(discovery range LOCALHOST)" in line
+        assert not warning and rest == []  # LOCALHOST: nobody else can fly it
+    for bad in ("/quad_cmd_twist=/cmd_vel", "/quad_cmd_twist:=", "/quad cmd:=/x"):
+        with pytest.raises(QuadsimError, match="a remapping is FROM:=TO"):
+            Ros2Bridge(env=env, remaps=[bad])
+    with pytest.raises(QuadsimError, match="--ros-namespace must be a ROS 2 name"):
+        Ros2Bridge(env=env, namespace="robot 1")

@@ -270,7 +270,13 @@ class Ros2Bridge:
         return DataWriter(self._participant, DdsTopic(self._participant, "ros_discovery_info", kind), qos=qos)
 
     def _announce(self) -> None:
-        """Publish this participant's node and its endpoints (after each new endpoint)."""
+        """Publish this participant's node and its endpoints (after each new endpoint).
+
+        Fast DDS 2 (Jazzy) files a remote endpoint under its participant's GUID, so `ros2 topic info
+        -v` names quadsim's. Fast DDS 3 (Kilted) files it under the participant key of the endpoint's
+        announcement, which Cyclone does not send (PID_PARTICIPANT_GUID is optional in SEDP), so
+        there every endpoint is under key zero and shows as "_CREATED_BY_BARE_DDS_APP_"; announcing
+        the node under key zero as well would list it twice on Jazzy."""
         gid_type, node_type, info_type = _graph_types()
         endpoints = [w for w, _ in self._writers.values()]
         info = info_type(
