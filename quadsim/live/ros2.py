@@ -26,6 +26,7 @@ import time
 from collections.abc import Callable, Mapping, Sequence
 from functools import cache
 from importlib import import_module
+from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from quadsim.errors import QuadsimError
@@ -119,7 +120,25 @@ def cyclone_configs(env: Mapping[str, str]) -> list[str]:
     discovery = discovery_config(env)
     if discovery:
         return [f"{compatibility},{discovery}"]
+    if not _network_is_up():
+        return [compatibility]
     return [f"{compatibility},{_SUBNET_CONFIG}", compatibility]
+
+
+def _network_is_up() -> bool:
+    """Whether an interface other than the loopback one is up (Linux says so in /sys; elsewhere
+    assume it is, the plain default being the fallback): with none, Cyclone picks the loopback
+    interface itself and complains when given it twice."""
+    interfaces = Path("/sys/class/net")
+    if not interfaces.is_dir():
+        return True
+    for folder in interfaces.iterdir():
+        try:
+            if folder.name != "lo" and (folder / "operstate").read_text().strip() == "up":
+                return True
+        except OSError:
+            continue
+    return False
 
 
 def discovery_range(env: Mapping[str, str]) -> str:
