@@ -44,13 +44,15 @@ def ros2_python(distribution: str = "jazzy") -> tuple[Path | None, str]:
     not be made."""
     folder = venv_dir(distribution)
     python = folder / "bin" / "python"
-    ready = folder / ".ready"
-    if ready.exists() and python.exists():
+    ready = folder / ".ready"  # holds the wheels installed: an environment made for fewer is topped up
+    wheels = packages(distribution)
+    stamp = "\n".join(wheels)
+    if python.exists() and ready.exists() and ready.read_text() == stamp:
         return python, ""
     folder.parent.mkdir(parents=True, exist_ok=True)
-    wheels = packages(distribution)
     try:
-        subprocess.run([sys.executable, "-m", "venv", "--clear", str(folder)], check=True, capture_output=True)
+        if not python.exists():
+            subprocess.run([sys.executable, "-m", "venv", "--clear", str(folder)], check=True, capture_output=True)
         pip = subprocess.run(
             [str(python), "-m", "pip", "install", "--quiet", *wheels],
             capture_output=True,
@@ -63,11 +65,15 @@ def ros2_python(distribution: str = "jazzy") -> tuple[Path | None, str]:
     if pip.returncode != 0:
         tail = (pip.stderr.strip().splitlines() or ["(no output)"])[-1]
         return None, f"the ROS 2 {name} wheels ({', '.join(wheels)}) could not be installed here: {tail}"
-    check = subprocess.run([str(python), "-c", "import rclpy, geometry_msgs.msg"], capture_output=True, text=True)
+    check = subprocess.run(
+        [str(python), "-c", "import rclpy, geometry_msgs.msg, visualization_msgs.msg, rcl_interfaces.msg"],
+        capture_output=True,
+        text=True,
+    )
     if check.returncode != 0:
         tail = (check.stderr.strip().splitlines() or ["(no output)"])[-1]
         return None, f"the ROS 2 {name} wheels installed but rclpy does not import here: {tail}"
-    ready.touch()
+    ready.write_text(stamp)
     return python, ""
 
 
