@@ -246,7 +246,8 @@ def _add_live_options(p: argparse.ArgumentParser, what: str = "the run") -> None
         default="",
         metavar="NS",
         help="with --ros2 or --input ros2: the ROS 2 node quadsim is (/quadsim) lives in namespace NS and its topics "
-        "too (/NS/quad/odom; /clock stays global), like --ros-args -r __ns:=NS",
+        "too (/NS/quad/odom; /clock, /tf, /tf_static and /rosout stay global, as ROS 2 nodes name them), like "
+        "--ros-args -r __ns:=NS",
     )
     g.add_argument(
         "--ros-remap",

@@ -41,6 +41,8 @@ INSTALL_HINT = "--ros2 and --input ros2 need Eclipse Cyclone DDS for Python: pip
 CLOCK = Topic("/clock", "rosgraph_msgs/msg/Clock")
 #: /clock is published with the newest log time seen, at most this often (of simulation time)
 CLOCK_HZ = 100
+#: topics a namespace leaves alone: ROS 2 nodes use them by absolute name (tf2, rcl's logging, use_sim_time)
+GLOBAL_TOPICS = frozenset({"/clock", "/tf", "/tf_static", "/rosout"})
 #: the node this bridge is on the ROS 2 graph (`ros2 node list`)
 NODE_NAME = "quadsim"
 MAX_DOMAIN_ID = 232  # ROS 2's limit for the default port mapping
@@ -240,10 +242,11 @@ class Ros2Bridge:
         self.add_topic(CLOCK)
 
     def graph_name(self, name: str) -> str:
-        """A contract topic's name on the graph: remapped, or in the namespace (all but /clock)."""
+        """A contract topic's name on the graph: remapped, or in the namespace (but for the topics ROS 2
+        nodes name absolutely: /clock, /tf, /tf_static, /rosout)."""
         if name in self._remaps:
             return self._remaps[name]
-        if self.namespace == "/" or name == CLOCK.name:
+        if self.namespace == "/" or name in GLOBAL_TOPICS:
             return name
         return self.namespace + name
 
