@@ -5,8 +5,10 @@ DDS's Python package (the `ros2` extra), with ROS 2's naming: topic `/quad/odom`
 `rt/quad/odom`, type `nav_msgs/msg/Odometry` is `nav_msgs::msg::dds_::Odometry_`. The fan-out's
 CDR bytes go out as they are (they are what a ROS 2 publisher sends), so nothing is encoded twice
 and no ROS installation is needed. `ROS_DOMAIN_ID` and `ROS_AUTOMATIC_DISCOVERY_RANGE` (or the
-older `ROS_LOCALHOST_ONLY`) are honoured as ROS 2 Jazzy reads them; a `CYCLONEDDS_URI` the user
-set wins over the discovery range.
+older `ROS_LOCALHOST_ONLY`) are honoured as ROS 2 Jazzy and Kilted read them; a `CYCLONEDDS_URI` the
+user set wins over the discovery range. The bridge is the node `/quadsim` of the graph (it
+publishes `ros_discovery_info` as rmw implementations do), in a namespace and with topics remapped
+as `--ros-args` would.
 
 Cyclone is told to ignore the XTypes type information of eProsima Fast DDS endpoints and match
 them by type name, as rmw implementations matched before XTypes: Fast DDS 3 (ROS 2 Kilted's default
