@@ -1,9 +1,11 @@
 """A ROS 2 node run with rclpy and rmw_fastrtps_cpp in a virtual environment of its own (the ROS 2
-Jazzy wheels), as a user's node would be: it flies quadsim over /quad_cmd_twist and reads what
+Jazzy or Kilted wheels), as a user's node would be: it flies quadsim with Twists and reads what
 quadsim publishes. Not a test module: tests/test_ros2.py and the benchmark start it.
 
-    python ros2_peer.py fly OUT.json     climb, then fly forward; report odometry, images, /clock
-    python ros2_peer.py latency OUT.json publish a new climb rate every 0.25 s; report when each went out
+    python ros2_peer.py fly OUT.json [TOPIC]   climb, forward, left, turn; count every topic; read the graph
+    python ros2_peer.py latency OUT.json       publish a new climb rate every 0.25 s; report when each went out
+
+TOPIC is where the Twists go (default /quad_cmd_twist).
 """
 
 from __future__ import annotations
@@ -11,38 +13,73 @@ from __future__ import annotations
 import json
 import sys
 import time
+from typing import Any
 
 import rclpy
-from geometry_msgs.msg import Twist
+from geometry_msgs.msg import PoseStamped, Twist, Vector3Stamped
 from nav_msgs.msg import Odometry
+from rcl_interfaces.msg import Log
 from rclpy.node import Node
+from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 from rosgraph_msgs.msg import Clock
-from sensor_msgs.msg import CompressedImage
+from sensor_msgs.msg import CameraInfo, CompressedImage, Imu, Joy
+from std_msgs.msg import Float64MultiArray, String
+from visualization_msgs.msg import MarkerArray
 
 WAIT_FOR_QUADSIM_S = 90.0
+LATCHED = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.TRANSIENT_LOCAL)
+#: every contract topic the node can subscribe to with the wheels it has (no tf2_msgs: /tf is read off the graph)
+TOPICS: dict[str, tuple[Any, Any]] = {
+    "/quad/pose": (PoseStamped, 10),
+    "/quad/imu": (Imu, 10),
+    "/quad/rotor_thrusts": (Float64MultiArray, 10),
+    "/quad/floor_camera/image_raw/compressed": (CompressedImage, 10),
+    "/quad/front_camera/camera_info": (CameraInfo, 10),
+    "/quad/floor_camera/camera_info": (CameraInfo, 10),
+    "/robot_description": (String, LATCHED),
+    "/world/markers": (MarkerArray, LATCHED),
+    "/rosout": (Log, LATCHED),
+    "/wind": (Vector3Stamped, 10),
+    "/joy": (Joy, 10),
+}
+GRAPH_TOPICS = ("/quad/odom", "/tf", "/tf_static", "/clock")
+
+
+def _endpoints(infos: list[Any]) -> list[dict[str, str]]:
+    return [
+        {
+            "node": f"{i.node_namespace.rstrip('/')}/{i.node_name}",
+            "type": i.topic_type,
+            "durability": i.qos_profile.durability.name,
+            "reliability": i.qos_profile.reliability.name,
+        }
+        for i in infos
+    ]
 
 
 def main() -> int:
     mode, out = sys.argv[1], sys.argv[2]
+    cmd_topic = sys.argv[3] if len(sys.argv) > 3 else "/quad_cmd_twist"
     rclpy.init()
     node = Node("quadsim_test_peer")
     clock_ns: list[int] = []
     odoms: list[dict[str, float]] = []
     images: list[bytes] = []
     formats: list[str] = []
-    node.create_subscription(Clock, "/clock", lambda m: clock_ns.append(m.clock.sec * 10**9 + m.clock.nanosec), 10)
+    counts = dict.fromkeys(TOPICS, 0)
+    first_clock_wall_s: list[float] = []
+
+    def on_clock(m: Clock) -> None:
+        if not clock_ns:
+            first_clock_wall_s.append(time.time())
+        clock_ns.append(m.clock.sec * 10**9 + m.clock.nanosec)
+
+    node.create_subscription(Clock, "/clock", on_clock, 10)
 
     def on_odom(m: Odometry) -> None:
         p = m.pose.pose.position
-        odoms.append(
-            {
-                "ns": m.header.stamp.sec * 10**9 + m.header.stamp.nanosec,
-                "x": p.x,
-                "y": p.y,
-                "z": p.z,
-                "frame": m.header.frame_id,
-            }
-        )
+        stamp = m.header.stamp.sec * 10**9 + m.header.stamp.nanosec
+        odoms.append({"ns": stamp, "x": p.x, "y": p.y, "z": p.z, "frame": m.header.frame_id})
 
     def on_image(m: CompressedImage) -> None:
         if not images:
@@ -51,32 +88,48 @@ def main() -> int:
         else:
             images.append(b"")  # counted, not kept
 
+    def counter(name: str) -> Any:
+        return lambda _m: counts.__setitem__(name, counts[name] + 1)
+
     node.create_subscription(Odometry, "/quad/odom", on_odom, 10)
     node.create_subscription(CompressedImage, "/quad/front_camera/image_raw/compressed", on_image, 10)
-    pub = node.create_publisher(Twist, "/quad_cmd_twist", 10)
+    if mode == "fly":
+        for name, (kind, qos) in TOPICS.items():
+            node.create_subscription(kind, name, counter(name), qos)
+    pub = node.create_publisher(Twist, cmd_topic, 10)
 
     def spin_for(seconds: float) -> None:
         end = time.monotonic() + seconds
         while time.monotonic() < end:
             rclpy.spin_once(node, timeout_sec=0.005)
 
-    end = time.monotonic() + WAIT_FOR_QUADSIM_S
+    started = time.monotonic()
+    end = started + WAIT_FOR_QUADSIM_S
     while not clock_ns and time.monotonic() < end:  # quadsim is up once /clock comes
         rclpy.spin_once(node, timeout_sec=0.05)
+    first_message_s = time.monotonic() - started if clock_ns else None
     sent: list[tuple[float, float]] = []  # (climb rate, wall time published)
+    graph: dict[str, Any] = {}
 
-    def send(vx: float, vz: float, seconds: float) -> None:
+    def send(seconds: float, **fields: float) -> None:
         end = time.monotonic() + seconds
         while time.monotonic() < end:
             m = Twist()
-            m.linear.x, m.linear.z = vx, vz
+            for name, value in fields.items():
+                part, axis = name.split("_")
+                setattr(getattr(m, part), axis, value)
             pub.publish(m)
-            sent.append((vz, time.time()))
+            sent.append((m.linear.z, time.time()))
             spin_for(0.05)  # 20 Hz, as teleop_twist_joy repeats
 
     if clock_ns and mode == "fly":
-        send(0.0, 1.0, 2.5)  # climb 1 m/s
-        send(1.0, 0.0, 2.5)  # forward 1 m/s
+        send(2.5, linear_z=1.0)  # climb 1 m/s
+        send(1.5, linear_x=1.0)  # forward 1 m/s
+        send(1.5, linear_y=1.0)  # left 1 m/s
+        send(2.0, angular_z=0.5)  # turn left 0.5 rad/s
+        graph["nodes"] = sorted(f"{ns.rstrip('/')}/{name}" for name, ns in node.get_node_names_and_namespaces())
+        graph["publishers"] = {t: _endpoints(node.get_publishers_info_by_topic(t)) for t in GRAPH_TOPICS}
+        graph["subscriptions"] = _endpoints(node.get_subscriptions_info_by_topic(cmd_topic))
         spin_for(1.0)  # silence: quadsim holds after its dead-man timeout
     elif clock_ns and mode == "latency":
         for k in range(24):
@@ -87,6 +140,8 @@ def main() -> int:
             pub.publish(m)
         spin_for(0.5)
     report = {
+        "first_message_s": first_message_s,
+        "first_clock_wall_s": first_clock_wall_s[0] if first_clock_wall_s else None,
         "clock_ns": clock_ns[:1] + clock_ns[-1:],
         "clock_count": len(clock_ns),
         "odom_count": len(odoms),
@@ -95,6 +150,8 @@ def main() -> int:
         "image_count": len(images),
         "image_format": formats[0] if formats else None,
         "image_hex": images[0].hex() if images else "",
+        "counts": counts,
+        "graph": graph,
         "sent": sent,
     }
     with open(out, "w") as f:

@@ -1,10 +1,16 @@
 """quadsim on a real ROS 2 graph: a separate process running rclpy with ROS 2's default middleware
-(rmw_fastrtps_cpp, the ROS 2 Jazzy wheels in an environment of its own) flies quadsim with Twist
-messages and reads its odometry, a camera and /clock; discovery stays on this machine."""
+(rmw_fastrtps_cpp; the ROS 2 Jazzy and Kilted wheels, each in an environment of its own) flies
+quadsim with Twists on every field and reads every topic it publishes, with discovery limited to
+this machine in both processes, with discovery left at ROS 2's default in both, and (Kilted) with
+only the node limiting itself to this machine. Where quadsim's discovery is the default, the node
+flies /cmd_vel, which quadsim remaps its command topic to, as teleop_twist_keyboard would. One
+quadsim process per distribution and setting."""
 
 from __future__ import annotations
 
+import itertools
 import json
+import math
 import subprocess
 import sys
 from pathlib import Path
@@ -14,36 +20,43 @@ import numpy as np
 import pytest
 
 from quadsim.recording.reader import RecordingReader
-from tests.ros2_env import PEER, free_domain, local_env, ros2_python
+from tests.ros2_env import DISTRIBUTIONS, PEER, free_domain, local_env, ros2_python
 
 ROOT = Path(__file__).resolve().parents[1]
+#: (distribution, discovery range quadsim's environment exports, the node's: None is ROS 2's default, unset)
+CASES = [(d, r, r) for d in DISTRIBUTIONS for r in ("LOCALHOST", None)] + [("kilted", None, "LOCALHOST")]
 
 
-@pytest.fixture(scope="module")
-def ros2_peer_python() -> Path:
-    python, why = ros2_python()
+def _peer_python(distribution: str) -> Path:
+    python, why = ros2_python(distribution)
     if python is None:
         pytest.skip(why)
     return python
 
 
-def _beside_peer(python: Path, quadsim_args: list[str], folder: Path) -> tuple[subprocess.CompletedProcess[str], dict]:
+def _beside_peer(
+    python: Path,
+    quadsim_args: list[str],
+    folder: Path,
+    env: dict[str, str],
+    cmd_topic: str = "/quad_cmd_twist",
+    node_env: dict[str, str] | None = None,
+) -> tuple[subprocess.CompletedProcess[str], dict]:
     """Run quadsim with `quadsim_args` while the ROS 2 peer flies (it starts publishing once /clock
     comes); return quadsim's outcome and the peer's report."""
-    env = local_env(free_domain())
     report_path = folder / "peer.json"
     peer = subprocess.Popen(
-        [str(python), str(PEER), "fly", str(report_path)],
-        env=env,
+        [str(python), str(PEER), "fly", str(report_path), cmd_topic],
+        env=node_env or env,
         stdout=subprocess.PIPE,
         stderr=subprocess.STDOUT,
         text=True,
     )
     try:
         sim = subprocess.run(
-            [sys.executable, str(ROOT / "main.py"), *quadsim_args], env=env, capture_output=True, text=True, timeout=120
+            [sys.executable, str(ROOT / "main.py"), *quadsim_args], env=env, capture_output=True, text=True, timeout=150
         )
-        peer_out, _ = peer.communicate(timeout=120)
+        peer_out, _ = peer.communicate(timeout=150)
     finally:
         peer.kill()
     assert sim.returncode == 0, sim.stderr
@@ -51,14 +64,25 @@ def _beside_peer(python: Path, quadsim_args: list[str], folder: Path) -> tuple[s
     return sim, json.loads(report_path.read_text())
 
 
-@pytest.fixture(scope="module")
-def ros2_flight(ros2_peer_python: Path, tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, str, dict]:
-    """A run flown by the ROS 2 peer: (its recording, quadsim's output, the peer's report)."""
-    folder = tmp_path_factory.mktemp("ros2_flight")
+@pytest.fixture(scope="module", params=CASES, ids=[f"{d}-{q or 'default'}-node-{n or 'default'}" for d, q, n in CASES])
+def ros2_flight(
+    request: pytest.FixtureRequest, tmp_path_factory: pytest.TempPathFactory
+) -> tuple[Path, str, str, dict]:
+    """A run flown by the ROS 2 peer: (its recording, quadsim's stdout and stderr, the peer's report)."""
+    distribution, discovery, node_discovery = request.param
+    python = _peer_python(distribution)
+    folder = tmp_path_factory.mktemp(f"ros2_{distribution}")
     recording = folder / "flight.mcap"
-    args = ["run", "--input", "ros2", "--ros2", "--duration", "9", "--cameras", "front", "--camera-size", "160x120"]
-    sim, report = _beside_peer(ros2_peer_python, [*args, "--out", str(recording)], folder)
-    return recording, sim.stdout, report
+    args = ["run", "--input", "ros2", "--duration", "11", "--cameras", "front,floor", "--camera-size", "160x120"]
+    args += ["--wind", "1,90", "--out", str(recording)]
+    env = local_env(free_domain(CASES.index(request.param)), discovery)
+    cmd_topic = "/quad_cmd_twist"
+    if discovery is None:  # the default-discovery case also flies a remapped command topic
+        cmd_topic = "/cmd_vel"
+        args += ["--ros-remap", "/quad_cmd_twist:=/cmd_vel"]
+    node_env = local_env(free_domain(CASES.index(request.param)), node_discovery)
+    sim, report = _beside_peer(python, args, folder, env, cmd_topic, node_env)
+    return recording, sim.stdout, sim.stderr, report
 
 
 def _odometry_as_recorded(report: dict, recording: Path) -> None:
@@ -71,21 +95,43 @@ def _odometry_as_recorded(report: dict, recording: Path) -> None:
         assert odom["frame"] == "world"
 
 
-def test_a_ros2_node_flies_quadsim_and_reads_what_it_publishes(ros2_flight: tuple[Path, str, dict]) -> None:
-    recording, stdout, report = ros2_flight
+def test_a_ros2_node_flies_quadsim_and_reads_what_it_publishes(ros2_flight: tuple[Path, str, str, dict]) -> None:
+    recording, stdout, stderr, report = ros2_flight
+    remapped = "/cmd_vel" in stdout
 
-    # it flew where the commands said: 2.5 s climbing at 1 m/s, then 2.5 s forward at 1 m/s, then held
+    # the start-up line names the node, the domain and the discovery range; beyond this machine, a warning
+    assert "ROS 2: node /quadsim on domain " in stdout
+    if remapped:
+        assert "(discovery range SUBNET)" in stdout
+        assert "anyone on the network can fly this vehicle on /cmd_vel" in stderr
+    else:
+        assert "(discovery range LOCALHOST)" in stdout and "anyone on the network" not in stderr
+
+    # every Twist field the node sent reached the controller in its own field, and flew
     with RecordingReader(recording) as reader:
         poses = list(reader.poses())
-        assert sum(1 for _ in reader.commands()) >= 80  # the node's 20 Hz Twists, as the controller got them
+        commands = [twist for _, twist in reader.commands()]
+    assert len(commands) >= 120  # the node's 20 Hz Twists, as the controller got them
+    for field in ("linear_x", "linear_y", "linear_z", "angular_z"):
+        value = 1.0 if field.startswith("linear") else 0.5
+        alone = [c for c in commands if getattr(c, field) == value]
+        assert len(alone) >= 20, field
+        others = {"linear_x", "linear_y", "linear_z", "angular_z"} - {field}
+        assert all(getattr(c, other) == 0.0 for c in alone for other in others), field
     x, y, z = poses[-1][1]
-    assert 2.0 < x < 3.5 and abs(y) < 0.2 and 1.8 < z < 3.2, poses[-1]
-    assert "flying the Twists ROS 2 nodes publish on /quad_cmd_twist for 9.0 s" in stdout
+    assert 1.0 < x < 2.5 and 0.5 < y < 2.5 and 1.8 < z < 3.2, poses[-1]
 
-    # the node got odometry equal to quadsim's, stamped as recorded
+    # the node got odometry equal to quadsim's, stamped as recorded, and every other topic it can read
     assert report["odom_count"] > 100
     _odometry_as_recorded(report, recording)
-    assert report["odom_last"]["x"] > 2.0
+    counts = report["counts"]
+    for topic in ("/quad/pose", "/quad/imu", "/quad/rotor_thrusts", "/wind"):
+        assert counts[topic] > 100, (topic, counts)
+    for topic in ("/quad/floor_camera/image_raw/compressed", "/quad/front_camera/camera_info"):
+        assert counts[topic] > 20, (topic, counts)
+    assert counts["/quad/floor_camera/camera_info"] > 20, counts
+    for topic in ("/robot_description", "/world/markers", "/rosout"):  # latched: they come to a late subscriber
+        assert counts[topic] >= 1, (topic, counts)
 
     # a JPEG that decodes to the camera's size
     assert report["image_count"] > 20 and report["image_format"] == "jpeg"
@@ -96,15 +142,45 @@ def test_a_ros2_node_flies_quadsim_and_reads_what_it_publishes(ros2_flight: tupl
     first, last = report["clock_ns"]
     assert report["clock_count"] > 100 and last - first > 4_000_000_000
 
+    # the graph: a node /quadsim; its /tf, /tf_static (no tf2_msgs wheels: seen here, not read) and odometry
+    # writers and its Twist reader, named as quadsim's on Jazzy; Kilted's Fast DDS 3 files them under a
+    # participant key Cyclone does not send, so there they are a bare DDS application's (ros2.py, _announce)
+    graph = report["graph"]
+    assert graph["nodes"].count("/quadsim") == 1
+    owner = "_CREATED_BY_BARE_DDS_APP_/_CREATED_BY_BARE_DDS_APP_" if "kilted" in str(recording) else "/quadsim"
+    publishers = graph["publishers"]
+    assert publishers["/tf"] == [
+        {"node": owner, "type": "tf2_msgs/msg/TFMessage", "durability": "VOLATILE", "reliability": "RELIABLE"}
+    ]
+    assert [(p["node"], p["durability"]) for p in publishers["/tf_static"]] == [(owner, "TRANSIENT_LOCAL")]
+    assert [(p["node"], p["type"]) for p in publishers["/quad/odom"]] == [(owner, "nav_msgs/msg/Odometry")]
+    assert [(p["node"], p["type"]) for p in publishers["/clock"]] == [(owner, "rosgraph_msgs/msg/Clock")]
+    twist_readers = [s["node"] for s in graph["subscriptions"] if s["type"] == "geometry_msgs/msg/Twist"]
+    assert twist_readers == [owner], graph["subscriptions"]
 
-def test_replay_publishes_the_recording_as_it_plays(
-    ros2_peer_python: Path, ros2_flight: tuple[Path, str, dict], tmp_path: Path
-) -> None:
+
+def test_the_turn_commanded_is_the_turn_flown(ros2_flight: tuple[Path, str, str, dict]) -> None:
+    """angular.z = 0.5 rad/s turns the vehicle at 0.5 rad/s, within 10 % (the lost yaw of issue 17):
+    the heading change over the commanded time, once the turn has built up (0.3 s)."""
+    with RecordingReader(ros2_flight[0]) as reader:
+        turning = [ns for ns, twist in reader.commands() if twist.angular_z == 0.5]
+        yaw = {ns: math.atan2(2 * (w * z + x * y), 1 - 2 * (y * y + z * z)) for ns, _, (x, y, z, w) in reader.poses()}
+    start_ns, end_ns = turning[0] + 300_000_000, turning[-1]
+    times = sorted(ns for ns in yaw if start_ns <= ns <= end_ns)
+    turned = sum(math.remainder(yaw[b] - yaw[a], math.tau) for a, b in itertools.pairwise(times))
+    rate = turned / ((times[-1] - times[0]) / 1e9)
+    assert 0.45 < rate < 0.55, rate
+
+
+@pytest.mark.parametrize("ros2_flight", [CASES[2]], indirect=True, ids=["kilted-LOCALHOST"])
+def test_replay_publishes_the_recording_as_it_plays(ros2_flight: tuple[Path, str, str, dict], tmp_path: Path) -> None:
+    """Once, against the Kilted node, on the recording of its own flight (the same fixture, not a new run)."""
     recording = ros2_flight[0]
+    env = local_env(free_domain(len(CASES)))
     sim, report = _beside_peer(
-        ros2_peer_python, ["replay", "--headless", "--ros2", "--speed", "2", str(recording)], tmp_path
+        _peer_python("kilted"), ["replay", "--headless", "--ros2", "--speed", "2", str(recording)], tmp_path, env
     )
-    assert "ROS 2: publishing on domain" in sim.stdout
+    assert "ROS 2: node /quadsim on domain" in sim.stdout
     _odometry_as_recorded(report, recording)  # the recorded bytes, as they were
     assert report["image_count"] > 20
     first, last = report["clock_ns"]
@@ -128,3 +204,44 @@ def test_without_cyclonedds_a_one_line_message_says_how_to_install(tmp_path: Pat
     assert sim.stderr.strip().splitlines() == [
         "quadsim: error: --ros2 and --input ros2 need Eclipse Cyclone DDS for Python: pip install 'quadsim[ros2]'"
     ]
+
+
+def test_namespace_and_remapping_name_the_topics_as_ros2_would() -> None:
+    from quadsim.errors import QuadsimError
+    from quadsim.live.ros2 import Ros2Bridge
+
+    env = local_env(free_domain(len(CASES) + 1))
+    with Ros2Bridge(env=env, namespace="robot1", remaps=["/quad_cmd_twist:=/cmd_vel", "/quad/imu:=imu_raw"]) as bridge:
+        assert bridge.graph_name("/quad/odom") == "/robot1/quad/odom"
+        for name in ("/clock", "/tf", "/tf_static", "/rosout"):  # named absolutely by ROS 2 nodes
+            assert bridge.graph_name(name) == name
+        assert bridge.graph_name("/quad_cmd_twist") == "/cmd_vel"
+        assert bridge.graph_name("/quad/imu") == "/robot1/imu_raw"  # a relative target lands in the namespace
+        (line, warning), *rest = bridge.startup_lines(takes_twist=True)
+        assert line.startswith("ROS 2: node /robot1/quadsim on domain ") and "(discovery range LOCALHOST)" in line
+        assert not warning and rest == []  # LOCALHOST: nobody else can fly it
+    for bad in ("/quad_cmd_twist=/cmd_vel", "/quad_cmd_twist:=", "/quad cmd:=/x"):
+        with pytest.raises(QuadsimError, match="a remapping is FROM:=TO"):
+            Ros2Bridge(env=env, remaps=[bad])
+    with pytest.raises(QuadsimError, match="--ros-namespace must be a ROS 2 name"):
+        Ros2Bridge(env=env, namespace="robot 1")
+
+
+def test_every_configuration_matches_fast_dds_endpoints_by_type_name(monkeypatch: pytest.MonkeyPatch) -> None:
+    """Fast DDS 3's type information would unmatch every type with an array or a sequence (see
+    ros2.py); whatever the discovery range, Cyclone is told to ignore eProsima's, and a
+    CYCLONEDDS_URI the user set comes last, so it wins."""
+    from quadsim.live import ros2
+    from quadsim.live.ros2 import cyclone_configs
+
+    ignore = "<IgnoreTypeInformation>1.15</IgnoreTypeInformation>"
+    monkeypatch.setattr(ros2, "_network_is_up", lambda: False)  # only the loopback interface: Cyclone's default
+    assert cyclone_configs({}) == [ros2._COMPATIBILITY_CONFIG.format(vendors="1.15")]
+    monkeypatch.setattr(ros2, "_network_is_up", lambda: True)
+    subnet = cyclone_configs({})
+    assert all(ignore in config for config in subnet)
+    assert '<NetworkInterface address="127.0.0.1"/>' in subnet[0] and '<Peer address="127.0.0.1"/>' in subnet[0]
+    (local,) = cyclone_configs({"ROS_AUTOMATIC_DISCOVERY_RANGE": "LOCALHOST"})
+    assert ignore in local and "<AllowMulticast>false</AllowMulticast>" in local
+    (own,) = cyclone_configs({"CYCLONEDDS_URI": "file:///etc/mine.xml"})
+    assert own.startswith("<CycloneDDS>") and ignore in own and own.endswith(",file:///etc/mine.xml")

@@ -566,17 +566,20 @@ def run_replay_bench(out: Callable[[str], None] = print, flight_s: float = 20.0)
         )
 
 
-def _ros2_peer() -> tuple[Path, Path] | None:
+#: the ROS 2 distributions the bench flies from, oldest supported and newest (tests/ros2_env.py makes them)
+ROS2_DISTRIBUTIONS = ("jazzy", "kilted")
+
+
+def _ros2_peer(distribution: str) -> tuple[Path, Path] | None:
     """The ROS 2 node of the tests (tests/ros2_peer.py, in a clone) and the Python of the ROS 2
-    Jazzy environment tests/test_ros2.py makes; None where either is missing."""
+    `distribution` environment tests/test_ros2.py makes; None where either is missing."""
     import os
     import sys
 
     script = Path(__file__).resolve().parents[2] / "tests" / "ros2_peer.py"
     cache = Path(os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache")
-    python = (
-        cache / "quadsim-tests" / f"ros2-jazzy-py{sys.version_info.major}{sys.version_info.minor}" / "bin" / "python"
-    )
+    tag = f"py{sys.version_info.major}{sys.version_info.minor}"
+    python = cache / "quadsim-tests" / f"ros2-{distribution}-{tag}" / "bin" / "python"
     return (python, script) if script.exists() and python.exists() else None
 
 
@@ -614,10 +617,32 @@ def _realtime_cameras_run(wall_s: float, live: tuple[Any, ...], driver: Any, sin
 
 
 def run_ros2_bench(out: Callable[[str], None] = print, wall_s: float = 12.0) -> None:
-    """The ROS 2 bridge in a real-time run with both cameras, beside a real rclpy node (rmw_fastrtps_cpp)
-    subscribed to odometry, a camera and /clock and publishing a new Twist every 0.25 s: the
-    bridge's CPU share against the same run without it, and the latency from the node's publish
-    to the controller getting the command (its rotor forces are computed in that same step)."""
+    """The ROS 2 bridge in a real-time run with both cameras, beside a real rclpy node (rmw_fastrtps_cpp,
+    ROS 2 Jazzy and Kilted in turn) subscribed to odometry, a camera and /clock and publishing a new
+    Twist every 0.25 s: the bridge's CPU share against the same run without it, the time from the
+    bridge's start to the node's first message, and the latency from the node's publish to the
+    controller getting the command (its rotor forces are computed in that same step)."""
+    from quadsim.drivers.subscribed import SubscribedDriver
+
+    out("## ROS 2 bridge (real time, both cameras, recorded)")
+    peers = {d: _ros2_peer(d) for d in ROS2_DISTRIBUTIONS}
+    if not any(peers.values()):
+        out("skipped: needs a clone's tests/ros2_peer.py and the ROS 2 environments tests/test_ros2.py makes")
+        return
+    base_wall, base_cpu = _realtime_cameras_run(wall_s, (), SubscribedDriver("none"))
+    out(f"baseline (no bridge)   CPU {100 * base_cpu / base_wall:5.1f} % of one core over {base_wall:.1f} s")
+    for k, (distribution, peer) in enumerate(peers.items()):
+        out(f"### ROS 2 {distribution.capitalize()} node (rmw_fastrtps_cpp), discovery LOCALHOST")
+        if peer is None:
+            out(f"skipped: no ROS 2 {distribution} environment (tests/test_ros2.py makes it)")
+            continue
+        _ros2_bench_one(out, wall_s, peer, base_cpu / base_wall, k)
+
+
+def _ros2_bench_one(
+    out: Callable[[str], None], wall_s: float, peer: tuple[Path, Path], base_cpu_share: float, index: int
+) -> None:
+    """One distribution's node beside the bridge (`index` keeps its domain apart from the other's)."""
     import json
     import os
     import subprocess
@@ -626,40 +651,40 @@ def run_ros2_bench(out: Callable[[str], None] = print, wall_s: float = 12.0) -> 
     from quadsim.drivers.subscribed import SubscribedDriver
     from quadsim.live.ros2 import Ros2Bridge
 
-    out("## ROS 2 bridge (real time, both cameras, recorded)")
-    peer = _ros2_peer()
-    if peer is None:
-        out("skipped: needs a clone's tests/ros2_peer.py and the ROS 2 environment tests/test_ros2.py makes")
-        return
     python, script = peer
-    base_wall, base_cpu = _realtime_cameras_run(wall_s, (), SubscribedDriver("none"))
     env = {k: v for k, v in os.environ.items() if not k.startswith(("ROS_", "RMW_", "CYCLONEDDS_"))}
-    env.update(ROS_AUTOMATIC_DISCOVERY_RANGE="LOCALHOST", ROS_DOMAIN_ID=str(150 + os.getpid() % 50))
+    env.update(ROS_AUTOMATIC_DISCOVERY_RANGE="LOCALHOST", ROS_DOMAIN_ID=str(150 + (os.getpid() + index) % 50))
     driver, times = SubscribedDriver("ros2"), _CommandTimes()
-    with tempfile.TemporaryDirectory() as tmp, Ros2Bridge(exclude=("/quad_cmd_twist",), env=env) as bridge:
+    with tempfile.TemporaryDirectory() as tmp:
         report_path = Path(tmp) / "peer.json"
         node = subprocess.Popen([str(python), str(script), "latency", str(report_path)], env=env)
         try:
-            bridge.subscribe_twist(driver)
-            wall, cpu = _realtime_cameras_run(wall_s, (bridge,), driver, times)
+            time.sleep(2.0)  # the node is up (rclpy imported) before the bridge starts: first message is the bridge's
+            started = time.time()
+            with Ros2Bridge(exclude=("/quad_cmd_twist",), env=env) as bridge:
+                bridge.subscribe_twist(driver)
+                wall, cpu = _realtime_cameras_run(wall_s, (bridge,), driver, times)
             node.wait(timeout=60)
         finally:
             node.kill()
         report = json.loads(report_path.read_text())
     latencies = sorted(times.seen[round(z, 6)] - sent for z, sent in report["sent"] if round(z, 6) in times.seen)
-    out(f"baseline (no bridge)   CPU {100 * base_cpu / base_wall:5.1f} % of one core over {base_wall:.1f} s")
     out(
-        f"with the bridge        CPU {100 * cpu / wall:5.1f} % of one core ({cpu / wall / (base_cpu / base_wall):.2f}x) "
+        f"with the bridge        CPU {100 * cpu / wall:5.1f} % of one core ({cpu / wall / base_cpu_share:.2f}x) "
         f"over {wall:.1f} s for {wall_s:.1f} s of sim time"
     )
     out(
-        f"bridge share           {100 * (cpu / wall - base_cpu / base_wall):5.1f} % of one core; writing took "
+        f"bridge share           {100 * (cpu / wall - base_cpu_share):5.1f} % of one core; writing took "
         f"{100 * bridge.busy_s / wall:.1f} % of the loop's time ({bridge.published} messages)"
     )
     out(
         f"node received          {report['odom_count']} odometry, {report['image_count']} front images, "
         f"{report['clock_count']} /clock"
     )
+    if report["first_clock_wall_s"] is not None:
+        out(
+            f"first message          {report['first_clock_wall_s'] - started:.2f} s after the bridge started (target < 3 s)"
+        )
     if latencies:
         median, worst = latencies[len(latencies) // 2], latencies[-1]
         out(

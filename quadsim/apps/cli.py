@@ -241,13 +241,35 @@ def _add_live_options(p: argparse.ArgumentParser, what: str = "the run") -> None
         "topic of the recording with its QoS, plus /clock for use_sim_time; needs pip install 'quadsim[ros2]' "
         "(Cyclone DDS; no ROS installation)",
     )
+    g.add_argument(
+        "--ros-namespace",
+        default="",
+        metavar="NS",
+        help="with --ros2 or --input ros2: the ROS 2 node quadsim is (/quadsim) lives in namespace NS and its topics "
+        "too (/NS/quad/odom; /clock, /tf, /tf_static and /rosout stay global, as ROS 2 nodes name them), like "
+        "--ros-args -r __ns:=NS",
+    )
+    g.add_argument(
+        "--ros-remap",
+        action="append",
+        default=[],
+        metavar="FROM:=TO",
+        help="with --ros2 or --input ros2: rename a topic, like --ros-args -r FROM:=TO; e.g. "
+        "/quad_cmd_twist:=/cmd_vel lets teleop_twist_keyboard fly it unchanged (repeatable)",
+    )
 
 
 def _live_outputs(args: argparse.Namespace, commands: SubscribedDriver | None = None) -> list[LiveOutput]:
     """The live bridges the options ask for (--foxglove, --ros2, and the one an input comes from)."""
     from quadsim.apps.live import open_live_outputs
 
-    return open_live_outputs(getattr(args, "foxglove", None), getattr(args, "ros2", False), commands)
+    return open_live_outputs(
+        getattr(args, "foxglove", None),
+        getattr(args, "ros2", False),
+        commands,
+        getattr(args, "ros_namespace", ""),
+        getattr(args, "ros_remap", []),
+    )
 
 
 def _config(args: argparse.Namespace, script_z_mode: ZMode | None):

@@ -9,6 +9,7 @@ publishes)."""
 from __future__ import annotations
 
 import sys
+from collections.abc import Sequence
 from typing import TYPE_CHECKING
 
 from quadsim.live import FOXGLOVE_DEFAULT_ENDPOINT
@@ -22,9 +23,16 @@ if TYPE_CHECKING:
 LIVE_INPUTS = ("foxglove", "ros2")
 
 
-def open_live_outputs(foxglove: str | None, ros2: bool, commands: SubscribedDriver | None = None) -> list[LiveOutput]:
+def open_live_outputs(
+    foxglove: str | None,
+    ros2: bool,
+    commands: SubscribedDriver | None = None,
+    ros_namespace: str = "",
+    ros_remaps: Sequence[str] = (),
+) -> list[LiveOutput]:
     """Open the bridges: a Foxglove server at `foxglove` (HOST:PORT) or when it is the input, a
-    ROS 2 bridge with `ros2` or when it is the input; `commands` is fed by the bridge it names."""
+    ROS 2 bridge with `ros2` or when it is the input (its node in `ros_namespace`, its topics
+    remapped by `ros_remaps`, FROM:=TO); `commands` is fed by the bridge it names."""
     outputs: list[LiveOutput] = []
     source = commands.name if commands is not None else None
     try:
@@ -47,16 +55,15 @@ def open_live_outputs(foxglove: str | None, ros2: bool, commands: SubscribedDriv
         if ros2 or source == "ros2":
             from quadsim.live.ros2 import Ros2Bridge
 
-            ros2_bridge = Ros2Bridge(exclude=(TWIST.name,) if source == "ros2" else ())
+            exclude = (TWIST.name,) if source == "ros2" else ()
+            ros2_bridge = Ros2Bridge(exclude, namespace=ros_namespace, remaps=ros_remaps)
             outputs.append(ros2_bridge)
             if source == "ros2":
                 assert commands is not None
                 ros2_bridge.subscribe_twist(commands)
-            takes = f"; it takes geometry_msgs/Twist on {TWIST.name}" if source == "ros2" else ""
-            print(
-                f"ROS 2: publishing on domain {ros2_bridge.domain_id} every recorded topic and /clock{takes}",
-                flush=True,
-            )
+            for line, warning in ros2_bridge.startup_lines(takes_twist=source == "ros2"):
+                print(f"quadsim: warning: {line}" if warning else line, file=sys.stderr if warning else sys.stdout)
+            sys.stdout.flush()
     except BaseException:
         for output in outputs:
             output.close()

@@ -5,8 +5,18 @@ DDS's Python package (the `ros2` extra), with ROS 2's naming: topic `/quad/odom`
 `rt/quad/odom`, type `nav_msgs/msg/Odometry` is `nav_msgs::msg::dds_::Odometry_`. The fan-out's
 CDR bytes go out as they are (they are what a ROS 2 publisher sends), so nothing is encoded twice
 and no ROS installation is needed. `ROS_DOMAIN_ID` and `ROS_AUTOMATIC_DISCOVERY_RANGE` (or the
-older `ROS_LOCALHOST_ONLY`) are honoured as ROS 2 Jazzy reads them; a `CYCLONEDDS_URI` the user
-set wins over the discovery range.
+older `ROS_LOCALHOST_ONLY`) are honoured as ROS 2 Jazzy and Kilted read them; a `CYCLONEDDS_URI` the
+user set wins over the discovery range. The bridge is the node `/quadsim` of the graph (it
+publishes `ros_discovery_info` as rmw implementations do), in a namespace and with topics remapped
+as `--ros-args` would.
+
+Cyclone is told to ignore the XTypes type information of eProsima Fast DDS endpoints and match
+them by type name, as rmw implementations matched before XTypes: Fast DDS 3 (ROS 2 Kilted's default
+middleware) announces TypeObjects whose collection members (fixed arrays and sequences: covariances,
+`data`, `dim`) carry element flags 0, an invalid "try construct" value that Cyclone's type lookup
+rejects, so every reader of such a type stayed unresolved and never matched; types without
+collections hash identically on both sides and matched anyway, which is why /clock and /quad/pose
+got through and /quad/odom did not.
 """
 
 from __future__ import annotations
@@ -16,10 +26,13 @@ import re
 import threading
 import time
 from collections.abc import Callable, Mapping, Sequence
+from functools import cache
+from importlib import import_module
+from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from quadsim.errors import QuadsimError
-from quadsim.live.dds_types import idl_type
+from quadsim.live.dds_types import dds_type_name, idl_type
 from quadsim.recording.contract import TWIST, Topic
 from quadsim.recording.fanout import NS_PER_S, Message
 
@@ -30,12 +43,32 @@ INSTALL_HINT = "--ros2 and --input ros2 need Eclipse Cyclone DDS for Python: pip
 CLOCK = Topic("/clock", "rosgraph_msgs/msg/Clock")
 #: /clock is published with the newest log time seen, at most this often (of simulation time)
 CLOCK_HZ = 100
+#: topics a namespace leaves alone: ROS 2 nodes use them by absolute name (tf2, rcl's logging, use_sim_time)
+GLOBAL_TOPICS = frozenset({"/clock", "/tf", "/tf_static", "/rosout"})
+#: the node this bridge is on the ROS 2 graph (`ros2 node list`)
+NODE_NAME = "quadsim"
 MAX_DOMAIN_ID = 232  # ROS 2's limit for the default port mapping
 
+#: eProsima's DDSI vendor id (Fast DDS), whose type information Cyclone ignores (see above)
+EPROSIMA_VENDOR_ID = "1.15"
+_COMPATIBILITY_CONFIG = (
+    '<CycloneDDS><Domain Id="any"><Compatibility><IgnoreTypeInformation>{vendors}</IgnoreTypeInformation>'
+    "</Compatibility></Domain></CycloneDDS>"
+)
 _LOCALHOST_CONFIG = (
     '<CycloneDDS><Domain Id="any"><General><Interfaces><NetworkInterface address="127.0.0.1"/></Interfaces>'
     "<AllowMulticast>false</AllowMulticast></General><Discovery><ParticipantIndex>auto</ParticipantIndex>"
     "<MaxAutoParticipantIndex>64</MaxAutoParticipantIndex>{peers}</Discovery></Domain></CycloneDDS>"
+)
+
+#: SUBNET (ROS 2's default): Cyclone's multicast discovery on the machine's network, plus the loopback
+#: interface, well-known unicast ports and 127.0.0.1 as a peer, so a node that limits itself to
+#: LOCALHOST (Fast DDS then only knocks on 127.0.0.1's well-known ports) still finds quadsim
+_SUBNET_CONFIG = (
+    '<CycloneDDS><Domain Id="any"><General><Interfaces><NetworkInterface autodetermine="true"/>'
+    '<NetworkInterface address="127.0.0.1"/></Interfaces></General><Discovery><ParticipantIndex>auto'
+    '</ParticipantIndex><MaxAutoParticipantIndex>64</MaxAutoParticipantIndex><Peers><Peer address="127.0.0.1"/>'
+    "</Peers></Discovery></Domain></CycloneDDS>"
 )
 
 
@@ -80,6 +113,69 @@ def discovery_config(env: Mapping[str, str]) -> str | None:
     return _LOCALHOST_CONFIG.format(peers=f"<Peers>{xml_peers}</Peers>" if xml_peers else "")
 
 
+def cyclone_configs(env: Mapping[str, str]) -> list[str]:
+    """The whole Cyclone DDS configuration, best first: type matching by name with Fast DDS, the
+    discovery range, then the user's CYCLONEDDS_URI (Cyclone reads a comma-separated list, later
+    entries winning). For SUBNET, the second is Cyclone's plain default, for a machine whose only
+    interface is the loopback one (Cyclone refuses to be given it twice)."""
+    compatibility = _COMPATIBILITY_CONFIG.format(vendors=EPROSIMA_VENDOR_ID)
+    if env.get("CYCLONEDDS_URI"):
+        return [f"{compatibility},{env['CYCLONEDDS_URI']}"]
+    discovery = discovery_config(env)
+    if discovery:
+        return [f"{compatibility},{discovery}"]
+    if not _network_is_up():
+        return [compatibility]
+    return [f"{compatibility},{_SUBNET_CONFIG}", compatibility]
+
+
+def _network_is_up() -> bool:
+    """Whether an interface other than the loopback one is up (Linux says so in /sys; elsewhere
+    assume it is, the plain default being the fallback): with none, Cyclone picks the loopback
+    interface itself and complains when given it twice."""
+    interfaces = Path("/sys/class/net")
+    if not interfaces.is_dir():
+        return True
+    for folder in interfaces.iterdir():
+        try:
+            if folder.name != "lo" and (folder / "operstate").read_text().strip() == "up":
+                return True
+        except OSError:
+            continue
+    return False
+
+
+def discovery_range(env: Mapping[str, str]) -> str:
+    """The discovery range in ROS 2's words (SUBNET, LOCALHOST, OFF), or what CYCLONEDDS_URI says."""
+    if env.get("CYCLONEDDS_URI"):
+        return "as CYCLONEDDS_URI configures it"
+    wanted = env.get("ROS_AUTOMATIC_DISCOVERY_RANGE", "").strip().upper()
+    if not wanted and env.get("ROS_LOCALHOST_ONLY", "").strip() == "1":
+        wanted = "LOCALHOST"
+    return "SUBNET" if wanted in ("", "SYSTEM_DEFAULT") else wanted
+
+
+def graph_names(namespace: str = "", remaps: Sequence[str] = ()) -> tuple[str, dict[str, str]]:
+    """The node's namespace (`/` when none) and the remapping rules `FROM:=TO` as ROS 2's
+    `--ros-args -r` reads them, checked; a relative TO lands in the namespace."""
+    ns = "/" + namespace.strip("/") if namespace.strip("/") else "/"
+    if not _NAME.fullmatch(ns):
+        raise QuadsimError(f"--ros-namespace must be a ROS 2 name like /robot1, got {namespace!r}")
+    rules: dict[str, str] = {}
+    for rule in remaps:
+        source, sep, target = rule.partition(":=")
+        source = "/" + source.lstrip("/")
+        if not sep or not _NAME.fullmatch(source) or not target or not _NAME.fullmatch("/" + target.lstrip("/")):
+            raise QuadsimError(
+                f"a remapping is FROM:=TO with ROS 2 topic names, like /quad_cmd_twist:=/cmd_vel; got {rule!r}"
+            )
+        rules[source] = target if target.startswith("/") else ns.rstrip("/") + "/" + target
+    return ns, rules
+
+
+_NAME = re.compile(r"/|(/[A-Za-z_][A-Za-z0-9_]*)+")
+
+
 def _qos_numbers(topic: Topic) -> tuple[bool, int]:
     """(transient local, history depth) of a contract topic, read off its offered_qos_profiles."""
     durability = re.search(r"durability: (\d+)", topic.qos)
@@ -105,22 +201,35 @@ class Ros2Bridge:
     gets them. Use as a context manager, or call `close`.
     """
 
-    def __init__(self, exclude: Sequence[str] = (), env: Mapping[str, str] | None = None) -> None:
+    def __init__(
+        self,
+        exclude: Sequence[str] = (),
+        env: Mapping[str, str] | None = None,
+        namespace: str = "",
+        remaps: Sequence[str] = (),
+    ) -> None:
         env = os.environ if env is None else env
+        self.namespace, self._remaps = graph_names(namespace, remaps)
         dds = cyclonedds()
         from cyclonedds.core import Policy, Qos
         from cyclonedds.domain import Domain, DomainParticipant
 
         self.domain_id = domain_id(env)
-        config = discovery_config(env)
+        configs = cyclone_configs(env)
+        self.discovery_range = discovery_range(env)
         with _DOMAINS_LOCK:
-            if self.domain_id not in _DOMAINS:
+            for k, config in enumerate(configs):
+                if self.domain_id in _DOMAINS:
+                    break
                 try:
-                    _DOMAINS[self.domain_id] = Domain(self.domain_id, config) if config else None
+                    _DOMAINS[self.domain_id] = Domain(self.domain_id, config)
                 except dds.core.DDSException as e:
-                    raise QuadsimError(f"could not join ROS 2 domain {self.domain_id}: {e}") from None
+                    if k == len(configs) - 1:
+                        raise QuadsimError(f"could not join ROS 2 domain {self.domain_id}: {e}") from None
         # IgnoreLocal: the Twist this bridge republishes (keyboard input) must not come back to it
-        self._participant: Any = DomainParticipant(self.domain_id, qos=Qos(Policy.IgnoreLocal.Participant))
+        # user data as rmw implementations set it, read by ROS 2 tools (the security enclave)
+        qos = Qos(Policy.IgnoreLocal.Participant, Policy.Userdata(b"enclave=/;"))
+        self._participant: Any = DomainParticipant(self.domain_id, qos=qos)
         self._Qos, self._Policy = Qos, Policy
         self.exclude = frozenset(exclude)
         self._writers: dict[str, tuple[Any, Any]] = {}  # topic name -> (writer, IDL type)
@@ -131,7 +240,81 @@ class Ros2Bridge:
         self.published = 0  # messages written
         self.busy_s = 0.0  # time spent writing (for the benchmark)
         self.closed = False
+        self._graph_writer = self._discovery_info_writer()
         self.add_topic(CLOCK)
+
+    def graph_name(self, name: str) -> str:
+        """A contract topic's name on the graph: remapped, or in the namespace (but for the topics ROS 2
+        nodes name absolutely: /clock, /tf, /tf_static, /rosout)."""
+        if name in self._remaps:
+            return self._remaps[name]
+        if self.namespace == "/" or name in GLOBAL_TOPICS:
+            return name
+        return self.namespace + name
+
+    def startup_lines(self, takes_twist: bool) -> list[tuple[str, bool]]:
+        """What to say at start-up: (line, is a warning). The node, its domain and discovery range;
+        a warning when it takes Twists and discovery reaches beyond this machine."""
+        node = f"{self.namespace.rstrip('/')}/{NODE_NAME}"
+        twist = self.graph_name(TWIST.name)
+        takes = f"; it takes geometry_msgs/Twist on {twist}" if takes_twist else ""
+        lines = [
+            (
+                f"ROS 2: node {node} on domain {self.domain_id} (discovery range {self.discovery_range}), "
+                f"publishing every recorded topic and /clock{takes}",
+                False,
+            )
+        ]
+        if takes_twist and self.discovery_range not in ("LOCALHOST", "OFF"):
+            lines.append(
+                (
+                    f"ROS 2 discovery is not limited to this machine: anyone on the network can fly this vehicle on "
+                    f"{twist} (export ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST to keep it here)",
+                    True,
+                )
+            )
+        return lines
+
+    # --- the ROS 2 graph ------------------------------------------------------------------------
+
+    def _discovery_info_writer(self) -> Any:
+        """The writer of ros_discovery_info, where every rmw implementation says which nodes its
+        participant holds and which readers and writers each node owns: what `ros2 node list` and
+        `ros2 topic info -v` read. Reliable, transient-local, depth 1, as rmw_dds_common has it."""
+        from cyclonedds.pub import DataWriter
+        from cyclonedds.topic import Topic as DdsTopic
+
+        Policy = self._Policy
+        qos = self._Qos(
+            Policy.Reliability.Reliable(max_blocking_time=100_000_000),
+            Policy.History.KeepLast(1),
+            Policy.Durability.TransientLocal,
+        )
+        kind = participant_entities_info_type()
+        return DataWriter(self._participant, DdsTopic(self._participant, "ros_discovery_info", kind), qos=qos)
+
+    def _announce(self) -> None:
+        """Publish this participant's node and its endpoints (after each new endpoint).
+
+        Fast DDS 2 (Jazzy) files a remote endpoint under its participant's GUID, so `ros2 topic info
+        -v` names quadsim's. Fast DDS 3 (Kilted) files it under the participant key of the endpoint's
+        announcement, which Cyclone does not send (PID_PARTICIPANT_GUID is optional in SEDP), so
+        there every endpoint is under key zero and shows as "_CREATED_BY_BARE_DDS_APP_"; announcing
+        the node under key zero as well would list it twice on Jazzy."""
+        gid_type, node_type, info_type = _graph_types()
+        endpoints = [w for w, _ in self._writers.values()]
+        info = info_type(
+            gid=_gid(gid_type, self._participant.guid),
+            node_entities_info_seq=[
+                node_type(
+                    node_namespace=self.namespace,
+                    node_name=NODE_NAME,
+                    reader_gid_seq=[_gid(gid_type, r.guid) for r in self._readers],
+                    writer_gid_seq=[_gid(gid_type, w.guid) for w in endpoints],
+                )
+            ],
+        )
+        self._graph_writer.write(info)
 
     # --- TopicConsumer ------------------------------------------------------------------------
 
@@ -149,8 +332,9 @@ class Ros2Bridge:
             Policy.Durability.TransientLocal if latched else Policy.Durability.Volatile,
         )
         kind = idl_type(topic.type_name)
-        dds_topic = DdsTopic(self._participant, dds_topic_name(topic.name), kind)
+        dds_topic = DdsTopic(self._participant, dds_topic_name(self.graph_name(topic.name)), kind)
         self._writers[topic.name] = (DataWriter(self._participant, dds_topic, qos=qos), kind)
+        self._announce()
 
     def on_messages(self, messages: Sequence[Message]) -> None:
         if self.closed or not messages:
@@ -201,10 +385,12 @@ class Ros2Bridge:
 
         Policy = self._Policy
         qos = self._Qos(Policy.Reliability.BestEffort, Policy.History.KeepLast(10))
-        dds_topic = DdsTopic(self._participant, dds_topic_name(TWIST.name), kind)
+        dds_topic = DdsTopic(self._participant, dds_topic_name(self.graph_name(TWIST.name)), kind)
         self._readers.append(
             DataReader(self._participant, dds_topic, qos=qos, listener=Listener(on_data_available=on_data_available))
         )
+        with self._lock:
+            self._announce()
 
     # --- lifetime -----------------------------------------------------------------------------
 
@@ -215,6 +401,7 @@ class Ros2Bridge:
         with self._lock:
             self._readers.clear()
             self._writers.clear()
+            self._graph_writer = None
             self._participant = None  # Cyclone deletes the participant and its entities with it
 
     def __enter__(self) -> Ros2Bridge:
@@ -222,6 +409,43 @@ class Ros2Bridge:
 
     def __exit__(self, *exc: object) -> None:
         self.close()
+
+
+def _gid(gid_type: Any, guid: Any) -> Any:
+    """An rmw_dds_common/Gid from a DDS GUID (uuid.UUID): its 16 bytes, as rmw implementations fill it."""
+    return gid_type(data=list(guid.bytes))
+
+
+@cache
+def _graph_types() -> tuple[Any, Any, Any]:
+    """rmw_dds_common's Gid, NodeEntitiesInfo and ParticipantEntitiesInfo as Cyclone IDL types
+    (rosbags' typestore does not carry rmw_dds_common; the definitions are three lines of .msg)."""
+    from cyclonedds.idl import make_idl_struct
+
+    types: Any = import_module("cyclonedds.idl.types")  # its generic aliases are not typed as such
+    array, bounded_str, sequence = types.array, types.bounded_str, types.sequence
+    gid = make_idl_struct("Gid", dds_type_name("rmw_dds_common/msg/Gid"), {"data": array[types.uint8, 16]})
+    node = make_idl_struct(
+        "NodeEntitiesInfo",
+        dds_type_name("rmw_dds_common/msg/NodeEntitiesInfo"),
+        {
+            "node_namespace": bounded_str[256],
+            "node_name": bounded_str[256],
+            "reader_gid_seq": sequence[gid],
+            "writer_gid_seq": sequence[gid],
+        },
+    )
+    info = make_idl_struct(
+        "ParticipantEntitiesInfo",
+        dds_type_name("rmw_dds_common/msg/ParticipantEntitiesInfo"),
+        {"gid": gid, "node_entities_info_seq": sequence[node]},
+    )
+    return gid, node, info
+
+
+def participant_entities_info_type() -> Any:
+    """The IDL type of ros_discovery_info."""
+    return _graph_types()[2]
 
 
 def _raw(kind: Any, data: bytes) -> Any:
