@@ -6,7 +6,9 @@ server advertises, decodes what arrives (CDR with rosbags), and may advertise /q
 and publish Twists on it, then go quiet. It prints one JSON report on stdout.
 
     python foxglove_client.py ws://127.0.0.1:8765 --listen-s 3 [--publish json|cdr --twist 1,0,0,0 --publish-s 2]
-        [--subprotocol foxglove.websocket.v1]
+        [--subprotocol foxglove.websocket.v1] [--program '[[SECONDS, {"linear_x": V, ...}], ...]']
+
+--program publishes its phases one after another (from --start-s) instead of one --twist.
 """
 
 from __future__ import annotations
@@ -65,6 +67,7 @@ def main() -> None:
     ap.add_argument("--twist", default="0,0,0,0", help="linear x,y,z, angular z")
     ap.add_argument("--publish-s", type=float, default=0.0)
     ap.add_argument("--start-s", type=float, default=0.0, help="wait this long before publishing")
+    ap.add_argument("--program", type=json.loads, default=None, help="phases [[seconds, {field: value}], ...]")
     ap.add_argument("--subprotocol", choices=SUBPROTOCOLS, action="append", help="offer this name (default: both)")
     args = ap.parse_args()
     store = get_typestore(Stores.ROS2_HUMBLE)
@@ -73,6 +76,19 @@ def main() -> None:
     topics: dict[str, dict[str, Any]] = {}
     report: dict[str, Any] = {"topics": topics, "odom": [], "undecodable": 0}
     twist = [float(v) for v in args.twist.split(",")]
+    if args.program is not None:
+        args.publish_s = sum(seconds for seconds, _ in args.program)
+
+    def twist_at(elapsed_s: float) -> list[float]:
+        """The Twist (linear x, y, z, angular z) to publish `elapsed_s` after publishing began."""
+        if args.program is None:
+            return twist
+        for seconds, fields in args.program:
+            if elapsed_s < seconds:
+                return [float(fields.get(f, 0.0)) for f in ("linear_x", "linear_y", "linear_z", "angular_z")]
+            elapsed_s -= seconds
+        return [0.0] * 4
+
     with connect(args.url, subprotocols=args.subprotocol or SUBPROTOCOLS, compression=None, max_size=None) as ws:
         report["subprotocol"] = ws.subprotocol
         start = time.monotonic()
@@ -98,7 +114,10 @@ def main() -> None:
                         )
                     )
                     advertised = True
-                ws.send(struct.pack("<BI", CLIENT_MESSAGE_DATA, 7) + twist_payload(args.publish, *twist))
+                ws.send(
+                    struct.pack("<BI", CLIENT_MESSAGE_DATA, 7)
+                    + twist_payload(args.publish, *twist_at(now - start - args.start_s))
+                )
                 published += 1
                 next_publish += 0.05  # 20 Hz, as the Teleop panel and the joy node publish
             try:

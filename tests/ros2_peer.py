@@ -4,6 +4,8 @@ quadsim publishes. Not a test module: tests/test_ros2.py and the benchmark start
 
     python ros2_peer.py fly OUT.json [TOPIC]   climb, forward, left, turn; count every topic; read the graph
     python ros2_peer.py latency OUT.json       publish a new climb rate every 0.25 s; report when each went out
+    python ros2_peer.py program OUT.json PHASES
+                                               fly PHASES, JSON [[SECONDS, {"linear_x": V, ...}], ...]
 
 TOPIC is where the Twists go (default /quad_cmd_twist).
 """
@@ -59,7 +61,8 @@ def _endpoints(infos: list[Any]) -> list[dict[str, str]]:
 
 def main() -> int:
     mode, out = sys.argv[1], sys.argv[2]
-    cmd_topic = sys.argv[3] if len(sys.argv) > 3 else "/quad_cmd_twist"
+    program = json.loads(sys.argv[3]) if mode == "program" else []
+    cmd_topic = sys.argv[3] if len(sys.argv) > 3 and mode != "program" else "/quad_cmd_twist"
     rclpy.init()
     node = Node("quadsim_test_peer")
     clock_ns: list[int] = []
@@ -131,6 +134,9 @@ def main() -> int:
         graph["publishers"] = {t: _endpoints(node.get_publishers_info_by_topic(t)) for t in GRAPH_TOPICS}
         graph["subscriptions"] = _endpoints(node.get_subscriptions_info_by_topic(cmd_topic))
         spin_for(1.0)  # silence: quadsim holds after its dead-man timeout
+    elif clock_ns and mode == "program":
+        for seconds, fields in program:
+            send(seconds, **fields)
     elif clock_ns and mode == "latency":
         for k in range(24):
             m = Twist()
