@@ -62,3 +62,21 @@ def test_messages_from_another_thread_fly_and_silence_holds() -> None:
     assert math.hypot(v[0], v[1]) < 0.1, v
     assert sim.gate.last_receive_step is not None
     sim.close()
+
+
+def test_the_run_summary_says_what_arrived_live() -> None:
+    """NaN Twists stop at the driver and a 1e308 one is clamped: the summary counts both (it said
+    '0 rejected' after NaNs had arrived), and a live line says what the wire brought."""
+    from quadsim.apps.headless import run_headless
+
+    d = SubscribedDriver("ros2")
+    with Simulator(SimConfig(), driver=d) as sim:
+        for linear in [(math.nan, 0.0, 0.0), (0.0, math.inf, 0.0), (1e308, 0.0, 0.0), (0.5, 0.0, 0.0), (0.0, 0.5, 0.0)]:
+            d.deliver(linear, 0.0)
+            if linear[0] != 0.5:  # the 0.5 forward is superseded by the 0.5 left before a step takes it
+                sim.step(5)
+        summary = run_headless(sim, 0.5)
+    lines = "\n".join(summary.lines())
+    assert "2 rejected (not finite), 1 clamped to the limits" in lines, lines
+    assert "live input      5 arrived on /quad_cmd_twist from ros2: 2 rejected (not finite), 1 superseded" in lines
+    assert sim.gate.last_command.linear_y == 0.5

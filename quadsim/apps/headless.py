@@ -9,6 +9,7 @@ from dataclasses import dataclass
 
 from quadsim.apps.stopping import stop_requested
 from quadsim.core.types import VehicleState
+from quadsim.drivers.subscribed import SubscribedDriver
 from quadsim.sim.flight_events import EventKind, FlightEvent
 from quadsim.sim.loop import StateLog
 from quadsim.sim.simulator import Simulator
@@ -26,6 +27,8 @@ class RunSummary:
     max_altitude_m: float
     commands_received: int
     commands_rejected: int
+    commands_clamped: int = 0  # taken with a field past the vehicle's limits, brought within them
+    live_input: str = ""  # what a live input (ROS 2, Foxglove) saw arrive, when one flew the run
     stopped_early: bool = False  # a signal asked the run to stop before its end
     events: tuple[FlightEvent, ...] = ()  # take-off, touchdown, landed, crash, reset
     physics_hz: int = 240  # the events' steps -> seconds
@@ -45,7 +48,9 @@ class RunSummary:
             f"final pose      x={x:+.3f} m  y={y:+.3f} m  z={z:+.3f} m  "
             f"yaw={math.degrees(s.yaw_rad()):+.1f} deg  roll={math.degrees(roll):+.1f}  pitch={math.degrees(pitch):+.1f}",
             f"distance flown  {self.distance_m:.2f} m (max altitude {self.max_altitude_m:.2f} m)",
-            f"commands        {self.commands_received} received, {self.commands_rejected} rejected",
+            f"commands        {self.commands_received} received, {self.commands_rejected} rejected (not finite), "
+            f"{self.commands_clamped} clamped to the limits",
+            *([f"live input      {self.live_input}"] if self.live_input else []),
             f"flight events   {self._events_line()}",
             *(
                 f"crash           at t={e.step / self.physics_hz:.2f} s: {e.value}"
@@ -77,6 +82,18 @@ class _Odometer:
             self.distance_m += math.dist(p, self._last)
         self._last = p
         self.max_z_m = max(self.max_z_m, p[2])
+
+
+def _live_input(driver: object) -> str:
+    """What arrived from a live input (drivers/subscribed.py), said so a user sees what the wire
+    brought: a DDS payload of the right size always decodes to some Twist."""
+    if not isinstance(driver, SubscribedDriver):
+        return ""
+    arrived = driver.received + driver.rejected
+    return (
+        f"{arrived} arrived on {driver.topic} from {driver.name}: {driver.rejected} rejected (not finite), "
+        f"{driver.dropped} superseded before a step took them"
+    )
 
 
 def run_headless(
@@ -117,7 +134,9 @@ def run_headless(
         distance_m=odo.distance_m,
         max_altitude_m=odo.max_z_m if odo.max_z_m > -math.inf else sim.state.position_m[2],
         commands_received=odo.commands,
-        commands_rejected=sim.gate.rejected_count,
+        commands_rejected=sim.gate.rejected_count + getattr(sim.driver, "rejected", 0),
+        commands_clamped=sim.gate.clamped_count,
+        live_input=_live_input(sim.driver),
         stopped_early=done < total_steps,
         events=tuple(sim.events[first_event:]),
         physics_hz=hz,

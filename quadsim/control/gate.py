@@ -35,6 +35,7 @@ class CommandGate:
         self.z_mode = z_mode
         self.timeout_steps = timeout_steps
         self.rejected_count = 0
+        self.clamped_count = 0  # commands taken with a field past the limits (brought within them)
         self._warned = False
         self._twist = _ZERO
         self._last_step: int | None = None
@@ -60,6 +61,8 @@ class CommandGate:
                 self._warned = True
             return None
         self._twist = self.clamp(twist)
+        if self._twist != twist:
+            self.clamped_count += 1
         self._last_step = step
         return self._twist
 
