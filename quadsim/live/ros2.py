@@ -201,6 +201,9 @@ class Ros2Bridge:
     gets them. Use as a context manager, or call `close`.
     """
 
+    #: the fan-out names meshes by file:// URLs for it: RViz reads files, not data: URLs
+    reads_local_files = True
+
     def __init__(
         self,
         exclude: Sequence[str] = (),

@@ -116,19 +116,24 @@ class TopicFanout:
             )
             for spec, mount in cameras
         ]
-        self._robot_description = cdr.string(robot_description(vehicle.urdf_path)) if vehicle is not None else None
+        self._robot_description: dict[bool, bytes] = {}  # by whether meshes are named by local files
+        if vehicle is not None:
+            inline = robot_description(vehicle.urdf_path)
+            local = robot_description(vehicle.urdf_path, inline_meshes=False)
+            self._robot_description = {False: cdr.string(inline), True: cdr.string(local)}
         self._world = world
         self.topics += [ROBOT_DESCRIPTION] if vehicle is not None else []
         self.topics += [WORLD_MARKERS] if world is not None else []
 
-    def latched(self, step: int = 0) -> tuple[Message, ...]:
+    def latched(self, step: int = 0, local_files: bool = False) -> tuple[Message, ...]:
         """The latched messages (transient local), stamped at `step`: every consumer gets them
-        first, whenever it joins."""
+        first, whenever it joins. `local_files`: the URDF names its meshes by file:// URLs (for
+        a consumer whose readers read files, as RViz does), not data: URLs (scene.py)."""
         ns = self.ns(step)
         static = [t._replace(ns=ns) for t in self._static]
         messages: list[Message] = [(TF_STATIC, ns, cdr.tf_message(static))]
-        if self._robot_description is not None:
-            messages.append((ROBOT_DESCRIPTION, ns, self._robot_description))
+        if self._robot_description:
+            messages.append((ROBOT_DESCRIPTION, ns, self._robot_description[local_files]))
         if self._world is not None:
             messages.append((WORLD_MARKERS, ns, cdr.marker_array(world_markers(self._world, ns))))
         return tuple(messages)
@@ -140,7 +145,7 @@ class TopicFanout:
         (stamped at `step`, so a recording started mid-run begins when it began)."""
         for topic in self.topics:
             consumer.add_topic(topic)
-        consumer.on_messages(self.latched(step))
+        consumer.on_messages(self.latched(step, getattr(consumer, "reads_local_files", False)))
         self.consumers.append(consumer)
 
     def remove_consumer(self, consumer: TopicConsumer) -> None:
