@@ -8,7 +8,7 @@ import math
 from pathlib import Path
 from typing import Any, TypeVar
 
-from quadsim.core.toml_compat import tomllib
+from quadsim.core.toml_files import read_toml
 from quadsim.errors import ConfigError
 from quadsim.vehicle.params import DEFAULT_URDF, VehicleParams
 
@@ -26,13 +26,7 @@ def load_gains(vehicle: VehicleParams, section: str, gains_type: type[G], overri
     """The `[section]` gains of the vehicle's gains file, `overrides` (as a recording holds them)
     replacing any of them. Raises ConfigError naming the file and the gain at fault."""
     path = gains_path(vehicle)
-    try:
-        with path.open("rb") as fh:
-            table = tomllib.load(fh).get(section)
-    except OSError as exc:
-        raise ConfigError(f"cannot read controller gains {path}: {exc.strerror}") from None
-    except tomllib.TOMLDecodeError as exc:
-        raise ConfigError(f"{path}: not valid TOML ({exc})") from None
+    table = read_toml(path, "controller gains file").get(section)
     if not isinstance(table, dict):
         raise ConfigError(f"{path}: missing the [{section}] table of controller gains")
     names = {f.name for f in dataclasses.fields(gains_type)}  # type: ignore[arg-type]

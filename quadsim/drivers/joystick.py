@@ -27,7 +27,7 @@ from typing import Any
 os.environ.setdefault("PYGAME_HIDE_SUPPORT_PROMPT", "1")
 import pygame
 
-from quadsim.core.toml_compat import tomllib
+from quadsim.core.toml_files import read_toml
 from quadsim.core.types import HEIGHT_MODE_BASE_M, Twist, ZMode
 from quadsim.drivers import ASAP, NEVER
 from quadsim.drivers.gamepad import Pad, PadKind, is_game_controller, open_pad
@@ -103,15 +103,7 @@ def load_mapping(path: Path) -> JoystickMapping:
     `scale_linear_turbo.x`, `axis_angular.yaw`, `scale_angular.yaw`, `enable_button`,
     `enable_turbo_button`) plus `deadzone`. Axes are /joy's; an axis of -1 moves nothing. A turbo
     scale not given is twice the scale; one given must have the scale's sign."""
-    try:
-        with open(path, "rb") as fh:
-            table = tomllib.load(fh)
-    except FileNotFoundError:
-        raise ConfigError(f"joystick mapping file not found: {path}") from None
-    except OSError as exc:
-        raise ConfigError(f"cannot read joystick mapping file {path}: {exc.strerror}") from None
-    except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
-        raise ConfigError(f"{path}: not valid TOML ({exc})") from None
+    table = read_toml(Path(path), "joystick mapping file")
     old = sorted(set(table) & set(_OLD_KEYS))
     if old:
         raise ConfigError(

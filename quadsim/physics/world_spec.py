@@ -9,7 +9,7 @@ from pathlib import Path
 from typing import Any
 
 from quadsim.assets import asset_path
-from quadsim.core.toml_compat import tomllib
+from quadsim.core.toml_files import read_toml
 from quadsim.errors import ConfigError
 
 DEFAULT_WORLD = asset_path("worlds", "default.toml")
@@ -82,13 +82,7 @@ def load_world(path: Path | str | None = None, texture_required: bool = True) ->
     world_path = Path(path) if path is not None else DEFAULT_WORLD
     if not world_path.is_file():
         raise ConfigError(f"world file not found: {world_path}")
-    try:
-        with world_path.open("rb") as fh:
-            table = tomllib.load(fh)
-    except tomllib.TOMLDecodeError as exc:
-        raise ConfigError(f"{world_path}: not valid TOML ({exc})") from None
-    except UnicodeDecodeError:
-        raise ConfigError(f"{world_path}: not a UTF-8 text file") from None
+    table = read_toml(world_path, "world file")
     floor_t = _table(table.get("floor", {}), f"{world_path}: [floor]")
     texture = floor_t.get("texture")
     if texture is not None and (not isinstance(texture, str) or not texture or "\0" in texture):

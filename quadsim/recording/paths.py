@@ -13,7 +13,7 @@ import os
 import sys
 from pathlib import Path
 
-from quadsim.core.toml_compat import tomllib
+from quadsim.core.toml_files import tomllib
 
 #: set it to a folder to send every recording made without --out there
 ENV_VAR = "QUADSIM_RECORDINGS"

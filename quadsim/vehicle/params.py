@@ -13,7 +13,7 @@ from typing import Any
 
 from quadsim.assets import asset_path
 from quadsim.core.kinematics import IDENTITY, Mat3, Vec3, mat_mul, matrix_from_rpy, rotate, transpose
-from quadsim.core.toml_compat import tomllib
+from quadsim.core.toml_files import read_toml
 from quadsim.errors import ConfigError
 from quadsim.vehicle.aero import AeroParams
 
@@ -317,13 +317,7 @@ def _composite_inertia(links: dict[str, _Link]) -> tuple[float, Vec3, Mat3]:
 
 
 def _read_toml(path: Path) -> dict[str, Any]:
-    try:
-        with path.open("rb") as fh:
-            return tomllib.load(fh)
-    except tomllib.TOMLDecodeError as exc:
-        raise ConfigError(f"{path}: not valid TOML ({exc})") from None
-    except UnicodeDecodeError:
-        raise ConfigError(f"{path}: not a UTF-8 text file") from None
+    return read_toml(path, "vehicle parameter file")
 
 
 def _number(table: dict[str, Any], section: str, key: str, path: Path, *, low: float, high: float) -> float:

@@ -6,6 +6,10 @@ import argparse
 import sys
 from pathlib import Path
 
+#: past this many runs or this much simulated time, `sweep` asks for --yes before flying
+ASK_RUNS = 1_000
+ASK_SIM_S = 24 * 3600.0
+
 
 def add_parser(sub: argparse._SubParsersAction, recordings_default: str) -> None:
     p = sub.add_parser(
@@ -42,6 +46,12 @@ def add_parser(sub: argparse._SubParsersAction, recordings_default: str) -> None
         help="table format (default: parquet when pyarrow is installed, else csv)",
     )
     p.add_argument("--no-plot", action="store_true", help="do not draw plot.png")
+    p.add_argument(
+        "--yes",
+        action="store_true",
+        help=f"fly a very large sweep (over {ASK_RUNS} runs or {ASK_SIM_S / 3600:.0f} h of simulated time) "
+        "without asking for this flag first",
+    )
     p.set_defaults(func=cmd_sweep)
 
 
@@ -70,6 +80,11 @@ def cmd_sweep(args: argparse.Namespace) -> int:
     from quadsim.recording.paths import default_recordings_dir
 
     spec = load_sweep(args.spec)
+    if (len(spec.runs) > ASK_RUNS or spec.sim_s > ASK_SIM_S) and not args.yes:
+        raise QuadsimError(
+            f"{args.spec}: {len(spec.runs)} runs, {spec.sim_s / 3600:.1f} h of simulated flight: "
+            "add --yes to fly a sweep this large"
+        )
     jobs = args.jobs if args.jobs is not None else default_jobs()
     if not 1 <= jobs <= 1024:
         raise QuadsimError(f"--jobs must be from 1 to 1024, got {jobs}")

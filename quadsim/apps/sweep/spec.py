@@ -24,14 +24,16 @@ that order; each has a key naming its values, by which `--resume` recognises it.
 
 from __future__ import annotations
 
+import collections
 import itertools
 import math
+import re
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 from quadsim.control import ControllerKind, gains_type
-from quadsim.core.toml_compat import tomllib
+from quadsim.core.toml_files import read_toml
 from quadsim.errors import ConfigError
 from quadsim.physics.wind import Turbulence, wind_from_text
 
@@ -39,6 +41,12 @@ from quadsim.physics.wind import Turbulence, wind_from_text
 KNOWN_KEYS = {"name", "scenarios", "airframes", "seeds", "duration_s", "wind", "turbulence", "controllers", "limits"}
 #: the most runs one sweep file may stand for (a typo in `seeds` should not queue a million runs)
 MAX_RUNS = 100_000
+#: the most values one axis may list (checked before anything else looks at them)
+MAX_VALUES = 1_000
+#: the longest a run may fly (duration_s, or a scenario's own length when duration_s is not given)
+MAX_RUN_S = 3600.0
+#: a sweep's name becomes a folder name: one plain name, never a path
+NAME_PATTERN = re.compile(r"\w[\w .+-]{0,99}")
 
 
 @dataclass(frozen=True)
@@ -88,19 +96,29 @@ class SweepSpec:
     limits: dict[str, float] = field(default_factory=dict)
     #: the axes with more than one value, in sweep order (what the summary and plot group by)
     varied: tuple[str, ...] = ()
+    #: simulated time of every run together, s
+    sim_s: float = 0.0
 
 
 def _list_of_str(data: dict[str, Any], key: str, default: list[str], where: str) -> list[str]:
     value = data.get(key, default)
     if isinstance(value, str):
         value = [value]
+    if isinstance(value, list) and len(value) > MAX_VALUES:
+        raise ConfigError(f"{where}: '{key}' lists {len(value)} values; a sweep takes at most {MAX_VALUES} per axis")
     if not isinstance(value, list) or not value or not all(isinstance(v, (str, int, float)) for v in value):
-        raise ConfigError(f"{where}: '{key}' must be a non-empty list of strings, got {value!r}")
+        raise ConfigError(f"{where}: '{key}' must be a non-empty list of strings, got {_short(value)}")
     out = [str(v) for v in value]
-    dupes = sorted({v for v in out if out.count(v) > 1})
-    if dupes:
-        raise ConfigError(f"{where}: '{key}' lists {dupes[0]!r} twice")
+    twice = [v for v, n in collections.Counter(out).items() if n > 1]
+    if twice:
+        raise ConfigError(f"{where}: '{key}' lists {_short(twice[0])} twice")
     return out
+
+
+def _short(value: Any) -> str:
+    """A value for an error line: its repr, cut to 80 characters."""
+    text = repr(value)
+    return text if len(text) <= 80 else text[:77] + "..."
 
 
 def _controllers(data: Any, where: str) -> list[ControllerChoice]:
@@ -108,6 +126,8 @@ def _controllers(data: Any, where: str) -> list[ControllerChoice]:
         return [ControllerChoice("cascade", ControllerKind.CASCADE)]
     if not isinstance(data, dict) or not data:
         raise ConfigError(f'{where}: [controllers] must be tables like [controllers.cascade] with kind = "cascade"')
+    if len(data) > MAX_VALUES:
+        raise ConfigError(f"{where}: [controllers] has {len(data)} tables; a sweep takes at most {MAX_VALUES}")
     kinds = [k.value for k in ControllerKind]
     out = []
     for name, table in data.items():
@@ -146,32 +166,30 @@ def load_sweep(path: Path) -> SweepSpec:
     from quadsim.vehicle.params import SHIPPED_VEHICLES
 
     where = str(path)
-    try:
-        data = tomllib.loads(path.read_text(encoding="utf-8"))
-    except FileNotFoundError:
-        raise ConfigError(f"sweep file not found: {path}") from None
-    except (OSError, UnicodeDecodeError) as exc:
-        raise ConfigError(f"cannot read sweep file {path}: {exc}") from None
-    except tomllib.TOMLDecodeError as exc:
-        raise ConfigError(f"{where}: not valid TOML: {exc}") from None
+    data = read_toml(path, "sweep file")
     unknown = sorted(set(data) - KNOWN_KEYS)
     if unknown:
         raise ConfigError(f"{where}: unknown key {unknown[0]!r}; a sweep file has {', '.join(sorted(KNOWN_KEYS))}")
     name = data.get("name", path.stem)
-    if not isinstance(name, str) or not name.strip():
-        raise ConfigError(f"{where}: 'name' must be a non-empty string")
+    if not isinstance(name, str) or not NAME_PATTERN.fullmatch(name.strip()):
+        raise ConfigError(
+            f"{where}: 'name' must be a plain folder name (letters, digits, space, . _ + -; at most 100; "
+            f"no path), got {_short(name)}"
+        )
 
     scenarios = []
+    lengths_s: dict[str, float] = {}
     for s in _list_of_str(data, "scenarios", [], where):
         candidate = (path.parent / s).resolve()
         ref = str(candidate) if (s.endswith(".qscript") or "/" in s) else s
         try:
-            load_script(ref)  # a missing scenario is found now, not in run 37
+            script = load_script(ref)  # a missing scenario is found now, not in run 37
         except ConfigError as exc:
             raise ConfigError(f"{where}: scenarios: {exc}") from None
         except Exception as exc:  # ScriptError is a QuadsimError, not a ConfigError
             raise ConfigError(f"{where}: scenarios: {exc}") from None
         scenarios.append(ref)
+        lengths_s[ref] = script.duration_s
     airframes = _list_of_str(data, "airframes", ["quad"], where)
     for a in airframes:
         if a not in SHIPPED_VEHICLES:
@@ -181,9 +199,18 @@ def load_sweep(path: Path) -> SweepSpec:
         raise ConfigError(f"{where}: 'seeds' must be a whole number from 1 to 10000, got {seeds!r}")
     duration = data.get("duration_s")
     if duration is not None and (
-        isinstance(duration, bool) or not isinstance(duration, (int, float)) or not 0 < duration <= 3600
+        isinstance(duration, bool) or not isinstance(duration, (int, float)) or not 0 < duration <= MAX_RUN_S
     ):
-        raise ConfigError(f"{where}: 'duration_s' must be a number of seconds in (0, 3600], got {duration!r}")
+        raise ConfigError(
+            f"{where}: 'duration_s' must be a number of seconds in (0, {MAX_RUN_S:.0f}], got {_short(duration)}"
+        )
+    if duration is None:  # every run must end: each scenario's own length bounds it
+        for s in scenarios:
+            if not lengths_s[s] <= MAX_RUN_S:
+                raise ConfigError(
+                    f"{where}: scenario {Path(s).name} lasts {lengths_s[s]:.6g} s, more than a run may "
+                    f"({MAX_RUN_S:.0f} s): give duration_s to bound it"
+                )
     winds = _list_of_str(data, "wind", ["0,0"], where)
     turbulences = _list_of_str(data, "turbulence", ["none"], where)
     for w in winds:
@@ -195,10 +222,12 @@ def load_sweep(path: Path) -> SweepSpec:
     if not isinstance(limits, dict):
         raise ConfigError(f"{where}: [limits] must be a table of metric = highest allowed value")
     for k, v in limits.items():
-        if isinstance(v, bool) or not isinstance(v, (int, float)):
-            raise ConfigError(f"{where}: limits.{k} must be a number, got {v!r}")
+        if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
+            raise ConfigError(f"{where}: limits.{k} must be a finite number, got {_short(v)}")
 
     count = len(scenarios) * len(airframes) * len(controllers) * len(winds) * len(turbulences) * seeds
+    per_scenario_s = [float(duration) if duration is not None else lengths_s[s] for s in scenarios]
+    sim_s = sum(per_scenario_s) * (count // len(scenarios))
     if count > MAX_RUNS:
         raise ConfigError(f"{where}: {count} runs is more than {MAX_RUNS}; sweep fewer values at once")
     runs = tuple(
@@ -220,7 +249,7 @@ def load_sweep(path: Path) -> SweepSpec:
     for k in limits:
         if k not in METRICS:
             raise ConfigError(f"{where}: limits.{k}: no such metric; metrics are {', '.join(METRICS)}")
-    return SweepSpec(name.strip(), path, runs, {k: float(v) for k, v in limits.items()}, varied)
+    return SweepSpec(name.strip(), path, runs, {k: float(v) for k, v in limits.items()}, varied, sim_s)
 
 
 TURBULENCE_LEVELS = ("none", *(t.value for t in Turbulence))
