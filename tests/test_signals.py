@@ -161,8 +161,10 @@ def test_the_summary_is_printed_and_the_recording_finished(trials):
         if "recording to" not in t.stdout:
             continue  # stopped before the run began: nothing to summarise
         assert "final pose" in t.stdout and "recording " in t.stdout, f"{_where(t)}:\n{t.stdout}\n{t.stderr}"
-        if t.returncode:
-            assert "the recording is finished and readable" in t.stderr, f"{_where(t)}:\n{t.stderr}"
+        if t.returncode:  # stopped during the run, or once it had finished
+            assert "the recording is finished and readable" in t.stderr or "nothing was cut short" in t.stderr, (
+                f"{_where(t)}:\n{t.stderr}"
+            )
         with open(t.recording, "rb") as fh:
             summary = make_reader(fh).get_summary()  # a finished file has its summary
         assert summary is not None and summary.statistics is not None, _where(t)
@@ -231,3 +233,19 @@ def test_a_signal_in_the_first_second_under_load(tmp_path):
         assert stderr.startswith("quadsim: "), f"{where}:\n{stderr}"
     print(f"\nfirst second: {judged} of {len(results)} signals came after quadsim's handlers were in")
     assert judged >= len(results) * 3 // 4
+
+
+def test_a_signal_once_the_command_has_finished_says_nothing_was_cut_short(capsys, monkeypatch):
+    """Ctrl-C after the last line (the recording already closed): exit 130, and a line that says so."""
+    import quadsim.apps.cli as cli
+
+    def finished_then_interrupted(args):
+        print("done")
+        os.kill(os.getpid(), signal.SIGINT)
+        return 0
+
+    monkeypatch.setattr(cli, "cmd_scenarios", finished_then_interrupted)
+    assert cli.main(["scenarios"]) == 130
+    out, err = capsys.readouterr()
+    assert out.startswith("done")
+    assert err.strip().endswith("quadsim: interrupted once the command had finished: nothing was cut short")

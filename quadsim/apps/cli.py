@@ -1111,7 +1111,12 @@ def main(argv: list[str] | None = None) -> int:
             code = 0
         if stop.signum is not None and code != stop_exit_code(stop.signum):
             # stopped by a signal, whatever else happened on the way out: the exit code says so
-            if code not in (0, 1):
+            if code == 0:  # it came after the command had said its last word
+                print(
+                    f"quadsim: {describe_stop(stop.signum)} once the command had finished: nothing was cut short",
+                    file=sys.stderr,
+                )
+            elif code != 1:
                 print(f"quadsim: {describe_stop(stop.signum)}", file=sys.stderr)
             return stop_exit_code(stop.signum)
         return code
