@@ -5,6 +5,8 @@ the flight, and refuses what it cannot fly with one line."""
 from __future__ import annotations
 
 import math
+import os
+import struct
 import subprocess
 import sys
 from pathlib import Path
@@ -115,3 +117,79 @@ def test_a_quadsim_recordings_commands_fly_the_same_flight_in_its_z_mode(tmp_pat
         original, flown = list(a.poses()), list(b.poses())
     assert len(flown) > len(original)  # 2 s more
     assert flown[: len(original)] == original
+
+
+# --- hostile bags ---------------------------------------------------------------------------------
+
+
+def _raw_bag(path: Path, times_ns: list[int] | range, payload: bytes | None = None) -> Path:
+    """A bag of Twists at `times_ns`, written straight with the mcap library (fast for millions)."""
+    from mcap.writer import Writer as McapWriter
+
+    data = payload if payload is not None else TS.serialize_cdr(_twist(x=0.5), "geometry_msgs/msg/Twist")
+    schema_text = "geometry_msgs/Vector3 linear\ngeometry_msgs/Vector3 angular\n"
+    schema_text += "=" * 80 + "\nMSG: geometry_msgs/Vector3\nfloat64 x\nfloat64 y\nfloat64 z\n"
+    with open(path, "wb") as fh:
+        writer = McapWriter(fh)
+        writer.start(profile="ros2", library="test")
+        schema = writer.register_schema("geometry_msgs/msg/Twist", "ros2msg", schema_text.encode())
+        channel = writer.register_channel("/quad_cmd_twist", "cdr", schema)
+        for i, ns in enumerate(times_ns):
+            writer.add_message(channel, log_time=ns, publish_time=ns, data=data, sequence=i % 2**32)
+        writer.finish()
+    return path
+
+
+def test_commands_centuries_apart_are_refused_and_flown_in_part_with_duration(tmp_path, capsys):
+    bag = _raw_bag(tmp_path / "apart.mcap", [0, 2**63 - 1])
+    quick = ["--cameras", "none", "--no-record"]
+    code, _, err = run_cli(capsys, "run", "--commands-from", str(bag), *quick)
+    assert_one_line_error(code, err, "its commands span 1.068e+05 days", "--duration")
+    code, out, err = run_cli(capsys, "run", "--commands-from", str(bag), "--duration", "3", *quick)
+    assert code == 0, err
+    assert "flying the 2 commands of apart.mcap for 3.0 s" in out
+
+
+def test_a_gap_longer_than_the_dead_man_timeout_is_flown_as_silence(tmp_path, capsys):
+    """Climb 2 s, then nothing for 6 s, then forward 2 s: the vehicle holds through the gap."""
+    climb = [_twist(z=1.0)] * 40
+    forward = [_twist(x=1.0)] * 40
+    messages = [(BAG_START_NS + i * PERIOD_NS, t) for i, t in enumerate(climb)]
+    messages += [(BAG_START_NS + 8_000_000_000 + i * PERIOD_NS, t) for i, t in enumerate(forward)]
+    bag = _bag(tmp_path / "gap", "/quad_cmd_twist", "geometry_msgs/msg/Twist", messages)
+    out = tmp_path / "flown.mcap"
+    code, _, err = run_cli(capsys, "run", "--commands-from", str(bag), "--cameras", "none", "--out", str(out))
+    assert code == 0, err
+    with RecordingReader(out) as flown:
+        poses = [(ns / 1e9, p) for ns, p, _ in flown.poses()]
+    at = {round(t, 2): p for t, p in poses}
+    held = [p for t, p in poses if 3.5 <= t <= 7.9]
+    assert max(p[2] for p in held) - min(p[2] for p in held) < 0.05  # altitude held through the gap
+    assert all(math.dist(p[:2], held[0][:2]) < 0.05 for p in held)
+    assert at[10.0][0] - at[8.0][0] > 1.2  # forward once the commands came back
+
+
+def test_a_bag_of_a_million_commands_flies_in_the_memory_of_a_short_one(tmp_path):
+    """Streamed, not loaded: peak memory with 10^6 commands (1 kHz, 1000 s) within 40 MB of 10^3."""
+    rss = {}
+    for n in (1_000, 1_000_000):
+        bag = _raw_bag(tmp_path / f"bag{n}.mcap", range(0, n * 1_000_000, 1_000_000))
+        argv = ["run", "--commands-from", str(bag), "--duration", "1", "--cameras", "none", "--no-record"]
+        proc = subprocess.Popen(
+            [sys.executable, str(ROOT / "main.py"), *argv], cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.PIPE
+        )
+        _, status, usage = os.wait4(proc.pid, 0)
+        err = proc.stderr.read().decode() if proc.stderr else ""
+        proc.returncode = os.waitstatus_to_exitcode(status)
+        assert proc.returncode == 0, err
+        rss[n] = usage.ru_maxrss / 1024
+    print(f"\npeak RSS: {rss[1_000]:.0f} MB with 10^3 commands, {rss[1_000_000]:.0f} MB with 10^6")
+    assert rss[1_000_000] - rss[1_000] < 40.0, rss
+
+
+def test_non_finite_commands_in_a_bag_are_rejected_and_counted(tmp_path, capsys):
+    nan = b"\x00\x01\x00\x00" + struct.pack("<6d", math.nan, 0.0, math.inf, 0.0, 0.0, 0.0)
+    bag = _raw_bag(tmp_path / "nan.mcap", range(0, 1_000_000_000, 50_000_000), payload=nan)
+    code, out, err = run_cli(capsys, "run", "--commands-from", str(bag), "--cameras", "none", "--no-record")
+    assert code == 0, err
+    assert "20 rejected (not finite)" in out

@@ -377,11 +377,16 @@ def _fly_bag(args: argparse.Namespace, realtime: bool) -> int:
     from quadsim.recording.bag_commands import command_steps, read_bag_commands
 
     bag = read_bag_commands(args.commands_from)
-    config = _config(args, bag.z_mode)
-    driver = ReplayDriver(command_steps(bag, config.rates.physics_hz), str(bag.path))
     duration = args.duration if args.duration is not None else bag.span_ns / 1e9 + COMMANDS_TAIL_S
+    if duration > MAX_DURATION_S:  # two commands decades apart: a damaged or crafted clock, not a flight
+        raise QuadsimError(
+            f"{bag.path}: its commands span {bag.span_ns / 1e9 / 86400:.4g} days, more than a run may fly "
+            f"({MAX_DURATION_S / 86400:.0f} days): fly part of it with --duration SECONDS"
+        )
+    config = _config(args, bag.z_mode)
+    driver = ReplayDriver(command_steps(bag.commands(), config.rates.physics_hz), str(bag.path), bag.count)
     run_info = {"command": "run", "commands_from": str(bag.path), "duration_s": duration, "realtime": realtime}
-    what = f"the {len(bag.commands)} commands of {bag.path.name} for {duration:.1f} s"
+    what = f"the {bag.count} commands of {bag.path.name} for {duration:.1f} s"
     return _fly_headless(
         args, config, driver, what, duration, realtime, f"{bag.path.stem}_{config.controller.value}", run_info
     )

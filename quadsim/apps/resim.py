@@ -179,7 +179,7 @@ def resimulate(
     """Fly `flight`'s commands again; with `record`, the new flight is recorded (no cameras)."""
     with tempfile.TemporaryDirectory(prefix="quadsim-resim-") as tmp:
         config, gains = _config_from(flight, Path(tmp))
-        driver = ReplayDriver(flight.command_steps(), str(flight.path))
+        driver = ReplayDriver(sorted(flight.command_steps(), key=lambda c: c[0]), str(flight.path))
         try:
             sim = Simulator(config, driver, controller_gains=gains, texture_required=False, **_flight_settings(flight))
         except (QuadsimError, ValueError) as exc:

@@ -3,7 +3,7 @@ controller received them when the recording was made."""
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Iterable, Sized
 from typing import Any
 
 from quadsim.core.types import Twist
@@ -11,29 +11,31 @@ from quadsim.drivers import NEVER
 
 
 class ReplayDriver:
+    """Delivers each command at its step; `commands` in step order, read as the flight reaches
+    them (a list, or a stream from a file). Of several at one step, the last is delivered; one
+    at a step the loop did not poll at is skipped (cannot happen in a re-flight; be safe)."""
+
     name = "replay"
 
-    def __init__(self, commands: Sequence[tuple[int, Twist]], source: str = "") -> None:
-        self._commands = sorted(commands, key=lambda c: c[0])
-        self._index = 0
+    def __init__(self, commands: Iterable[tuple[int, Twist]], source: str = "", count: int | None = None) -> None:
+        self._pending = iter(commands)
+        self._next = next(self._pending, None)
         self.source = source
-        self.next_poll_step = self._commands[0][0] if self._commands else NEVER
+        self.count = count if count is not None else len(commands) if isinstance(commands, Sized) else None
+        self.next_poll_step = self._next[0] if self._next is not None else NEVER
 
     def poll(self, step: int, time_s: float) -> Twist | None:
-        commands, i = self._commands, self._index
-        while i < len(commands) and commands[i][0] < step:
-            i += 1  # a step the loop did not poll at (cannot happen in a re-flight; be safe)
         twist = None
-        if i < len(commands) and commands[i][0] == step:
-            twist = commands[i][1]
-            i += 1
-        self._index = i
-        self.next_poll_step = commands[i][0] if i < len(commands) else NEVER
+        while self._next is not None and self._next[0] <= step:
+            if self._next[0] == step:
+                twist = self._next[1]
+            self._next = next(self._pending, None)
+        self.next_poll_step = self._next[0] if self._next is not None else NEVER
         return twist
 
     @property
     def finished(self) -> bool:
-        return self._index >= len(self._commands)
+        return self._next is None
 
     def describe(self) -> dict[str, Any]:
-        return {"name": self.name, "source": self.source, "commands": len(self._commands)}
+        return {"name": self.name, "source": self.source, "commands": self.count}

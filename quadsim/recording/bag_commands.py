@@ -1,33 +1,54 @@
 """The /quad_cmd_twist commands of any MCAP file, for `run --commands-from`: a bag another program
 recorded (`ros2 bag record` in MCAP storage, CDR `geometry_msgs/msg/Twist`) or a quadsim
-recording. Whatever is wrong with the file is one QuadsimError line saying what it is."""
+recording. Whatever is wrong with the file is one QuadsimError line saying what it is.
+
+The commands are streamed from the file as the flight reaches them, never held all at once: a bag
+of ten million commands flies in the memory of a short one.
+"""
 
 from __future__ import annotations
 
+from collections.abc import Iterator
 from dataclasses import dataclass
 from pathlib import Path
 
 from quadsim.core.types import Twist, ZMode
 from quadsim.errors import QuadsimError
+from quadsim.recording import cdr
 from quadsim.recording.contract import TWIST
+from quadsim.recording.mcap_scan import McapFile
 from quadsim.recording.reader import RecordingReader
+
+NS_PER_S = 1_000_000_000
 
 
 @dataclass(frozen=True)
 class BagCommands:
     path: Path
-    #: (log time in ns from the first command, the command), in log-time order
-    commands: tuple[tuple[int, Twist], ...]
+    #: how many commands, and the log times of the first and the last (ns, the file's clock)
+    count: int
+    first_ns: int
+    last_ns: int
     #: the z-mode a quadsim recording was flown in (None for other programs' files)
     z_mode: ZMode | None
+    channel_keys: frozenset[int]
 
     @property
     def span_ns(self) -> int:
-        return self.commands[-1][0]
+        return self.last_ns - self.first_ns
+
+    def commands(self) -> Iterator[tuple[int, Twist]]:
+        """(log time in ns from the first command, the command), in log-time order, read from
+        the file as they are asked for."""
+        with McapFile(self.path) as f:
+            for m in f.messages(set(self.channel_keys)):
+                lx, ly, lz, ax, ay, az = cdr.twist_fields(m.data)
+                yield m.log_time - self.first_ns, Twist(lx, ly, lz, ax, ay, az)
 
 
 def read_bag_commands(path: Path) -> BagCommands:
-    """Every /quad_cmd_twist message of `path`, with its log time relative to the first one."""
+    """Check that `path` has /quad_cmd_twist commands to fly, all of them decodable (one pass
+    over that channel, in constant memory), and say how many there are and when."""
     with RecordingReader(path, require_topics=False) as reader:
         channels = [ch for ch in reader.file.channels if ch.topic == TWIST.name]
         if not channels:
@@ -45,24 +66,31 @@ def read_bag_commands(path: Path) -> BagCommands:
                     f"{path}: {TWIST.name} has {encoding}, not ROS 2's cdr with a ros2msg schema "
                     f"(a ROS 1 bag? convert it with rosbags-convert)"
                 )
-        timed = list(reader.commands())
-        total = sum(reader.file.counts.get(ch.key, 0) for ch in channels)
-        if reader.undecodable.get(TWIST.name):
+        keys = frozenset(ch.key for ch in channels)
+        count, undecodable = 0, 0
+        first_ns = last_ns = 0
+        for m in reader.file.messages(set(keys), log_time_order=False):
+            try:
+                cdr.twist_fields(m.data)
+            except ValueError:
+                undecodable += 1
+                continue
+            first_ns = m.log_time if count == 0 else min(first_ns, m.log_time)
+            last_ns = m.log_time if count == 0 else max(last_ns, m.log_time)
+            count += 1
+        if undecodable:
             raise QuadsimError(
-                f"{path}: {reader.undecodable[TWIST.name]} of the {total} messages on {TWIST.name} "
+                f"{path}: {undecodable} of the {count + undecodable} messages on {TWIST.name} "
                 f"do not decode as {TWIST.type_name}"
             )
-        if not timed:
+        if not count:
             raise QuadsimError(f"{path}: {TWIST.name} has no messages")
         z_mode = reader.description.z_mode if reader.description is not None else None
-    first = timed[0][0]
-    return BagCommands(path, tuple((ns - first, twist) for ns, twist in timed), z_mode)
+    return BagCommands(path, count, first_ns, last_ns, z_mode, keys)
 
 
-def command_steps(commands: BagCommands, physics_hz: int) -> list[tuple[int, Twist]]:
-    """The commands at the physics steps nearest their log times; of two at one step, the later
-    (a bag written at more than the physics rate)."""
-    at: dict[int, Twist] = {}
-    for ns, twist in commands.commands:
-        at[round(ns * physics_hz / 1_000_000_000)] = twist
-    return sorted(at.items())
+def command_steps(commands: Iterator[tuple[int, Twist]], physics_hz: int) -> Iterator[tuple[int, Twist]]:
+    """The commands at the physics steps nearest their log times (ns from the first), in order;
+    the driver takes the last of several at one step (a bag written at more than the physics rate)."""
+    for ns, twist in commands:
+        yield (ns * physics_hz + NS_PER_S // 2) // NS_PER_S, twist

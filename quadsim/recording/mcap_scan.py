@@ -14,6 +14,7 @@ Used by the reader (`info`, `replay`, `replay --resim`, `check`) and by `recover
 
 from __future__ import annotations
 
+import heapq
 import mmap
 import re
 import struct
@@ -223,6 +224,7 @@ class _Segment:
     reading: int = 0  # which of `readings` worked
     note: str = ""  # damage to its fields that cost nothing, if its records read
     header_span: tuple[int, int] | None = None  # the time range its own fields give
+    first_message_ns: int | None = None  # the earliest log time of its readable messages (first pass)
     indexes: list[tuple[int, int, int]] = field(default_factory=list)  # message indexes: (channel id, at, bytes)
 
 
@@ -328,17 +330,33 @@ class McapFile:
         return bytes(self._buf[a.data_at : a.data_at + a.data_size])
 
     def messages(self, keys: set[int] | None = None, log_time_order: bool = True) -> Iterator[RawMessage]:
-        """Messages of the channels with these keys (all: None), from every readable chunk."""
-        if log_time_order:
-            found = list(self.messages(keys, log_time_order=False))
-            found.sort(key=lambda m: m.log_time)  # stable: file order among equal times
-            yield from found
+        """Messages of the channels with these keys (all: None), from every readable chunk; in
+        log-time order (file order among equal times), streamed: a chunk is read when the merge
+        reaches its earliest message, so memory holds the chunks whose times overlap, not the file."""
+        segments = [s for s in self._segments if s.ok and (keys is None or keys & s.counts.keys())]
+        if not log_time_order:
+            for seg in segments:
+                yield from self._parse_segment(seg, self._records_of(seg, seg.readings[seg.reading]), keys, False)
             return
-        for seg in self._segments:
-            if not seg.ok or (keys is not None and not keys & seg.counts.keys()):
-                continue
-            raw = self._records_of(seg, seg.readings[seg.reading])
-            yield from self._parse_segment(seg, raw, keys, first_pass=False)
+        segments.sort(key=lambda s: (s.first_message_ns or 0, s.offset))
+        heap: list[tuple[int, int, int, RawMessage, Iterator[tuple[int, RawMessage]]]] = []
+        opened = 0
+        while heap or opened < len(segments):
+            while opened < len(segments) and (not heap or (segments[opened].first_message_ns or 0) <= heap[0][0]):
+                seg = segments[opened]
+                opened += 1
+                raw = self._records_of(seg, seg.readings[seg.reading])
+                ordered = sorted(enumerate(self._parse_segment(seg, raw, keys, False)), key=lambda im: im[1].log_time)
+                del raw
+                pending = iter(ordered)
+                first = next(pending, None)
+                if first is not None:
+                    heapq.heappush(heap, (first[1].log_time, seg.offset, first[0], first[1], pending))
+            _, offset, _, message, pending = heapq.heappop(heap)
+            yield message
+            following = next(pending, None)
+            if following is not None:
+                heapq.heappush(heap, (following[1].log_time, offset, following[0], following[1], pending))
 
     def damage_report(self) -> str:
         """One paragraph: what is wrong, how much is readable, what to do."""
@@ -915,6 +933,8 @@ class McapFile:
                     continue
                 if first_pass:
                     seg.counts[key] = seg.counts.get(key, 0) + 1
+                    if seg.first_message_ns is None or log_time < seg.first_message_ns:
+                        seg.first_message_ns = log_time
                     self.counts[key] = self.counts.get(key, 0) + 1
                     if key not in self.first_ns or log_time < self.first_ns[key]:
                         self.first_ns[key] = log_time
