@@ -242,3 +242,29 @@ def test_a_write_error_on_the_file_itself_stops_recording_not_the_flight(tmp_pat
     assert "WARNING" not in result.stderr  # one clear message, no noise from the writer
     found = scan(out)
     assert found.messages and 0 < found.span_s[1] < 30.0
+
+
+@pytest.mark.skipif(sys.platform == "win32", reason="file size limits are POSIX")
+@pytest.mark.parametrize("limit", [300_000, 1_000_000])
+def test_a_full_disk_under_camera_frames_is_one_message_not_hundreds(tmp_path, limit):
+    """With camera frames, the MCAP writer meets the full file while it takes a message, and
+    foxglove-sdk reported every message after that on stderr (43 and 222 lines with these
+    limits) before quadsim's one message; those records are now kept off the screen."""
+    import resource
+
+    def cap_file_size():
+        resource.setrlimit(resource.RLIMIT_FSIZE, (limit, limit))
+
+    run = ["run", "--script", "square", "--duration", "6", "--camera-size", "320x240"]
+    result = subprocess.run(
+        [sys.executable, str(ROOT / "main.py"), *run, "--out", str(tmp_path / "capped.mcap")],
+        capture_output=True,
+        text=True,
+        cwd=ROOT,
+        preexec_fn=cap_file_size,
+    )
+    assert result.returncode == 1
+    problems = [line for line in result.stderr.splitlines() if not line.startswith("sim time:")]
+    assert len(problems) == 2, result.stderr  # recording stopped (with why); the run's closing line
+    assert "recording stopped at sim time" in problems[0] and "quadsim recover" in problems[0]
+    assert "its recording did not" in problems[1]

@@ -39,7 +39,7 @@ from quadsim.live import FOXGLOVE_DEFAULT_PORT as DEFAULT_PORT
 from quadsim.live.foxglove_front import FoxgloveFront
 from quadsim.recording import cdr
 from quadsim.recording.contract import QOS_LATCHED, TWIST, Topic
-from quadsim.recording.writer import ros2_channel
+from quadsim.recording.writer import ros2_channel, route_sdk_logs_through_python
 
 if TYPE_CHECKING:
     from quadsim.drivers.subscribed import SubscribedDriver
@@ -155,6 +155,7 @@ class FoxgloveBridge:
         self._publishers: dict[tuple[int, int], Callable[[bytes], TwistFields]] = {}  # (client, channel) -> decoder
         self._lock = threading.Lock()
         self.closed = False
+        route_sdk_logs_through_python()  # before the first sink starts, or it has no effect
         # the SDK serves loopback only, the front the address asked for (clients publish to the front)
         self.server = foxglove.start_server(
             name=name,

@@ -200,6 +200,52 @@ class _LogTimeOrder:
         return out
 
 
+#: where foxglove-sdk reports a message its MCAP writer could not write (once per message logged)
+SDK_WRITE_LOGGER = "foxglove.log_sink_set"
+
+
+class _WriterErrorFilter(logging.Filter):
+    """Keeps the SDK's per-message write errors off the user's screen: after a write fails
+    (the disk is full), the writer reports every message logged until the recorder's next flush,
+    which meets the error itself and says it once. Only those records are dropped."""
+
+    def __init__(self) -> None:
+        super().__init__()
+        self.dropped = 0
+
+    def filter(self, record: logging.LogRecord) -> bool:
+        if record.getMessage().startswith("error logging message: McapError"):
+            self.dropped += 1
+            return False
+        return True
+
+
+_writer_errors: _WriterErrorFilter | None = None
+
+
+def route_sdk_logs_through_python() -> None:
+    """foxglove-sdk prints its Rust log records straight to stderr unless they are routed to
+    Python's logging (its set_log_level); route them once, and filter the per-message write
+    errors there. set_log_level would call logging.basicConfig where the program has no handler
+    (a script using quadsim.record): a NullHandler stands in while it is called."""
+    global _writer_errors
+    if _writer_errors is not None:
+        return
+    import foxglove
+
+    _writer_errors = _WriterErrorFilter()
+    logging.getLogger(SDK_WRITE_LOGGER).addFilter(_writer_errors)
+    root = logging.getLogger()
+    stand_in = logging.NullHandler() if not root.handlers else None
+    if stand_in is not None:
+        root.addHandler(stand_in)
+    try:
+        foxglove.set_log_level("WARNING")  # FOXGLOVE_LOG_LEVEL, where set, wins
+    finally:
+        if stand_in is not None:
+            root.removeHandler(stand_in)
+
+
 class McapRecorder:
     """A consumer of the topic fan-out that writes one MCAP file: the run's metadata and
     attachments when it opens, then every message it is given.
@@ -219,6 +265,7 @@ class McapRecorder:
         import foxglove
         from foxglove.mcap import MCAPCompression, MCAPWriteOptions
 
+        route_sdk_logs_through_python()
         cameras = description.cameras
         self.path = path
         self._own_stream = stream is None
