@@ -261,3 +261,23 @@ def test_a_start_pose_far_away_is_refused():
 
     with pytest.raises(ConfigError, match="beyond"):
         SimConfig(start=StartPose(1e300, 0.0, 0.0))
+
+
+def test_a_negative_wind_reads_as_a_value_and_says_how_to_turn_it(capsys):
+    code, _, err = run_cli(capsys, "run", "--script", "hover", "--wind", "-5,90", *QUICK)
+    assert_one_line_error(code, err, "wind speed -5 m/s is outside [0, 50] m/s", "opposite side: 5,270")
+
+
+def test_camera_options_nothing_would_show_are_refused(capsys):
+    code, _, err = run_cli(capsys, "run", "--script", "hover", "--camera-size", "64x48", "--no-record")
+    assert_one_line_error(code, err, "--camera-size with --no-record", "nothing would show the frames")
+    code, out, _ = run_cli(capsys, "run", "--script", "hover", "--duration", "0.2", *QUICK)
+    assert code == 0 and "cameras none" in out  # asking for none is fine
+
+
+def test_a_bad_world_file_is_the_only_line(capsys, tmp_path):
+    """Checked before the run says what it flies: no 'flying ...' header above the error."""
+    world = tmp_path / "w.toml"
+    world.write_text("[floor]\nsize_m = 'big'\n")
+    code, out, err = run_cli(capsys, "run", "--script", "hover", "--world", str(world), *QUICK)
+    assert code == 2 and out == "" and err.count("\n") == 1, (out, err)

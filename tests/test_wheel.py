@@ -222,3 +222,14 @@ def test_without_out_the_recording_goes_to_the_user_data_folder(installed):
     assert set(installed.work.iterdir()) == before  # nothing written into the current directory
     (recording,) = (installed.data / "quadsim" / "recordings").glob("*_hover_cascade.mcap")
     assert recording.stat().st_size > 0
+
+
+def test_help_speaks_of_the_command_the_user_typed(installed):
+    """The installed `quadsim` names itself, never the clone's main.py or its files."""
+    for args in (["--help"], ["run", "--help"], ["sweep", "--help"]):
+        text = check(installed.quadsim(*args)).stdout
+        assert "main.py" not in text and "examples/" not in text and "README" not in text, (args, text)
+    assert "Run 'quadsim COMMAND --help'" in check(installed.quadsim("--help")).stdout
+    assert check(installed.quadsim("run", "--help")).stdout.startswith("usage: quadsim run")
+    as_module = check(installed.python("-m", "quadsim", "--help")).stdout
+    assert "Run 'python -m quadsim COMMAND --help'" in as_module

@@ -7,6 +7,7 @@ import errno
 import logging
 import math
 import os
+import re
 import sys
 from collections.abc import Callable
 from dataclasses import replace
@@ -194,17 +195,15 @@ def _add_sim_options(p: argparse.ArgumentParser) -> None:
     o.add_argument("--no-record", action="store_true", help="do not record")
     o.add_argument(
         "--cameras",
-        default="front,floor",
+        default=None,
         metavar="LIST",
         help="onboard cameras to render: front,floor (default), front, floor or none",
     )
-    o.add_argument(
-        "--camera-size", default="320x240", metavar="WxH", help="image size of each camera (default 320x240)"
-    )
+    o.add_argument("--camera-size", default=None, metavar="WxH", help="image size of each camera (default 320x240)")
     o.add_argument(
         "--camera-hz",
         type=_whole(1, 1000),
-        default=30,
+        default=None,
         help="frame rate of each camera; must divide the physics rate (default 30)",
     )
     o.add_argument(
@@ -302,16 +301,31 @@ def _flight_settings(args: argparse.Namespace) -> dict[str, Any]:
     return {"landing": LandingSettings(hard_landing=args.hard_landing), "reset_on_crash": args.reset_on_crash}
 
 
+DEFAULT_CAMERAS, DEFAULT_CAMERA_SIZE, DEFAULT_CAMERA_HZ = "front,floor", "320x240", 30
+
+
+def _camera_options_given(args: argparse.Namespace) -> list[str]:
+    """The camera options the user typed that ask for frames (`--cameras none` asks for none)."""
+    given = [] if args.cameras in (None, "none") else ["--cameras"]
+    return given + [
+        name
+        for name, value in (("--camera-size", args.camera_size), ("--camera-hz", args.camera_hz))
+        if value is not None
+    ]
+
+
 def _outputs(args: argparse.Namespace):
     from quadsim.apps.outputs import OutputOptions
     from quadsim.sensors.camera import CameraSpec, default_cameras
 
+    size = args.camera_size if args.camera_size is not None else DEFAULT_CAMERA_SIZE
     try:
-        width, height = (int(v) for v in args.camera_size.lower().split("x"))
+        width, height = (int(v) for v in size.lower().split("x"))
     except ValueError:
-        raise QuadsimError(f"--camera-size must look like 320x240, got {args.camera_size!r}") from None
-    wanted = [c.strip() for c in args.cameras.split(",") if c.strip()]
-    available = {c.name: c for c in default_cameras(width, height, args.camera_hz)}
+        raise QuadsimError(f"--camera-size must look like 320x240, got {size!r}") from None
+    wanted = [c.strip() for c in (args.cameras or DEFAULT_CAMERAS).split(",") if c.strip()]
+    hz = args.camera_hz if args.camera_hz is not None else DEFAULT_CAMERA_HZ
+    available = {c.name: c for c in default_cameras(width, height, hz)}
     if wanted == ["none"]:
         wanted = []
     unknown = [c for c in wanted if c not in available]
@@ -434,6 +448,12 @@ def _fly_headless(
     outputs: OutputOptions = _outputs(args)
     live_wanted = args.foxglove is not None or args.ros2 or commands is not None
     if not outputs.record and outputs.cameras and not live_wanted:  # nobody would see a frame
+        asked = _camera_options_given(args)
+        if asked:
+            raise QuadsimError(
+                f"{' and '.join(asked)} with --no-record: nothing would show the frames (record, or serve them "
+                "with --foxglove or --ros2, or leave the camera options out)"
+            )
         outputs = replace(outputs, cameras=())
     if commands is not None:  # flown live: the flight keeps real time, the cameras drop frames (as the window)
         outputs = replace(outputs, ordered_delivery=False)
@@ -441,15 +461,17 @@ def _fly_headless(
         raise QuadsimError(f"--duration must be > 0 s, got {duration}")
     cams = ", ".join(f"{c.name} {c.width_px}x{c.height_px}@{c.rate_hz}Hz" for c in outputs.cameras) or "none"
     live = _live_outputs(args, commands)
-    print(
-        f"flying {what}: controller {config.controller.value}, "
-        f"z-mode {(config.z_mode or ZMode.VELOCITY).value}, physics {config.rates.physics_hz} Hz, control {config.rates.control_hz} Hz, "
-        f"cameras {cams}" + (f", {config.wind.describe()}" if config.wind.enabled else "")
-    )
-    bar = ProgressBar(duration, "sim time") if commands is None else None
+    bar: ProgressBar | None = None
     summary, run, sim_time = None, None, 0.0
     try:
         with Simulator(config, driver, **_flight_settings(args)) as sim:
+            # said once the world and the vehicle have loaded: a bad file is the only line, not the second
+            print(
+                f"flying {what}: controller {config.controller.value}, z-mode {(config.z_mode or ZMode.VELOCITY).value}, "
+                f"physics {config.rates.physics_hz} Hz, control {config.rates.control_hz} Hz, "
+                f"cameras {cams}" + (f", {config.wind.describe()}" if config.wind.enabled else "")
+            )
+            bar = ProgressBar(duration, "sim time") if commands is None else None
             try:
                 with RecordedRun(sim, sim.description(), outputs, label, run_info, live=live) as run:
                     if run.path is not None:
@@ -531,8 +553,8 @@ def cmd_fly(args: argparse.Namespace) -> int:
     if not has_display():
         print(
             f"No display found: the teleop window cannot open. Recording the scripted demo '{DEMO_SCENARIO}' "
-            f"headless instead. (Headless flights: python main.py run --script NAME; list them with: "
-            f"python main.py scenarios)"
+            f"headless instead. (Headless flights: {program()} run --script NAME; list them with: "
+            f"{program()} scenarios)"
         )
         args.gui = False
         return _fly_script(args, DEMO_SCENARIO, realtime=False)
@@ -868,11 +890,18 @@ def cmd_bench(args: argparse.Namespace) -> int:
     return 0
 
 
+def program() -> str:
+    """How the user started quadsim, for help and hints to name: `python main.py` in a clone,
+    `python -m quadsim`, or the installed `quadsim` command."""
+    name = Path(sys.argv[0]).name if sys.argv and sys.argv[0] else ""
+    return {"main.py": "python main.py", "__main__.py": "python -m quadsim"}.get(name, "quadsim")
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = _Parser(
-        prog="quadsim",
+        prog=program(),
         description="Quadrotor teleop simulator: PyBullet physics flying Twist commands (/quad_cmd_twist semantics).",
-        epilog="Run 'python main.py COMMAND --help' for each command's options.",
+        epilog=f"Run '{program()} COMMAND --help' for each command's options.",
     )
     parser.add_argument("--version", action="version", version=f"quadsim {__version__}")
     parser.add_argument("-v", "--verbose", action="store_true", help="log more")
@@ -883,15 +912,16 @@ def build_parser() -> argparse.ArgumentParser:
         help="fly a scripted flight headless, as fast as possible, and summarise it",
         description="Fly a built-in scenario, a script file or the /quad_cmd_twist commands of any MCAP "
         "headless as fast as the machine allows, showing progress, then print sim time, wall time, "
-        "real-time factor, final pose and distance flown. Script format: see README (or "
-        "quadsim/drivers/scripted.py).",
+        "real-time factor, final pose and distance flown. Script format: one segment a line, "
+        "'DURATION_S FIELD=VALUE...' (fields linear.x linear.y linear.z angular.z), 'silence DURATION_S', "
+        "an optional first line 'z_mode height'.",
     )
     what = p.add_mutually_exclusive_group()
     what.add_argument(
         "--script",
         default=None,
         metavar="NAME|FILE",
-        help="a built-in scenario (python main.py scenarios lists them) or a script file",
+        help=f"a built-in scenario ({program()} scenarios lists them) or a script file",
     )
     what.add_argument(
         "--commands-from",
@@ -960,7 +990,7 @@ def build_parser() -> argparse.ArgumentParser:
         default=None,
         metavar="FILE.toml",
         help="gamepad mapping file in teleop_twist_joy's names (axis_linear.x, scale_linear.x, enable_button, "
-        "...), axes numbered and signed as on /joy; see README",
+        "deadzone), axes numbered and signed as on /joy (stick up and left positive)",
     )
     t.add_argument("--window", default="1280x720", metavar="WxH", help="initial window size (default 1280x720)")
     _add_sim_options(p)
@@ -973,8 +1003,7 @@ def build_parser() -> argparse.ArgumentParser:
     p = sub.add_parser(
         "evaluate",
         help="fly the scenarios with each controller and print the flight-quality table",
-        description="Fly every measured scenario and print its metrics as a Markdown table "
-        "(the README's table comes from here).",
+        description="Fly every measured scenario and print its metrics as a Markdown table.",
     )
     p.add_argument(
         "--controller",
@@ -1127,9 +1156,25 @@ def main(argv: list[str] | None = None) -> int:
         return code
 
 
+#: options whose value may start with a minus sign (argparse would read `--wind -5,90` as two options)
+_SIGNED_VALUE_OPTIONS = ("--wind",)
+_SIGNED_VALUE = re.compile(r"-[0-9.][0-9.,eE+-]*")
+
+
+def _attach_signed_values(argv: list[str]) -> list[str]:
+    """`--wind -5,90` as `--wind=-5,90`, so a negative speed reads as the value it is."""
+    out: list[str] = []
+    for arg in argv:
+        if out and out[-1] in _SIGNED_VALUE_OPTIONS and _SIGNED_VALUE.fullmatch(arg):
+            out[-1] = f"{out[-1]}={arg}"
+        else:
+            out.append(arg)
+    return out
+
+
 def _main(argv: list[str] | None) -> int:
     parser = build_parser()
-    args = parser.parse_args(argv)
+    args = parser.parse_args(_attach_signed_values(list(sys.argv[1:] if argv is None else argv)))
     logging.basicConfig(
         level=logging.DEBUG if args.verbose else logging.WARNING, format="quadsim: %(levelname)s: %(message)s"
     )

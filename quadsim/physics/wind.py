@@ -83,7 +83,12 @@ class WindSettings:
             if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
                 raise ConfigError(f"wind {name} must be a finite number, got {value!r}")
         if not 0.0 <= self.speed_mps <= MAX_WIND_MPS:
-            raise ConfigError(f"wind speed {self.speed_mps:g} m/s is outside [0, {MAX_WIND_MPS:g}] m/s")
+            turned = (
+                f" (wind from the opposite side: {-self.speed_mps:g},{(self.from_deg + 180.0) % 360.0:g})"
+                if -MAX_WIND_MPS <= self.speed_mps < 0
+                else ""
+            )
+            raise ConfigError(f"wind speed {self.speed_mps:g} m/s is outside [0, {MAX_WIND_MPS:g}] m/s{turned}")
         if self.turbulence is not None and not isinstance(self.turbulence, Turbulence):
             raise ConfigError(f"turbulence must be one of light, moderate, severe, got {self.turbulence!r}")
 

@@ -16,7 +16,8 @@ def add_parser(sub: argparse._SubParsersAction, recordings_default: str) -> None
         "sweep",
         help="fly every combination of a sweep file (scenarios x controllers x airframes x wind x seeds) "
         "and tabulate their flight metrics",
-        description="Fly the runs a sweep file stands for (see examples/sweep_wind.toml), each a headless "
+        description="Fly the runs a sweep file stands for (a TOML file of scenarios, airframes, controllers, wind, "
+        "turbulence, seeds and [limits]), each a headless "
         "run measured with flight metrics, on a pool of processes (--jobs) or on Ray (--ray). Results go "
         "to one table (results.parquet with pyarrow installed, else results.csv) in --out, with a summary "
         "printed (mean and worst per group) and a plot (plot.png, with matplotlib). The same sweep file "
@@ -95,7 +96,7 @@ def cmd_sweep(args: argparse.Namespace) -> int:
         from quadsim.apps.sweep.table import parquet_available
 
         if not parquet_available():
-            raise QuadsimError("--format parquet needs pyarrow: pip install pyarrow")
+            raise QuadsimError("--format parquet needs pyarrow: pip install 'quadsim[parquet]'")
     out = args.out if args.out is not None else default_recordings_dir() / "sweeps" / spec.name
     where = (
         f"Ray ({'local, ' + str(jobs) + ' CPUs' if args.ray == 'local' else args.ray})"

@@ -79,7 +79,9 @@ def read_table(path: Path) -> list[dict[str, Any]]:
     try:
         if path.suffix == ".parquet":
             if not parquet_available():
-                raise QuadsimError(f"{path} is a Parquet table and pyarrow is not installed: pip install pyarrow")
+                raise QuadsimError(
+                    f"{path} is a Parquet table and pyarrow is not installed: pip install 'quadsim[parquet]'"
+                )
             import pyarrow.parquet as pq
 
             return pq.read_table(path).to_pylist()
