@@ -6,6 +6,7 @@ from __future__ import annotations
 import math
 import subprocess
 import sys
+import warnings
 
 import gymnasium as gym
 import numpy as np
@@ -18,9 +19,13 @@ from quadsim.envs.quad import AGENT_HZ, HOVER_EPISODE_S
 
 @pytest.mark.parametrize("env_id", quadsim.envs.ENV_IDS)
 def test_every_env_passes_the_checker(env_id):
+    """With no warning at all: actions in [-1, 1], bounded observations (what Stable-Baselines3's
+    checker also asks)."""
     env = gym.make(env_id, render_mode="rgb_array")
     try:
-        check_env(env.unwrapped, skip_render_check=False)
+        with warnings.catch_warnings():
+            warnings.simplefilter("error")
+            check_env(env.unwrapped, skip_render_check=False)
         env.reset(seed=0)
         frame = env.render()
         assert frame.shape == (120, 160, 3) and frame.dtype == np.uint8
@@ -29,13 +34,14 @@ def test_every_env_passes_the_checker(env_id):
         env.close()
 
 
-def _p_policy(observation: np.ndarray) -> np.ndarray:
-    """Fly toward the target: world velocity proportional to the error, turned into the heading frame."""
+def _p_policy(observation: np.ndarray) -> tuple[float, float, float, float]:
+    """Fly toward the target: world velocity proportional to the error, turned into the heading
+    frame (m/s and rad/s: the env's action_of makes them an action)."""
     position, yaw, target = observation[0:3], observation[8], observation[12:15]
     error = target - position
     vx, vy = np.clip(1.0 * error[:2], -1.5, 1.5)
     c, s = math.cos(yaw), math.sin(yaw)
-    return np.array([c * vx + s * vy, -s * vx + c * vy, np.clip(1.5 * error[2], -1.0, 1.0), 0.0], np.float32)
+    return (c * vx + s * vy, -s * vx + c * vy, float(np.clip(1.5 * error[2], -1.0, 1.0)), 0.0)
 
 
 def test_seeded_resets_are_reproducible_and_a_p_controller_solves_hover():
@@ -46,7 +52,7 @@ def test_seeded_resets_are_reproducible_and_a_p_controller_solves_hover():
             observation, _ = env.reset(seed=seed)
             observations = [observation]
             for _ in range(HOVER_EPISODE_S * AGENT_HZ):
-                observation, _, terminated, truncated, _ = env.step(_p_policy(observation))
+                observation, _, terminated, truncated, _ = env.step(env.unwrapped.action_of(*_p_policy(observation)))
                 observations.append(observation)
                 if terminated or truncated:
                     break
@@ -72,7 +78,7 @@ def test_the_seed_draws_the_gusts_and_a_crash_ends_the_episode():
         for seed in (5, 5, 6):
             observation, _ = env.reset(seed=seed)
             for _ in range(AGENT_HZ):  # take off
-                observation, *_ = env.step(np.array([0.0, 0.0, 1.0, 0.0], np.float32))
+                observation, *_ = env.step(env.unwrapped.action_of(0.0, 0.0, 1.0, 0.0))
             gusts = []
             for _ in range(2 * AGENT_HZ):  # hold still: only the wind moves it
                 observation, *_ = env.step(np.zeros(4, np.float32))
@@ -87,14 +93,14 @@ def test_the_seed_draws_the_gusts_and_a_crash_ends_the_episode():
         # fly into the red tower (6 m ahead of the origin, 3 m tall): the crash ends the episode
         observation, _ = env.reset(seed=1)
         for _ in range(AGENT_HZ):  # up to about 1.5 m
-            observation, *_ = env.step(np.array([0.0, 0.0, 1.5, 0.0], np.float32))
+            observation, *_ = env.step(env.unwrapped.action_of(0.0, 0.0, 1.5, 0.0))
         terminated, reward = False, 0.0
         for _ in range(5 * AGENT_HZ):
             yaw, (x, y) = observation[8], observation[0:2]
             wx, wy = 6.0 - x, 0.0 - y
             d = math.hypot(wx, wy)
             c, sn = math.cos(yaw), math.sin(yaw)
-            action = np.array([4.0 * (c * wx + sn * wy) / d, 4.0 * (-sn * wx + c * wy) / d, 0.0, 0.0], np.float32)
+            action = env.unwrapped.action_of(4.0 * (c * wx + sn * wy) / d, 4.0 * (-sn * wx + c * wy) / d, 0.0, 0.0)
             observation, reward, terminated, truncated, _ = env.step(action)
             if terminated or truncated:
                 break
@@ -113,7 +119,7 @@ def test_tower_vision_images_show_the_tower_when_facing_it():
         for yaw in (0.0, math.pi):
             observation, _ = env.reset(seed=1, options={"start_yaw_rad": yaw})
             for _ in range(45):  # climb for 1.5 s
-                observation, *_ = env.step(np.array([0.0, 0.0, 1.0, 0.0], np.float32))
+                observation, *_ = env.step(env.unwrapped.action_of(0.0, 0.0, 1.0, 0.0))
             image = observation["image"].astype(int)
             red = (image[:, :, 0] > 120) & (image[:, :, 0] > 2 * image[:, :, 1]) & (image[:, :, 0] > 2 * image[:, :, 2])
             red_fraction[yaw] = red.mean()
@@ -130,7 +136,7 @@ def test_tower_vision_images_show_the_tower_when_facing_it():
             distance = unwrapped.distance_to_tower_m(unwrapped.sim.state)
             forward = 0.0 if distance < 1.2 else 1.0
             climb = 1.5 - unwrapped.sim.state.position_m[2]
-            observation, reward, terminated, truncated, _ = env.step(np.array([forward, 0, climb, 0], np.float32))
+            observation, reward, terminated, truncated, _ = env.step(env.unwrapped.action_of(forward, 0, climb, 0))
             total += reward
             if terminated or truncated:
                 break
@@ -142,16 +148,20 @@ def test_tower_vision_images_show_the_tower_when_facing_it():
 
 def test_make_vec_steps_two_envs_in_processes():
     envs = gym.make_vec("quadsim/Hover-v0", num_envs=2, vectorization_mode="async")
+    scale = gym.make("quadsim/Hover-v0").unwrapped  # its action_of, for the policy's m/s
     try:
         observations, _ = envs.reset(seed=3)
         assert observations.shape == (2, 15)
         assert not np.array_equal(observations[0], observations[1])  # each env its own seed
         for _ in range(30):
-            observations, rewards, terminated, truncated, _ = envs.step(np.array([_p_policy(o) for o in observations]))
+            observations, rewards, terminated, truncated, _ = envs.step(
+                np.array([scale.action_of(*_p_policy(o)) for o in observations])
+            )
         assert rewards.shape == (2,) and not terminated.any()
         assert (observations[:, 2] > 0.5).all()  # both took off
     finally:
         envs.close()
+        scale.close()
 
 
 def test_without_gymnasium_the_message_says_what_to_install():
@@ -159,3 +169,44 @@ def test_without_gymnasium_the_message_says_what_to_install():
     result = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
     assert result.returncode != 0
     assert "pip install 'quadsim[gym]'" in result.stderr.strip().splitlines()[-1]
+
+
+def test_actions_are_fractions_of_the_command_limits():
+    env = gym.make("quadsim/Hover-v0")
+    try:
+        unwrapped = env.unwrapped
+        limits = unwrapped.sim.vehicle.limits
+        assert env.action_space.low.tolist() == [-1.0] * 4 and env.action_space.high.tolist() == [1.0] * 4
+        full = unwrapped.twist_of([1.0, -1.0, 1.0, -1.0])
+        assert full.tolist() == pytest.approx(
+            [
+                limits.max_horizontal_speed_mps,
+                -limits.max_horizontal_speed_mps,
+                limits.max_climb_rate_mps,
+                -limits.max_yaw_rate_radps,
+            ]
+        )
+        assert unwrapped.twist_of([0, 0, -1.0, 0])[2] == pytest.approx(-limits.max_descent_rate_mps)
+        assert unwrapped.action_of(*unwrapped.twist_of([0.3, -0.2, 0.5, -0.7])).tolist() == pytest.approx(
+            [0.3, -0.2, 0.5, -0.7]
+        )
+        env.reset(seed=0)
+        for _ in range(AGENT_HZ):
+            env.step(np.array([0.0, 0.0, 0.5, 0.0], np.float32))  # half the climb limit, for 1 s
+        climb = unwrapped.sim.gate.last_command.linear_z
+        assert climb == pytest.approx(0.5 * limits.max_climb_rate_mps)
+    finally:
+        env.close()
+
+
+def test_make_finds_the_environments_without_an_import():
+    """Gymnasium's "module:id" form imports quadsim.envs itself (Gymnasium 1.x dropped plugin
+    entry points), in a fresh interpreter that never imported quadsim."""
+    code = (
+        "import gymnasium as gym, sys\n"
+        "env = gym.make('quadsim.envs:quadsim/Hover-v0')\n"
+        "print(env.spec.id, env.observation_space.shape)\n"
+    )
+    result = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
+    assert result.returncode == 0, result.stderr
+    assert result.stdout.strip() == "quadsim/Hover-v0 (15,)"

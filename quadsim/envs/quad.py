@@ -40,6 +40,9 @@ TOWER_EPISODE_S = 20
 ARENA_HALF_M = 20.0
 ARENA_TOP_M = 10.0
 MAX_TILT_DEG = 80.0
+#: observation bounds for speeds and body rates (a falling or tumbling vehicle stays within them)
+MAX_SPEED_MPS = 50.0
+MAX_RATE_RADPS = 100.0
 #: the seeds the env hands the simulator (SimConfig's range)
 _SIM_SEEDS = 2**63 - 1
 #: what render() shows: the front camera, small
@@ -61,11 +64,11 @@ class QuadEnv(gym.Env):
         self.steps_per_action = config.rates.physics_hz // AGENT_HZ
         limits = self.sim.vehicle.limits
         v, yaw = limits.max_horizontal_speed_mps, limits.max_yaw_rate_radps
-        self.action_space: spaces.Box = spaces.Box(
-            low=np.array([-v, -v, -limits.max_descent_rate_mps, -yaw], np.float32),
-            high=np.array([v, v, limits.max_climb_rate_mps, yaw], np.float32),
-            dtype=np.float32,
-        )
+        # actions in [-1, 1] (what learning libraries expect), scaled to the command limits; climb
+        # and descent have limits of their own, so 1 and -1 are each one's full rate
+        self._up = np.array([v, v, limits.max_climb_rate_mps, yaw])
+        self._down = np.array([v, v, limits.max_descent_rate_mps, yaw])
+        self.action_space: spaces.Box = spaces.Box(-1.0, 1.0, (4,), np.float32)
         self._view: Cameras | None = None
 
     # --- what the subclasses say ----------------------------------------------------------
@@ -95,8 +98,19 @@ class QuadEnv(gym.Env):
         if self._view is not None:
             self._view.capture_now()
 
+    def twist_of(self, action: Any) -> np.ndarray:
+        """The command an action stands for: forward, left, climb (m/s) and yaw rate (rad/s)."""
+        a = np.clip(np.asarray(action, np.float64), -1.0, 1.0)
+        return np.where(a >= 0, a * self._up, a * self._down)
+
+    def action_of(self, forward_mps: float, left_mps: float, climb_mps: float, yaw_rate_radps: float) -> np.ndarray:
+        """The action that commands these velocities (clipped to the limits): for policies
+        written by hand in m/s and rad/s."""
+        t = np.array([forward_mps, left_mps, climb_mps, yaw_rate_radps], np.float64)
+        return np.clip(np.where(t >= 0, t / self._up, t / self._down), -1.0, 1.0).astype(np.float32)
+
     def step(self, action: Any) -> tuple[Any, float, bool, bool, dict[str, Any]]:
-        a = np.clip(np.asarray(action, np.float64), self.action_space.low, self.action_space.high)
+        a = self.twist_of(action)
         self.sim.send(Twist(linear_x=a[0], linear_y=a[1], linear_z=a[2], angular_z=a[3]))
         events_before = len(self.sim.events)
         state = self.sim.step(self.steps_per_action)
@@ -141,15 +155,24 @@ class QuadEnv(gym.Env):
 class HoverEnv(QuadEnv):
     """quadsim/Hover-v0: take off from a random start and reach and hold a target position.
 
-    Observation, Box(15) float32: position (3, m, world), velocity (3, m/s, world), roll, pitch,
+    Action, Box(4) in [-1, 1]: forward, left, climb and yaw rate as fractions of the command
+    limits (QuadEnv.twist_of, action_of). Observation, Box(15) float32, bounded (clipped to the
+    bounds): position (3, m, world), velocity (3, m/s, world), roll, pitch,
     yaw (rad), body rates (3, rad/s), target position (3, m, world). Reward per step: minus the
     distance to the target (m) and a little of the speed. Starts on the ground within 1 m of the
     origin, any heading; the target is within 2 m horizontally, 1 to 2.5 m high."""
 
     def __init__(self, render_mode: str | None = None, wind: WindSettings | None = None) -> None:
         super().__init__(render_mode, wind)
-        high = np.full(15, np.inf, np.float32)
-        self.observation_space = spaces.Box(-high, high, dtype=np.float32)
+        # bounds past anything an episode reaches before it ends (the arena, a tumble), so every
+        # observation is inside them; observations are clipped to them all the same
+        reach, top, speed, rate, pi = ARENA_HALF_M + 10.0, ARENA_TOP_M + 10.0, MAX_SPEED_MPS, MAX_RATE_RADPS, math.pi
+        low = [-reach, -reach, -1.0, -speed, -speed, -speed, -pi, -pi, -pi, -rate, -rate, -rate]
+        high = [reach, reach, top, speed, speed, speed, pi, pi, pi, rate, rate, rate]
+        low += [-ARENA_HALF_M, -ARENA_HALF_M, 0.0]  # the target
+        high += [ARENA_HALF_M, ARENA_HALF_M, ARENA_TOP_M]
+        self._low, self._high = np.array(low, np.float32), np.array(high, np.float32)
+        self.observation_space = spaces.Box(self._low, self._high, dtype=np.float32)
         self.target_m = np.zeros(3)
 
     def _start(self, rng: np.random.Generator, options: dict[str, Any]) -> StartPose:
@@ -158,7 +181,7 @@ class HoverEnv(QuadEnv):
 
     def _observe(self, state: VehicleState) -> np.ndarray:
         roll, pitch = state.roll_pitch_rad()
-        return np.array(
+        observation = np.array(
             [
                 *state.position_m,
                 *state.linear_velocity_mps,
@@ -170,6 +193,7 @@ class HoverEnv(QuadEnv):
             ],
             np.float32,
         )
+        return np.clip(observation, self._low, self._high)
 
     def _reward(self, state: VehicleState) -> tuple[float, bool]:
         distance = float(np.linalg.norm(np.asarray(state.position_m) - self.target_m))
@@ -192,7 +216,7 @@ class TowerVisionEnv(QuadEnv):
         self.observation_space = spaces.Dict(
             {
                 "image": spaces.Box(0, 255, (64, 64, 3), np.uint8),
-                "velocity": spaces.Box(-np.inf, np.inf, (3,), np.float32),
+                "velocity": spaces.Box(-MAX_SPEED_MPS, MAX_SPEED_MPS, (3,), np.float32),
             }
         )
         tower = next(lm for lm in self.sim.world.landmarks if lm.name == "red_tower")
@@ -220,7 +244,8 @@ class TowerVisionEnv(QuadEnv):
         image = self.cameras.latest("front")
         assert image is not None and image.step == state.step  # SYNC, captured at the agent rate
         velocity = body_velocity(state.orientation_xyzw, state.linear_velocity_mps)
-        return {"image": image.rgb, "velocity": np.array(velocity, np.float32)}
+        clipped = np.clip(np.array(velocity, np.float32), -MAX_SPEED_MPS, MAX_SPEED_MPS)
+        return {"image": image.rgb, "velocity": clipped}
 
     def _reward(self, state: VehicleState) -> tuple[float, bool]:
         distance = self.distance_to_tower_m(state)
