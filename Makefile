@@ -2,17 +2,25 @@
 PYTHON ?= python3
 VENV := .venv
 PY := $(VENV)/bin/python
+# what flying needs (the runtime dependencies), and what the tests need on top (extras, linters)
+RUNTIME := $(VENV)/.runtime
 STAMP := $(VENV)/.installed
 
 .PHONY: fly test lint bench clean
 
-$(STAMP): pyproject.toml
+$(PY):
 	$(PYTHON) -m venv $(VENV)
-	$(PY) -m pip install --quiet -e '.[test]'
-	touch $(STAMP)
 
-## fly: set up, then fly (with no display: record a scripted demo flight and say so)
-fly: $(STAMP)
+$(RUNTIME): pyproject.toml | $(PY)
+	$(PY) -m pip install --quiet -e .
+	touch $(RUNTIME)
+
+$(STAMP): pyproject.toml | $(PY)
+	$(PY) -m pip install --quiet -e '.[test]'
+	touch $(STAMP) $(RUNTIME)
+
+## fly: set up the runtime only, then fly (with no display: record a scripted demo flight and say so)
+fly: $(RUNTIME)
 	$(PY) main.py fly
 
 ## lint: ruff (lint, import order, formatting) and mypy on the package
@@ -25,7 +33,7 @@ lint: $(STAMP)
 test: lint
 	SDL_VIDEODRIVER=dummy SDL_AUDIODRIVER=dummy $(PY) -m pytest
 
-bench: $(STAMP)
+bench: $(RUNTIME)
 	$(PY) main.py bench
 
 clean:
