@@ -281,3 +281,16 @@ def test_a_bad_world_file_is_the_only_line(capsys, tmp_path):
     world.write_text("[floor]\nsize_m = 'big'\n")
     code, out, err = run_cli(capsys, "run", "--script", "hover", "--world", str(world), *QUICK)
     assert code == 2 and out == "" and err.count("\n") == 1, (out, err)
+
+
+def test_replay_foxglove_before_the_file_serves_the_file():
+    """`replay --foxglove FILE.mcap`: the option's value is optional, the file is not swallowed."""
+    from quadsim.apps.cli import _normalise_argv, build_parser
+    from quadsim.live import FOXGLOVE_DEFAULT_ENDPOINT
+
+    args = build_parser().parse_args(_normalise_argv(["replay", "--foxglove", "flight.mcap", "--headless"]))
+    assert args.file == Path("flight.mcap") and args.foxglove == FOXGLOVE_DEFAULT_ENDPOINT
+    args = build_parser().parse_args(_normalise_argv(["replay", "--foxglove", "0.0.0.0:9000", "flight.mcap"]))
+    assert args.file == Path("flight.mcap") and args.foxglove == "0.0.0.0:9000"
+    args = build_parser().parse_args(_normalise_argv(["run", "--script", "hover", "--wind", "-5,90"]))
+    assert args.wind == "-5,90"

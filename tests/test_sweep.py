@@ -17,7 +17,7 @@ import pytest
 
 from quadsim.apps.sweep.metrics import METRICS
 from quadsim.apps.sweep.spec import load_sweep
-from quadsim.apps.sweep.table import read_table
+from quadsim.apps.sweep.table import existing_table, read_table
 from quadsim.errors import ConfigError
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -233,6 +233,10 @@ def test_existing_table_needs_resume(tmp_path: Path) -> None:
     assert again.returncode == 2 and "--resume" in again.stderr
     resumed = _sweep(tmp_path, text, "--jobs", "1", "--out", out, "--resume", "--no-plot")
     assert resumed.returncode == 0 and "(3 already in the table)" in resumed.stdout
+    assert "--overwrite" in again.stderr
+    replaced = _sweep(tmp_path, text, "--jobs", "1", "--out", out, "--overwrite", "--no-plot")
+    assert replaced.returncode == 0 and "already in the table" not in replaced.stdout
+    assert "(3 of 3 runs)" in replaced.stdout and len(read_table(existing_table(tmp_path / "o"))) == 3
 
 
 def test_ctrl_c_at_random_moments_keeps_finished_runs_and_resume_completes(tmp_path: Path) -> None:

@@ -1161,20 +1161,24 @@ _SIGNED_VALUE_OPTIONS = ("--wind",)
 _SIGNED_VALUE = re.compile(r"-[0-9.][0-9.,eE+-]*")
 
 
-def _attach_signed_values(argv: list[str]) -> list[str]:
-    """`--wind -5,90` as `--wind=-5,90`, so a negative speed reads as the value it is."""
+def _normalise_argv(argv: list[str]) -> list[str]:
+    """What argparse would misread, said the way it reads it: `--wind -5,90` as `--wind=-5,90` (a
+    negative speed is a value, not an option), and `--foxglove FILE.mcap` as `--foxglove` at its
+    default endpoint followed by the file (`replay --foxglove FILE` took the file for HOST:PORT)."""
     out: list[str] = []
     for arg in argv:
         if out and out[-1] in _SIGNED_VALUE_OPTIONS and _SIGNED_VALUE.fullmatch(arg):
             out[-1] = f"{out[-1]}={arg}"
-        else:
-            out.append(arg)
+            continue
+        if out and out[-1] == "--foxglove" and arg.lower().endswith(".mcap"):
+            out[-1] = f"--foxglove={FOXGLOVE_DEFAULT_ENDPOINT}"
+        out.append(arg)
     return out
 
 
 def _main(argv: list[str] | None) -> int:
     parser = build_parser()
-    args = parser.parse_args(_attach_signed_values(list(sys.argv[1:] if argv is None else argv)))
+    args = parser.parse_args(_normalise_argv(list(sys.argv[1:] if argv is None else argv)))
     logging.basicConfig(
         level=logging.DEBUG if args.verbose else logging.WARNING, format="quadsim: %(levelname)s: %(message)s"
     )

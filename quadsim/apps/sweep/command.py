@@ -39,7 +39,9 @@ def add_parser(sub: argparse._SubParsersAction, recordings_default: str) -> None
     rec = p.add_mutually_exclusive_group()
     rec.add_argument("--record", action="store_true", help="keep an MCAP recording of every run")
     rec.add_argument("--record-failures", action="store_true", help="keep recordings of runs beyond the limits only")
-    p.add_argument("--resume", action="store_true", help="fly only the runs missing from the table in --out")
+    again = p.add_mutually_exclusive_group()
+    again.add_argument("--resume", action="store_true", help="fly only the runs missing from the table in --out")
+    again.add_argument("--overwrite", action="store_true", help="replace the table in --out: fly every run again")
     p.add_argument(
         "--format",
         choices=["parquet", "csv"],
@@ -113,6 +115,7 @@ def cmd_sweep(args: argparse.Namespace) -> int:
         record="all" if args.record else "failures" if args.record_failures else None,
         resume=args.resume,
         table_format=args.format,
+        overwrite=args.overwrite,
     )
     for line in summary_lines(result.rows, [a for a in spec.varied]):
         print(line)

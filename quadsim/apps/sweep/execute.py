@@ -38,6 +38,7 @@ def run_sweep(
     record: str | None = None,
     resume: bool = False,
     table_format: str | None = None,
+    overwrite: bool = False,
     progress: bool = True,
 ) -> SweepResult:
     try:
@@ -45,12 +46,15 @@ def run_sweep(
     except OSError as exc:
         raise QuadsimError(f"cannot create the sweep folder {out}: {exc.strerror}") from None
     previous = existing_table(out)
+    if previous is not None and overwrite:  # asked for: the old table goes, every run flies again
+        previous.unlink()
+        previous = None
     rows: dict[int, dict[str, Any]] = {}
     if previous is not None:
         if not resume:
             raise QuadsimError(
                 f"{previous} already exists: add --resume to fly only the runs missing from it, "
-                f"or choose another --out (nothing is overwritten)"
+                f"--overwrite to fly them all again, or choose another --out (nothing is overwritten unasked)"
             )
         keys = {run.key: run.index for run in spec.runs}
         for row in read_table(previous):
