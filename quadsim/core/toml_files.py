@@ -40,7 +40,7 @@ def read_toml(path: Path, what: str) -> dict[str, Any]:
     if len(raw) > MAX_TOML_BYTES:
         raise ConfigError(f"{path}: a {what} may be at most {MAX_TOML_BYTES // 1024} kB; this one is larger")
     try:
-        table = tomllib.loads(raw.decode("utf-8"))
+        table: dict[str, Any] = tomllib.loads(raw.decode("utf-8"))
     except UnicodeDecodeError:
         raise ConfigError(f"{path}: not a UTF-8 text file") from None
     except tomllib.TOMLDecodeError as exc:
