@@ -1,4 +1,4 @@
-"""The README's vision example (examples/fly_to_tower.py) finds the red tower and stops short of it."""
+"""The docs' vision example (docs/autonomy.md) (examples/fly_to_tower.py) finds the red tower and stops short of it."""
 
 from __future__ import annotations
 

@@ -377,8 +377,8 @@ def test_a_raw_axis_resting_at_one_end_never_moves_the_vehicle(tmp_path, pads):
     app.close()
 
 
-def test_the_readme_mapping_example_is_the_default_mapping_plus_buttons(tmp_path):
-    readme = (Path(__file__).parent.parent / "README.md").read_text()
-    block = readme.split("write a mapping file", 1)[1].split("```toml\n", 1)[1].split("```", 1)[0]
+def test_the_docs_mapping_example_is_the_default_mapping_plus_buttons(tmp_path):
+    teleop_page = (Path(__file__).parent.parent / "docs" / "teleop.md").read_text()
+    block = teleop_page.split("write a mapping file", 1)[1].split("```toml\n", 1)[1].split("```", 1)[0]
     (tmp_path / "pad.toml").write_text(block)
     assert load_mapping(tmp_path / "pad.toml") == JoystickMapping(enable_button=9, enable_turbo_button=10)

@@ -1,4 +1,4 @@
-"""The README tells the truth: its example output is what the code prints."""
+"""The README and the docs tell the truth: their example output is what the code prints."""
 
 from __future__ import annotations
 
@@ -7,8 +7,11 @@ import subprocess
 import sys
 from pathlib import Path
 
+import pytest
+
 ROOT = Path(__file__).resolve().parent.parent
 README = (ROOT / "README.md").read_text()
+COMMAND_LINE_PAGE = (ROOT / "docs" / "command-line.md").read_text()
 
 #: what differs from machine to machine and from run to run
 VARIABLE = [
@@ -27,9 +30,22 @@ def _normalise(lines: list[str]) -> list[str]:
     return out
 
 
-def test_the_run_example_is_what_run_prints(tmp_path):
-    intro = README.index("`python main.py run --script square\n--cameras none` prints")
-    block = README[README.index("```\n", intro) + 4 : README.index("\n```", README.index("```\n", intro) + 4)]
+def _block_after(text: str, marker: str) -> str:
+    intro = text.index(marker) + len(marker)
+    start = text.index("```\n", intro) + 4
+    return text[start : text.index("\n```", start)]
+
+
+@pytest.mark.parametrize(
+    ("text", "marker"),
+    [
+        (README, "```sh\n.venv/bin/python main.py run --script square --cameras none\n```"),
+        (COMMAND_LINE_PAGE, "`python main.py run --script square\n--cameras none` prints"),
+    ],
+    ids=["README", "docs/command-line.md"],
+)
+def test_the_run_example_is_what_run_prints(tmp_path, text, marker):
+    block = _block_after(text, marker)
     result = subprocess.run(
         [
             sys.executable,

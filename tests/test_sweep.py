@@ -152,9 +152,9 @@ def test_parquet_table_equals_the_csv_one(tmp_path: Path) -> None:
     assert [repr(r) for r in csv_rows] == [repr(r) for r in parquet_rows]  # repr: NaN equals NaN
 
 
-def test_the_wind_example_on_ray_and_on_the_pool_gives_the_readme_table(tmp_path: Path) -> None:
-    """examples/sweep_wind.toml (the README's sweep) on a process pool and on a local Ray instance
-    with two workers: the same table, and the summary the README shows."""
+def test_the_wind_example_on_ray_and_on_the_pool_gives_the_docs_table(tmp_path: Path) -> None:
+    """examples/sweep_wind.toml (the docs' sweep page) on a process pool and on a local Ray instance
+    with two workers: the same table, and the summary docs/sweeps.md shows."""
     pytest.importorskip("ray", reason="Ray (the ray extra) is not installed")
     spec = str(ROOT / "examples" / "sweep_wind.toml")
     common = ["--format", "csv", "--no-plot"]
@@ -173,8 +173,8 @@ def test_the_wind_example_on_ray_and_on_the_pool_gives_the_readme_table(tmp_path
     # more wind, more tilt to hold against it
     tilt = {w: sum(r["max_tilt_deg"] for r in cascade if r["wind"] == w) for w in ("0,90", "6,90")}
     assert tilt["6,90"] > tilt["0,90"]
-    readme = (ROOT / "README.md").read_text()
-    block = readme.split("$ python main.py sweep examples/sweep_wind.toml", 1)[1].split("```", 1)[0]
+    sweeps_page = (ROOT / "docs" / "sweeps.md").read_text()
+    block = sweeps_page.split("$ python main.py sweep examples/sweep_wind.toml", 1)[1].split("```", 1)[0]
     shown = [line for line in block.strip().splitlines()[2:] if not line.startswith(("table", "plot"))]
     printed = [line for line in pool.stdout.splitlines()[1:] if not line.startswith(("table", "plot"))]
     assert printed == shown

@@ -893,8 +893,12 @@ def cmd_bench(args: argparse.Namespace) -> int:
 def program() -> str:
     """How the user started quadsim, for help and hints to name: `python main.py` in a clone,
     `python -m quadsim`, or the installed `quadsim` command."""
-    name = Path(sys.argv[0]).name if sys.argv and sys.argv[0] else ""
-    return {"main.py": "python main.py", "__main__.py": "python -m quadsim"}.get(name, "quadsim")
+    started = Path(sys.argv[0]) if sys.argv and sys.argv[0] else Path()
+    if started.name == "main.py":
+        return "python main.py"
+    if started.name == "__main__.py" and started.parent.name == "quadsim":
+        return "python -m quadsim"
+    return "quadsim"
 
 
 def build_parser() -> argparse.ArgumentParser:

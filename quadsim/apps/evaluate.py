@@ -1,6 +1,6 @@
 """Flight-quality metrics of the built-in scenarios, computed from a run's published states.
 
-The tests assert on these and `python main.py evaluate` prints them as the README's table, so
+The tests assert on these and `python main.py evaluate` prints them as the docs' table (docs/vehicles.md), so
 the numbers in both places come from one piece of code.
 """
 

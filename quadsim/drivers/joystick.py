@@ -109,7 +109,7 @@ def load_mapping(path: Path) -> JoystickMapping:
         raise ConfigError(
             f"{path}: {', '.join(old)} belong to the old mapping format, which read the axes in SDL's sign "
             "(stick up negative). Mapping files now use teleop_twist_joy's names and /joy's sign (stick up and "
-            "left positive), e.g. axis_linear.x = 3 and scale_linear.x = 1.5: see the README"
+            "left positive), e.g. axis_linear.x = 3 and scale_linear.x = 1.5: see the teleop page of the docs"
         )
     known = [*_TABLES, *_SCALARS]
     unknown = sorted(set(table) - set(known))
