@@ -18,7 +18,11 @@ def cli_reference() -> str:
     sections = ["## quadsim", "", "```text", parser.format_help().rstrip(), "```", ""]
     for action in parser._actions:
         if isinstance(action, argparse._SubParsersAction):
+            seen: set[int] = set()
             for name, sub in action.choices.items():
+                if id(sub) in seen:  # an alias (demo for fly): one section per command
+                    continue
+                seen.add(id(sub))
                 sub.prog = f"quadsim {name}"
                 sections += [f"## quadsim {name}", "", "```text", sub.format_help().rstrip(), "```", ""]
     return "\n".join(sections)
