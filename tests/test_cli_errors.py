@@ -294,3 +294,10 @@ def test_replay_foxglove_before_the_file_serves_the_file():
     assert args.file == Path("flight.mcap") and args.foxglove == "0.0.0.0:9000"
     args = build_parser().parse_args(_normalise_argv(["run", "--script", "hover", "--wind", "-5,90"]))
     assert args.wind == "-5,90"
+
+
+def test_sweep_help_names_its_default_folder_plainly(capsys):
+    with pytest.raises(SystemExit):
+        main(["sweep", "--help"])
+    text = " ".join(capsys.readouterr().out.split())
+    assert "/sweeps/NAME; set QUADSIM_RECORDINGS to change it)" in text

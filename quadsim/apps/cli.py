@@ -80,10 +80,10 @@ def _whole(low: int, high: int) -> Callable[[str], int]:
 MAX_DURATION_S = 7 * 24 * 3600.0
 
 
-def _recordings_default() -> str:
-    """The default recordings folder for a help text, and how to change it."""
-    folder = str(default_recordings_dir()).replace("%", "%%")  # argparse %-formats help texts
-    return f"{folder}; set {RECORDINGS_ENV_VAR} to change it"
+def _recordings_default(below: str = "") -> str:
+    """The default recordings folder (or `below` it) for a help text, and how to change it."""
+    folder = str(default_recordings_dir() / below if below else default_recordings_dir())
+    return f"{folder.replace('%', '%%')}; set {RECORDINGS_ENV_VAR} to change it"  # argparse %-formats help
 
 
 def _add_sim_options(p: argparse.ArgumentParser) -> None:
@@ -1106,7 +1106,7 @@ def build_parser() -> argparse.ArgumentParser:
         p, "re-fly N recordings at once in worker processes (default 1; the report stays in file order)"
     )
     p.set_defaults(func=cmd_check)
-    add_sweep_parser(sub, _recordings_default())
+    add_sweep_parser(sub, _recordings_default("sweeps/NAME"))
 
     p = sub.add_parser(
         "bench",

@@ -31,7 +31,7 @@ def add_parser(sub: argparse._SubParsersAction, recordings_default: str) -> None
         type=Path,
         default=None,
         metavar="DIR",
-        help=f"where the table, plot and recordings go (default: {recordings_default}/sweeps/NAME)",
+        help=f"where the table, plot and recordings go (default: {recordings_default})",
     )
     add_parallel_arguments(
         p, "worker processes (default: every core of this machine); with --ray, CPUs of a local Ray instance"
