@@ -17,7 +17,7 @@ ROOT = Path(__file__).resolve().parents[1]
 DOCS = ROOT / "docs"
 PAGES = sorted(DOCS.rglob("*.md"))
 RUNNABLE = re.compile(r"<!-- runnable -->\n```sh\n(.*?)\n```", re.S)
-COMMANDS = ["run", "fly", "scenarios", "info", "recover", "replay", "check", "sweep", "evaluate", "bench"]
+COMMANDS = ["run", "fly", "scenarios", "info", "recover", "replay", "check", "sweep", "evaluate", "bench", "examples"]
 
 
 def _hooks():

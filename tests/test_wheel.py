@@ -233,3 +233,17 @@ def test_help_speaks_of_the_command_the_user_typed(installed):
     assert check(installed.quadsim("run", "--help")).stdout.startswith("usage: quadsim run")
     as_module = check(installed.python("-m", "quadsim", "--help")).stdout
     assert "Run 'python -m quadsim COMMAND --help'" in as_module
+
+
+def test_the_examples_ship_in_the_wheel_and_copy_out(installed):
+    listed = check(installed.quadsim("examples")).stdout
+    assert [line.split()[0] for line in listed.splitlines()] == [
+        "fly_to_tower.py",
+        "sweep_controllers.toml",
+        "sweep_wind.toml",
+    ]
+    check(installed.quadsim("examples", "--copy", "mine"))
+    for name in ("fly_to_tower.py", "sweep_wind.toml"):
+        assert (installed.work / "mine" / name).read_bytes() == (ROOT / "examples" / name).read_bytes()
+    again = installed.quadsim("examples", "--copy", "mine")
+    assert again.returncode == 2 and "exists: nothing was copied" in again.stderr

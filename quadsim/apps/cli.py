@@ -1107,6 +1107,9 @@ def build_parser() -> argparse.ArgumentParser:
     )
     p.set_defaults(func=cmd_check)
     add_sweep_parser(sub, _recordings_default("sweeps/NAME"))
+    from quadsim.apps.examples import add_parser as add_examples_parser
+
+    add_examples_parser(sub)
 
     p = sub.add_parser(
         "bench",

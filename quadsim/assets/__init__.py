@@ -1,4 +1,5 @@
-"""Data shipped with the package: vehicles (URDF + parameter files), worlds, textures, scenarios.
+"""Data shipped with the package: vehicles (URDF + parameter files), worlds, textures, scenarios,
+and the examples (`quadsim examples` lists and copies them).
 
 Found through importlib.resources, so they are there from a clone, an editable install and an
 installed wheel alike."""

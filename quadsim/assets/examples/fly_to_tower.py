@@ -85,6 +85,7 @@ def fly_to_tower(start_yaw_rad: float = 0.0, max_s: float = 40.0) -> Flight:
         states, settled, blob = [], 0, None
         while sim.time_s < max_s:
             image = cameras.latest("front")  # rendered for this very step (SYNC mode)
+            assert image is not None and image.depth_m is not None  # SYNC, with depth: always there
             blob = find_red_tower(image.rgb, image.depth_m, image.info.fx, image.info.cx)
             state = sim.state
             states.append(state)
@@ -96,7 +97,9 @@ def fly_to_tower(start_yaw_rad: float = 0.0, max_s: float = 40.0) -> Flight:
             if settled >= FRONT.rate_hz:  # a second stopped in front of it
                 break
             sim.step(steps_per_frame)
-        return Flight(sim.state, states, image.rgb, blob, settled >= FRONT.rate_hz, sim.time_s)
+        last = cameras.latest("front")
+        assert last is not None
+        return Flight(sim.state, states, last.rgb, blob, settled >= FRONT.rate_hz, sim.time_s)
 
 
 def main() -> None:

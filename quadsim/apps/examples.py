@@ -1,0 +1,67 @@
+"""`quadsim examples`: the example programs and sweep files that ship inside the package, listed,
+and copied into a folder of the user's choice to run and change."""
+
+from __future__ import annotations
+
+import argparse
+import shutil
+from pathlib import Path
+
+from quadsim.assets import asset_path
+from quadsim.errors import QuadsimError
+
+SUFFIXES = (".py", ".toml")
+
+
+def shipped() -> dict[str, Path]:
+    """name -> path of each shipped example."""
+    folder = asset_path("examples")
+    return {p.name: p for p in sorted(folder.iterdir()) if p.suffix in SUFFIXES}
+
+
+def summary(path: Path) -> str:
+    """An example's first line of explanation: a program's docstring, a sweep file's comment."""
+    for line in path.read_text(encoding="utf-8").splitlines():
+        text = line.strip().strip('"').lstrip("#").strip()
+        if text:
+            return text
+    return ""
+
+
+def add_parser(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser(
+        "examples",
+        help="list the example programs and sweep files that ship with quadsim, or copy them to a folder",
+        description="List the examples that ship inside the package; --copy DIR copies them (all, or the "
+        "NAMEs given) into DIR to run and change. Nothing in DIR is overwritten.",
+    )
+    p.add_argument("names", nargs="*", metavar="NAME", help="examples to copy (default: all)")
+    p.add_argument("--copy", type=Path, default=None, metavar="DIR", help="copy them into DIR (created if needed)")
+    p.set_defaults(func=cmd_examples)
+
+
+def cmd_examples(args: argparse.Namespace) -> int:
+    examples = shipped()
+    unknown = [n for n in args.names if n not in examples]
+    if unknown:
+        raise QuadsimError(f"no example named {unknown[0]!r}; the examples are {', '.join(examples)}")
+    if args.copy is None:
+        if args.names:
+            raise QuadsimError("name examples together with --copy DIR, which says where they go")
+        for name, path in examples.items():
+            print(f"{name:24s} {summary(path)}")
+        return 0
+    chosen = args.names or list(examples)
+    folder: Path = args.copy
+    clashes = [n for n in chosen if (folder / n).exists()]
+    if clashes:
+        raise QuadsimError(f"{folder / clashes[0]} exists: nothing was copied (choose another folder)")
+    try:
+        folder.mkdir(parents=True, exist_ok=True)
+        for name in chosen:
+            shutil.copyfile(examples[name], folder / name)  # names come from the package, never the user
+    except OSError as exc:
+        raise QuadsimError(f"cannot copy the examples into {folder}: {exc.strerror or exc}") from None
+    for name in chosen:
+        print(f"copied          {folder / name}")
+    return 0
