@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import contextlib
 import io
+import multiprocessing
 import resource
 import signal
 import subprocess
@@ -207,11 +208,13 @@ def _table(runs: list[Run]) -> str:
     return "\n".join(rows)
 
 
-def test_every_read_command_over_the_corpus(corpus, sources, tmp_path, capsys):
-    good_topics = set().union(*(_topics_of(p) for _, p in sources))
+def _run_share(share: tuple[list[tuple[int, Damaged]], set[str], Path]) -> tuple[list[Run], float]:
+    """Every command over one share of the corpus (in a worker process): the runs, and how much
+    that process's peak memory grew (MB)."""
+    files, good_topics, tmp_path = share
     runs: list[Run] = []
     rss_before = _max_rss_bytes()
-    for index, f in enumerate(corpus):
+    for index, f in files:
         for cmd in COMMANDS:
             if index % cmd.every:
                 continue
@@ -224,7 +227,19 @@ def test_every_read_command_over_the_corpus(corpus, sources, tmp_path, capsys):
             if cmd.name == "recover":
                 _judge_recovered(run, work / "recovered.mcap", good_topics)
             runs.append(run)
-    grew_mb = (_max_rss_bytes() - rss_before) / 2**20
+    return runs, (_max_rss_bytes() - rss_before) / 2**20
+
+
+def test_every_read_command_over_the_corpus(corpus, sources, tmp_path, capsys):
+    good_topics = set().union(*(_topics_of(p) for _, p in sources))
+    # the corpus in two interleaved shares, one per core, each in a process of its own (forked:
+    # every run is in-process there, as here, with its own time limit and memory accounting)
+    numbered = list(enumerate(corpus))
+    shares = [(numbered[k::2], good_topics, tmp_path) for k in range(2)]
+    with multiprocessing.get_context("fork").Pool(2) as pool:
+        results = pool.map(_run_share, shares)
+    runs = sorted((r for share_runs, _ in results for r in share_runs), key=lambda r: r.file.path.name)
+    grew_mb = max(grew for _, grew in results)
     table = _table(runs)
     with capsys.disabled():
         print(f"\ndamaged corpus: {len(corpus)} files x {len(COMMANDS)} commands; peak memory grew {grew_mb:.0f} MB")

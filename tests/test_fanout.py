@@ -2,6 +2,8 @@
 contract's messages once, the same for every consumer, with the bytes rosbags (the reference)
 gives for the same ROS messages."""
 
+import base64
+
 import numpy as np
 import pytest
 from rosbags.typesys import Stores, get_typestore
@@ -210,10 +212,11 @@ def test_the_loop_feeds_the_fanout_only_while_something_records(tmp_path):
             assert run.fanout not in sim.loop.sinks and not run.fanout.consumers
 
 
-def test_the_scene_is_latched_for_every_consumer_with_meshes_as_file_uris(tmp_path):
+def test_the_scene_is_latched_for_every_consumer_with_its_meshes_inline(tmp_path):
     """Given the vehicle and the world, a latecomer gets the URDF, the world's markers and every
     link's transform too, stamped when it joined. A URDF of one's own naming a mesh beside it
-    publishes it as a file:// URI a viewer on this machine opens."""
+    carries it inline, as a data: URL a browser app loads (tests/test_scene_meshes.py: file://
+    URLs for the ROS 2 bridge)."""
     from quadsim.physics.world_spec import load_world
     from quadsim.vehicle.params import DEFAULT_URDF, default_params_path, load_vehicle
 
@@ -230,7 +233,8 @@ def test_the_scene_is_latched_for_every_consumer_with_meshes_as_file_uris(tmp_pa
     decoded = {t.name: (ns, TS.deserialize_cdr(d, t.type_name)) for t, ns, d in late.messages}
     assert {ns for ns, _ in decoded.values()} == {2_000_000_000}
     description = decoded["/robot_description"][1].data
-    assert f'filename="{(tmp_path / "meshes" / "arm.stl").as_uri()}"' in description
+    inline = base64.b64encode(b"solid arm\nendsolid arm\n").decode()
+    assert f'filename="data:model/stl;base64,{inline}"' in description
     assert description.count("<link ") == DEFAULT_URDF.read_text().count("<link ")  # the rest as it was
     static = decoded["/tf_static"][1].transforms
     assert [t.child_frame_id for t in static] == [link.link_name for link in vehicle.link_frames]

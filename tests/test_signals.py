@@ -230,7 +230,8 @@ def test_a_signal_in_the_first_second_under_load(tmp_path):
         judged += 1
         assert code == EXPECTED[signum], f"{where}: exit {code}\n{stderr}"
         assert "Traceback" not in stderr, f"{where}:\n{stderr}"
-        assert stderr.startswith("quadsim: "), f"{where}:\n{stderr}"
+        said = "interrupted" if signum == signal.SIGINT else "terminated"
+        assert said in stderr, f"{where}:\n{stderr}"  # said why it stopped, whatever stage it was at
     print(f"\nfirst second: {judged} of {len(results)} signals came after quadsim's handlers were in")
     assert judged >= len(results) * 3 // 4
 
