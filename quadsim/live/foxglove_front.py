@@ -82,35 +82,45 @@ class ClientInput(Protocol):
     def received(self, client: FrontClient, channel_id: int, data: bytes) -> None: ...
 
 
+class _Every:
+    """At most one event every `every_s` seconds; those in between are counted, and the next one
+    allowed says how many (`counted` names them)."""
+
+    def __init__(self, every_s: float, counted: str) -> None:
+        self.every_s = every_s
+        self.counted = counted
+        self.next_s = 0.0
+        self.skipped = 0
+
+    def allow(self) -> str | None:
+        """None when too soon (counted), else what to add to the event: the count since the last."""
+        now = time.monotonic()
+        if now < self.next_s:
+            self.skipped += 1
+            return None
+        self.next_s = now + self.every_s
+        more = f" ({self.skipped} {self.counted})" if self.skipped else ""
+        self.skipped = 0
+        return more
+
+
 class _LogLimiter(logging.Filter):
     """One log line every LOG_EVERY_S seconds for all clients, ours and the SDK's (whose server
     logs an error for each bad request a client makes); the rest are counted in the next."""
 
     def __init__(self) -> None:
         super().__init__()
-        self.next_s = 0.0
-        self.unlogged = 0
-
-    def _allow(self) -> str | None:
-        """None to drop the line, else what to add to it."""
-        now = time.monotonic()
-        if now < self.next_s:
-            self.unlogged += 1
-            return None
-        self.next_s = now + LOG_EVERY_S
-        more = f" ({self.unlogged} more since not logged)" if self.unlogged else ""
-        self.unlogged = 0
-        return more
+        self._every = _Every(LOG_EVERY_S, "more since not logged")
 
     def warning(self, text: str) -> None:
-        more = self._allow()
+        more = self._every.allow()
         if more is not None:
             log.warning("%s%s", text[:MAX_STATUS_CHARS], more)
 
     def filter(self, record: logging.LogRecord) -> bool:
         if record.levelno < logging.WARNING:
             return True
-        more = self._allow()
+        more = self._every.allow()
         if more is None:
             return False
         record.msg, record.args = record.getMessage()[:MAX_STATUS_CHARS] + more, ()
@@ -126,20 +136,12 @@ class FrontClient:
         self.channels: set[int] = set()
         self._ws = ws
         self._logger = logger
-        self._next_status_s = 0.0
-        self._untold = 0
+        self._status = _Every(STATUS_EVERY_S, "similar problems since not reported")
 
     def status_allowed(self) -> str | None:
         """None when this client had a status less than STATUS_EVERY_S ago (counted), else
         what to add to this one."""
-        now = time.monotonic()
-        if now < self._next_status_s:
-            self._untold += 1
-            return None
-        self._next_status_s = now + STATUS_EVERY_S
-        more = f" ({self._untold} similar problems since not reported)" if self._untold else ""
-        self._untold = 0
-        return more
+        return self._status.allow()
 
     def tell(self, message: str) -> None:
         """A warning status to this client (one a second at most, with the SDK's answers; the
