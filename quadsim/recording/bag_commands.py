@@ -48,7 +48,8 @@ class BagCommands:
 
 def read_bag_commands(path: Path) -> BagCommands:
     """Check that `path` has /quad_cmd_twist commands to fly, all of them decodable (one pass
-    over that channel, in constant memory), and say how many there are and when."""
+    over that channel, in constant memory), and say how many there are and when (the counts and
+    times the file's opening pass found)."""
     with RecordingReader(path, require_topics=False) as reader:
         channels = [ch for ch in reader.file.channels if ch.topic == TWIST.name]
         if not channels:
@@ -67,24 +68,22 @@ def read_bag_commands(path: Path) -> BagCommands:
                     f"(a ROS 1 bag? convert it with rosbags-convert)"
                 )
         keys = frozenset(ch.key for ch in channels)
-        count, undecodable = 0, 0
-        first_ns = last_ns = 0
-        for m in reader.file.messages(set(keys), log_time_order=False):
+        f = reader.file  # its opening pass counted the messages and saw their first and last times
+        count = sum(f.counts.get(k, 0) for k in keys)
+        if not count:
+            raise QuadsimError(f"{path}: {TWIST.name} has no messages")
+        undecodable = 0
+        for m in f.messages(set(keys), log_time_order=False):
             try:
                 cdr.twist_fields(m.data)
             except ValueError:
                 undecodable += 1
-                continue
-            first_ns = m.log_time if count == 0 else min(first_ns, m.log_time)
-            last_ns = m.log_time if count == 0 else max(last_ns, m.log_time)
-            count += 1
         if undecodable:
             raise QuadsimError(
-                f"{path}: {undecodable} of the {count + undecodable} messages on {TWIST.name} "
-                f"do not decode as {TWIST.type_name}"
+                f"{path}: {undecodable} of the {count} messages on {TWIST.name} do not decode as {TWIST.type_name}"
             )
-        if not count:
-            raise QuadsimError(f"{path}: {TWIST.name} has no messages")
+        first_ns = min(f.first_ns[k] for k in keys if k in f.first_ns)
+        last_ns = max(f.last_ns[k] for k in keys if k in f.last_ns)
         z_mode = reader.description.z_mode if reader.description is not None else None
     return BagCommands(path, count, first_ns, last_ns, z_mode, keys)
 
