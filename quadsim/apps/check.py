@@ -8,6 +8,10 @@ from pathlib import Path
 
 from quadsim.errors import QuadsimError
 
+#: how far a re-flight may stray from its recording, by default (`check`, the pytest plugin)
+DEFAULT_TOLERANCE_M = 1e-3
+DEFAULT_TOLERANCE_RAD = 1e-3
+
 
 @dataclass(frozen=True)
 class CheckTask:

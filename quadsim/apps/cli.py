@@ -1090,14 +1090,19 @@ def build_parser() -> argparse.ArgumentParser:
         "(with a report: which topic, when, how far), 2 when a file cannot be used.",
     )
     p.add_argument("paths", type=Path, nargs="+", metavar="DIR|FILE", help="recordings, or folders of them")
+    from quadsim.apps.check import DEFAULT_TOLERANCE_M, DEFAULT_TOLERANCE_RAD
+
     p.add_argument(
-        "--tolerance-m", type=_number(0.0, 1e6, "metres"), default=1e-3, help="position tolerance (default 0.001 m)"
+        "--tolerance-m",
+        type=_number(0.0, 1e6, "metres"),
+        default=DEFAULT_TOLERANCE_M,
+        help=f"position tolerance (default {DEFAULT_TOLERANCE_M:g} m)",
     )
     p.add_argument(
         "--tolerance-rad",
         type=_number(0.0, math.pi, "radians"),
-        default=1e-3,
-        help="attitude tolerance (default 0.001 rad)",
+        default=DEFAULT_TOLERANCE_RAD,
+        help=f"attitude tolerance (default {DEFAULT_TOLERANCE_RAD:g} rad)",
     )
     from quadsim.apps.sweep.command import add_parallel_arguments
     from quadsim.apps.sweep.command import add_parser as add_sweep_parser

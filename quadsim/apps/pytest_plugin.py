@@ -23,10 +23,7 @@ from typing import Any
 
 import pytest
 
-from quadsim.apps.check import CheckOutcome, CheckTask, check_one
-
-DEFAULT_TOLERANCE_M = 1e-3
-DEFAULT_TOLERANCE_RAD = 1e-3
+from quadsim.apps.check import DEFAULT_TOLERANCE_M, DEFAULT_TOLERANCE_RAD, CheckOutcome, CheckTask, check_one
 
 
 def pytest_addoption(parser: pytest.Parser) -> None:
