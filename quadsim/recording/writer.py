@@ -204,23 +204,14 @@ class _LogTimeOrder:
 SDK_WRITE_LOGGER = "foxglove.log_sink_set"
 
 
-class _WriterErrorFilter(logging.Filter):
+def _not_a_per_message_write_error(record: logging.LogRecord) -> bool:
     """Keeps the SDK's per-message write errors off the user's screen: after a write fails
     (the disk is full), the writer reports every message logged until the recorder's next flush,
     which meets the error itself and says it once. Only those records are dropped."""
-
-    def __init__(self) -> None:
-        super().__init__()
-        self.dropped = 0
-
-    def filter(self, record: logging.LogRecord) -> bool:
-        if record.getMessage().startswith("error logging message: McapError"):
-            self.dropped += 1
-            return False
-        return True
+    return not record.getMessage().startswith("error logging message: McapError")
 
 
-_writer_errors: _WriterErrorFilter | None = None
+_sdk_logs_routed = False
 
 
 def route_sdk_logs_through_python() -> None:
@@ -228,13 +219,13 @@ def route_sdk_logs_through_python() -> None:
     Python's logging (its set_log_level); route them once, and filter the per-message write
     errors there. set_log_level would call logging.basicConfig where the program has no handler
     (a script using quadsim.record): a NullHandler stands in while it is called."""
-    global _writer_errors
-    if _writer_errors is not None:
+    global _sdk_logs_routed
+    if _sdk_logs_routed:
         return
     import foxglove
 
-    _writer_errors = _WriterErrorFilter()
-    logging.getLogger(SDK_WRITE_LOGGER).addFilter(_writer_errors)
+    _sdk_logs_routed = True
+    logging.getLogger(SDK_WRITE_LOGGER).addFilter(_not_a_per_message_write_error)
     root = logging.getLogger()
     stand_in = logging.NullHandler() if not root.handlers else None
     if stand_in is not None:
