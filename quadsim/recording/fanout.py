@@ -116,11 +116,8 @@ class TopicFanout:
             )
             for spec, mount in cameras
         ]
-        self._robot_description: dict[bool, bytes] = {}  # by whether meshes are named by local files
-        if vehicle is not None:
-            inline = robot_description(vehicle.urdf_path)
-            local = robot_description(vehicle.urdf_path, inline_meshes=False)
-            self._robot_description = {False: cdr.string(inline), True: cdr.string(local)}
+        self._urdf_path = vehicle.urdf_path if vehicle is not None else None
+        self._robot_description: dict[bool, bytes] = {}  # by local_files: made when first asked for
         self._world = world
         self.topics += [ROBOT_DESCRIPTION] if vehicle is not None else []
         self.topics += [WORLD_MARKERS] if world is not None else []
@@ -132,7 +129,10 @@ class TopicFanout:
         ns = self.ns(step)
         static = [t._replace(ns=ns) for t in self._static]
         messages: list[Message] = [(TF_STATIC, ns, cdr.tf_message(static))]
-        if self._robot_description:
+        if self._urdf_path is not None:
+            if local_files not in self._robot_description:
+                text = robot_description(self._urdf_path, inline_meshes=not local_files)
+                self._robot_description[local_files] = cdr.string(text)
             messages.append((ROBOT_DESCRIPTION, ns, self._robot_description[local_files]))
         if self._world is not None:
             messages.append((WORLD_MARKERS, ns, cdr.marker_array(world_markers(self._world, ns))))
