@@ -134,7 +134,8 @@ def run_headless(
         distance_m=odo.distance_m,
         max_altitude_m=odo.max_z_m if odo.max_z_m > -math.inf else sim.state.position_m[2],
         commands_received=odo.commands,
-        commands_rejected=sim.gate.rejected_count + getattr(sim.driver, "rejected", 0),
+        commands_rejected=sim.gate.rejected_count
+        + (sim.driver.rejected if isinstance(sim.driver, SubscribedDriver) else 0),
         commands_clamped=sim.gate.clamped_count,
         live_input=_live_input(sim.driver),
         stopped_early=done < total_steps,
