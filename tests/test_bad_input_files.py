@@ -93,14 +93,17 @@ def _argv(case: Case, path: Path, out: Path) -> list[str]:
     return ["run", "--urdf", str(urdf), *quick]
 
 
-def _run(argv: list[str], cwd: Path, env: dict[str, str]) -> tuple[int, str, float]:
-    """Exit code, stderr and peak RSS (MB) of one run of quadsim, killed after TIMEOUT_S."""
+def run_measured(
+    argv: list[str], cwd: Path, env: dict[str, str], timeout_s: float = TIMEOUT_S
+) -> tuple[int, str, float]:
+    """Exit code, stderr and peak RSS (MB) of one run of quadsim in a process of its own, killed
+    (-9) after `timeout_s`."""
     err_path = cwd / "stderr.txt"
     with open(err_path, "w") as err:
         proc = subprocess.Popen(
             [sys.executable, str(ROOT / "main.py"), *argv], cwd=cwd, env=env, stdout=subprocess.DEVNULL, stderr=err
         )
-        timer = threading.Timer(TIMEOUT_S, lambda: os.kill(proc.pid, signal.SIGKILL))
+        timer = threading.Timer(timeout_s, lambda: os.kill(proc.pid, signal.SIGKILL))
         timer.start()
         try:
             _, status, usage = os.wait4(proc.pid, 0)
@@ -119,7 +122,7 @@ def test_a_crafted_file_is_one_line_and_exit_2(case: Case, tmp_path: Path) -> No
     cwd.mkdir()
     env = {**os.environ, "QUADSIM_RECORDINGS": str(out / "recordings"), "SDL_VIDEODRIVER": "dummy"}
     env["SDL_AUDIODRIVER"] = "dummy"
-    code, stderr, rss_mb = _run(_argv(case, path, out), cwd, env)
+    code, stderr, rss_mb = run_measured(_argv(case, path, out), cwd, env)
     assert code != -signal.SIGKILL, f"no answer in {TIMEOUT_S:.0f} s"
     lines = [line for line in stderr.splitlines() if line.strip()]
     assert code == 2 and len(lines) == 1 and "Traceback" not in stderr, (code, stderr[-2000:])

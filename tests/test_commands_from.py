@@ -16,6 +16,7 @@ from rosbags.rosbag2 import StoragePlugin, Writer
 from rosbags.typesys import Stores, get_typestore
 
 from quadsim.recording.reader import RecordingReader
+from tests.test_bad_input_files import run_measured
 from tests.test_cli_errors import assert_one_line_error, run_cli
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -175,14 +176,8 @@ def test_a_bag_of_a_million_commands_flies_in_the_memory_of_a_short_one(tmp_path
     for n in (1_000, 1_000_000):
         bag = _raw_bag(tmp_path / f"bag{n}.mcap", range(0, n * 1_000_000, 1_000_000))
         argv = ["run", "--commands-from", str(bag), "--duration", "1", "--cameras", "none", "--no-record"]
-        proc = subprocess.Popen(
-            [sys.executable, str(ROOT / "main.py"), *argv], cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.PIPE
-        )
-        _, status, usage = os.wait4(proc.pid, 0)
-        err = proc.stderr.read().decode() if proc.stderr else ""
-        proc.returncode = os.waitstatus_to_exitcode(status)
-        assert proc.returncode == 0, err
-        rss[n] = usage.ru_maxrss / 1024
+        code, err, rss[n] = run_measured(argv, tmp_path, dict(os.environ), timeout_s=300)
+        assert code == 0, err
     print(f"\npeak RSS: {rss[1_000]:.0f} MB with 10^3 commands, {rss[1_000_000]:.0f} MB with 10^6")
     assert rss[1_000_000] - rss[1_000] < 40.0, rss
 

@@ -41,12 +41,15 @@ def _beside_peer(
     env: dict[str, str],
     cmd_topic: str = "/quad_cmd_twist",
     node_env: dict[str, str] | None = None,
+    program: str | None = None,
 ) -> tuple[subprocess.CompletedProcess[str], dict]:
     """Run quadsim with `quadsim_args` while the ROS 2 peer flies (it starts publishing once /clock
-    comes); return quadsim's outcome and the peer's report."""
+    comes): its climb, forward, left and turn on `cmd_topic`, or `program` (JSON phases, see
+    tests/ros2_peer.py); return quadsim's outcome and the peer's report."""
     report_path = folder / "peer.json"
+    mode = ["fly", str(report_path), cmd_topic] if program is None else ["program", str(report_path), program]
     peer = subprocess.Popen(
-        [str(python), str(PEER), "fly", str(report_path), cmd_topic],
+        [str(python), str(PEER), *mode],
         env=node_env or env,
         stdout=subprocess.PIPE,
         stderr=subprocess.STDOUT,

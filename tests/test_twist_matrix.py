@@ -28,10 +28,11 @@ from quadsim import SimConfig, Simulator, Twist, ZMode, record
 from quadsim.apps.window.teleop import TeleopOptions
 from quadsim.drivers.joystick import apply_deadzone
 from quadsim.recording.reader import RecordingReader
-from tests.ros2_env import PEER, free_domain, local_env, ros2_python
+from tests.ros2_env import free_domain, local_env, ros2_python
 from tests.sdl_virtual import LEFTX, LEFTY, RIGHTX, RIGHTY
-from tests.test_foxglove import CLIENT, ENV, _quadsim, _served_url
+from tests.test_foxglove import ENV, _client, _quadsim, _served_url
 from tests.test_gamepad import pads  # noqa: F401 (the fixture)
+from tests.test_ros2 import _beside_peer
 from tests.test_teleop import FPS, key, make_app, run_with
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -287,29 +288,11 @@ def fly_ros2(tmp_path: Path, mode: ZMode, distribution: str) -> Flown:
     if python is None:
         pytest.skip(why)
     env = local_env(free_domain(20 + (distribution == "kilted") * 2 + (mode is ZMode.HEIGHT)), "LOCALHOST")
-    report, out = tmp_path / "peer.json", tmp_path / "flight.mcap"
-    peer = subprocess.Popen(
-        [str(python), str(PEER), "program", str(report), json.dumps(program(mode))],
-        env=env,
-        stdout=subprocess.PIPE,
-        stderr=subprocess.STDOUT,
-        text=True,
-    )
-    try:
-        args = ["run", "--input", "ros2", "--z-mode", mode.value, "--cameras", "none", "--out", str(out)]
-        sim = subprocess.run(
-            [sys.executable, str(ROOT / "main.py"), *args, "--duration", f"{program_s(mode) + 6:.0f}"],
-            env=env,
-            capture_output=True,
-            text=True,
-            timeout=200,
-        )
-        peer_out, _ = peer.communicate(timeout=60)
-    finally:
-        peer.kill()
-    assert sim.returncode == 0, sim.stderr
-    assert peer.returncode == 0, peer_out
-    assert json.loads(report.read_text())["sent"], "the node never saw quadsim"
+    out = tmp_path / "flight.mcap"
+    args = ["run", "--input", "ros2", "--z-mode", mode.value, "--cameras", "none", "--out", str(out)]
+    args += ["--duration", f"{program_s(mode) + 6:.0f}"]
+    _, report = _beside_peer(python, args, tmp_path, env, program=json.dumps(program(mode)))
+    assert report["sent"], "the node never saw quadsim"
     return out, _expected(mode)
 
 
@@ -318,29 +301,14 @@ def fly_foxglove(tmp_path: Path, mode: ZMode, subprotocol: str) -> Flown:
     args = ["run", "--input", "foxglove", "--foxglove", "127.0.0.1:0", "--z-mode", mode.value, "--cameras", "none"]
     sim = _quadsim(*args, "--duration", f"{program_s(mode) + 5:.0f}", "--out", str(out))
     try:
-        url = _served_url(sim)
         flies = ["--publish", "cdr", "--program", json.dumps(program(mode)), "--start-s", "0.5"]
-        client = subprocess.run(
-            [
-                sys.executable,
-                str(CLIENT),
-                url,
-                "--subprotocol",
-                subprotocol,
-                *flies,
-                "--listen-s",
-                f"{program_s(mode) + 1:.1f}",
-            ],
-            env=ENV,
-            capture_output=True,
-            text=True,
-            timeout=120,
+        client = _client(
+            _served_url(sim), "--subprotocol", subprotocol, *flies, "--listen-s", f"{program_s(mode) + 1:.1f}"
         )
         _, err = sim.communicate(timeout=60)
     finally:
         sim.kill()
-    assert client.returncode == 0, client.stderr
-    assert json.loads(client.stdout)["subprotocol"] == subprotocol
+    assert client["subprotocol"] == subprotocol
     assert sim.returncode == 0, err
     return out, _expected(mode)
 
