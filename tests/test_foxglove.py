@@ -425,3 +425,39 @@ def test_loopback_serving_says_no_warning() -> None:
     out, err = proc.communicate(timeout=60)
     assert proc.returncode == 0, err
     assert "serving ws://127.0.0.1:8765" in out and "warning" not in out + err
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("ending", ["sigint", "duration"])
+def test_a_client_that_stops_reading_does_not_hold_up_or_spoil_the_end_of_the_run(ending: str) -> None:
+    """A client that connects and then never reads (its socket full of camera frames) cannot
+    answer the closing handshake: the run still ends within seconds, with no traceback and no
+    "Task was destroyed" from handlers left pending at exit (seen in CI, 4 kB of both)."""
+    duration = "8" if ending == "duration" else "60"
+    proc = _quadsim("run", "--input", "foxglove", "--foxglove", "127.0.0.1:0", "--no-record", "--duration", duration)
+    stuck = socket.socket()
+    try:
+        host, port = _served_url(proc).removeprefix("ws://").rstrip("/").rsplit(":", 1)
+        stuck.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, 4096)  # fills at once
+        stuck.connect((host, int(port)))
+        stuck.sendall(
+            (
+                f"GET / HTTP/1.1\r\nHost: {host}:{port}\r\nUpgrade: websocket\r\nConnection: Upgrade\r\n"
+                "Sec-WebSocket-Key: dGhlIHNhbXBsZSBub25jZQ==\r\nSec-WebSocket-Version: 13\r\n"
+                "Sec-WebSocket-Protocol: foxglove.sdk.v1\r\n\r\n"
+            ).encode()
+        )
+        assert stuck.recv(64).startswith(b"HTTP/1.1 101"), "the handshake was refused"
+        time.sleep(4.0)  # never read again: the advertisements, latched messages and frames pile up
+        if ending == "sigint":
+            proc.send_signal(signal.SIGINT)
+        start = time.monotonic()
+        out, err = proc.communicate(timeout=60)
+        took = time.monotonic() - start
+    finally:
+        proc.kill()
+        stuck.close()
+    assert proc.returncode == (130 if ending == "sigint" else 0), err
+    assert "Traceback" not in err and "Task was destroyed" not in err and "ERROR" not in err, err
+    assert len(err) < 300, err
+    assert took < (10 if ending == "sigint" else 20), took

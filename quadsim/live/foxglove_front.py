@@ -51,6 +51,7 @@ MAX_NAME_CHARS = 256
 MAX_CLIENTS = 16
 STATUS_EVERY_S = 1.0
 LOG_EVERY_S = 5.0
+CLOSE_TIMEOUT_S = 1.0  # for a client's closing handshake, at the end of a run (websockets' default is 10 s)
 MAX_STATUS_CHARS = 300
 
 #: client requests the SDK answers (to the asking client alone); anything else is refused here
@@ -191,6 +192,7 @@ class FoxgloveFront:
                     max_size=MAX_FRAME_BYTES,
                     max_queue=4,
                     compression=None,  # images are JPEG already; deflate would cost CPU for nothing
+                    close_timeout=CLOSE_TIMEOUT_S,
                 )
                 started.append(self._server.sockets[0].getsockname()[1])
             except OSError as exc:
@@ -329,14 +331,24 @@ class FoxgloveFront:
         return False
 
     def close(self) -> None:
+        """Closes every connection (a client that does not answer the closing handshake within
+        CLOSE_TIMEOUT_S is cut off), then cancels and awaits what is left on the loop, so that no
+        handler is left pending to be destroyed, with a traceback, when the process ends."""
+
         async def stop() -> None:
             if self._server is not None:
                 self._server.close()
-                await self._server.wait_closed()
+                with contextlib.suppress(TimeoutError):
+                    await asyncio.wait_for(self._server.wait_closed(), 2 * CLOSE_TIMEOUT_S)
+            left = [t for t in asyncio.all_tasks() if t is not asyncio.current_task()]
+            for task in left:
+                task.cancel()
+            if left:
+                await asyncio.wait(left, timeout=CLOSE_TIMEOUT_S)
 
         if self._thread.is_alive():
             with contextlib.suppress(RuntimeError, TimeoutError):
-                asyncio.run_coroutine_threadsafe(stop(), self._loop).result(timeout=5)
+                asyncio.run_coroutine_threadsafe(stop(), self._loop).result(timeout=4 * CLOSE_TIMEOUT_S)
             self._loop.call_soon_threadsafe(self._loop.stop)
             self._thread.join(timeout=5)
         for name in SDK_LOGGERS:
