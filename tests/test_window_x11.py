@@ -87,10 +87,20 @@ def xserver() -> Iterator[XServer]:
 
 @dataclass
 class Flight:
-    proc: subprocess.Popen[str]
+    proc: subprocess.Popen[bytes]
     out: Path
     tmpdir: Path
+    logs: Path  # its stdout and stderr go to files there: a pipe nobody reads could block it
     window: int = 0
+
+    def output(self, timeout_s: float) -> tuple[str, str]:
+        """Waits for the program to end (TimeoutExpired after timeout_s); its stdout and stderr."""
+        self.proc.wait(timeout=timeout_s)
+        return (self.logs / "stdout").read_text(errors="replace"), (self.logs / "stderr").read_text(errors="replace")
+
+    def killed_output(self) -> tuple[str, str]:
+        _kill(self)
+        return self.output(30)
 
 
 def _env(xserver: XServer, tmpdir: Path, legacy: bool = False) -> dict[str, str]:
@@ -98,6 +108,7 @@ def _env(xserver: XServer, tmpdir: Path, legacy: bool = False) -> dict[str, str]
         k: v for k, v in os.environ.items() if not k.startswith("PYTEST") and k not in ("SDL_VIDEODRIVER", LEGACY_ENV)
     }
     env.update(xserver.env(), TMPDIR=str(tmpdir), SDL_AUDIODRIVER="dummy", PYTHONPATH=str(ROOT))
+    env["PYTHONFAULTHANDLER"] = "1"
     if legacy:
         env[LEGACY_ENV] = "1"
     return env
@@ -114,16 +125,18 @@ def _start(xserver: XServer, tmp_path: Path, command: list[str], legacy: bool = 
     tmpdir = tmp_path / "tmp"
     tmpdir.mkdir()
     out = tmp_path / "flight.mcap"
-    proc = subprocess.Popen(
-        [sys.executable, str(ROOT / "main.py"), *command],
-        cwd=ROOT,
-        env=_env(xserver, tmpdir, legacy),
-        stdout=subprocess.PIPE,
-        stderr=subprocess.PIPE,
-        text=True,
-        start_new_session=True,
-    )
-    return Flight(proc, out, tmpdir)
+    logs = tmp_path / "logs"
+    logs.mkdir()
+    with (logs / "stdout").open("wb") as stdout, (logs / "stderr").open("wb") as stderr:
+        proc = subprocess.Popen(
+            [sys.executable, str(ROOT / "main.py"), *command],
+            cwd=ROOT,
+            env=_env(xserver, tmpdir, legacy),
+            stdout=stdout,
+            stderr=stderr,
+            start_new_session=True,
+        )
+    return Flight(proc, out, tmpdir, logs)
 
 
 def _fly(xserver: XServer, tmp_path: Path, *extra: str, legacy: bool = False) -> Flight:
@@ -140,15 +153,24 @@ def _wait_for_window(xserver: XServer, flight: Flight, ready: Callable[[], bool]
     deadline = time.monotonic() + 90
     while time.monotonic() < deadline:
         if flight.proc.poll() is not None:
-            out, err = flight.proc.communicate()
+            out, err = flight.output(10)
             pytest.fail(f"the program ended before its window was up ({flight.proc.returncode}):\n{out}\n{err}")
         found = _xdotool(xserver, "search", "--onlyvisible", "--pid", str(flight.proc.pid)).split()
         if found and (ready is None or ready()):
             flight.window = int(found[0])
             return
         time.sleep(0.2)
+    windows = _xdotool(xserver, "search", "--pid", str(flight.proc.pid)).split()
+    flight.proc.send_signal(signal.SIGABRT)  # faulthandler prints where every thread is
+    try:
+        out, err = flight.output(10)
+    except subprocess.TimeoutExpired:
+        out, err = flight.killed_output()
     _kill(flight)
-    pytest.fail("the window did not appear")
+    pytest.fail(
+        f"the window did not appear (windows of the process, mapped or not: {windows}; "
+        f"recording there: {flight.out.exists()}):\n{out}\n{err}"
+    )
 
 
 def _kill(flight: Flight) -> None:
@@ -162,10 +184,9 @@ def _finish(flight: Flight) -> tuple[int, str, str, float]:
     """Wait for the program to end by itself; (exit code, stdout, stderr, seconds it took)."""
     start = time.monotonic()
     try:
-        out, err = flight.proc.communicate(timeout=EXIT_TIMEOUT_S)
+        out, err = flight.output(EXIT_TIMEOUT_S)
     except subprocess.TimeoutExpired:
-        _kill(flight)
-        out, err = flight.proc.communicate()
+        out, err = flight.killed_output()
         pytest.fail(f"still running {EXIT_TIMEOUT_S:.0f} s after the display went away:\n{out}\n{err}")
     return flight.proc.returncode, out, err, time.monotonic() - start
 
