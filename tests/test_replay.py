@@ -1,7 +1,11 @@
 """Replay: playback (window and headless), re-simulation, and recordings as regression tests."""
 
+import dataclasses
+import re
+import signal
 import subprocess
 import sys
+import time
 from pathlib import Path
 
 import cv2
@@ -12,6 +16,7 @@ from mcap.writer import Writer
 
 from quadsim import QuadsimError, SimConfig
 from quadsim.apps.outputs import OutputOptions
+from quadsim.apps.replay_export import export_mp4
 from quadsim.apps.resim import resimulate
 from quadsim.apps.window.pacing import FixedStepPacer
 from quadsim.apps.window.replay import ReplayApp
@@ -198,6 +203,66 @@ def test_headless_summary_video_and_plot(with_cameras, tmp_path):
     red = (abs(left[..., 2].astype(int) - 0xD6) < 30) & (left[..., 1] < 80) & (left[..., 0] < 80)
     blue = (abs(right[..., 0].astype(int) - 0xB4) < 30) & (abs(right[..., 2].astype(int) - 0x1F) < 40)
     assert red.sum() > 50 and blue.sum() > 200
+
+
+def _frame_count(path: Path) -> int:
+    video, count = cv2.VideoCapture(str(path)), 0
+    while video.read()[0]:
+        count += 1
+    return count
+
+
+def test_the_camera_streams_encode_side_by_side_as_each_would_alone(with_cameras, tmp_path):
+    """Both streams at once (a core each) give the same bytes as one stream encoded on its own,
+    and the progress counts every frame once, in order."""
+    flight = load_flight(with_cameras)
+    calls: list[tuple[int, int]] = []
+    videos = export_mp4(flight, tmp_path / "both", progress=lambda done, total: calls.append((done, total)))
+    assert [(v.path.name, v.frames, v.of) for v in videos] == [("cams_floor.mp4", 90, 90), ("cams_front.mp4", 90, 90)]
+    assert calls == [(n, 180) for n in range(1, 181)]
+    alone = dataclasses.replace(flight, frames={"front": flight.frames["front"]})
+    (single,) = export_mp4(alone, tmp_path / "alone")
+    assert single.path.read_bytes() == (tmp_path / "both" / "cams_front.mp4").read_bytes()
+
+
+def test_a_stop_ends_every_stream_as_a_shorter_whole_video(with_cameras, tmp_path):
+    flight = load_flight(with_cameras)
+    asked: list[int] = []
+    videos = export_mp4(flight, tmp_path, progress=lambda done, _: asked.append(done), stop=lambda: len(asked) >= 20)
+    assert all(1 <= v.frames < v.of == 90 for v in videos) and sum(v.frames for v in videos) <= 21
+    for v in videos:
+        assert _frame_count(v.path) == v.frames  # released: a whole file, each frame it says it has
+        assert "stopped" in v.line() and f"the first {v.frames} of 90 frames" in v.line()
+
+
+def test_ctrl_c_while_encoding_ends_soon_with_whole_videos(tmp_path):
+    """A real SIGINT to `replay --mp4` on a longer recording: it does not wait for the encoding
+    to end, exits 130 without a traceback, and leaves videos every player opens."""
+    recording = tmp_path / "long.mcap"
+    record_flight(recording, size=(320, 240), script="12.0 linear.x=0.5 angular.z=0.3\n")
+    proc = subprocess.Popen(
+        [sys.executable, str(ROOT / "main.py"), "replay", "--headless", "--mp4", str(tmp_path / "v"), str(recording)],
+        cwd=ROOT,
+        env={"PATH": "/usr/bin:/bin", "PYTHONPATH": str(ROOT), "SDL_VIDEODRIVER": "dummy"},
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+    try:
+        deadline = time.monotonic() + 60
+        while not list((tmp_path / "v").glob("*.mp4")) and time.monotonic() < deadline:
+            time.sleep(0.05)
+        time.sleep(0.5)
+        proc.send_signal(signal.SIGINT)
+        out, err = proc.communicate(timeout=60)
+    finally:
+        proc.kill()
+    assert proc.returncode == 130, err
+    assert "Traceback" not in err and "each video is whole and ends where the encoding stopped" in err, err
+    said = re.findall(r"video +(\S+) \(VP9, the first (\d+) of (\d+) frames: stopped\)", out)
+    assert len(said) == 2, out
+    for path, frames, of in said:
+        assert 0 < int(frames) < int(of) == 360 and _frame_count(Path(path)) == int(frames)
 
 
 def test_plot_without_matplotlib_says_how_to_get_it(with_cameras, tmp_path, monkeypatch):

@@ -747,11 +747,15 @@ def cmd_replay(args: argparse.Namespace) -> int:
         if args.mp4 is not None:
             from quadsim.apps.progress import ProgressBar
 
-            bar = ProgressBar(100.0, "encoding video", unit="%")
-            paths = export_mp4(flight, args.mp4, progress=lambda share: bar.update(100.0 * share))
+            bar = ProgressBar(sum(len(frames) for frames in flight.frames.values()), "encoding video", unit="frames")
+            videos = export_mp4(flight, args.mp4, progress=lambda done, _: bar.update(done), stop=stop_requested)
             bar.close()
-            for path in paths:
-                print(f"video       {path} (VP9)")
+            for video in videos:
+                print(video.line())
+            stop = SignalStop.current()
+            if stop is not None and stop.signum is not None and any(v.frames < v.of for v in videos):
+                print(f"{describe_stop(stop.signum)}; each video is whole and ends where the encoding stopped", file=sys.stderr)
+                return stop_exit_code(stop.signum)
         if args.plot is not None:
             print(f"plot        {export_plot(flight, args.plot)}")
         if args.foxglove is not None or args.ros2:

@@ -7,7 +7,11 @@ in flight_plot."""
 from __future__ import annotations
 
 import math
+import os
+import threading
 from collections.abc import Callable
+from concurrent.futures import ThreadPoolExecutor
+from dataclasses import dataclass
 from pathlib import Path
 
 import cv2
@@ -45,30 +49,69 @@ def summary_lines(f: RecordedFlight) -> list[str]:
     return out
 
 
-def export_mp4(f: RecordedFlight, folder: Path, progress: Callable[[float], None] | None = None) -> list[Path]:
-    """One MP4 (VP9) per camera stream, at the stream's frame rate. `progress` gets the share done."""
+@dataclass(frozen=True)
+class Video:
+    path: Path
+    frames: int  # encoded (or skipped as undecodable) before the end or a stop
+    of: int  # in the stream
+
+    def line(self) -> str:
+        short = "" if self.frames == self.of else f", the first {self.frames} of {self.of} frames: stopped"
+        return f"video       {self.path} (VP9{short})"
+
+
+def export_mp4(
+    f: RecordedFlight,
+    folder: Path,
+    progress: Callable[[int, int], None] | None = None,
+    stop: Callable[[], bool] = lambda: False,
+) -> list[Video]:
+    """One MP4 (VP9) per camera stream, at the stream's frame rate, the streams encoded side by
+    side (libvpx holds one core per stream, and OpenCV lets go of the GIL while it encodes).
+    `progress(frames done, frames in all)` is called from the encoding threads, one at a time;
+    once `stop()` is true every stream ends at its next frame, as a shorter but whole video."""
     if not f.frames:
         raise QuadsimError(f"{f.path}: has no camera images to export")
-    folder.mkdir(parents=True, exist_ok=True)
-    written = []
-    total, done = sum(len(frames) for frames in f.frames.values()), 0
+    streams = []
     for cam, frames in sorted(f.frames.items()):
         first = cv2.imdecode(np.frombuffer(frames[0][1], np.uint8), cv2.IMREAD_COLOR)
         if first is None:
             raise QuadsimError(f"{f.path}: {cam} camera images are not decodable JPEG")
-        span = (frames[-1][0] - frames[0][0]) / NS
-        fps = (len(frames) - 1) / span if span > 0 else 30.0
-        path = folder / f"{f.path.stem}_{cam}.mp4"
-        writer = cv2.VideoWriter(str(path), cv2.VideoWriter.fourcc(*"vp09"), fps, (first.shape[1], first.shape[0]))
-        if not writer.isOpened():
-            raise QuadsimError(f"OpenCV cannot write MP4 files here ({path})")
-        for _, jpeg in frames:
-            image = cv2.imdecode(np.frombuffer(jpeg, np.uint8), cv2.IMREAD_COLOR)
-            if image is not None and image.shape == first.shape:  # skip what cannot be shown
-                writer.write(image)
+        streams.append((folder / f"{f.path.stem}_{cam}.mp4", frames, first.shape))
+    folder.mkdir(parents=True, exist_ok=True)
+    total, done, lock, ended = sum(len(frames) for _, frames, _ in streams), 0, threading.Lock(), threading.Event()
+
+    def next_frame() -> bool:
+        """Counts a frame done; False once the encoding is to stop."""
+        nonlocal done
+        with lock:
             done += 1
             if progress is not None:
-                progress(done / total)
+                progress(done, total)
+        return not (ended.is_set() or stop())
+
+    with ThreadPoolExecutor(max_workers=min(len(streams), os.cpu_count() or 1)) as pool:
+        encoding = [pool.submit(_encode, path, frames, shape, next_frame) for path, frames, shape in streams]
+        try:
+            return [Video(path, future.result(), len(frames)) for (path, frames, _), future in zip(streams, encoding)]
+        finally:  # a second Ctrl-C or an error: the other streams end at their next frame
+            ended.set()
+
+
+def _encode(path: Path, frames: list[tuple[int, bytes]], shape: tuple[int, ...], next_frame: Callable[[], bool]) -> int:
+    """Encodes `frames` into `path` until `next_frame()` says stop; how many were done."""
+    span = (frames[-1][0] - frames[0][0]) / NS
+    fps = (len(frames) - 1) / span if span > 0 else 30.0
+    writer = cv2.VideoWriter(str(path), cv2.VideoWriter.fourcc(*"vp09"), fps, (shape[1], shape[0]))
+    if not writer.isOpened():
+        raise QuadsimError(f"OpenCV cannot write MP4 files here ({path})")
+    try:
+        for count, (_, jpeg) in enumerate(frames, 1):
+            image = cv2.imdecode(np.frombuffer(jpeg, np.uint8), cv2.IMREAD_COLOR)
+            if image is not None and image.shape == shape:  # skip what cannot be shown
+                writer.write(image)
+            if not next_frame():
+                return count
+        return len(frames)
+    finally:
         writer.release()
-        written.append(path)
-    return written
