@@ -754,7 +754,10 @@ def cmd_replay(args: argparse.Namespace) -> int:
                 print(video.line())
             stop = SignalStop.current()
             if stop is not None and stop.signum is not None and any(v.frames < v.of for v in videos):
-                print(f"{describe_stop(stop.signum)}; each video is whole and ends where the encoding stopped", file=sys.stderr)
+                print(
+                    f"{describe_stop(stop.signum)}; each video is whole and ends where the encoding stopped",
+                    file=sys.stderr,
+                )
                 return stop_exit_code(stop.signum)
         if args.plot is not None:
             print(f"plot        {export_plot(flight, args.plot)}")
