@@ -26,8 +26,6 @@ from quadsim.vehicle.params import VehicleParams
 #: Clearance above the ground the vehicle is placed at, so it starts just resting on the floor.
 _SPAWN_CLEARANCE_M = 0.001
 
-_ORIGIN = (0.0, 0.0, 0.0)
-
 
 class Contact(NamedTuple):
     """The vehicle touching one other body after a physics step."""
@@ -41,10 +39,13 @@ class PhysicsWorld:
     the client is private, and only what the simulator needs is exposed.
 
     Every step: the wind advances; the motors move toward the commanded forces; each rotor's
-    force, times its ground-effect ratio, is applied at its link along body z; the summed yaw
-    reaction torque on a rotor link in its own frame (see STYLE.md on the base-link torque frame
-    bug); body and rotor drag through the airspeed (quadsim.vehicle.aero) at the centre of mass;
-    then one `stepSimulation`. PyBullet clears external forces after each step, so all are
+    force, times its ground-effect ratio, acts at its hub along body z, with its yaw reaction
+    torque; body and rotor drag through the airspeed (quadsim.vehicle.aero) acts at the centre
+    of mass. All of it is summed into one force and one torque about base_link's origin, turned
+    into the world frame with the attitude the step starts from, and applied to the base in
+    WORLD_FRAME (a LINK_FRAME force on a rotor link would be turned with that link's pose of the
+    step before; a LINK_FRAME torque on the base is applied in the world frame: STYLE.md); then
+    one `stepSimulation`. PyBullet clears external forces after each step, so both are
     re-applied. The ground effect sees the floor (z = 0) only, not the landmarks.
 
     It keeps no clock: the simulation loop (quadsim.sim.loop.SimLoop) is the only caller of
@@ -85,7 +86,6 @@ class PhysicsWorld:
             for i in range(pb.getNumJoints(self.body_id, physicsClientId=cid))
         }
         self.link_index = links
-        self._rotor_links = tuple(links[r.link_name] for r in vehicle.rotors)
         # reaction torque per newton on each rotor, about body z (CCW rotor -> negative yaw)
         c = vehicle.yaw_torque_per_thrust_m
         self._yaw_per_n = tuple(-r.spin.sign * c for r in vehicle.rotors)
@@ -208,35 +208,53 @@ class PhysicsWorld:
         Private to the simulation loop, which counts the steps: stepping from anywhere else
         would move the vehicle without moving the clock."""
         # the hot path: PyBullet's calls get positional arguments (parsing the keyword
-        # physicsClientId costs about a quarter of a microsecond a call)
-        body, cid, link_frame, apply_force = self.body_id, self._cid, pb.LINK_FRAME, pb.applyExternalForce
+        # physicsClientId costs about a quarter of a microsecond a call). Every force and torque
+        # is summed here, in base_link about its origin, and applied once, turned into the world
+        # frame with this step's attitude: a force in a child link's frame is turned with that
+        # link's pose of the previous step, so rotor thrust lagged the attitude by one step.
+        body, cid = self.body_id, self._cid
         (m00, m01, m02), (m10, m11, m12), (m20, m21, m22) = self._rotation
         aero = self._aero
         ground = aero.ground_effect
         pz = self._position[2]
-        yaw = 0.0
-        omega_sum = 0.0
+        yaw = thrust_sum = roll = pitch = omega_sum = 0.0
         inv_kf = self._inv_kf
-        for link, thrust, yaw_per_n, (hx, hy, hz) in zip(
-            self._rotor_links, self.motors.advance(command_n), self._yaw_per_n, self._hubs
-        ):
+        for thrust, yaw_per_n, (hx, hy, hz) in zip(self.motors.advance(command_n), self._yaw_per_n, self._hubs):
             yaw += yaw_per_n * thrust
             if thrust > 0.0:
                 omega_sum += math.sqrt(thrust * inv_kf)
                 if ground:
                     height = pz + m20 * hx + m21 * hy + m22 * hz
                     thrust *= ground_effect_ratio(height, aero.rotor_radius_m, aero.ground_effect_max_ratio)
-            apply_force(body, link, (0.0, 0.0, thrust), _ORIGIN, link_frame, cid)
-        # the rotor links share base_link's axes, so a torque about rotor z is one about body z
-        pb.applyExternalTorque(body, self._rotor_links[0], (0.0, 0.0, yaw), link_frame, cid)
-        # drag through the airspeed (velocity minus wind) in base_link, applied at the centre of
-        # mass (at the base origin it would pitch the vehicle in free flight)
+                thrust_sum += thrust
+                roll += hy * thrust  # hub x (0, 0, thrust)
+                pitch -= hx * thrust
+        # drag through the airspeed (velocity minus wind) in base_link, at the centre of mass
         vx, vy, vz = self._linear_velocity
         if self._wind is not None:
             wx, wy, wz = self._wind.advance()
             vx, vy, vz = vx - wx, vy - wy, vz - wz
         air = (m00 * vx + m10 * vy + m20 * vz, m01 * vx + m11 * vy + m21 * vz, m02 * vx + m12 * vy + m22 * vz)
-        apply_force(body, -1, drag_force_body_n(aero, air, omega_sum), self._com, link_frame, cid)
+        dx, dy, dz = drag_force_body_n(aero, air, omega_sum)
+        cx, cy, cz = self._com
+        fx, fy, fz = dx, dy, dz + thrust_sum
+        tx, ty, tz = roll + cy * dz - cz * dy, pitch + cz * dx - cx * dz, yaw + cx * dy - cy * dx
+        world = pb.WORLD_FRAME
+        pb.applyExternalForce(
+            body,
+            -1,
+            (m00 * fx + m01 * fy + m02 * fz, m10 * fx + m11 * fy + m12 * fz, m20 * fx + m21 * fy + m22 * fz),
+            self._position,
+            world,
+            cid,
+        )
+        pb.applyExternalTorque(
+            body,
+            -1,
+            (m00 * tx + m01 * ty + m02 * tz, m10 * tx + m11 * ty + m12 * tz, m20 * tx + m21 * ty + m22 * tz),
+            world,
+            cid,
+        )
         pb.stepSimulation(cid)
         self._previous_velocity = self._linear_velocity
         self._read_kinematics()
