@@ -73,7 +73,9 @@ def _window_for_three_frames():
     run = ReplayApp.run
     with pytest.MonkeyPatch.context() as mp:
         mp.setattr(cli, "has_display", lambda: True)
-        mp.setattr(ReplayApp, "run", lambda self, max_frames=None, before_frame=None: run(self, 3))
+        mp.setattr(
+            ReplayApp, "run", lambda self, max_frames=None, before_frame=None, stop=None: run(self, 3, stop=stop)
+        )
         yield
 
 

@@ -83,6 +83,20 @@ def test_the_pictures_show_the_scene():
     assert red.mean() > 0.03
 
 
+def test_the_window_picture_shows_the_window():
+    """docs/img/window.png: the real replay window grabbed under Xvfb: the front camera's sky and
+    the red tower on the left, the dark map on the right, a HUD with text; not blank."""
+    image = cv2.imread(str(DOCS / "img" / "window.png"))
+    assert image is not None and image.shape[:2] == (800, 1280) and image.std() > 30.0
+    front, side = image[120:700, :880].astype(int), image[300:780, 900:].astype(int)
+    red = (front[:, :, 2] > 120) & (front[:, :, 2] > 2 * front[:, :, 1]) & (front[:, :, 2] > 2 * front[:, :, 0])
+    sky = (front[:, :, 0] > 180) & (front[:, :, 0] > front[:, :, 2] + 20)
+    assert red.mean() > 0.05 and sky.mean() > 0.05
+    assert side.mean() < 80  # the map is dark
+    hud = image[5:110, 5:760]
+    assert (hud > 200).all(axis=2).mean() > 0.01  # white text on the HUD
+
+
 def test_the_readme_is_a_front_door():
     readme = (ROOT / "README.md").read_text()
     assert len(readme.splitlines()) <= 200

@@ -354,3 +354,21 @@ def test_replay_window_killed(xserver, tmp_path):
     assert "Traceback" not in out + err, err
     assert code == EXIT_DISPLAY_LOST, (code, out, err)
     assert err.strip().splitlines() == [f"{LOST}the connection to the X server {xserver.display} was closed)"]
+
+
+@pytest.mark.parametrize("signum", [signal.SIGINT, signal.SIGTERM], ids=["sigint", "sigterm"])
+def test_a_signal_ends_the_replay_window_at_its_next_frame(xserver, tmp_path, signum):
+    """`kill` or Ctrl-C to a playing replay window: it ends within seconds with 130 / 143 and
+    one line (it used to go on playing, ignoring the first signal)."""
+    recording = ROOT / "tests" / "recordings" / "climb_cascade.mcap"
+    flight = _start(xserver, tmp_path, ["replay", str(recording), "--loop"])
+    _wait_for_window(xserver, flight)
+    time.sleep(0.5)
+    flight.proc.send_signal(signum)
+    code, out, err, took = _finish(flight)
+    assert code == 128 + signum, (code, out, err)
+    assert "Traceback" not in out + err, err
+    name = "interrupted" if signum == signal.SIGINT else "terminated"
+    assert err.strip().splitlines()[-1] == name, err
+    assert took < 10.0, took
+    assert not _leftovers(flight)

@@ -1,9 +1,24 @@
-"""The documentation's pictures, made from the simulator itself: what the two onboard cameras see
-a few seconds into the square scenario, side by side (docs/img/cameras.png). Run from the clone:
-`python tools/make_doc_pictures.py`; tests/test_docs.py checks the picture is there and not blank."""
+"""The documentation's pictures, made from the simulator itself. Run from the clone:
+`python tools/make_doc_pictures.py [cameras|window]`; tests/test_docs.py checks each is
+there and shows what it should.
+
+- docs/img/cameras.png: what the two onboard cameras see a few seconds into a flight toward the
+  red tower, side by side;
+- docs/img/window.png: the real replay window (SDL's x11 driver in an Xvfb of its own, grabbed
+  from the X server) playing a recorded square flight: cameras, map with the track, HUD, timeline.
+
+(The sweep plot in docs/sweeps.md is the one the wind example's sweep draws.)
+"""
 
 from __future__ import annotations
 
+import os
+import select
+import shutil
+import subprocess
+import sys
+import tempfile
+import time
 from pathlib import Path
 
 import cv2
@@ -12,10 +27,12 @@ import numpy as np
 from quadsim import CameraMode, Cameras, SimConfig, Simulator, Twist
 from quadsim.sensors.camera import default_cameras
 
-OUT = Path(__file__).resolve().parents[1] / "docs" / "img" / "cameras.png"
+ROOT = Path(__file__).resolve().parents[1]
+IMG = ROOT / "docs" / "img"
+OUT = IMG / "cameras.png"
 
 
-def main() -> None:
+def cameras() -> None:
     specs = default_cameras(480, 360, 30)
     with Simulator(SimConfig()) as sim:
         cameras = Cameras(sim, specs, mode=CameraMode.SYNC)
@@ -29,10 +46,70 @@ def main() -> None:
         cameras.close()
     images = [cv2.cvtColor(f.rgb, cv2.COLOR_RGB2BGR) for f in frames if f is not None]
     gap = np.full((images[0].shape[0], 8, 3), 255, np.uint8)
-    OUT.parent.mkdir(parents=True, exist_ok=True)
     cv2.imwrite(str(OUT), np.hstack([images[0], gap, images[1]]))
     print(f"wrote {OUT}")
 
 
+def _quadsim(*args: str, env: dict[str, str] | None = None) -> subprocess.Popen[bytes]:
+    return subprocess.Popen([sys.executable, str(ROOT / "main.py"), *args], cwd=ROOT, env=env)
+
+
+def _xvfb() -> tuple[subprocess.Popen[bytes], str]:
+    read_fd, write_fd = os.pipe()
+    xvfb = subprocess.Popen(
+        ["Xvfb", "-displayfd", str(write_fd), "-screen", "0", "1280x800x24", "-nolisten", "tcp"],
+        pass_fds=(write_fd,),
+        stderr=subprocess.DEVNULL,
+    )
+    os.close(write_fd)
+    number = b""
+    while not number.endswith(b"\n"):
+        if not select.select([read_fd], [], [], 20)[0]:
+            raise SystemExit("Xvfb did not start")
+        number += os.read(read_fd, 16)
+    os.close(read_fd)
+    return xvfb, f":{int(number)}"
+
+
+def window() -> None:
+    from PIL import ImageGrab  # Pillow comes with matplotlib (the plot extra)
+
+    if shutil.which("Xvfb") is None:
+        raise SystemExit("window.png needs Xvfb (apt-get install xvfb)")
+    with tempfile.TemporaryDirectory() as tmp:
+        flight = Path(tmp) / "square.mcap"
+        made = _quadsim(
+            "run", "--script", "square", "--duration", "14", "--camera-size", "480x360", "--out", str(flight)
+        )
+        if made.wait() != 0:
+            raise SystemExit("the flight to show could not be recorded")
+        xvfb, display = _xvfb()
+        env = {**os.environ, "DISPLAY": display, "SDL_AUDIODRIVER": "dummy"}
+        env.pop("SDL_VIDEODRIVER", None)
+        replay = _quadsim("replay", str(flight), "--window", "1280x800", env=env)
+        try:
+            time.sleep(12.0)  # the window up and the flight 9 s in: the second side of the square
+            shot = ImageGrab.grab(xdisplay=display)
+        finally:
+            replay.terminate()
+            replay.wait()
+            xvfb.terminate()
+            xvfb.wait()
+    out = IMG / "window.png"
+    shot.save(out)
+    print(f"wrote {out}")
+
+
+PICTURES = {"cameras": cameras, "window": window}
+
+
+def main(names: list[str]) -> None:
+    IMG.mkdir(parents=True, exist_ok=True)
+    for name in names or list(PICTURES):
+        if name not in PICTURES:
+            raise SystemExit(f"no picture {name!r}: {', '.join(PICTURES)}")
+        PICTURES[name]()
+
+
 if __name__ == "__main__":
-    main()
+    main(sys.argv[1:])

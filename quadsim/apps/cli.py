@@ -771,7 +771,7 @@ def cmd_replay(args: argparse.Namespace) -> int:
         feed = _feed(args.file, live)
         with ReplayApp(flight, (width, height), speed=args.speed, loop=args.loop, feed=feed) as app:
             print("replaying; press H or F1 in the window for the keys, Esc to quit")
-            app.run()
+            app.run(stop=stop_requested)  # a signal ends the playback at its next frame
     finally:
         for output in live:
             output.close()
@@ -780,6 +780,10 @@ def cmd_replay(args: argparse.Namespace) -> int:
 
         print(f"the window's display was lost ({app.display_lost})", file=sys.stderr)
         return EXIT_DISPLAY_LOST
+    stop = SignalStop.current()
+    if stop is not None and stop.signum is not None:
+        print(describe_stop(stop.signum), file=sys.stderr)
+        return stop_exit_code(stop.signum)
     return 0
 
 

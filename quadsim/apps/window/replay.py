@@ -10,6 +10,7 @@ from __future__ import annotations
 import os
 import sys
 import time
+from collections.abc import Callable
 from pathlib import Path
 
 os.environ.setdefault("PYGAME_HIDE_SUPPORT_PROMPT", "1")
@@ -232,8 +233,16 @@ class ReplayApp:
             timeline=(t / NS, self.end_ns / NS),
         )
 
-    def run(self, max_frames: int | None = None, before_frame=None) -> None:
+    def run(
+        self,
+        max_frames: int | None = None,
+        before_frame: Callable[[ReplayApp], None] | None = None,
+        stop: Callable[[], bool] | None = None,
+    ) -> None:
+        """Plays until the window is closed, `max_frames` frames, or `stop()` (a signal) is true."""
         while not self.quit and (max_frames is None or self.frame_count < max_frames):
+            if stop is not None and stop():
+                return
             if before_frame is not None:
                 before_frame(self)
             self.frame()
