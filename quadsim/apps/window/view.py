@@ -121,7 +121,7 @@ class TeleopView:
         else:
             self._text(surface, "no image yet", rect.center, TEXT, center=True)
         pygame.draw.rect(surface, (70, 70, 80), rect, 1)
-        self._text(surface, label, (rect.x + 6, rect.bottom - 20), (200, 200, 200))
+        self._text(surface, label, (rect.x + 6, rect.bottom - 20), (220, 220, 220), backed=True)
 
     def _map(self, surface: pygame.Surface, rect: pygame.Rect, m: ViewModel) -> None:
         pygame.draw.rect(surface, (34, 40, 36), rect)
@@ -225,7 +225,7 @@ class TeleopView:
         done.width = int(rect.width * (t / duration if duration > 0 else 0.0))
         pygame.draw.rect(surface, (90, 160, 240), done)
         pygame.draw.rect(surface, (200, 200, 210), rect, 1)
-        self._text(surface, f"{t:6.2f} / {duration:.2f} s", (rect.x, rect.y - 20), TEXT)
+        self._text(surface, f"{t:6.2f} / {duration:.2f} s", (rect.x, rect.y - 20), TEXT, backed=True)
 
     def _help(self, surface: pygame.Surface, lines: list[str]) -> None:
         w, h = surface.get_size()
@@ -238,7 +238,18 @@ class TeleopView:
             self._text(surface, line, (rect.x + 16, rect.y + 40 + 22 * i), TEXT)
 
     def _text(
-        self, surface: pygame.Surface, text: str, pos: tuple[int, int], color, center: bool = False, font=None
+        self,
+        surface: pygame.Surface,
+        text: str,
+        pos: tuple[int, int],
+        color,
+        center: bool = False,
+        font=None,
+        backed: bool = False,
     ) -> None:
+        """`backed`: on a dark box, readable over a bright camera image (the floor, the sky)."""
         img = (font or self.font).render(text, True, color)
-        surface.blit(img, img.get_rect(center=pos) if center else pos)
+        where = img.get_rect(center=pos) if center else img.get_rect(topleft=pos)
+        if backed:
+            surface.fill((10, 10, 12), where.inflate(8, 2))
+        surface.blit(img, where)
