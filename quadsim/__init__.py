@@ -38,7 +38,7 @@ _PUBLIC = {
     "VehicleState": "quadsim.core.types",
     "WindSettings": "quadsim.physics.wind",
     "ZMode": "quadsim.core.types",
-    "record": "quadsim.apps.outputs",
+    "record": "quadsim.session.outputs",
 }
 
 __all__ = [
@@ -81,12 +81,12 @@ def __dir__() -> list[str]:
 
 
 if TYPE_CHECKING:  # for type checkers and IDEs: the same names, eagerly
-    from quadsim.apps.outputs import record
     from quadsim.control import ControllerKind
     from quadsim.core.types import ActiveCommand, StartPose, Twist, VehicleState, ZMode
     from quadsim.errors import ConfigError, QuadsimError, ScriptError
     from quadsim.physics.wind import Turbulence, WindSettings
     from quadsim.sensors.camera import CameraInfo, CameraSpec
+    from quadsim.session.outputs import record
     from quadsim.sim.cameras import CameraImage, CameraMode, Cameras
     from quadsim.sim.config import Rates, SimConfig
     from quadsim.sim.loop import StateLog

@@ -3,9 +3,9 @@
 from pathlib import Path
 
 from quadsim import SimConfig, Simulator, StateLog, ZMode
-from quadsim.apps.outputs import OutputOptions, RecordedRun
 from quadsim.drivers.scripted import ScriptedDriver, parse_script
 from quadsim.sensors.camera import default_cameras
+from quadsim.session.outputs import OutputOptions, RecordedRun
 
 SCRIPT = "z_mode height\n2.0 linear.z=0\n1.0 linear.x=1.0 angular.z=0.5\n"
 

@@ -6,7 +6,7 @@ import math
 import pytest
 
 from quadsim import SimConfig, Simulator, Twist
-from quadsim.apps.evaluate import ground_effect_thrust_ratio, terminal_velocity_mps
+from quadsim.apps.flight_quality import ground_effect_thrust_ratio, terminal_velocity_mps
 from quadsim.core.types import StartPose, ZMode
 from quadsim.physics.wind import WindSettings
 from quadsim.vehicle import aero

@@ -10,7 +10,7 @@ import gymnasium as gym
 import numpy as np
 import pytest
 
-from quadsim.apps.bench_peers import PYFLYT, measure_peer, not_installed_line, peer_python, step_randomly
+from quadsim.apps.bench.peers import PYFLYT, measure_peer, not_installed_line, peer_python, step_randomly
 
 
 class ThreeStepEnv(gym.Env):

@@ -16,7 +16,7 @@ from mcap.reader import make_reader
 from mcap_ros2.decoder import DecoderFactory
 
 from quadsim import SimConfig, Simulator, StartPose, Twist, ZMode
-from quadsim.apps.evaluate import DROP_HEIGHTS_M, DROP_ROLLS_DEG, drop_grid
+from quadsim.apps.flight_quality import DROP_HEIGHTS_M, DROP_ROLLS_DEG, drop_grid
 from quadsim.apps.window.teleop import TeleopOptions
 from quadsim.sensors.camera import RendererKind, default_cameras
 from quadsim.sensors.rendering import decode_jpeg

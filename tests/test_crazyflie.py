@@ -10,7 +10,7 @@ from pathlib import Path
 import pytest
 
 from quadsim import ControllerKind, SimConfig, Simulator
-from quadsim.apps.evaluate import SCENARIO_METRICS, TARGETS, fly
+from quadsim.apps.flight_quality import SCENARIO_METRICS, TARGETS, fly
 from quadsim.control import make_controller
 from quadsim.control.gains import gains_path
 from quadsim.errors import ConfigError

@@ -67,12 +67,12 @@ COMMANDS = [
 @contextlib.contextmanager
 def _window_for_three_frames():
     """`replay` opens its window as if a display were there, and plays three frames."""
-    from quadsim.apps import cli
+    from quadsim.apps.commands import replay
     from quadsim.apps.window.replay import ReplayApp
 
     run = ReplayApp.run
     with pytest.MonkeyPatch.context() as mp:
-        mp.setattr(cli, "has_display", lambda: True)
+        mp.setattr(replay, "has_display", lambda: True)
         mp.setattr(
             ReplayApp, "run", lambda self, max_frames=None, before_frame=None, stop=None: run(self, 3, stop=stop)
         )

@@ -6,7 +6,7 @@ import subprocess
 import sys
 from pathlib import Path
 
-from quadsim.apps.evaluate import fly
+from quadsim.apps.flight_quality import fly
 from quadsim.control import ControllerKind
 from quadsim.physics.wind import Turbulence, WindSettings
 from quadsim.sim.config import SimConfig
@@ -53,7 +53,7 @@ def test_wind_turbulence_and_sensor_noise_are_deterministic_for_a_seed():
 def test_two_processes_give_the_same_states():
     code = (
         f"import sys; sys.path.insert(0, {str(ROOT)!r}); from tests.test_determinism import digest; "
-        "from quadsim.apps.evaluate import fly; from quadsim.physics.wind import Turbulence, WindSettings; "
+        "from quadsim.apps.flight_quality import fly; from quadsim.physics.wind import Turbulence, WindSettings; "
         "from quadsim.sim.config import SimConfig; "
         "print(digest(fly('square', config=SimConfig(wind=WindSettings(3.0, 10.0, Turbulence.LIGHT))).states))"
     )

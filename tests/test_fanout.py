@@ -9,12 +9,12 @@ import pytest
 from rosbags.typesys import Stores, get_typestore
 
 from quadsim import SimConfig, Simulator, StateLog, Twist, ZMode
-from quadsim.apps.outputs import OutputOptions, RecordedRun
 from quadsim.core.kinematics import body_velocity, quaternion_from_matrix
 from quadsim.physics.wind import Turbulence, WindSettings
 from quadsim.recording.contract import optical_rotation
 from quadsim.recording.fanout import TopicFanout
 from quadsim.sensors.camera import CameraFrame, default_cameras
+from quadsim.session.outputs import OutputOptions, RecordedRun
 
 TS = get_typestore(Stores.ROS2_HUMBLE)
 T = TS.types

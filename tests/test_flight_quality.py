@@ -4,7 +4,7 @@ import math
 
 import pytest
 
-from quadsim.apps.evaluate import SCENARIO_METRICS, TARGETS, envelope_metrics, fly
+from quadsim.apps.flight_quality import SCENARIO_METRICS, TARGETS, envelope_metrics, fly
 from quadsim.control import ControllerKind
 
 
@@ -52,7 +52,7 @@ def test_seed_flies_without_diverging(scenario):
 
 def test_coordinated_turn_holds_speed_without_slipping():
     # the figure-8's circles: 1 m/s along the heading while yawing at 0.785 rad/s
-    from quadsim.apps.evaluate import turn_metrics
+    from quadsim.apps.flight_quality import turn_metrics
 
     m = turn_metrics(fly("figure8"))
     assert m["turn_slip_max_mps"] < 0.05, m

@@ -8,11 +8,11 @@ from pathlib import Path
 import pytest
 
 from quadsim import ConfigError, SimConfig, Simulator, Twist, ZMode
-from quadsim.apps.evaluate import SCENARIO_METRICS, TARGETS, fly
-from quadsim.apps.outputs import OutputOptions, RecordedRun
-from quadsim.apps.resim import resimulate
+from quadsim.apps.flight_quality import SCENARIO_METRICS, TARGETS, fly
 from quadsim.control import ControllerKind
 from quadsim.recording.flight import load_flight
+from quadsim.session.outputs import OutputOptions, RecordedRun
+from quadsim.session.resim import resimulate
 from quadsim.vehicle.mixer import Mixer
 from quadsim.vehicle.params import SHIPPED_VEHICLES, Spin, load_vehicle
 

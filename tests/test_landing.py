@@ -6,7 +6,7 @@ import math
 import pytest
 
 from quadsim import ControllerKind, SimConfig, Simulator, Twist, ZMode
-from quadsim.apps.evaluate import banked_turn_metrics, touchdown_metrics
+from quadsim.apps.flight_quality import banked_turn_metrics, touchdown_metrics
 from quadsim.control.landing import FlightPhase, LandingSettings
 from quadsim.sim.flight_events import EventKind
 from quadsim.sim.loop import StateLog

@@ -23,6 +23,7 @@ LAYERS = [
     {"quadsim.recording"},
     {"quadsim.live"},
     {"quadsim.envs"},
+    {"quadsim.session"},
     {"quadsim.apps"},
 ]
 #: the package's front doors name the public API lazily and may point anywhere; the shipped

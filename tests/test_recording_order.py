@@ -8,9 +8,9 @@ import itertools
 from mcap.reader import make_reader
 
 from quadsim import SimConfig, Simulator, Twist, ZMode
-from quadsim.apps.outputs import OutputOptions, RecordedRun
 from quadsim.recording.info import read_info
 from quadsim.sensors.camera import default_cameras
+from quadsim.session.outputs import OutputOptions, RecordedRun
 
 
 def _raw_log_times(path) -> list[tuple[str, int]]:

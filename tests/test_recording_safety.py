@@ -12,10 +12,10 @@ import pytest
 from mcap.reader import make_reader
 
 from quadsim import QuadsimError, SimConfig, Simulator, Twist, ZMode
-from quadsim.apps.outputs import OutputOptions, RecordedRun
 from quadsim.recording.fanout import TopicFanout
 from quadsim.recording.salvage import scan
 from quadsim.recording.writer import McapRecorder, check_writable
+from quadsim.session.outputs import OutputOptions, RecordedRun
 from tests.recording_helpers import record_flight
 
 ROOT = Path(__file__).resolve().parent.parent

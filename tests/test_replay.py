@@ -15,13 +15,13 @@ from mcap.reader import make_reader
 from mcap.writer import Writer
 
 from quadsim import QuadsimError, SimConfig
-from quadsim.apps.outputs import OutputOptions
 from quadsim.apps.replay_export import export_mp4
-from quadsim.apps.resim import resimulate
 from quadsim.apps.window.pacing import FixedStepPacer
 from quadsim.apps.window.replay import ReplayApp
 from quadsim.apps.window.teleop import TeleopApp, TeleopOptions
 from quadsim.recording.flight import load_flight
+from quadsim.session.outputs import OutputOptions
+from quadsim.session.resim import resimulate
 from tests.recording_helpers import record_flight
 
 ROOT = Path(__file__).resolve().parent.parent

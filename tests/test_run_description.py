@@ -11,12 +11,12 @@ from mcap.reader import make_reader
 from mcap.writer import Writer
 
 from quadsim import ControllerKind, Rates, SimConfig, Simulator, StartPose, ZMode
-from quadsim.apps.resim import resimulate
 from quadsim.errors import QuadsimError
 from quadsim.physics.wind import Turbulence, WindSettings
 from quadsim.recording.flight import load_flight
 from quadsim.recording.info import read_info
 from quadsim.sensors.camera import default_cameras
+from quadsim.session.resim import resimulate
 from quadsim.sim.description import SCHEMA_VERSION, DescriptionError, RunDescription
 from tests.recording_helpers import record_flight
 

@@ -239,13 +239,14 @@ def test_a_signal_in_the_first_second_under_load(tmp_path):
 def test_a_signal_once_the_command_has_finished_says_nothing_was_cut_short(capsys, monkeypatch):
     """Ctrl-C after the last line (the recording already closed): exit 130, and a line that says so."""
     import quadsim.apps.cli as cli
+    from quadsim.apps.commands import scenarios
 
     def finished_then_interrupted(args):
         print("done")
         os.kill(os.getpid(), signal.SIGINT)
         return 0
 
-    monkeypatch.setattr(cli, "cmd_scenarios", finished_then_interrupted)
+    monkeypatch.setattr(scenarios, "main", finished_then_interrupted)
     assert cli.main(["scenarios"]) == 130
     out, err = capsys.readouterr()
     assert out.startswith("done")

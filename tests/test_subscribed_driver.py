@@ -67,7 +67,7 @@ def test_messages_from_another_thread_fly_and_silence_holds() -> None:
 def test_the_run_summary_says_what_arrived_live() -> None:
     """NaN Twists stop at the driver and a 1e308 one is clamped: the summary counts both (it said
     '0 rejected' after NaNs had arrived), and a live line says what the wire brought."""
-    from quadsim.apps.headless import run_headless
+    from quadsim.session.headless import run_headless
 
     d = SubscribedDriver("ros2")
     with Simulator(SimConfig(), driver=d) as sim:

@@ -8,9 +8,9 @@ from mcap.reader import make_reader
 from mcap_ros2.decoder import DecoderFactory
 
 from quadsim import SimConfig, ZMode
-from quadsim.apps.outputs import OutputOptions
 from quadsim.apps.window.pacing import FixedStepPacer
 from quadsim.apps.window.teleop import TeleopApp, TeleopOptions
+from quadsim.session.outputs import OutputOptions
 
 FPS = 30  # each frame advances 1/30 s of simulation time
 

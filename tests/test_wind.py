@@ -11,7 +11,7 @@ import pytest
 from mcap.reader import make_reader
 
 from quadsim import SimConfig, Simulator, StateLog, Twist
-from quadsim.apps.evaluate import PHYSICS_TARGETS, wind_hover_metrics
+from quadsim.apps.flight_quality import PHYSICS_TARGETS, wind_hover_metrics
 from quadsim.errors import ConfigError
 from quadsim.physics.wind import (
     Turbulence,

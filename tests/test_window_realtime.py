@@ -13,11 +13,11 @@ import pygame
 import pytest
 
 from quadsim import SimConfig, Simulator, Twist, ZMode
-from quadsim.apps.outputs import OutputOptions
 from quadsim.apps.window.pacing import FixedStepPacer, RealTimePacer
 from quadsim.apps.window.teleop import TeleopApp, TeleopOptions
 from quadsim.sensors.camera import default_cameras
 from quadsim.sensors.pipeline import CameraPipeline
+from quadsim.session.outputs import OutputOptions
 
 
 class FakeClock:

@@ -18,11 +18,11 @@ os.environ.setdefault("PYGAME_HIDE_SUPPORT_PROMPT", "1")
 import pygame  # noqa: E402
 
 from quadsim import ControllerKind, SimConfig, Simulator, ZMode  # noqa: E402
-from quadsim.apps.outputs import OutputOptions, RecordedRun  # noqa: E402
 from quadsim.apps.window.pacing import FixedStepPacer  # noqa: E402
 from quadsim.apps.window.teleop import TeleopApp, TeleopOptions  # noqa: E402
 from quadsim.drivers.scripted import ScriptedDriver, load_script  # noqa: E402
 from quadsim.physics.wind import Turbulence, WindSettings  # noqa: E402
+from quadsim.session.outputs import OutputOptions, RecordedRun  # noqa: E402
 
 OUT = ROOT / "tests" / "recordings"
 

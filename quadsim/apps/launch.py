@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import sys
 
-from quadsim.apps.stopping import SignalStop, StopRequested, describe, exit_code
+from quadsim.session.stopping import SignalStop, StopRequested, describe, exit_code
 
 
 def main(argv: list[str] | None = None) -> int:

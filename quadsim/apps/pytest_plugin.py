@@ -23,7 +23,7 @@ from typing import Any
 
 import pytest
 
-from quadsim.apps.check import DEFAULT_TOLERANCE_M, DEFAULT_TOLERANCE_RAD, CheckOutcome, CheckTask, check_one
+from quadsim.apps.regression import DEFAULT_TOLERANCE_M, DEFAULT_TOLERANCE_RAD, CheckOutcome, CheckTask, check_one
 
 
 def pytest_addoption(parser: pytest.Parser) -> None:

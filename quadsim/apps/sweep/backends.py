@@ -17,8 +17,8 @@ from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wai
 from contextlib import contextmanager
 from typing import Any, TypeVar
 
-from quadsim.apps.stopping import stop_requested
 from quadsim.errors import QuadsimError
+from quadsim.session.stopping import stop_requested
 
 T = TypeVar("T")
 R = TypeVar("R")

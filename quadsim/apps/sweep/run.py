@@ -84,7 +84,7 @@ def fly_run(task: RunTask) -> dict[str, Any]:
 
 
 def _start_recording(task: RunTask, sim: Any, script_name: str):
-    from quadsim.apps.outputs import OutputOptions, RecordedRun
+    from quadsim.session.outputs import OutputOptions, RecordedRun
 
     run = task.run
     folder = Path(task.record_dir or ".")

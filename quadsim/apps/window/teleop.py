@@ -31,7 +31,6 @@ from typing import Any
 os.environ.setdefault("PYGAME_HIDE_SUPPORT_PROMPT", "1")
 import pygame
 
-from quadsim.apps.outputs import LiveOutput, OutputOptions, RecordedRun
 from quadsim.apps.window.pacing import FixedStepPacer, RealTimePacer
 from quadsim.apps.window.view import TeleopView, ViewModel
 from quadsim.apps.window.x11_guard import X11Guard
@@ -45,6 +44,7 @@ from quadsim.drivers.subscribed import SubscribedDriver
 from quadsim.errors import QuadsimError
 from quadsim.recording.fanout import WARNING_EVENTS
 from quadsim.sensors.camera import CameraFrame
+from quadsim.session.outputs import LiveOutput, OutputOptions, RecordedRun
 from quadsim.sim.config import SimConfig
 from quadsim.sim.simulator import Simulator
 

@@ -37,10 +37,10 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     )
     p.add_argument("names", nargs="*", metavar="NAME", help="examples to copy (default: all)")
     p.add_argument("--copy", type=Path, default=None, metavar="DIR", help="copy them into DIR (created if needed)")
-    p.set_defaults(func=cmd_examples)
+    p.set_defaults(func=main)
 
 
-def cmd_examples(args: argparse.Namespace) -> int:
+def main(args: argparse.Namespace) -> int:
     examples = shipped()
     unknown = [n for n in args.names if n not in examples]
     if unknown:

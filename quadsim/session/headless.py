@@ -7,9 +7,9 @@ import time
 from collections.abc import Callable
 from dataclasses import dataclass
 
-from quadsim.apps.stopping import stop_requested
 from quadsim.core.types import VehicleState
 from quadsim.drivers.subscribed import SubscribedDriver
+from quadsim.session.stopping import stop_requested
 from quadsim.sim.flight_events import EventKind, FlightEvent
 from quadsim.sim.loop import StateLog
 from quadsim.sim.simulator import Simulator

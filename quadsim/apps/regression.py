@@ -1,5 +1,6 @@
-"""`check`: re-fly recordings as regression tests, one after another or in parallel (a process
-pool or Ray), with the same report, in the same order, and the same exit codes either way."""
+"""Recordings as regression tests: one recording re-flown and judged against tolerances, the
+implementation `quadsim check` and the pytest plugin share (in the same order, with the same report
+and exit codes, serial, on a process pool or on Ray)."""
 
 from __future__ import annotations
 
@@ -41,8 +42,8 @@ def recordings_in(paths: list[Path]) -> list[Path]:
 
 def check_one(task: CheckTask) -> CheckOutcome:
     """Re-fly one recording and say how it went (never raises for a bad file: it is 'unusable')."""
-    from quadsim.apps.resim import resimulate
     from quadsim.recording.flight import load_flight
+    from quadsim.session.resim import resimulate
 
     path = task.path
     try:

@@ -1,17 +1,27 @@
-"""`quadsim sweep SPEC.toml`: its arguments and what it prints."""
+"""`quadsim sweep SPEC.toml`: fly every run a sweep file stands for and tabulate their flight metrics."""
 
 from __future__ import annotations
 
 import argparse
 import sys
 from pathlib import Path
+from typing import TYPE_CHECKING
+
+from quadsim.apps.options import add_parallel_options, recordings_default
+from quadsim.errors import QuadsimError
+from quadsim.session.stopping import SignalStop, exit_code
+from quadsim.session.stopping import describe as describe_stop
+
+if TYPE_CHECKING:
+    from quadsim.apps.sweep.execute import SweepResult
+    from quadsim.apps.sweep.spec import SweepSpec
 
 #: past this many runs or this much simulated time, `sweep` asks for --yes before flying
 ASK_RUNS = 1_000
 ASK_SIM_S = 24 * 3600.0
 
 
-def add_parser(sub: argparse._SubParsersAction, recordings_default: str) -> None:
+def add_parser(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser(
         "sweep",
         help="fly every combination of a sweep file (scenarios x controllers x airframes x wind x seeds) "
@@ -31,9 +41,9 @@ def add_parser(sub: argparse._SubParsersAction, recordings_default: str) -> None
         type=Path,
         default=None,
         metavar="DIR",
-        help=f"where the table, plot and recordings go (default: {recordings_default})",
+        help=f"where the table, plot and recordings go (default: {recordings_default('sweeps/NAME')})",
     )
-    add_parallel_arguments(
+    add_parallel_options(
         p, "worker processes (default: every core of this machine); with --ray, CPUs of a local Ray instance"
     )
     rec = p.add_mutually_exclusive_group()
@@ -55,31 +65,13 @@ def add_parser(sub: argparse._SubParsersAction, recordings_default: str) -> None
         help=f"fly a very large sweep (over {ASK_RUNS} runs or {ASK_SIM_S / 3600:.0f} h of simulated time) "
         "without asking for this flag first",
     )
-    p.set_defaults(func=cmd_sweep)
+    p.set_defaults(func=main)
 
 
-def add_parallel_arguments(p: argparse.ArgumentParser, jobs_help: str) -> None:
-    """--jobs N and --ray [ADDRESS], as `sweep` and `check` take them."""
-    p.add_argument("--jobs", type=int, default=None, metavar="N", help=jobs_help)
-    p.add_argument(
-        "--ray",
-        nargs="?",
-        const="local",
-        default=None,
-        metavar="ADDRESS",
-        help="run as Ray tasks: on a local Ray instance (no ADDRESS), or on a cluster "
-        "(auto, ray://HOST:10001); needs pip install 'quadsim[ray]'",
-    )
-
-
-def cmd_sweep(args: argparse.Namespace) -> int:
-    from quadsim.apps.stopping import SignalStop, exit_code
-    from quadsim.apps.stopping import describe as describe_stop
-    from quadsim.apps.sweep.backends import RAY_MISSING, default_jobs, ray_available
+def main(args: argparse.Namespace) -> int:
+    from quadsim.apps.sweep.backends import default_jobs
     from quadsim.apps.sweep.execute import run_sweep
-    from quadsim.apps.sweep.report import plot, summary_lines
     from quadsim.apps.sweep.spec import load_sweep
-    from quadsim.errors import QuadsimError
     from quadsim.recording.paths import default_recordings_dir
 
     spec = load_sweep(args.spec)
@@ -89,17 +81,9 @@ def cmd_sweep(args: argparse.Namespace) -> int:
             "add --yes to fly a sweep this large"
         )
     jobs = args.jobs if args.jobs is not None else default_jobs()
-    if not 1 <= jobs <= 1024:
-        raise QuadsimError(f"--jobs must be from 1 to 1024, got {jobs}")
-    use_ray = args.ray is not None
-    if use_ray and not ray_available():
-        raise QuadsimError(RAY_MISSING)
-    if args.format == "parquet":
-        from quadsim.apps.sweep.table import parquet_available
-
-        if not parquet_available():
-            raise QuadsimError("--format parquet needs pyarrow: pip install 'quadsim[parquet]'")
+    _check_where(args, jobs)
     out = args.out if args.out is not None else default_recordings_dir() / "sweeps" / spec.name
+    use_ray = args.ray is not None
     where = (
         f"Ray ({'local, ' + str(jobs) + ' CPUs' if args.ray == 'local' else args.ray})"
         if use_ray
@@ -117,6 +101,28 @@ def cmd_sweep(args: argparse.Namespace) -> int:
         table_format=args.format,
         overwrite=args.overwrite,
     )
+    return _report(args, spec, result, out)
+
+
+def _check_where(args: argparse.Namespace, jobs: int) -> None:
+    """The workers and the table format asked for exist, before any run flies."""
+    from quadsim.apps.sweep.backends import RAY_MISSING, ray_available
+
+    if not 1 <= jobs <= 1024:
+        raise QuadsimError(f"--jobs must be from 1 to 1024, got {jobs}")
+    if args.ray is not None and not ray_available():
+        raise QuadsimError(RAY_MISSING)
+    if args.format == "parquet":
+        from quadsim.apps.sweep.table import parquet_available
+
+        if not parquet_available():
+            raise QuadsimError("--format parquet needs pyarrow: pip install 'quadsim[parquet]'")
+
+
+def _report(args: argparse.Namespace, spec: SweepSpec, result: SweepResult, out: Path) -> int:
+    """The summary, the table and the plot; the exit code (0 all within limits, 1 not, 130/143 stopped)."""
+    from quadsim.apps.sweep.report import plot, summary_lines
+
     for line in summary_lines(result.rows, [a for a in spec.varied]):
         print(line)
     skipped = f" ({result.skipped} already in the table)" if result.skipped else ""

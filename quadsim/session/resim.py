@@ -11,13 +11,13 @@ from dataclasses import dataclass, fields, replace
 from pathlib import Path
 from typing import Any
 
-from quadsim.apps.outputs import OutputOptions, RecordedRun
 from quadsim.control.landing import LandingSettings
 from quadsim.core.kinematics import body_velocity
 from quadsim.core.types import VehicleState, ZMode
 from quadsim.drivers.replay import ReplayDriver
 from quadsim.errors import QuadsimError
 from quadsim.recording.flight import RecordedFlight
+from quadsim.session.outputs import OutputOptions, RecordedRun
 from quadsim.sim.config import SimConfig
 from quadsim.sim.loop import StateLog
 from quadsim.sim.simulator import Simulator

@@ -13,10 +13,10 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, Protocol
 
-from quadsim.apps.stopping import shielded_from_signals
 from quadsim.errors import QuadsimError
 from quadsim.recording.fanout import TopicConsumer, TopicFanout
 from quadsim.sensors.camera import CameraSpec, RendererKind, default_cameras
+from quadsim.session.stopping import shielded_from_signals
 from quadsim.sim.description import RunDescription
 from quadsim.sim.loop import OutputPort
 

@@ -16,8 +16,8 @@ from quadsim.live import FOXGLOVE_DEFAULT_ENDPOINT
 from quadsim.recording.contract import TWIST
 
 if TYPE_CHECKING:
-    from quadsim.apps.outputs import LiveOutput
     from quadsim.drivers.subscribed import SubscribedDriver
+    from quadsim.session.outputs import LiveOutput
 
 #: the inputs a live bridge provides (SubscribedDriver names)
 LIVE_INPUTS = ("foxglove", "ros2")

@@ -7,7 +7,7 @@
 - the Gymnasium environments (with the `gym` extra): env steps per second at the 30 Hz agent
   rate, one env and gymnasium.make_vec over two processes, random actions;
 - beside them, the peers' hover envs (PyFlyt's QuadX-Hover, gym-pybullet-drones' HoverAviary)
-  timed by the same loop in their own processes, where they are installed (bench_peers).
+  timed by the same loop in their own processes, where they are installed (quadsim.apps.bench.peers).
 """
 
 from __future__ import annotations
@@ -16,7 +16,7 @@ import subprocess
 import time
 from collections.abc import Callable
 
-from quadsim.apps.bench_peers import (
+from quadsim.apps.bench.peers import (
     PEERS,
     PeerResult,
     SteppingTimes,

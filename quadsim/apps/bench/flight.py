@@ -1,0 +1,153 @@
+"""The flight core against the bare PyBullet loop for the same URDF and world.
+
+Flight core:
+  baseline   the bare PyBullet loop for this URDF and world: four applyExternalForce + stepSimulation
+  physics    the loop stepping PhysicsWorld with a constant command, no controller, driver or sinks
+             (motor lag, forces, yaw torque, drag, state read, the loop's own bookkeeping)
+  full loop  SimLoop at 240 Hz physics and 240 Hz control: driver polling, command gate,
+             controller, physics and state publishing, hovering at 2 m
+Each figure is the best of several repeats (the least disturbed by other work on the machine).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from typing import Any
+
+from quadsim.apps.bench.figures import Figure, best_of
+from quadsim.control import ControllerKind
+from quadsim.core.types import ActiveCommand, RotorForces, Twist, VehicleState, ZMode
+from quadsim.physics.pybullet_quiet import pb
+from quadsim.sim.config import Rates, SimConfig
+from quadsim.sim.loop import SimLoop, StateLog
+from quadsim.sim.simulator import Simulator
+
+
+def bare_pybullet_loop(steps: int, repeats: int, physics_hz: int = 240) -> Figure:
+    """The baseline: this URDF and world in PyBullet, four forces and one step, nothing else."""
+    sim = Simulator(SimConfig(rates=Rates(physics_hz=physics_hz, control_hz=physics_hz, state_hz=physics_hz // 4)))
+    phys = sim.physics
+    body, cid = phys.body_id, phys.client_id
+    rotors = [phys.link_index[r.link_name] for r in sim.vehicle.rotors]
+    hover = sim.vehicle.hover_thrust_per_rotor_n
+    pb.resetBasePositionAndOrientation(body, (0, 0, 2.0), (0, 0, 0, 1), physicsClientId=cid)
+
+    def run(n: int) -> None:
+        force = (0.0, 0.0, hover)
+        origin = (0.0, 0.0, 0.0)
+        link_frame = pb.LINK_FRAME
+        for i in range(n):
+            if i % 240 == 0:  # keep it in the air: a free body drifts and tumbles slowly
+                pb.resetBasePositionAndOrientation(body, (0, 0, 2.0), (0, 0, 0, 1), physicsClientId=cid)
+                pb.resetBaseVelocity(body, (0, 0, 0), (0, 0, 0), physicsClientId=cid)
+            for link in rotors:
+                pb.applyExternalForce(body, link, force, origin, link_frame, physicsClientId=cid)
+            pb.stepSimulation(physicsClientId=cid)
+
+    try:
+        return Figure("bare PyBullet loop (baseline)", best_of(repeats, steps, run), physics_hz)
+    finally:
+        sim.close()
+
+
+def hovering_sim(controller: ControllerKind, rates: Rates) -> Simulator:
+    sim = Simulator(SimConfig(controller=controller, z_mode=ZMode.HEIGHT, rates=rates))
+    sim.send(Twist())  # height mode, linear.z = 0: hold 2.0 m
+    sim.add_sink(StateLog())
+    sim.run_for(3.0)  # take off and settle before timing
+    return sim
+
+
+class _ConstantForces:
+    """A stand-in controller asking for the same rotor forces every step, so that a loop
+    stepped with it costs physics and bookkeeping alone."""
+
+    kind = ControllerKind.CASCADE  # the Controller protocol names a kind; nothing reads it here
+
+    def __init__(self, forces: RotorForces) -> None:
+        self.forces = forces
+
+    def reset(self) -> None:
+        pass
+
+    def update(self, state: VehicleState, command: ActiveCommand, dt_s: float) -> RotorForces:
+        return self.forces
+
+    def describe(self) -> dict[str, Any]:
+        return {"name": "constant", "forces_n": list(self.forces)}
+
+
+def physics_only(steps: int, repeats: int) -> Figure:
+    sim = hovering_sim(ControllerKind.CASCADE, Rates())
+    phys = sim.physics
+    body, cid = phys.body_id, phys.client_id
+    hover = _ConstantForces((sim.vehicle.hover_thrust_per_rotor_n,) * sim.vehicle.rotor_count)
+    loop = SimLoop(phys, hover, sim.gate, sim.config.rates)  # no driver, no sinks
+
+    def run(n: int) -> None:
+        for done in range(0, n, 240):
+            # as the baseline: keep the uncontrolled body in the air
+            pb.resetBasePositionAndOrientation(body, (0, 0, 2.0), (0, 0, 0, 1), physicsClientId=cid)
+            pb.resetBaseVelocity(body, (0, 0, 0), (0, 0, 0), physicsClientId=cid)
+            loop.run(min(240, n - done))
+
+    try:
+        return Figure("physics stepped by the loop, constant forces", best_of(repeats, steps, run), 240)
+    finally:
+        sim.close()
+
+
+def controller_only(steps: int, repeats: int, controller: ControllerKind) -> Figure:
+    """One controller update per step on a recorded hover state (no physics at all)."""
+    sim = hovering_sim(controller, Rates())
+    state, active, ctrl = sim.state, sim.gate.active(sim.step_count), sim.controller
+
+    def run(n: int) -> None:
+        update = ctrl.update
+        for _ in range(n):
+            update(state, active, 1.0 / 240.0)
+
+    try:
+        return Figure(f"{controller.value} controller update alone", best_of(repeats, steps, run), 240)
+    finally:
+        sim.close()
+
+
+def full_loop(steps: int, repeats: int, controller: ControllerKind = ControllerKind.CASCADE) -> Figure:
+    sim = hovering_sim(controller, Rates(physics_hz=240, control_hz=240, state_hz=60, input_hz=20))
+    try:
+        return Figure(f"full loop, {controller.value} controller @240 Hz", best_of(repeats, steps, sim.step), 240)
+    finally:
+        sim.close()
+
+
+def run_flight_core_bench(
+    steps: int = 24000, repeats: int = 3, out: Callable[[str], None] = print
+) -> dict[str, Figure]:
+    out(f"quadsim bench: flight core ({steps} steps per run, best of {repeats}; 240 Hz physics)")
+    base = bare_pybullet_loop(steps, repeats)
+    figures = {
+        "bare": base,
+        "physics": physics_only(steps, repeats),
+        "cascade_update": controller_only(steps, repeats, ControllerKind.CASCADE),
+        "cascade": full_loop(steps, repeats, ControllerKind.CASCADE),
+        "seed": full_loop(steps, repeats, ControllerKind.SEED),
+    }
+    out(f"  {'':46s} {'us/step':>8s} {'steps/s':>9s} {'x real time':>11s} {'x baseline':>10s}")
+    for fig in figures.values():
+        ratio = fig.seconds_per_step / base.seconds_per_step
+        out(
+            f"  {fig.name:46s} {fig.seconds_per_step * 1e6:8.1f} {fig.steps_per_s:9.0f} "
+            f"{fig.real_time_factor:10.1f}x {ratio:9.2f}x"
+        )
+    cascade = figures["cascade"]
+    ok_rt = cascade.real_time_factor >= 100.0
+    ok_ratio = cascade.seconds_per_step <= 3.0 * base.seconds_per_step
+    out(
+        f"  target: full loop >= 100x real time [{'met' if ok_rt else 'MISSED'}], "
+        f"within 3x of the baseline [{'met' if ok_ratio else 'MISSED'}]"
+    )
+    return figures
+
+
+# --- cameras and recording ---------------------------------------------------------------------

@@ -1,0 +1,45 @@
+"""`quadsim bench`: speed, as ratios against a baseline measured in the same run, section by section."""
+
+from __future__ import annotations
+
+import argparse
+import importlib
+
+from quadsim.apps.bench import SECTIONS
+from quadsim.apps.options import whole
+
+
+def add_parser(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser(
+        "bench",
+        help="measure speed against a bare-PyBullet baseline run in the same process",
+        description="Benchmark. Every figure is given as steps/s, real-time factor and a ratio to a "
+        "baseline measured in the same run; best of --repeats.",
+    )
+    p.add_argument(
+        "--steps",
+        type=whole(1, 10_000_000),
+        default=24000,
+        help="physics steps per timed run (default 24000 = 100 s sim)",
+    )
+    p.add_argument(
+        "--repeats", type=whole(1, 100), default=3, help="timed runs per figure; the best is kept (default 3)"
+    )
+    p.add_argument(
+        "--section",
+        choices=["all", *SECTIONS],
+        default="all",
+        help="; ".join(f"{name}: {what}" for name, (_, _, what) in SECTIONS.items()) + " (default: all)",
+    )
+    p.set_defaults(func=main)
+
+
+def main(args: argparse.Namespace) -> int:
+    for name, (module, function, _) in SECTIONS.items():
+        if args.section in ("all", name):
+            run = getattr(importlib.import_module(module), function)
+            if name == "flight":
+                run(steps=args.steps, repeats=args.repeats)
+            else:
+                run()
+    return 0

@@ -1,0 +1,139 @@
+"""`quadsim fly`: the teleop window, flown with the keyboard, a gamepad or live clients; with no
+display, a headless demo (or the live clients' Twists, headless)."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+from quadsim.apps.flying import DEMO_SCENARIO, fly_script, fly_subscribed
+from quadsim.apps.options import (
+    add_duration_option,
+    add_live_options,
+    add_sim_options,
+    flight_settings,
+    has_display,
+    live_outputs,
+    output_options,
+    program,
+    sim_config,
+    window_size,
+)
+from quadsim.errors import QuadsimError
+from quadsim.session.stopping import SignalStop, StopRequested, stop_requested
+from quadsim.session.stopping import describe as describe_stop
+from quadsim.session.stopping import exit_code as stop_exit_code
+
+
+def add_parser(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser(
+        "fly",
+        aliases=["demo"],
+        help="fly with keyboard or gamepad in a window (no display: a demo)",
+        description="Open the teleop window: fly with the keyboard or a gamepad, see the front and floor "
+        "cameras, a map and a HUD; the flight is recorded. With no display, record the "
+        "scripted demo flight headless instead, and say so.",
+    )
+    add_duration_option(p, "seconds of sim time for the demo flown when there is no display")
+    t = p.add_argument_group("teleop window")
+    t.add_argument(
+        "--input",
+        choices=["auto", "keyboard", "joystick", "foxglove", "ros2"],
+        default="auto",
+        help="auto (default): a gamepad if one is plugged in, else the keyboard until one is plugged in; "
+        "joystick: wait for a gamepad even if none is plugged in; foxglove: the Twists Foxglove clients publish "
+        "on /quad_cmd_twist (the Teleop panel), served as --foxglove says; ros2: the geometry_msgs/Twist a ROS 2 "
+        "node publishes on /quad_cmd_twist (implies --ros2); with no display, these two fly headless in real time",
+    )
+    t.add_argument(
+        "--keys",
+        choices=["default", "teleop_twist_keyboard"],
+        default="default",
+        help="keyboard layout: default (arrows move, W/S climb, A/D yaw, Space stop) or "
+        "teleop_twist_keyboard (i/,/j/l, u/o/m/., t/b, k stop, q/z speed)",
+    )
+    t.add_argument(
+        "--joy-map",
+        type=Path,
+        default=None,
+        metavar="FILE.toml",
+        help="gamepad mapping file in teleop_twist_joy's names (axis_linear.x, scale_linear.x, enable_button, "
+        "deadzone), axes numbered and signed as on /joy (stick up and left positive)",
+    )
+    t.add_argument("--window", default="1280x720", metavar="WxH", help="initial window size (default 1280x720)")
+    add_sim_options(p)
+    add_live_options(p)
+    p.set_defaults(func=main)
+
+
+def main(args: argparse.Namespace) -> int:
+    if args.gui and not has_display():
+        raise QuadsimError("--gui needs a display (DISPLAY is not set); run without --gui")
+    if not has_display() and args.input in ("foxglove", "ros2"):
+        who = "Foxglove clients" if args.input == "foxglove" else "ROS 2 nodes"
+        print(f"No display found: flying headless, in real time, what {who} publish.")
+        args.gui = False
+        return fly_subscribed(args, "fly")
+    if not has_display():
+        print(
+            f"No display found: the teleop window cannot open. Recording the scripted demo '{DEMO_SCENARIO}' "
+            f"headless instead. (Headless flights: {program()} run --script NAME; list them with: "
+            f"{program()} scenarios)"
+        )
+        args.gui = False
+        return fly_script(args, DEMO_SCENARIO, realtime=False)
+    return _fly_window(args)
+
+
+def _fly_window(args: argparse.Namespace) -> int:
+    """The teleop window, until Esc, a signal or a lost display."""
+    from quadsim.apps.window.teleop import TeleopApp, TeleopOptions
+    from quadsim.drivers.joystick import JoystickMapping, load_mapping
+
+    width, height = window_size(args.window)
+    options = TeleopOptions(
+        input=args.input,
+        keyboard_layout=args.keys,
+        joystick_mapping=load_mapping(args.joy_map) if args.joy_map else JoystickMapping(),
+        window_size=(width, height),
+        **flight_settings(args),
+    )
+    config, outputs, commands = sim_config(args, None), output_options(args), None
+    if args.input in ("foxglove", "ros2"):
+        from quadsim.drivers.subscribed import SubscribedDriver
+
+        commands = SubscribedDriver(args.input)
+    live = live_outputs(args, commands)
+    flown, recordings, lost = 0.0, [], None
+    try:
+        with TeleopApp(config, outputs, options, live=live, commands=commands) as app:
+            print(f"flying with {app.driver.name}; press H or F1 in the window for the keys, Esc to quit")
+            try:
+                app.run(stop=stop_requested)  # a signal ends the window loop at its next frame
+            finally:
+                flown, recordings = app.sim.time_s, app.recordings
+        lost = app.display_lost  # the window was destroyed from outside or its X connection lost
+    except StopRequested:
+        pass
+    finally:
+        for output in live:  # closed with the run, or here if the window never opened
+            output.close()
+    return _report(flown, recordings, lost)
+
+
+def _report(flown: float, recordings: list, lost: str | None) -> int:
+    print(f"flew {flown:.1f} s of simulation time")
+    for path in recordings:
+        print(f"recording       {path}")
+    if lost is not None:
+        from quadsim.apps.window.x11_guard import EXIT_DISPLAY_LOST
+
+        finished = "; the recording is finished" if recordings else ""
+        print(f"the window's display was lost ({lost}){finished}", file=sys.stderr)
+        return EXIT_DISPLAY_LOST
+    stop = SignalStop.current()
+    if stop is not None and stop.signum is not None:
+        print(f"{describe_stop(stop.signum)}; the recording is finished and readable", file=sys.stderr)
+        return stop_exit_code(stop.signum)
+    return 0

@@ -1,0 +1,33 @@
+"""`quadsim info`: what a recording holds, and what is wrong with a damaged one."""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+from quadsim.errors import QuadsimError
+
+
+def add_parser(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser(
+        "info",
+        help="describe a recording: duration, topics, rates, run parameters",
+        description="Describe an MCAP recording. On a damaged file, say what is wrong and how much "
+        "is readable (exit code 2).",
+    )
+    p.add_argument("file", type=Path, metavar="FILE.mcap")
+    p.set_defaults(func=main)
+
+
+def main(args: argparse.Namespace) -> int:
+    from quadsim.recording.info import read_info
+
+    info = read_info(args.file)
+    for line in info.lines():
+        print(line)
+    if info.damage:
+        raise QuadsimError(info.damage_report)
+    missing = info.missing_topics()
+    if missing:
+        raise QuadsimError(f"{args.file}: not a quadsim recording: missing topics {', '.join(missing)}")
+    return 0

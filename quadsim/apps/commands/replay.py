@@ -1,0 +1,213 @@
+"""`quadsim replay`: a recording played back in the window, summarised, exported as videos and a
+plot, served live to Foxglove and ROS 2 as it plays, or flown again (--resim)."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+from quadsim.apps.options import (
+    PLOT_SUFFIXES,
+    add_live_options,
+    check_output_dir,
+    check_output_file,
+    has_display,
+    live_outputs,
+    number,
+    recordings_default,
+    warn,
+    window_size,
+)
+from quadsim.errors import QuadsimError
+from quadsim.session.stopping import SignalStop, stop_requested
+from quadsim.session.stopping import describe as describe_stop
+from quadsim.session.stopping import exit_code as stop_exit_code
+
+if TYPE_CHECKING:
+    from quadsim.live.playback import RecordingFeed
+    from quadsim.recording.flight import RecordedFlight
+    from quadsim.session.outputs import LiveOutput
+
+
+def add_parser(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser(
+        "replay",
+        help="play a recording back (window, or --headless summary, MP4, plot), or fly it again (--resim)",
+        description="Play a recording back in the teleop window (both cameras, the map with the whole "
+        "track, the HUD; Space play/pause, arrows seek and speed, click the timeline). "
+        "--headless prints a summary and can export MP4 videos and a plot. --resim rebuilds "
+        "the vehicle, controller and settings from the recording, flies its commands again, "
+        "records the new flight and reports how far it is from the recorded one.",
+    )
+    p.add_argument("file", type=Path, metavar="FILE.mcap")
+    p.add_argument("--headless", action="store_true", help="no window: print a summary")
+    p.add_argument("--mp4", type=Path, default=None, metavar="DIR", help="export each camera stream to DIR as MP4")
+    p.add_argument(
+        "--plot",
+        type=Path,
+        default=None,
+        metavar="FILE.png",
+        help="draw the track and the commands against the state to a PNG",
+    )
+    p.add_argument("--resim", action="store_true", help="fly the recorded commands again and compare")
+    p.add_argument(
+        "--out",
+        type=Path,
+        default=None,
+        metavar="DIR|FILE",
+        help=f"with --resim: where the new flight is recorded (default: {recordings_default()})",
+    )
+    p.add_argument("--no-record", action="store_true", help="with --resim: do not record the new flight")
+    p.add_argument(
+        "--speed",
+        type=number(0.25, 16.0, "a speed factor"),
+        default=1.0,
+        help="playback speed, 0.25 to 16 (default 1)",
+    )
+    p.add_argument("--loop", action="store_true", help="start again at the end")
+    p.add_argument("--window", default="1280x720", metavar="WxH", help="initial window size")
+    add_live_options(p, "the recorded messages, as they are played (put FILE first),")
+    p.set_defaults(func=main)
+
+
+def main(args: argparse.Namespace) -> int:
+    from quadsim.recording.flight import load_flight
+
+    size = window_size(args.window)
+    if args.plot is not None:
+        check_output_file("--plot", args.plot, PLOT_SUFFIXES)
+    if args.mp4 is not None:
+        check_output_dir("--mp4", args.mp4)
+    if (args.foxglove is not None or args.ros2) and args.resim:
+        option = "--foxglove" if args.foxglove is not None else "--ros2"
+        raise QuadsimError(f"{option} plays the recording as it is; with --resim nothing would be played (drop one)")
+    flight = load_flight(args.file)
+    if args.resim:
+        return _resim(args, flight)
+    warn(flight.warnings(), args.file)
+    headless = args.headless or args.mp4 is not None or args.plot is not None
+    if not headless and not has_display():
+        print(
+            "No display found: printing the summary instead (use --headless, --mp4 DIR or --plot FILE.png "
+            "for pictures, or --resim to fly it again)."
+        )
+        headless = True
+    return _headless(args, flight) if headless else _window(args, flight, size)
+
+
+def _resim(args: argparse.Namespace, flight: RecordedFlight) -> int:
+    """Fly the recorded commands again and say how far the new flight is from the recorded one."""
+    from quadsim.session.progress import ProgressBar
+    from quadsim.session.resim import resimulate
+
+    bar = ProgressBar(flight.duration_s, "re-flying")
+    report = resimulate(flight, out=args.out, record=not args.no_record, progress=bar.update)
+    bar.close()
+    for line in report.lines():
+        print(line)
+    warn(flight.warnings(), args.file)
+    return 0
+
+
+def _headless(args: argparse.Namespace, flight: RecordedFlight) -> int:
+    """The summary, then the videos and the plot asked for, then live playback if asked for."""
+    from quadsim.apps.flight_plot import export_plot
+    from quadsim.apps.replay_export import summary_lines
+
+    for line in summary_lines(flight):
+        print(line)
+    if args.mp4 is not None:
+        code = _export_videos(args.mp4, flight)
+        if code:
+            return code
+    if args.plot is not None:
+        print(f"plot        {export_plot(flight, args.plot)}")
+    if args.foxglove is not None or args.ros2:
+        return _play_live(args)
+    return 0
+
+
+def _export_videos(folder: Path, flight: RecordedFlight) -> int:
+    """Each camera stream as a video, with progress; a signal ends each at its next frame (exit code)."""
+    from quadsim.apps.replay_export import export_mp4
+    from quadsim.session.progress import ProgressBar
+
+    bar = ProgressBar(sum(len(frames) for frames in flight.frames.values()), "encoding video", unit="frames")
+    videos = export_mp4(flight, folder, progress=lambda done, _: bar.update(done), stop=stop_requested)
+    bar.close()
+    for video in videos:
+        print(video.line())
+    stop = SignalStop.current()
+    if stop is not None and stop.signum is not None and any(v.frames < v.of for v in videos):
+        print(f"{describe_stop(stop.signum)}; each video is whole and ends where the encoding stopped", file=sys.stderr)
+        return stop_exit_code(stop.signum)
+    return 0
+
+
+def _window(args: argparse.Namespace, flight: RecordedFlight, size: tuple[int, int]) -> int:
+    """The playback window, until Esc, a signal or a lost display."""
+    from quadsim.apps.window.replay import ReplayApp
+
+    live = live_outputs(args)
+    try:
+        feed = _feed(args.file, live)
+        with ReplayApp(flight, size, speed=args.speed, loop=args.loop, feed=feed) as app:
+            print("replaying; press H or F1 in the window for the keys, Esc to quit")
+            app.run(stop=stop_requested)  # a signal ends the playback at its next frame
+    finally:
+        for output in live:
+            output.close()
+    if app.display_lost is not None:
+        from quadsim.apps.window.x11_guard import EXIT_DISPLAY_LOST
+
+        print(f"the window's display was lost ({app.display_lost})", file=sys.stderr)
+        return EXIT_DISPLAY_LOST
+    return _stopped_by_signal()
+
+
+def _feed(path: Path, live: list[LiveOutput]) -> RecordingFeed | None:
+    if not live:
+        return None
+    from quadsim.live.playback import RecordingFeed
+
+    return RecordingFeed(path, live)
+
+
+def _play_live(args: argparse.Namespace) -> int:
+    """replay --foxglove/--ros2 with no window: play the recording live in real time (times
+    --speed), once or --loop, until its end or Ctrl-C."""
+    live = live_outputs(args)
+    try:
+        feed = _feed(args.file, live)
+        assert feed is not None
+        print(
+            f"playing {len(feed.messages)} messages on {len(feed.topics)} topics ({feed.end_ns / 1e9:.1f} s) "
+            f"at {args.speed:g}x{', looping' if args.loop else ''}; Ctrl-C stops",
+            flush=True,
+        )
+        t0 = time.monotonic()
+        while not stop_requested():
+            t_ns = int((time.monotonic() - t0) * args.speed * 1e9)
+            if t_ns > feed.end_ns:
+                feed.play_to(feed.end_ns)
+                if not args.loop:
+                    break
+                t0, t_ns = time.monotonic(), 0
+            feed.play_to(t_ns)
+            time.sleep(0.01)
+    finally:
+        for output in live:
+            output.close()
+    print(f"played {feed.played} messages")
+    return _stopped_by_signal()
+
+
+def _stopped_by_signal() -> int:
+    stop = SignalStop.current()
+    if stop is not None and stop.signum is not None:
+        print(describe_stop(stop.signum), file=sys.stderr)
+        return stop_exit_code(stop.signum)
+    return 0

@@ -1,0 +1,69 @@
+"""`quadsim run`: fly a script, a bag's commands or live clients' Twists headless, and summarise it."""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+from quadsim.apps.flying import COMMANDS_TAIL_S, fly_bag, fly_script, fly_subscribed
+from quadsim.apps.options import add_duration_option, add_live_options, add_sim_options, program
+from quadsim.errors import QuadsimError
+
+
+def add_parser(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser(
+        "run",
+        help="fly a scripted flight headless, as fast as possible, and summarise it",
+        description="Fly a built-in scenario, a script file or the /quad_cmd_twist commands of any MCAP "
+        "headless as fast as the machine allows, showing progress, then print sim time, wall time, "
+        "real-time factor, final pose and distance flown. Script format: one segment a line, "
+        "'DURATION_S FIELD=VALUE...' (fields linear.x linear.y linear.z angular.z), 'silence DURATION_S', "
+        "an optional first line 'z_mode height'.",
+    )
+    what = p.add_mutually_exclusive_group()
+    what.add_argument(
+        "--script",
+        default=None,
+        metavar="NAME|FILE",
+        help=f"a built-in scenario ({program()} scenarios lists them) or a script file",
+    )
+    what.add_argument(
+        "--commands-from",
+        type=Path,
+        metavar="FILE.mcap",
+        help="fly the geometry_msgs/msg/Twist messages on /quad_cmd_twist of any MCAP (a ros2 bag in MCAP "
+        "storage, a quadsim recording) at their log times, counted from the first of them; z-mode: a quadsim "
+        "recording's, else --z-mode (default velocity)",
+    )
+    p.add_argument(
+        "--input",
+        choices=["script", "foxglove", "ros2"],
+        default="script",
+        help="script (default): fly --script; foxglove: fly the Twists Foxglove clients publish on /quad_cmd_twist "
+        "(the Teleop panel), in real time, until Ctrl-C or --duration (implies --foxglove); ros2: the same with the "
+        "geometry_msgs/Twist a ROS 2 node publishes on /quad_cmd_twist (implies --ros2)",
+    )
+    add_duration_option(
+        p,
+        "seconds of sim time (default: the script's length, or the commands' span plus "
+        f"{COMMANDS_TAIL_S:g} s; beyond it the vehicle holds)",
+    )
+    p.add_argument("--realtime", action="store_true", help="pace simulation time to the wall clock (as --gui does)")
+    add_sim_options(p)
+    add_live_options(p)
+    p.set_defaults(func=main)
+
+
+def main(args: argparse.Namespace) -> int:
+    inputs = [args.script is not None, args.commands_from is not None, args.input in ("foxglove", "ros2")]
+    if sum(inputs) > 1:
+        what = f"--input {args.input}" if args.input != "script" else "--input"
+        raise QuadsimError(f"--script, --commands-from and {what} each say where commands come from; give one")
+    if args.input in ("foxglove", "ros2"):
+        return fly_subscribed(args, "run")
+    realtime = args.gui or args.realtime
+    if args.commands_from is not None:
+        return fly_bag(args, realtime)
+    if args.script is None:
+        raise QuadsimError("say what to fly: --script NAME|FILE, --commands-from FILE.mcap, or --input foxglove|ros2")
+    return fly_script(args, args.script, realtime)

@@ -1,0 +1,19 @@
+"""`quadsim scenarios`: the built-in scripted flights, with their lengths."""
+
+from __future__ import annotations
+
+import argparse
+
+
+def add_parser(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser("scenarios", help="list the built-in scripted scenarios")
+    p.set_defaults(func=main)
+
+
+def main(args: argparse.Namespace) -> int:
+    from quadsim.drivers.scripted import builtin_scenarios, load_script
+
+    for name, summary in builtin_scenarios().items():
+        script = load_script(name)
+        print(f"{name:14s} {script.duration_s:5.1f} s  {summary}")
+    return 0

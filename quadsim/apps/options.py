@@ -1,0 +1,417 @@
+"""Option groups several commands share, declared once, and what they turn into: the
+simulation options into a SimConfig, the recording options into OutputOptions, the live options
+into open bridges. Also the small things every command's options need: bounded number types,
+the program's own name for hints, output paths checked before any work is done."""
+
+from __future__ import annotations
+
+import argparse
+import math
+import os
+import sys
+from collections.abc import Callable
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+from quadsim.control import ControllerKind
+from quadsim.core.types import StartPose, ZMode
+from quadsim.errors import QuadsimError
+from quadsim.live import FOXGLOVE_DEFAULT_ENDPOINT
+from quadsim.physics.wind import Turbulence, wind_from_text
+from quadsim.recording.paths import ENV_VAR as RECORDINGS_ENV_VAR
+from quadsim.recording.paths import default_recordings_dir
+from quadsim.sensors.camera import RendererKind
+from quadsim.sim.config import MAX_SEED, Rates
+from quadsim.vehicle.params import DEFAULT_VEHICLE, SHIPPED_VEHICLES
+
+if TYPE_CHECKING:
+    from quadsim.drivers.subscribed import SubscribedDriver
+    from quadsim.session.outputs import LiveOutput, OutputOptions
+    from quadsim.sim.config import SimConfig
+
+#: sim time a single run may cover: a week (a longer run is surely a typo)
+MAX_DURATION_S = 7 * 24 * 3600.0
+DEFAULT_CAMERAS, DEFAULT_CAMERA_SIZE, DEFAULT_CAMERA_HZ = "front,floor", "320x240", 30
+PLOT_SUFFIXES = (".png", ".jpg", ".jpeg", ".pdf", ".svg")
+
+
+def number(low: float, high: float, what: str = "a number") -> Callable[[str], float]:
+    """An argparse type: a finite float within [low, high]."""
+
+    def parse(text: str) -> float:
+        try:
+            value = float(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"expected {what}, got {text!r}") from None
+        if not math.isfinite(value) or not low <= value <= high:
+            raise argparse.ArgumentTypeError(f"expected {what} within {low:g}..{high:g}, got {text}")
+        return value
+
+    return parse
+
+
+def whole(low: int, high: int) -> Callable[[str], int]:
+    """An argparse type: an integer within [low, high]."""
+
+    def parse(text: str) -> int:
+        try:
+            value = int(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"expected a whole number, got {text!r}") from None
+        if not low <= value <= high:
+            raise argparse.ArgumentTypeError(f"expected a whole number within {low}..{high}, got {value}")
+        return value
+
+    return parse
+
+
+def program() -> str:
+    """How the user started quadsim, for help and hints to name: `python main.py` in a clone,
+    `python -m quadsim`, or the installed `quadsim` command."""
+    started = Path(sys.argv[0]) if sys.argv and sys.argv[0] else Path()
+    if started.name == "main.py":
+        return "python main.py"
+    if started.name == "__main__.py" and started.parent.name == "quadsim":
+        return "python -m quadsim"
+    return "quadsim"
+
+
+def recordings_default(below: str = "") -> str:
+    """The default recordings folder (or `below` it) for a help text, and how to change it."""
+    folder = str(default_recordings_dir() / below if below else default_recordings_dir())
+    return f"{folder.replace('%', '%%')}; set {RECORDINGS_ENV_VAR} to change it"  # argparse %-formats help
+
+
+def has_display() -> bool:
+    if os.environ.get("SDL_VIDEODRIVER") in ("dummy", "offscreen"):
+        return False
+    if sys.platform.startswith("linux"):
+        return bool(os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY"))
+    return True  # macOS and Windows always have a desktop
+
+
+def window_size(text: str) -> tuple[int, int]:
+    """--window WxH, within what a screen can hold."""
+    try:
+        width, height = (int(v) for v in text.lower().split("x"))
+    except ValueError:
+        raise QuadsimError(f"--window must look like 1280x720, got {text!r}") from None
+    if not (320 <= width <= 16384 and 240 <= height <= 16384):
+        raise QuadsimError(f"--window {text}: the size must be within 320x240 .. 16384x16384")
+    return width, height
+
+
+def add_duration_option(p: argparse.ArgumentParser, help: str) -> None:
+    p.add_argument("--duration", type=number(1e-3, MAX_DURATION_S, "seconds"), default=None, metavar="S", help=help)
+
+
+def add_sim_options(p: argparse.ArgumentParser) -> None:
+    """The options of a flight: simulation, wind and noise, recording and cameras (`run`, `fly`)."""
+    _add_vehicle_options(p.add_argument_group("simulation"))
+    _add_wind_options(p.add_argument_group("wind, noise and randomness"))
+    _add_recording_options(p.add_argument_group("recording and cameras"))
+
+
+def _add_vehicle_options(g: argparse._ArgumentGroup) -> None:
+    g.add_argument(
+        "--controller",
+        choices=[c.value for c in ControllerKind],
+        default=ControllerKind.CASCADE.value,
+        help="cascade (default): velocity->attitude->rate; seed: port of the original V-REP controller",
+    )
+    g.add_argument(
+        "--z-mode",
+        choices=[z.value for z in ZMode],
+        default=None,
+        help="how linear.z is read: velocity = climb rate m/s; height = altitude 2.0+z m "
+        "(default: what the script says, else velocity)",
+    )
+    v = g.add_mutually_exclusive_group()
+    v.add_argument(
+        "--vehicle",
+        choices=list(SHIPPED_VEHICLES),
+        default=None,
+        help="a shipped airframe: quad (1 kg X quadrotor), hexa (hexacopter) or crazyflie (a 27 g "
+        f"Crazyflie 2.x sized quadrotor); default {DEFAULT_VEHICLE}",
+    )
+    v.add_argument(
+        "--urdf",
+        type=Path,
+        default=None,
+        metavar="FILE.urdf",
+        help="any vehicle URDF, with its NAME.params.toml beside it (instead of --vehicle)",
+    )
+    g.add_argument("--world", type=Path, default=None, help="world file (default: assets/worlds/default.toml)")
+    _add_rate_options(g)
+    g.add_argument(
+        "--hard-landing",
+        action="store_true",
+        help="do not slow descents near the ground (default: touchdown at about 0.3 m/s whatever the descent "
+        "commanded)",
+    )
+    g.add_argument(
+        "--reset-on-crash",
+        action="store_true",
+        help="after a crash (a wall, the ground at speed or tilted) put the vehicle back at the start pose, "
+        "landed; the clock, the commands and the recording go on",
+    )
+    g.add_argument("--gui", action="store_true", help="also open PyBullet's own 3D window (needs a display)")
+
+
+def _add_rate_options(g: argparse._ArgumentGroup) -> None:
+    rate = whole(1, 100_000)
+    g.add_argument("--physics-hz", type=rate, default=240, help="physics rate (default 240)")
+    g.add_argument(
+        "--control-hz", type=rate, default=240, help="controller rate; must divide the physics rate (default 240)"
+    )
+    g.add_argument(
+        "--state-hz", type=rate, default=60, help="state publishing rate; must divide the physics rate (default 60)"
+    )
+    g.add_argument("--input-hz", type=rate, default=20, help="command publishing rate of the driver (default 20)")
+    g.add_argument(
+        "--timeout",
+        type=number(1e-3, 3600.0, "seconds"),
+        default=0.5,
+        metavar="S",
+        help="dead-man timeout: hold position after S seconds without a command (default 0.5)",
+    )
+
+
+def _add_wind_options(w: argparse._ArgumentGroup) -> None:
+    w.add_argument(
+        "--wind",
+        default=None,
+        metavar="SPEED,FROM",
+        help="a constant wind of SPEED m/s blowing FROM a direction in degrees, meteorological style: "
+        "clockwise from north, north being the world's +y and east its +x (REP 103). 3,90 is 3 m/s from "
+        "the east, the air moving toward -x (default: no wind)",
+    )
+    w.add_argument(
+        "--turbulence",
+        choices=[t.value for t in Turbulence],
+        default=None,
+        help="Dryden turbulence on top of the wind, with the MIL-F-8785C low-altitude intensities "
+        "(15, 30, 45 knots at 20 ft): light, moderate or severe (default: none)",
+    )
+    w.add_argument(
+        "--no-sensor-noise",
+        action="store_true",
+        help="publish the true IMU values on /quad/imu (default: with the MEMS noise and bias random "
+        "walk of the vehicle's parameter file; /quad/odom and /quad/pose are always ground truth)",
+    )
+    w.add_argument(
+        "--seed",
+        type=whole(0, MAX_SEED),
+        default=0,
+        metavar="N",
+        help="the run's random seed: turbulence and sensor noise derive from it, and it is recorded, "
+        "so a run re-flies bit for bit (default 0)",
+    )
+
+
+def _add_recording_options(o: argparse._ArgumentGroup) -> None:
+    o.add_argument(
+        "--out",
+        type=Path,
+        default=None,
+        metavar="DIR|FILE",
+        help="where the MCAP recording goes: a folder (a dated name is made) or a .mcap file "
+        f"(default: {recordings_default()})",
+    )
+    o.add_argument("--no-record", action="store_true", help="do not record")
+    o.add_argument(
+        "--cameras",
+        default=None,
+        metavar="LIST",
+        help="onboard cameras to render: front,floor (default), front, floor or none",
+    )
+    o.add_argument("--camera-size", default=None, metavar="WxH", help="image size of each camera (default 320x240)")
+    o.add_argument(
+        "--camera-hz",
+        type=whole(1, 1000),
+        default=None,
+        help="frame rate of each camera; must divide the physics rate (default 30)",
+    )
+    o.add_argument(
+        "--renderer",
+        choices=[r.value for r in RendererKind],
+        default=RendererKind.TINY.value,
+        help="tiny: PyBullet's CPU TinyRenderer (default); egl: PyBullet's EGL plugin, where a driver exists",
+    )
+    o.add_argument(
+        "--render-workers",
+        type=whole(0, 16),
+        default=2,
+        metavar="N",
+        help="render processes, so rendering uses other cores while physics steps (default 2; 0 = in-process)",
+    )
+
+
+def add_live_options(p: argparse.ArgumentParser, what: str = "the run") -> None:
+    """--foxglove, --ros2 and the ROS 2 naming options (`run`, `fly`, `replay`)."""
+    g = p.add_argument_group("live")
+    g.add_argument(
+        "--foxglove",
+        nargs="?",
+        const=FOXGLOVE_DEFAULT_ENDPOINT,
+        default=None,
+        metavar="HOST:PORT",
+        help=f"serve {what} live to Foxglove (a Foxglove WebSocket server: every topic of the recording, "
+        f"latched ones included) on HOST:PORT (default {FOXGLOVE_DEFAULT_ENDPOINT}: this machine only; "
+        "0.0.0.0:8765 for the network). In the Foxglove app: Open connection -> Foxglove WebSocket -> ws://HOST:PORT",
+    )
+    g.add_argument(
+        "--ros2",
+        action="store_true",
+        help=f"join a ROS 2 graph (ROS_DOMAIN_ID, ROS_AUTOMATIC_DISCOVERY_RANGE) and publish {what} live: every "
+        "topic of the recording with its QoS, plus /clock for use_sim_time; needs pip install 'quadsim[ros2]' "
+        "(Cyclone DDS; no ROS installation)",
+    )
+    g.add_argument(
+        "--ros-namespace",
+        default="",
+        metavar="NS",
+        help="with --ros2 or --input ros2: the ROS 2 node quadsim is (/quadsim) lives in namespace NS and its topics "
+        "too (/NS/quad/odom; /clock, /tf, /tf_static and /rosout stay global, as ROS 2 nodes name them), like "
+        "--ros-args -r __ns:=NS",
+    )
+    g.add_argument(
+        "--ros-remap",
+        action="append",
+        default=[],
+        metavar="FROM:=TO",
+        help="with --ros2 or --input ros2: rename a topic, like --ros-args -r FROM:=TO; e.g. "
+        "/quad_cmd_twist:=/cmd_vel lets teleop_twist_keyboard fly it unchanged (repeatable)",
+    )
+
+
+def add_parallel_options(p: argparse.ArgumentParser, jobs_help: str) -> None:
+    """--jobs N and --ray [ADDRESS], as `sweep` and `check` take them."""
+    p.add_argument("--jobs", type=int, default=None, metavar="N", help=jobs_help)
+    p.add_argument(
+        "--ray",
+        nargs="?",
+        const="local",
+        default=None,
+        metavar="ADDRESS",
+        help="run as Ray tasks: on a local Ray instance (no ADDRESS), or on a cluster "
+        "(auto, ray://HOST:10001); needs pip install 'quadsim[ray]'",
+    )
+
+
+def live_outputs(args: argparse.Namespace, commands: SubscribedDriver | None = None) -> list[LiveOutput]:
+    """The live bridges the options ask for (--foxglove, --ros2, and the one an input comes from)."""
+    from quadsim.session.live import open_live_outputs
+
+    return open_live_outputs(
+        getattr(args, "foxglove", None),
+        getattr(args, "ros2", False),
+        commands,
+        getattr(args, "ros_namespace", ""),
+        getattr(args, "ros_remap", []),
+    )
+
+
+def sim_config(args: argparse.Namespace, script_z_mode: ZMode | None) -> SimConfig:
+    """The simulation options as a SimConfig; a script's own z-mode unless --z-mode says otherwise."""
+    from quadsim.sim.config import SimConfig
+
+    z_mode = ZMode(args.z_mode) if args.z_mode else (script_z_mode or ZMode.VELOCITY)
+    rates = Rates(
+        physics_hz=args.physics_hz, control_hz=args.control_hz, state_hz=args.state_hz, input_hz=args.input_hz
+    )
+    urdf = SHIPPED_VEHICLES[args.vehicle] if args.vehicle else args.urdf  # neither: the default vehicle
+    return SimConfig(
+        urdf=urdf,
+        world=args.world,
+        controller=ControllerKind(args.controller),
+        z_mode=z_mode,
+        rates=rates,
+        command_timeout_s=args.timeout,
+        start=StartPose(),
+        gui=args.gui,
+        wind=wind_from_text(args.wind, args.turbulence),
+        sensor_noise=not args.no_sensor_noise,
+        seed=args.seed,
+    )
+
+
+def flight_settings(args: argparse.Namespace) -> dict[str, Any]:
+    """The Simulator's landing and crash settings from --hard-landing and --reset-on-crash."""
+    from quadsim.control.landing import LandingSettings
+
+    return {"landing": LandingSettings(hard_landing=args.hard_landing), "reset_on_crash": args.reset_on_crash}
+
+
+def camera_options_given(args: argparse.Namespace) -> list[str]:
+    """The camera options the user typed that ask for frames (`--cameras none` asks for none)."""
+    given = [] if args.cameras in (None, "none") else ["--cameras"]
+    return given + [
+        name
+        for name, value in (("--camera-size", args.camera_size), ("--camera-hz", args.camera_hz))
+        if value is not None
+    ]
+
+
+def output_options(args: argparse.Namespace) -> OutputOptions:
+    """The recording and camera options as OutputOptions, each checked."""
+    from quadsim.sensors.camera import CameraSpec, default_cameras
+    from quadsim.session.outputs import OutputOptions
+
+    size = args.camera_size if args.camera_size is not None else DEFAULT_CAMERA_SIZE
+    try:
+        width, height = (int(v) for v in size.lower().split("x"))
+    except ValueError:
+        raise QuadsimError(f"--camera-size must look like 320x240, got {size!r}") from None
+    wanted = [c.strip() for c in (args.cameras or DEFAULT_CAMERAS).split(",") if c.strip()]
+    hz = args.camera_hz if args.camera_hz is not None else DEFAULT_CAMERA_HZ
+    available = {c.name: c for c in default_cameras(width, height, hz)}
+    if wanted == ["none"]:
+        wanted = []
+    unknown = [c for c in wanted if c not in available]
+    if unknown:
+        raise QuadsimError(f"--cameras: unknown camera {unknown[0]!r}; choose from front, floor or none")
+    if args.render_workers < 0:
+        raise QuadsimError("--render-workers must be 0 or more")
+    cameras: tuple[CameraSpec, ...] = tuple(available[c] for c in wanted)
+    return OutputOptions(
+        record=not args.no_record,
+        out=args.out,
+        cameras=cameras,
+        renderer=RendererKind(args.renderer),
+        render_workers=args.render_workers,
+    )
+
+
+def check_output_file(option: str, path: Path, suffixes: tuple[str, ...]) -> None:
+    """Refuse an output file that cannot be written, before any work is done."""
+    if path.is_dir():
+        raise QuadsimError(f"{option} {path}: is a folder; give a file name ending in {', '.join(suffixes)}")
+    if path.suffix.lower() not in suffixes:
+        raise QuadsimError(
+            f"{option} {path}: unknown image type {path.suffix or '(none)'!r}; use {', '.join(suffixes)}"
+        )
+    check_output_dir(option, path.parent, create=False)
+    if len(path.name.encode()) > 255:
+        raise QuadsimError(f"{option}: the file name is too long ({len(path.name.encode())} bytes; at most 255)")
+
+
+def check_output_dir(option: str, folder: Path, create: bool = True) -> None:
+    """Refuse an output folder that cannot be made or written, before any work is done."""
+    try:
+        if create:
+            folder.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise QuadsimError(f"{option} {folder}: cannot create the folder ({exc.strerror})") from None
+    if not folder.is_dir():
+        raise QuadsimError(f"{option} {folder}: no such folder")
+    if not os.access(folder, os.W_OK):
+        raise QuadsimError(f"{option} {folder}: permission denied")
+
+
+def warn(lines: list[str], path: Path, most: int = 8) -> None:
+    """What was skipped in a damaged or odd file, on stderr (the command goes on)."""
+    for line in lines[:most]:
+        print(f"quadsim: warning: {path}: {line}", file=sys.stderr)
+    if len(lines) > most:
+        print(f"quadsim: warning: {path}: and {len(lines) - most} more (see 'quadsim info')", file=sys.stderr)
