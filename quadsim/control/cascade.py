@@ -17,7 +17,7 @@ from typing import Any
 
 from quadsim.control import ControllerKind
 from quadsim.control.gains import load_gains
-from quadsim.core.kinematics import clamp, matrix_from_quaternion
+from quadsim.core.kinematics import Mat3, clamp, matrix_from_quaternion
 from quadsim.core.types import HEIGHT_MODE_BASE_M, ActiveCommand, RotorForces, VehicleState, ZMode
 from quadsim.vehicle.aero import ground_effect_ratio, rotor_speed_radps
 from quadsim.vehicle.mixer import Mixer
@@ -97,33 +97,41 @@ class CascadeController:
         self._ix = self._iy = self._iz = 0.0
 
     def update(self, state: VehicleState, command: ActiveCommand, dt_s: float) -> RotorForces:
+        """Rotor forces for this control step: the set-points of the command (or the holds), then
+        the velocity, attitude and rate loops, outermost first."""
         if not command.armed:
             self._armed = False
             return self._idle
-        g = self.gains
         px, py, pz = state.position_m
-        vx, vy, vz = state.linear_velocity_mps
-        wp, wq, wr = state.angular_velocity_body_rps
         if not self._armed:
             self.reset()
             self._armed = True
             self._xy_hold = (px, py)
             self._z_hold = pz
             self._yaw_hold = None
-
-        # rotation world <- body
-        (r00, r01, r02), (r10, r11, r12), (r20, r21, r22) = matrix_from_quaternion(state.orientation_xyzw)
-        yaw = math.atan2(r10, r00)
-
+        r = matrix_from_quaternion(state.orientation_xyzw)  # rotation world <- body
         if command.hold:
             ux = uy = uz = ur = 0.0
         else:
             tw = command.twist
             ux, uy, uz, ur = tw.linear_x, tw.linear_y, tw.linear_z, tw.angular_z
-        latch2 = g.hold_latch_speed_mps * g.hold_latch_speed_mps
-        lim = self.vehicle.limits
+        vx, vy, vz = state.linear_velocity_mps
+        wp, wq, wr = state.angular_velocity_body_rps
+        # the heading rate is the body rates' world-z component
+        heading_rate = r[2][0] * wp + r[2][1] * wq + r[2][2] * wr
+        yaw = math.atan2(r[1][0], r[0][0])
+        vsx, vsy, turn_ax, turn_ay = self._horizontal_setpoint(ux, uy, yaw, heading_rate, state)
+        vsz = self._vertical_setpoint(uz, command, pz, vz)
+        hs = self._heading_setpoint(ur, yaw, heading_rate)
+        ax, ay, az = self._velocity_loop((vsx, vsy, vsz), (vx, vy, vz), (turn_ax, turn_ay), dt_s)
+        thrust, ps, qs = self._attitude_loop(ax, ay, az, r, pz)
+        return self._rate_loop(thrust, ps, qs, hs, r, (wp, wq, wr))
 
-        # horizontal: track the commanded velocity (heading frame -> world), or hold position
+    def _horizontal_setpoint(
+        self, ux: float, uy: float, yaw: float, heading_rate: float, state: VehicleState
+    ) -> tuple[float, float, float, float]:
+        """The wanted world velocity: the commanded one (heading frame -> world) with the turn's
+        feed-forward acceleration, or back to the held position once slowed down."""
         turn_ax = turn_ay = 0.0
         if ux != 0.0 or uy != 0.0:
             self._xy_hold = None
@@ -131,22 +139,27 @@ class CascadeController:
             vsx, vsy = c * ux - s * uy, s * ux + c * uy
             # while turning, that set-point rotates with the heading: feed its rate of change
             # (heading rate x velocity) forward, or the loop lags it and the vehicle slips sideways
-            heading_rate = r20 * wp + r21 * wq + r22 * wr
             turn_ax, turn_ay = -heading_rate * vsy, heading_rate * vsx
-        else:
-            if self._xy_hold is None and vx * vx + vy * vy < latch2:
-                self._xy_hold = (px, py)
-            if self._xy_hold is not None:
-                vsx = g.position_p_per_s * (self._xy_hold[0] - px)
-                vsy = g.position_p_per_s * (self._xy_hold[1] - py)
-                sp = math.hypot(vsx, vsy)
-                if sp > lim.max_horizontal_speed_mps:
-                    k = lim.max_horizontal_speed_mps / sp
-                    vsx, vsy = vsx * k, vsy * k
-            else:
-                vsx = vsy = 0.0
+            return vsx, vsy, turn_ax, turn_ay
+        g, lim = self.gains, self.vehicle.limits
+        px, py, _ = state.position_m
+        vx, vy, _ = state.linear_velocity_mps
+        if self._xy_hold is None and vx * vx + vy * vy < g.hold_latch_speed_mps * g.hold_latch_speed_mps:
+            self._xy_hold = (px, py)
+        if self._xy_hold is None:
+            return 0.0, 0.0, turn_ax, turn_ay
+        vsx = g.position_p_per_s * (self._xy_hold[0] - px)
+        vsy = g.position_p_per_s * (self._xy_hold[1] - py)
+        sp = math.hypot(vsx, vsy)
+        if sp > lim.max_horizontal_speed_mps:
+            k = lim.max_horizontal_speed_mps / sp
+            vsx, vsy = vsx * k, vsy * k
+        return vsx, vsy, turn_ax, turn_ay
 
-        # vertical: climb rate, altitude hold, or the height z-mode's altitude
+    def _vertical_setpoint(self, uz: float, command: ActiveCommand, pz: float, vz: float) -> float:
+        """The wanted climb rate: commanded, back to the held altitude, or to the height z-mode's
+        altitude; within the vehicle's climb and descent limits."""
+        g, lim = self.gains, self.vehicle.limits
         if command.z_mode is ZMode.HEIGHT:
             self._z_hold = None
             if not command.hold or self._z_target is None:
@@ -158,29 +171,40 @@ class CascadeController:
                 self._z_hold = None
                 vsz = uz
             else:
-                if self._z_hold is None and vz * vz < latch2:
+                if self._z_hold is None and vz * vz < g.hold_latch_speed_mps * g.hold_latch_speed_mps:
                     self._z_hold = pz
                 vsz = 0.0 if self._z_hold is None else g.altitude_p_per_s * (self._z_hold - pz)
         if vsz > lim.max_climb_rate_mps:
             vsz = lim.max_climb_rate_mps
         elif vsz < -lim.max_descent_rate_mps:
             vsz = -lim.max_descent_rate_mps
+        return vsz
 
-        # heading: track the commanded heading rate (about world z), or hold the heading
-        heading_rate = r20 * wp + r21 * wq + r22 * wr
+    def _heading_setpoint(self, ur: float, yaw: float, heading_rate: float) -> float:
+        """The wanted heading rate (about world z): commanded, or back to the held heading."""
+        g = self.gains
         if ur != 0.0:
             self._yaw_hold = None
-            hs = ur
-        else:
-            if self._yaw_hold is None and -g.hold_latch_yaw_rate_radps < heading_rate < g.hold_latch_yaw_rate_radps:
-                self._yaw_hold = yaw
-            hs = 0.0 if self._yaw_hold is None else g.heading_p_per_s * _wrap(self._yaw_hold - yaw)
+            return ur
+        if self._yaw_hold is None and -g.hold_latch_yaw_rate_radps < heading_rate < g.hold_latch_yaw_rate_radps:
+            self._yaw_hold = yaw
+        return 0.0 if self._yaw_hold is None else g.heading_p_per_s * _wrap(self._yaw_hold - yaw)
 
-        # velocity loop (world frame) -> wanted acceleration, with drag feed-forward
-        ex, ey, ez = vsx - vx, vsy - vy, vsz - vz
+    def _velocity_loop(
+        self,
+        wanted: tuple[float, float, float],
+        velocity: tuple[float, float, float],
+        turn: tuple[float, float],
+        dt_s: float,
+    ) -> tuple[float, float, float]:
+        """Velocity loop (world frame) -> wanted acceleration, with drag feed-forward, within the
+        vertical acceleration and tilt limits; the integrators run only while unsaturated."""
+        g = self.gains
+        vsx, vsy, vsz = wanted
+        ex, ey, ez = vsx - velocity[0], vsy - velocity[1], vsz - velocity[2]
         drag_xy = self._drag_xy + self._drag_q_xy * math.hypot(vsx, vsy)
-        ax = g.velocity_p_xy_per_s * ex + self._ix + drag_xy * vsx + turn_ax
-        ay = g.velocity_p_xy_per_s * ey + self._iy + drag_xy * vsy + turn_ay
+        ax = g.velocity_p_xy_per_s * ex + self._ix + drag_xy * vsx + turn[0]
+        ay = g.velocity_p_xy_per_s * ey + self._iy + drag_xy * vsy + turn[1]
         az = g.velocity_p_z_per_s * ez + self._iz + (self._drag_z + self._drag_q_z * abs(vsz)) * vsz
         sat_z = False
         if az > g.max_up_accel_mps2:
@@ -201,8 +225,13 @@ class CascadeController:
             self._iy = clamp(self._iy + g.velocity_i_xy_per_s2 * ey * dt_s, -ilim, ilim)
         if not sat_z and -band < ez < band:
             self._iz = clamp(self._iz + g.velocity_i_z_per_s2 * ez * dt_s, -ilim, ilim)
+        return ax, ay, az
 
-        # thrust vector -> collective thrust along the current body z, and the wanted body z
+    def _attitude_loop(self, ax: float, ay: float, az: float, r: Mat3, pz: float) -> tuple[float, float, float]:
+        """The wanted acceleration as collective thrust along the current body z (less near the
+        ground by the ground-effect ratio) and the roll and pitch rates that tilt the body z
+        toward it."""
+        (r00, r01, r02), (r10, r11, r12), (r20, r21, r22) = r
         m = self._mass
         fx, fy, fz = m * ax, m * ay, m * (az + self._g)
         thrust = fx * r02 + fy * r12 + fz * r22
@@ -221,18 +250,22 @@ class CascadeController:
         dy = r01 * bx + r11 * by + r21 * bz
         dz = r02 * bx + r12 * by + r22 * bz
         sin_t = math.sqrt(dx * dx + dy * dy)
-        k_att = g.attitude_p_per_s * (math.atan2(sin_t, dz) / sin_t if sin_t > 1e-9 else 1.0)
-        ps, qs = -k_att * dy, k_att * dx
-        mr = g.max_rate_rp_radps
-        ps = clamp(ps, -mr, mr)
-        qs = clamp(qs, -mr, mr)
+        k_att = self.gains.attitude_p_per_s * (math.atan2(sin_t, dz) / sin_t if sin_t > 1e-9 else 1.0)
+        mr = self.gains.max_rate_rp_radps
+        return thrust, clamp(-k_att * dy, -mr, mr), clamp(k_att * dx, -mr, mr)
+
+    def _rate_loop(
+        self, thrust: float, ps: float, qs: float, hs: float, r: Mat3, rates: tuple[float, float, float]
+    ) -> RotorForces:
+        """The body yaw rate that gives the wanted heading rate in a bank, then the rate loop ->
+        body torques (with the gyroscopic term), then the mixer."""
+        g, mr = self.gains, self.gains.max_rate_rp_radps
+        wp, wq, wr = rates
         # the heading rate is the body rates' world-z component (r20 p + r21 q + r22 r): in a bank,
         # the body z rate that gives the wanted heading rate, with the roll/pitch rates wanted
-        my = lim.max_yaw_rate_radps
+        my = self.vehicle.limits.max_yaw_rate_radps
         hs = clamp(hs, -my, my)
-        rs = clamp((hs - r20 * ps - r21 * qs) / max(r22, 0.5), -mr, mr)
-
-        # rate loop -> body torques (with the gyroscopic term), then the mixer
+        rs = clamp((hs - r[2][0] * ps - r[2][1] * qs) / max(r[2][2], 0.5), -mr, mr)
         ap = g.rate_p_rp_per_s * (ps - wp)
         aq = g.rate_p_rp_per_s * (qs - wq)
         ar = g.rate_p_yaw_per_s * (rs - wr)
