@@ -78,6 +78,54 @@ def _landmarks(f: RecordedFlight) -> list[tuple[str, float, float, tuple[float, 
     return [(lm.name, lm.position_m[0], lm.position_m[1], lm.color_rgba[:3]) for lm in world.landmarks]
 
 
+def _draw_track(track: Any, states: list[VehicleState], landmarks: list[tuple[str, float, float, Any]]) -> None:
+    """The flown track seen from above, with the world's landmarks, the start and the end."""
+    xs, ys = [s.position_m[0] for s in states], [s.position_m[1] for s in states]
+    for name, x, y, colour in landmarks:
+        track.plot(x, y, "s", color=colour, markersize=9, alpha=0.8)
+        track.annotate(name.replace("_", " "), (x, y), textcoords="offset points", xytext=(6, 6), fontsize=8)
+    track.plot(xs, ys, color=FLOWN_COLOUR, linewidth=1.6, label="flown track")
+    track.plot(xs[0], ys[0], "o", color="#2ca02c", label="start")
+    track.plot(xs[-1], ys[-1], "X", color="black", label="end")
+    track.set_xlabel("x, world (m)")
+    track.set_ylabel("y, world (m)")
+    track.set_title("track seen from above")
+    track.set_aspect("equal", adjustable="datalim")
+    track.grid(True, alpha=0.3)
+    track.legend(loc="best", fontsize=8)
+
+
+def _draw_panels(
+    fig: Any,
+    grid: Any,
+    panels: list[tuple[str, str, tuple[list[float], list[float]], list[float]]],
+    t: list[float],
+    spans: list[tuple[float, float]],
+    end_s: float,
+) -> None:
+    """One panel a command field, commanded against flown, on a shared time axis, with the
+    stretches flown in height z-mode shaded."""
+    first = None
+    for row, (title, unit, command, flown) in enumerate(panels):
+        ax = fig.add_subplot(grid[row, 1], sharex=first)
+        first = first or ax
+        for a, b in spans:
+            ax.axvspan(
+                a, b, color="#f0e6c8", alpha=0.6, linewidth=0, label="height z-mode" if (a, b) == spans[0] else None
+            )
+        ax.plot(*command, color=COMMAND_COLOUR, linewidth=1.4, linestyle="--", label="commanded")
+        ax.plot(t, flown, color=FLOWN_COLOUR, linewidth=1.2, label="flown")
+        ax.set_ylabel(f"{title}\n({unit})", fontsize=9)
+        ax.grid(True, alpha=0.3)
+        if row == 0:
+            ax.legend(loc="upper right", fontsize=8, ncols=3)
+        if row < len(panels) - 1:
+            ax.tick_params(labelbottom=False)
+    assert first is not None
+    first.set_xlim(0.0, end_s)
+    ax.set_xlabel("simulation time (s)")
+
+
 def export_plot(f: RecordedFlight, path: Path) -> Path:
     """Write the plot to `path` (.png, .jpg, .pdf or .svg) and return it."""
     if not f.states:
@@ -97,20 +145,7 @@ def export_plot(f: RecordedFlight, path: Path) -> Path:
         + (f", {f.description.controller.kind.value} controller" if f.description else "")
     )
 
-    track = fig.add_subplot(grid[:, 0])
-    xs, ys = [s.position_m[0] for s in states], [s.position_m[1] for s in states]
-    for name, x, y, colour in landmarks:
-        track.plot(x, y, "s", color=colour, markersize=9, alpha=0.8)
-        track.annotate(name.replace("_", " "), (x, y), textcoords="offset points", xytext=(6, 6), fontsize=8)
-    track.plot(xs, ys, color=FLOWN_COLOUR, linewidth=1.6, label="flown track")
-    track.plot(xs[0], ys[0], "o", color="#2ca02c", label="start")
-    track.plot(xs[-1], ys[-1], "X", color="black", label="end")
-    track.set_xlabel("x, world (m)")
-    track.set_ylabel("y, world (m)")
-    track.set_title("track seen from above")
-    track.set_aspect("equal", adjustable="datalim")
-    track.grid(True, alpha=0.3)
-    track.legend(loc="best", fontsize=8)
+    _draw_track(fig.add_subplot(grid[:, 0]), states, landmarks)
 
     if any_height:
         z_title, z_unit = "altitude", "m"
@@ -131,25 +166,7 @@ def export_plot(f: RecordedFlight, path: Path) -> Path:
             [s.angular_velocity_body_rps[2] for s in states],
         ),
     ]
-    first = None
-    for row, (title, unit, command, flown) in enumerate(panels):
-        ax = fig.add_subplot(grid[row, 1], sharex=first)
-        first = first or ax
-        for a, b in spans:
-            ax.axvspan(
-                a, b, color="#f0e6c8", alpha=0.6, linewidth=0, label="height z-mode" if (a, b) == spans[0] else None
-            )
-        ax.plot(*command, color=COMMAND_COLOUR, linewidth=1.4, linestyle="--", label="commanded")
-        ax.plot(t, flown, color=FLOWN_COLOUR, linewidth=1.2, label="flown")
-        ax.set_ylabel(f"{title}\n({unit})", fontsize=9)
-        ax.grid(True, alpha=0.3)
-        if row == 0:
-            ax.legend(loc="upper right", fontsize=8, ncols=3)
-        if row < len(panels) - 1:
-            ax.tick_params(labelbottom=False)
-    assert first is not None
-    first.set_xlim(0.0, max(f.duration_s, t[-1]))
-    ax.set_xlabel("simulation time (s)")
+    _draw_panels(fig, grid, panels, t, spans, max(f.duration_s, t[-1]))
     try:
         fig.savefig(path, dpi=100)
     except OSError as exc:

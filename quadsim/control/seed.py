@@ -121,6 +121,11 @@ class SeedController:
         self._old_wz = 0.0
 
     def update(self, state: VehicleState, command: ActiveCommand, dt_s: float) -> RotorForces:
+        """Rotor forces for this control step.
+
+        It is one piece on purpose: it follows the original Lua child script line for line, in
+        its order (altitude, tilt corrections, yaw, mixer), so that it reads against the original
+        and a difference from it is easy to see."""
         if not command.armed:
             self._armed = False
             return _IDLE

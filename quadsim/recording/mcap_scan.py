@@ -489,7 +489,11 @@ class McapFile:
             pos = rec_end
 
     def _walk(self, limit: int) -> None:
-        """Read the data section record by record, from the header to `limit`."""
+        """Read the data section record by record, from the header to `limit`.
+
+        It is one piece: a loop over hostile bytes whose every branch checks a record's bounds
+        against the same position and the same open chunk, and reads best where each check sits
+        beside the read it guards."""
         buf = self._buf
         pos = len(MAGIC)
         loose: _Segment | None = None
@@ -901,7 +905,10 @@ class McapFile:
         found: dict[int, list[tuple[int, int]]] | None = None,
     ) -> Iterator[RawMessage]:
         """The records of one chunk (or run of unchunked records), in order; yields the
-        messages of channels in `keys` (all: None). The first pass defines channels and counts."""
+        messages of channels in `keys` (all: None). The first pass defines channels and counts.
+
+        It is one piece for the reason `_walk` is, and because it is a generator: the position, the
+        channels defined so far and the damage noted are one state that the branches share."""
         channels, schemas = state if state is not None else (dict(seg.channels_at_start), dict(seg.schemas_at_start))
         new_channel = 0
         pos, n = 0, len(raw)

@@ -84,6 +84,8 @@ class RecordingReader:
             raise
 
     def _open(self, require_topics: bool, allow_damage: bool) -> None:
+        """What the file holds: topics and their types, notes on what is not read, the run's
+        record and description, and its events."""
         f = self.file
         if f.damage and not allow_damage:
             raise QuadsimError(f.damage_report())
@@ -119,16 +121,7 @@ class RecordingReader:
         #: `description_error` says why)
         self.description: RunDescription | None = None
         self.description_error: str | None = None
-        params = self.quadsim_metadata.get("parameters")
-        if params is not None:
-            try:
-                self.description = RunDescription.from_parameters(json.loads(params))
-            except (ValueError, RecursionError) as exc:  # json's errors are ValueErrors
-                self.description_error = f"{self.path}: the run parameters are not valid JSON ({exc})"
-            except DescriptionError as exc:
-                self.description_error = f"{self.path}: {exc}"
-        elif ours:
-            self.description_error = f"{self.path}: the '{METADATA_NAME}' metadata has no run parameters"
+        self._read_description(bool(ours))
         #: (step, kind, value) of what happened besides the commands (z-mode switches)
         self.events: list[tuple[int, str, str]] = []
         #: why each malformed event record was left out
@@ -144,6 +137,19 @@ class RecordingReader:
         self.notes += [f"{e}; it is ignored" for e in self.bad_events]
         #: topic -> messages that could not be decoded (skipped)
         self.undecodable: dict[str, int] = {}
+
+    def _read_description(self, has_record: bool) -> None:
+        """The run's typed description from its record's parameters, or why there is none."""
+        params = self.quadsim_metadata.get("parameters")
+        if params is not None:
+            try:
+                self.description = RunDescription.from_parameters(json.loads(params))
+            except (ValueError, RecursionError) as exc:  # json's errors are ValueErrors
+                self.description_error = f"{self.path}: the run parameters are not valid JSON ({exc})"
+            except DescriptionError as exc:
+                self.description_error = f"{self.path}: {exc}"
+        elif has_record:
+            self.description_error = f"{self.path}: the '{METADATA_NAME}' metadata has no run parameters"
 
     # --- statistics -------------------------------------------------------------------------
 

@@ -196,27 +196,47 @@ def resimulate(
             with RecordedRun(
                 sim, sim.description(), outputs, label, {"command": "replay --resim", "source": str(flight.path)}
             ) as run:
-                end_step = flight.states[-1].step
                 t_fly = time.perf_counter()
-                z_events = sorted((step, ZMode(v)) for step, kind, v in flight.events if kind == "z_mode")
-                for step, mode in [*z_events, (end_step, None)]:
-                    if step > sim.step_count:
-                        while sim.step_count < min(step, end_step):
-                            sim.step(min(2400, min(step, end_step) - sim.step_count))
-                            if progress is not None:
-                                progress(sim.step_count / config.rates.physics_hz)
-                    if mode is not None:
-                        sim.set_z_mode(mode)
-                        run.note_event(sim.step_count, "z_mode", mode.value)
+                _fly_commands(sim, run, flight, progress)
                 stepping_wall_s = time.perf_counter() - t_fly
                 new_path = run.path
+    return _compare(
+        flight, log, config.rates.physics_hz, new_path, stepping_wall_s, position_tolerance_m, attitude_tolerance_rad
+    )
+
+
+def _fly_commands(sim: Simulator, run: RecordedRun, flight: RecordedFlight, progress: Any) -> None:
+    """Step to the recording's last state, switching z-mode where the recording did."""
+    end_step = flight.states[-1].step
+    z_events = sorted((step, ZMode(v)) for step, kind, v in flight.events if kind == "z_mode")
+    for step, mode in [*z_events, (end_step, None)]:
+        if step > sim.step_count:
+            while sim.step_count < min(step, end_step):
+                sim.step(min(2400, min(step, end_step) - sim.step_count))
+                if progress is not None:
+                    progress(sim.step_count / sim.config.rates.physics_hz)
+        if mode is not None:
+            sim.set_z_mode(mode)
+            run.note_event(sim.step_count, "z_mode", mode.value)
+
+
+def _compare(
+    flight: RecordedFlight,
+    log: StateLog,
+    physics_hz: int,
+    new_path: Path | None,
+    stepping_wall_s: float,
+    position_tolerance_m: float,
+    attitude_tolerance_rad: float,
+) -> ResimReport:
+    """The new flight's states against the recorded ones, step by step."""
     new = {s.step: s for s in log.states}
     pos, att, vel = [], [], []
     for rec, rec_body_velocity in zip(flight.states, flight.body_velocities):
         now: VehicleState | None = new.get(rec.step)
         if now is None:
             continue
-        t = rec.step / config.rates.physics_hz
+        t = rec.step / physics_hz
         pos.append((t, math.dist(now.position_m, rec.position_m)))
         att.append((t, _angle_between(now.orientation_xyzw, rec.orientation_xyzw)))
         vel.append(
@@ -231,6 +251,6 @@ def resimulate(
         _deviation("/quad/pose", "attitude", "rad", att, attitude_tolerance_rad),
         _deviation("/quad/odom", "velocity", "m/s", vel, position_tolerance_m),
         new_path,
-        end_step / config.rates.physics_hz,
+        flight.states[-1].step / physics_hz,
         stepping_wall_s,
     )

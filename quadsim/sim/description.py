@@ -127,51 +127,8 @@ class RunDescription:
                 f"parameters.schema_version {version}: written by a newer quadsim (this one reads up to "
                 f"{SCHEMA_VERSION}); upgrade quadsim to read it"
             )
-        cfg = p.section("config")
-        rates_f = cfg.section("rates")
-        rates_kw = {f.name: rates_f.integer(f.name, low=1, high=1_000_000) for f in fields(Rates)}
-        start_f = cfg.section("start", optional=True)
-        wind_f = cfg.section("wind", optional=True)
-        turbulence = wind_f.raw("turbulence")
-        wind = _build(
-            WindSettings,
-            {
-                "speed_mps": wind_f.number("speed_mps", default=0.0, low=0.0, high=1e3),
-                "from_deg": wind_f.number("from_deg", default=0.0),
-                "turbulence": None if turbulence is None else wind_f.choice("turbulence", Turbulence),
-            },
-            wind_f.where,
-        )
-        noise = cfg.raw("sensor_noise", default=version >= 2)
-        if not isinstance(noise, bool):
-            raise DescriptionError(f"{cfg.where}.sensor_noise: expected true or false, got {noise!r}")
-        config = SimConfig(
-            urdf=cfg.path("urdf"),
-            vehicle_params=cfg.path("vehicle_params"),
-            world=cfg.path("world"),
-            controller=cfg.choice("controller", ControllerKind),
-            z_mode=cfg.choice("z_mode", ZMode),
-            rates=_build(Rates, rates_kw, rates_f.where),
-            command_timeout_s=cfg.number("command_timeout_s", optional=True, low=1e-6, high=1e9),
-            start=StartPose(
-                start_f.number("x_m", default=0.0),
-                start_f.number("y_m", default=0.0),
-                start_f.number("yaw_rad", default=0.0),
-            ),
-            wind=wind,
-            sensor_noise=noise,
-            seed=cfg.integer("seed", default=0, low=0, high=MAX_SEED),
-        )
-        v = p.section("vehicle")
-        rotors = v.raw("rotors", default=[])
-        vehicle = VehicleDescription(
-            name=v.text("name"),
-            urdf_file=Path(v.text("urdf")).name,
-            params_file=Path(v.text("params")).name,
-            mass_kg=v.number("mass_kg", low=1e-6, high=1e6),
-            rotor_count=len(rotors) if isinstance(rotors, list) else 0,
-            details=dict(v.data),
-        )
+        config = _config(p.section("config"), version)
+        vehicle = _vehicle(p.section("vehicle"))
         c = p.section("controller")
         gains_f = c.section("gains", optional=True)
         gains = {key: gains_f.number(key) for key in gains_f.data}
@@ -195,6 +152,57 @@ class RunDescription:
 
 
 # --- validation helpers ---------------------------------------------------------------------
+
+
+def _config(cfg: _Fields, version: int) -> SimConfig:
+    """parameters.config: the SimConfig the run was flown with (sensor noise on from schema 2)."""
+    rates_f = cfg.section("rates")
+    rates_kw = {f.name: rates_f.integer(f.name, low=1, high=1_000_000) for f in fields(Rates)}
+    start_f = cfg.section("start", optional=True)
+    wind_f = cfg.section("wind", optional=True)
+    turbulence = wind_f.raw("turbulence")
+    wind = _build(
+        WindSettings,
+        {
+            "speed_mps": wind_f.number("speed_mps", default=0.0, low=0.0, high=1e3),
+            "from_deg": wind_f.number("from_deg", default=0.0),
+            "turbulence": None if turbulence is None else wind_f.choice("turbulence", Turbulence),
+        },
+        wind_f.where,
+    )
+    noise = cfg.raw("sensor_noise", default=version >= 2)
+    if not isinstance(noise, bool):
+        raise DescriptionError(f"{cfg.where}.sensor_noise: expected true or false, got {noise!r}")
+    return SimConfig(
+        urdf=cfg.path("urdf"),
+        vehicle_params=cfg.path("vehicle_params"),
+        world=cfg.path("world"),
+        controller=cfg.choice("controller", ControllerKind),
+        z_mode=cfg.choice("z_mode", ZMode),
+        rates=_build(Rates, rates_kw, rates_f.where),
+        command_timeout_s=cfg.number("command_timeout_s", optional=True, low=1e-6, high=1e9),
+        start=StartPose(
+            start_f.number("x_m", default=0.0),
+            start_f.number("y_m", default=0.0),
+            start_f.number("yaw_rad", default=0.0),
+        ),
+        wind=wind,
+        sensor_noise=noise,
+        seed=cfg.integer("seed", default=0, low=0, high=MAX_SEED),
+    )
+
+
+def _vehicle(v: _Fields) -> VehicleDescription:
+    """parameters.vehicle: the airframe, named by its files."""
+    rotors = v.raw("rotors", default=[])
+    return VehicleDescription(
+        name=v.text("name"),
+        urdf_file=Path(v.text("urdf")).name,
+        params_file=Path(v.text("params")).name,
+        mass_kg=v.number("mass_kg", low=1e-6, high=1e6),
+        rotor_count=len(rotors) if isinstance(rotors, list) else 0,
+        details=dict(v.data),
+    )
 
 
 def _build(cls: Any, kwargs: dict[str, Any], where: str) -> Any:

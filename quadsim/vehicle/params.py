@@ -213,19 +213,8 @@ def _origin(elem: ET.Element | None, where: str) -> tuple[Vec3, Mat3]:
     return xyz, matrix_from_rpy(*rpy)  # type: ignore[return-value]
 
 
-def _read_urdf(path: Path) -> dict[str, _Link]:
-    try:
-        root = ET.parse(path).getroot()
-    except ET.ParseError as exc:
-        raise ConfigError(f"{path}: not valid XML ({exc})") from None
-    if root.tag != "robot":
-        raise ConfigError(f"{path}: root element is <{root.tag}>, expected <robot>")
-    for mesh in root.iter("mesh"):
-        name = mesh.get("filename", "")
-        if "://" in name:
-            raise ConfigError(f"{path.name}: mesh {name!r}: URLs are not supported; give a path relative to the URDF")
-        if not name or not (path.parent / name).is_file():
-            raise ConfigError(f"{path.name}: mesh file not found: {name!r} (looked in {path.parent})")
+def _inertials(root: ET.Element, path: Path) -> dict[str, tuple[float, Vec3, Mat3]]:
+    """Each link's mass, centre of mass and inertia in its own frame (zero without <inertial>)."""
     raw: dict[str, tuple[float, Vec3, Mat3]] = {}
     for link in root.findall("link"):
         name = link.get("name", "")
@@ -256,7 +245,11 @@ def _read_urdf(path: Path) -> dict[str, _Link]:
             raise ConfigError(f"{where}: principal inertia must be > 0 kg m^2")
         raw[name] = (mass, com, mat_mul(mat_mul(rot, inertia), transpose(rot)))
 
-    # place every link in base_link through the fixed-joint tree
+    return raw
+
+
+def _fixed_joints(root: ET.Element, path: Path) -> dict[str, tuple[str, Vec3, Mat3]]:
+    """child link -> (parent link, origin, rotation) of every joint, all of them fixed."""
     parent_of: dict[str, tuple[str, Vec3, Mat3]] = {}
     for joint in root.findall("joint"):
         jname = joint.get("name", "")
@@ -270,6 +263,26 @@ def _read_urdf(path: Path) -> dict[str, _Link]:
             raise ConfigError(f"{path.name}: joint {jname!r} needs <parent> and <child>")
         xyz, rot = _origin(joint.find("origin"), f"{path.name}: joint {jname!r}")
         parent_of[child.get("link", "")] = (parent.get("link", ""), xyz, rot)
+    return parent_of
+
+
+def _read_urdf(path: Path) -> dict[str, _Link]:
+    """Every link of a URDF, its inertial block checked, placed in base_link through the fixed joints."""
+    try:
+        root = ET.parse(path).getroot()
+    except ET.ParseError as exc:
+        raise ConfigError(f"{path}: not valid XML ({exc})") from None
+    if root.tag != "robot":
+        raise ConfigError(f"{path}: root element is <{root.tag}>, expected <robot>")
+    for mesh in root.iter("mesh"):
+        name = mesh.get("filename", "")
+        if "://" in name:
+            raise ConfigError(f"{path.name}: mesh {name!r}: URLs are not supported; give a path relative to the URDF")
+        if not name or not (path.parent / name).is_file():
+            raise ConfigError(f"{path.name}: mesh file not found: {name!r} (looked in {path.parent})")
+    raw = _inertials(root, path)
+
+    parent_of = _fixed_joints(root, path)  # place every link in base_link through the fixed-joint tree
     roots = [n for n in raw if n not in parent_of]
     if roots != ["base_link"]:
         raise ConfigError(f"{path.name}: expected one root link named 'base_link', found {roots}")
@@ -381,15 +394,10 @@ def _rotor_links(urdf: Path, links: dict[str, _Link]) -> list[str]:
     return names
 
 
-def _build(urdf: Path, params: Path, links: dict[str, _Link], table: dict[str, Any]) -> VehicleParams:
-    mass, com, inertia = _composite_inertia(links)
-    rotor_names = _rotor_links(urdf, links)
-    spins = table.get("rotors", {}).get("spin")
-    if not isinstance(spins, dict):
-        raise ConfigError(f'{params}: missing [rotors] spin = {{ rotor_1 = "ccw", ... }}')
-    unknown = sorted(set(spins) - set(rotor_names))
-    if unknown:
-        raise ConfigError(f"{params}: [rotors] spin names {unknown}, which {urdf.name} has no link for")
+def _rotors(
+    urdf: Path, params: Path, links: dict[str, _Link], rotor_names: list[str], spins: dict[str, Any], com: Vec3
+) -> list[RotorSpec]:
+    """Each rotor link's spin, level axis and position from the centre of mass; as many ccw as cw."""
     rotors = []
     for name in rotor_names:
         spin_text = spins.get(name)
@@ -409,18 +417,11 @@ def _build(urdf: Path, params: Path, links: dict[str, _Link], table: dict[str, A
             f"{params}: [rotors] spin must have as many ccw as cw rotors; {ccw} of the {len(rotors)} rotors are ccw"
         )
 
-    kf = _number(table, "rotors", "thrust_coefficient_n_per_rad2s2", params, low=1e-9, high=1.0)
-    km = _number(table, "rotors", "torque_coefficient_nm_per_rad2s2", params, low=1e-12, high=1.0)
-    max_thrust = _number(table, "rotors", "max_thrust_n", params, low=1e-3, high=1e4)
-    tau = _number(table, "rotors", "motor_time_constant_s", params, low=0.0, high=1.0)
-    weight = mass * 9.81
-    if len(rotors) * max_thrust < 1.2 * weight:
-        raise ConfigError(
-            f"{params}: [rotors] max_thrust_n = {max_thrust} gives {len(rotors) * max_thrust:.2f} N in all, "
-            f"too little to fly a {weight:.2f} N vehicle (need at least 1.2x its weight)"
-        )
-    aero = _aero(table, params)
-    imu = ImuNoiseParams(
+    return rotors
+
+
+def _imu(table: dict[str, Any], params: Path) -> ImuNoiseParams:
+    return ImuNoiseParams(
         gyro_noise_density_radps_per_rthz=_number(
             table, "imu", "gyro_noise_density_radps_per_rthz", params, low=0.0, high=1.0
         ),
@@ -434,7 +435,10 @@ def _build(urdf: Path, params: Path, links: dict[str, _Link], table: dict[str, A
             table, "imu", "accel_bias_random_walk_mps3_per_rthz", params, low=0.0, high=10.0
         ),
     )
-    limits = CommandLimits(
+
+
+def _limits(table: dict[str, Any], params: Path) -> CommandLimits:
+    return CommandLimits(
         max_horizontal_speed_mps=_number(table, "limits", "max_horizontal_speed_mps", params, low=0.1, high=50.0),
         max_climb_rate_mps=_number(table, "limits", "max_climb_rate_mps", params, low=0.1, high=20.0),
         max_descent_rate_mps=_number(table, "limits", "max_descent_rate_mps", params, low=0.1, high=20.0),
@@ -442,6 +446,32 @@ def _build(urdf: Path, params: Path, links: dict[str, _Link], table: dict[str, A
         min_altitude_m=_number(table, "limits", "min_altitude_m", params, low=0.0, high=10.0),
         max_altitude_m=_number(table, "limits", "max_altitude_m", params, low=0.5, high=10000.0),
     )
+
+
+def _build(urdf: Path, params: Path, links: dict[str, _Link], table: dict[str, Any]) -> VehicleParams:
+    """The vehicle from its URDF's links and its parameter file, every field checked."""
+    mass, com, inertia = _composite_inertia(links)
+    rotor_names = _rotor_links(urdf, links)
+    spins = table.get("rotors", {}).get("spin")
+    if not isinstance(spins, dict):
+        raise ConfigError(f'{params}: missing [rotors] spin = {{ rotor_1 = "ccw", ... }}')
+    unknown = sorted(set(spins) - set(rotor_names))
+    if unknown:
+        raise ConfigError(f"{params}: [rotors] spin names {unknown}, which {urdf.name} has no link for")
+    rotors = _rotors(urdf, params, links, rotor_names, spins, com)
+
+    kf = _number(table, "rotors", "thrust_coefficient_n_per_rad2s2", params, low=1e-9, high=1.0)
+    km = _number(table, "rotors", "torque_coefficient_nm_per_rad2s2", params, low=1e-12, high=1.0)
+    max_thrust = _number(table, "rotors", "max_thrust_n", params, low=1e-3, high=1e4)
+    tau = _number(table, "rotors", "motor_time_constant_s", params, low=0.0, high=1.0)
+    weight = mass * 9.81
+    if len(rotors) * max_thrust < 1.2 * weight:
+        raise ConfigError(
+            f"{params}: [rotors] max_thrust_n = {max_thrust} gives {len(rotors) * max_thrust:.2f} N in all, "
+            f"too little to fly a {weight:.2f} N vehicle (need at least 1.2x its weight)"
+        )
+    aero = _aero(table, params)
+    imu, limits = _imu(table, params), _limits(table, params)
     if limits.min_altitude_m >= limits.max_altitude_m:
         raise ConfigError(f"{params}: [limits] min_altitude_m must be below max_altitude_m")
     if any(abs(v) > 1e-9 for v in links["base_link"].com_in_link_m):

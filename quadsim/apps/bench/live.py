@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import threading
 import time
 from collections.abc import Callable
 from pathlib import Path
@@ -34,6 +35,69 @@ def _thread_ids() -> set[int]:
     return {int(t) for t in os.listdir("/proc/self/task")}
 
 
+def _twist_client(url: str, stop: threading.Event, published: list[tuple[float, float]]) -> None:
+    """A Foxglove client: subscribes to every topic advertised and publishes a Twist at 20 Hz
+    whose linear z changes every second, noting when it changed."""
+    import json
+    import struct
+
+    from websockets.sync.client import connect
+
+    protocols: Any = ["foxglove.sdk.v1"]
+    with connect(url, subprotocols=protocols, compression=None, max_size=None) as ws:
+        ws.send(json.dumps({"op": "advertise", "channels": [{"id": 1, "topic": "/quad_cmd_twist",
+                            "encoding": "cdr", "schemaName": "geometry_msgs/msg/Twist"}]}))  # fmt: skip
+        next_send, subscribed, sent = time.perf_counter(), 0, 0
+        while not stop.is_set():
+            try:
+                frame = ws.recv(timeout=0.005)
+                if isinstance(frame, str) and json.loads(frame)["op"] == "advertise":
+                    channels = json.loads(frame)["channels"]
+                    ws.send(json.dumps({"op": "subscribe", "subscriptions": [
+                        {"id": subscribed + i, "channelId": c["id"]} for i, c in enumerate(channels)]}))  # fmt: skip
+                    subscribed += len(channels)
+            except TimeoutError:
+                pass
+            if time.perf_counter() >= next_send:
+                sent += 1
+                x = 0.5 if sent % 40 < 20 else 0.0  # climb 1 s, hold 1 s: the command changes
+                ws.send(struct.pack("<BI", 1, 1) + b"\x00\x01\x00\x00" + struct.pack("<6d", 0, 0, x, 0, 0, 0))
+                if not published or published[-1][1] != x:
+                    published.append((time.perf_counter(), x))
+                next_send += 0.05
+
+
+def _paced_run(
+    sim: Simulator, wall_s: float, published: list[tuple[float, float]], server_threads: set[int]
+) -> dict[str, float]:
+    """Step in real time for `wall_s`; the real-time factor, the CPU shares and the latency from
+    a published Twist to the gate's command."""
+    results: dict[str, float] = {}
+    hz = sim.config.rates.physics_hz
+    latencies: list[float] = []
+    last_z = None
+    cpu0, server0, t0 = time.process_time(), _thread_cpu_s(server_threads), time.perf_counter()
+    steps0 = sim.step_count
+    while time.perf_counter() - t0 < wall_s:
+        sim.step(4)  # 1/60 s, as the real-time headless run does
+        z = sim.gate.last_command.linear_z
+        if last_z is not None and z != last_z:  # the command changed: when was it sent?
+            changes = [t for t, sent_z in published if sent_z == z]
+            if changes:
+                latencies.append(time.perf_counter() - changes[-1])
+        last_z = z
+        ahead = (sim.step_count - steps0) / hz - (time.perf_counter() - t0)
+        if ahead > 0:
+            time.sleep(ahead)
+    wall = time.perf_counter() - t0
+    results["real_time_factor"] = (sim.step_count - steps0) / hz / wall
+    results["cpu_share"] = (time.process_time() - cpu0) / wall
+    results["server_cpu_share"] = (_thread_cpu_s(server_threads) - server0) / wall
+    results["latency_ms"] = 1e3 * max(latencies) if latencies else float("nan")
+    results["latency_median_ms"] = 1e3 * sorted(latencies)[len(latencies) // 2] if latencies else float("nan")
+    return results
+
+
 def measure_live(wall_s: float, foxglove: bool) -> dict[str, float]:
     """A real-time headless run (both cameras 320x240 @ 30 Hz, recording on, commands from a
     subscribed driver) for `wall_s`; with `foxglove`, a Foxglove server on an ephemeral port and
@@ -41,16 +105,12 @@ def measure_live(wall_s: float, foxglove: bool) -> dict[str, float]:
     sim's real-time factor, the process's CPU share, the server threads' CPU share and the
     latency from a published Twist to the command reaching the controller (rotor commands change
     at that step)."""
-    import json
-    import struct
     import tempfile
-    import threading
 
     from quadsim.drivers.subscribed import SubscribedDriver
     from quadsim.session.outputs import OutputOptions, RecordedRun
 
     driver = SubscribedDriver("foxglove")
-    results: dict[str, float] = {}
     with tempfile.TemporaryDirectory() as tmp, Simulator(SimConfig(z_mode=ZMode.VELOCITY), driver) as sim:
         before = _thread_ids()
         live: list[Any] = []
@@ -62,60 +122,13 @@ def measure_live(wall_s: float, foxglove: bool) -> dict[str, float]:
         stop = threading.Event()
         published: list[tuple[float, float]] = []  # (perf_counter, linear z) of each Twist that changed it
 
-        def client(url: str) -> None:
-            from websockets.sync.client import connect
-
-            protocols: Any = ["foxglove.sdk.v1"]
-            with connect(url, subprotocols=protocols, compression=None, max_size=None) as ws:
-                ws.send(json.dumps({"op": "advertise", "channels": [{"id": 1, "topic": "/quad_cmd_twist",
-                                    "encoding": "cdr", "schemaName": "geometry_msgs/msg/Twist"}]}))  # fmt: skip
-                next_send, subscribed, sent = time.perf_counter(), 0, 0
-                while not stop.is_set():
-                    try:
-                        frame = ws.recv(timeout=0.005)
-                        if isinstance(frame, str) and json.loads(frame)["op"] == "advertise":
-                            channels = json.loads(frame)["channels"]
-                            ws.send(json.dumps({"op": "subscribe", "subscriptions": [
-                                {"id": subscribed + i, "channelId": c["id"]} for i, c in enumerate(channels)]}))  # fmt: skip
-                            subscribed += len(channels)
-                    except TimeoutError:
-                        pass
-                    if time.perf_counter() >= next_send:
-                        sent += 1
-                        x = 0.5 if sent % 40 < 20 else 0.0  # climb 1 s, hold 1 s: the command changes
-                        ws.send(struct.pack("<BI", 1, 1) + b"\x00\x01\x00\x00" + struct.pack("<6d", 0, 0, x, 0, 0, 0))
-                        if not published or published[-1][1] != x:
-                            published.append((time.perf_counter(), x))
-                        next_send += 0.05
-
         outputs = OutputOptions(out=Path(tmp), ordered_delivery=False)  # real time: frames are not waited for
         with RecordedRun(sim, sim.description(), outputs, "bench_live", live=live):
             worker = None
             if foxglove:
-                worker = threading.Thread(target=client, args=(live[0].url,), daemon=True)
+                worker = threading.Thread(target=_twist_client, args=(live[0].url, stop, published), daemon=True)
                 worker.start()
-            hz = sim.config.rates.physics_hz
-            latencies: list[float] = []
-            last_z = None
-            cpu0, server0, t0 = time.process_time(), _thread_cpu_s(server_threads), time.perf_counter()
-            steps0 = sim.step_count
-            while time.perf_counter() - t0 < wall_s:
-                sim.step(4)  # 1/60 s, as the real-time headless run does
-                z = sim.gate.last_command.linear_z
-                if last_z is not None and z != last_z:  # the command changed: when was it sent?
-                    changes = [t for t, sent_z in published if sent_z == z]
-                    if changes:
-                        latencies.append(time.perf_counter() - changes[-1])
-                last_z = z
-                ahead = (sim.step_count - steps0) / hz - (time.perf_counter() - t0)
-                if ahead > 0:
-                    time.sleep(ahead)
-            wall = time.perf_counter() - t0
-            results["real_time_factor"] = (sim.step_count - steps0) / hz / wall
-            results["cpu_share"] = (time.process_time() - cpu0) / wall
-            results["server_cpu_share"] = (_thread_cpu_s(server_threads) - server0) / wall
-            results["latency_ms"] = 1e3 * max(latencies) if latencies else float("nan")
-            results["latency_median_ms"] = 1e3 * sorted(latencies)[len(latencies) // 2] if latencies else float("nan")
+            results = _paced_run(sim, wall_s, published, server_threads)
             stop.set()
             if worker is not None:
                 worker.join(timeout=2)

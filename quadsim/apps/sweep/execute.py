@@ -29,6 +29,34 @@ class SweepResult:
     wall_s: float
 
 
+def _table(
+    spec: SweepSpec, out: Path, resume: bool, overwrite: bool, table_format: str | None
+) -> tuple[Path, dict[int, dict[str, Any]]]:
+    """The table's path in `out`, and the rows of an earlier table kept for --resume (by index);
+    an existing table is replaced only with --overwrite."""
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise QuadsimError(f"cannot create the sweep folder {out}: {exc.strerror}") from None
+    previous = existing_table(out)
+    if previous is not None and overwrite:  # asked for: the old table goes, every run flies again
+        previous.unlink()
+        previous = None
+    rows: dict[int, dict[str, Any]] = {}
+    if previous is None:
+        return table_path(out, table_format), rows
+    if not resume:
+        raise QuadsimError(
+            f"{previous} already exists: add --resume to fly only the runs missing from it, "
+            f"--overwrite to fly them all again, or choose another --out (nothing is overwritten unasked)"
+        )
+    keys = {run.key: run.index for run in spec.runs}
+    for row in read_table(previous):
+        if row.get("key") in keys and row.get("status") in ("ok", "fail"):
+            rows[keys[row["key"]]] = {**row, "index": keys[row["key"]]}  # a run that could not fly is retried
+    return previous, rows
+
+
 def run_sweep(
     spec: SweepSpec,
     out: Path,
@@ -41,28 +69,9 @@ def run_sweep(
     overwrite: bool = False,
     progress: bool = True,
 ) -> SweepResult:
-    try:
-        out.mkdir(parents=True, exist_ok=True)
-    except OSError as exc:
-        raise QuadsimError(f"cannot create the sweep folder {out}: {exc.strerror}") from None
-    previous = existing_table(out)
-    if previous is not None and overwrite:  # asked for: the old table goes, every run flies again
-        previous.unlink()
-        previous = None
-    rows: dict[int, dict[str, Any]] = {}
-    if previous is not None:
-        if not resume:
-            raise QuadsimError(
-                f"{previous} already exists: add --resume to fly only the runs missing from it, "
-                f"--overwrite to fly them all again, or choose another --out (nothing is overwritten unasked)"
-            )
-        keys = {run.key: run.index for run in spec.runs}
-        for row in read_table(previous):
-            if row.get("key") in keys and row.get("status") in ("ok", "fail"):
-                rows[keys[row["key"]]] = {**row, "index": keys[row["key"]]}  # a run that could not fly is retried
-        path = previous
-    else:
-        path = table_path(out, table_format)
+    """Fly the runs of `spec` not yet in the table in `out` (every run, unless --resume), saving
+    the table as runs come in and once more on any exit, so that nothing flown is lost."""
+    path, rows = _table(spec, out, resume, overwrite, table_format)
     todo = [
         RunTask(run, tuple(sorted(spec.limits.items())), record, str(out / "recordings") if record else None)
         for run in spec.runs

@@ -162,7 +162,6 @@ def _check_gains(kind: ControllerKind, gains: dict[str, Any], where: str) -> Non
 
 def load_sweep(path: Path) -> SweepSpec:
     """Read and check a sweep file; every mistake is a ConfigError naming the file and the key."""
-    from quadsim.drivers.scripted import load_script
     from quadsim.vehicle.params import SHIPPED_VEHICLES
 
     where = str(path)
@@ -176,20 +175,7 @@ def load_sweep(path: Path) -> SweepSpec:
             f"{where}: 'name' must be a plain folder name (letters, digits, space, . _ + -; at most 100; "
             f"no path), got {_short(name)}"
         )
-
-    scenarios = []
-    lengths_s: dict[str, float] = {}
-    for s in _list_of_str(data, "scenarios", [], where):
-        candidate = (path.parent / s).resolve()
-        ref = str(candidate) if (s.endswith(".qscript") or "/" in s) else s
-        try:
-            script = load_script(ref)  # a missing scenario is found now, not in run 37
-        except ConfigError as exc:
-            raise ConfigError(f"{where}: scenarios: {exc}") from None
-        except Exception as exc:  # ScriptError is a QuadsimError, not a ConfigError
-            raise ConfigError(f"{where}: scenarios: {exc}") from None
-        scenarios.append(ref)
-        lengths_s[ref] = script.duration_s
+    scenarios, lengths_s = _scenarios(data, path, where)
     airframes = _list_of_str(data, "airframes", ["quad"], where)
     for a in airframes:
         if a not in SHIPPED_VEHICLES:
@@ -197,6 +183,50 @@ def load_sweep(path: Path) -> SweepSpec:
     seeds = data.get("seeds", 1)
     if isinstance(seeds, bool) or not isinstance(seeds, int) or not 1 <= seeds <= 10_000:
         raise ConfigError(f"{where}: 'seeds' must be a whole number from 1 to 10000, got {seeds!r}")
+    duration = _duration(data, lengths_s, where)
+    winds = _list_of_str(data, "wind", ["0,0"], where)
+    turbulences = _list_of_str(data, "turbulence", ["none"], where)
+    for w in winds:
+        check_wind(w, f"{where}: wind")
+    for t in turbulences:
+        check_turbulence(t, f"{where}: turbulence")
+    axes: dict[str, list[Any]] = {
+        "scenario": scenarios,
+        "airframe": airframes,
+        "controller": _controllers(data.get("controllers"), where),
+        "wind": winds,
+        "turbulence": turbulences,
+    }
+    limits = _limits(data, where)
+    runs, sim_s = _runs(axes, seeds, duration, lengths_s, where)
+    _check_limit_names(limits, where)
+    varied = tuple(k for k, values in axes.items() if len(values) > 1)
+    return SweepSpec(name.strip(), path, runs, limits, varied, sim_s)
+
+
+def _scenarios(data: dict[str, Any], path: Path, where: str) -> tuple[list[str], dict[str, float]]:
+    """The scenarios (built-in names, or script files beside the sweep file), each loaded now so
+    that a missing one is found before run 37, and their lengths."""
+    from quadsim.drivers.scripted import load_script
+
+    scenarios = []
+    lengths_s: dict[str, float] = {}
+    for s in _list_of_str(data, "scenarios", [], where):
+        candidate = (path.parent / s).resolve()
+        ref = str(candidate) if (s.endswith(".qscript") or "/" in s) else s
+        try:
+            script = load_script(ref)
+        except ConfigError as exc:
+            raise ConfigError(f"{where}: scenarios: {exc}") from None
+        except Exception as exc:  # ScriptError is a QuadsimError, not a ConfigError
+            raise ConfigError(f"{where}: scenarios: {exc}") from None
+        scenarios.append(ref)
+        lengths_s[ref] = script.duration_s
+    return scenarios, lengths_s
+
+
+def _duration(data: dict[str, Any], lengths_s: dict[str, float], where: str) -> float | None:
+    """duration_s, or None for each scenario's own length; either way every run must end."""
     duration = data.get("duration_s")
     if duration is not None and (
         isinstance(duration, bool) or not isinstance(duration, (int, float)) or not 0 < duration <= MAX_RUN_S
@@ -205,51 +235,49 @@ def load_sweep(path: Path) -> SweepSpec:
             f"{where}: 'duration_s' must be a number of seconds in (0, {MAX_RUN_S:.0f}], got {_short(duration)}"
         )
     if duration is None:  # every run must end: each scenario's own length bounds it
-        for s in scenarios:
-            if not lengths_s[s] <= MAX_RUN_S:
+        for s, length_s in lengths_s.items():
+            if not length_s <= MAX_RUN_S:
                 raise ConfigError(
-                    f"{where}: scenario {Path(s).name} lasts {lengths_s[s]:.6g} s, more than a run may "
+                    f"{where}: scenario {Path(s).name} lasts {length_s:.6g} s, more than a run may "
                     f"({MAX_RUN_S:.0f} s): give duration_s to bound it"
                 )
-    winds = _list_of_str(data, "wind", ["0,0"], where)
-    turbulences = _list_of_str(data, "turbulence", ["none"], where)
-    for w in winds:
-        check_wind(w, f"{where}: wind")
-    for t in turbulences:
-        check_turbulence(t, f"{where}: turbulence")
-    controllers = _controllers(data.get("controllers"), where)
+    return None if duration is None else float(duration)
+
+
+def _limits(data: dict[str, Any], where: str) -> dict[str, float]:
     limits = data.get("limits", {})
     if not isinstance(limits, dict):
         raise ConfigError(f"{where}: [limits] must be a table of metric = highest allowed value")
     for k, v in limits.items():
         if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
             raise ConfigError(f"{where}: limits.{k} must be a finite number, got {_short(v)}")
+    return {k: float(v) for k, v in limits.items()}
 
-    count = len(scenarios) * len(airframes) * len(controllers) * len(winds) * len(turbulences) * seeds
-    per_scenario_s = [float(duration) if duration is not None else lengths_s[s] for s in scenarios]
-    sim_s = sum(per_scenario_s) * (count // len(scenarios))
-    if count > MAX_RUNS:
-        raise ConfigError(f"{where}: {count} runs is more than {MAX_RUNS}; sweep fewer values at once")
-    runs = tuple(
-        RunSpec(i, s, a, c, w, t, seed, float(duration) if duration is not None else None)
-        for i, (s, a, c, w, t, seed) in enumerate(
-            itertools.product(scenarios, airframes, controllers, winds, turbulences, range(seeds))
-        )
-    )
-    axes: dict[str, list[Any]] = {
-        "scenario": scenarios,
-        "airframe": airframes,
-        "controller": controllers,
-        "wind": winds,
-        "turbulence": turbulences,
-    }
-    varied = tuple(k for k, values in axes.items() if len(values) > 1)
+
+def _check_limit_names(limits: dict[str, float], where: str) -> None:
     from quadsim.apps.sweep.metrics import METRICS
 
     for k in limits:
         if k not in METRICS:
             raise ConfigError(f"{where}: limits.{k}: no such metric; metrics are {', '.join(METRICS)}")
-    return SweepSpec(name.strip(), path, runs, {k: float(v) for k, v in limits.items()}, varied, sim_s)
+
+
+def _runs(
+    axes: dict[str, list[Any]], seeds: int, duration: float | None, lengths_s: dict[str, float], where: str
+) -> tuple[tuple[RunSpec, ...], float]:
+    """Every combination of the axes and the seeds, numbered, within the run-count limit, and
+    the simulated time they add up to."""
+    scenarios = axes["scenario"]
+    count = math.prod(len(values) for values in axes.values()) * seeds
+    per_scenario_s = [duration if duration is not None else lengths_s[s] for s in scenarios]
+    sim_s = sum(per_scenario_s) * (count // len(scenarios))
+    if count > MAX_RUNS:
+        raise ConfigError(f"{where}: {count} runs is more than {MAX_RUNS}; sweep fewer values at once")
+    runs = tuple(
+        RunSpec(i, s, a, c, w, t, seed, duration)
+        for i, (s, a, c, w, t, seed) in enumerate(itertools.product(*axes.values(), range(seeds)))
+    )
+    return runs, sim_s
 
 
 TURBULENCE_LEVELS = ("none", *(t.value for t in Turbulence))

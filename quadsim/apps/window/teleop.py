@@ -151,6 +151,16 @@ class _ActiveInput:
         return self.driver.describe()
 
 
+def _check_options(options: TeleopOptions, commands: SubscribedDriver | None) -> None:
+    """A layout and an input the window knows, and the live driver exactly when flown live."""
+    if options.keyboard_layout not in LAYOUTS:
+        raise QuadsimError(f"unknown keyboard layout {options.keyboard_layout!r}; choose from {', '.join(LAYOUTS)}")
+    if options.input not in ("auto", "keyboard", "joystick", "foxglove", "ros2"):
+        raise QuadsimError(f"--input must be auto, keyboard, joystick, foxglove or ros2, got {options.input!r}")
+    if (options.input in ("foxglove", "ros2")) != (commands is not None):
+        raise ValueError(f"--input {options.input} flies the `commands` driver, and only it does")
+
+
 class TeleopApp:
     def __init__(
         self,
@@ -162,12 +172,7 @@ class TeleopApp:
         commands: SubscribedDriver | None = None,
     ) -> None:
         """`live`: bridges fed for the whole run; `commands`: what flies with --input foxglove."""
-        if options.keyboard_layout not in LAYOUTS:
-            raise QuadsimError(f"unknown keyboard layout {options.keyboard_layout!r}; choose from {', '.join(LAYOUTS)}")
-        if options.input not in ("auto", "keyboard", "joystick", "foxglove", "ros2"):
-            raise QuadsimError(f"--input must be auto, keyboard, joystick, foxglove or ros2, got {options.input!r}")
-        if (options.input in ("foxglove", "ros2")) != (commands is not None):
-            raise ValueError(f"--input {options.input} flies the `commands` driver, and only it does")
+        _check_options(options, commands)
         pygame.display.init()
         pygame.font.init()
         pygame.joystick.init()
@@ -191,9 +196,21 @@ class TeleopApp:
         self.flight_notices = _FlightNotices()
         self.sim.add_sink(self.flight_notices)
         self.frames: dict[str, CameraFrame] = {}
+        self.outputs = replace(outputs, ordered_delivery=False)  # show frames as soon as they are ready
+        self.session = self._open_session(config, live)
+        if self.session.cameras is not None:
+            self.session.cameras.sinks.append(self)
+        self._hook_joy()
+        self._init_window_state(pacer or RealTimePacer(config.rates.physics_hz))
+        self.recordings: list[Path] = [self.session.path] if self.session.path else []
+        # last, so nothing after it can fail with the handlers installed
+        self._x11 = X11Guard.install(on_fatal=self._finish_after_fatal_loss)
+
+    def _open_session(self, config: SimConfig, live: Sequence[LiveOutput]) -> RecordedRun:
+        """The run's recording, cameras and live bridges; the simulator and the pad are closed
+        if they cannot open."""
         try:
-            self.outputs = replace(outputs, ordered_delivery=False)  # show frames as soon as they are ready
-            self.session = RecordedRun(
+            return RecordedRun(
                 self.sim,
                 self.sim.description(),
                 self.outputs,
@@ -205,11 +222,11 @@ class TeleopApp:
             self.sim.close()
             self.joystick.close()
             raise
-        if self.session.cameras is not None:
-            self.session.cameras.sinks.append(self)
-        self._hook_joy()
+
+    def _init_window_state(self, pacer: RealTimePacer | FixedStepPacer) -> None:
+        """What the window shows and counts, before its first frame."""
         self.view = TeleopView()
-        self.pacer = pacer or RealTimePacer(config.rates.physics_hz)
+        self.pacer = pacer
         self.paused = False
         self.show_help = False
         self.notice = ""
@@ -222,9 +239,6 @@ class TeleopApp:
             {pygame.K_h} if pygame.K_h not in {b.key for b in self.keyboard.layout.bindings} else set()
         )
         self._clock = pygame.time.Clock()
-        self.recordings: list[Path] = [self.session.path] if self.session.path else []
-        # last, so nothing after it can fail with the handlers installed
-        self._x11 = X11Guard.install(on_fatal=self._finish_after_fatal_loss)
 
     # --- wiring -----------------------------------------------------------------------------
 
