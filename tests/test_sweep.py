@@ -54,6 +54,12 @@ def _sweep(
     )
 
 
+def _write(tmp_path: Path, text: str, name: str = "spec.toml") -> Path:
+    spec = tmp_path / name
+    spec.write_text(text)
+    return spec
+
+
 def _group_members(pgid: int) -> str:
     return subprocess.run(
         ["ps", "-o", "pid,args", "--no-headers", "-g", str(pgid)], capture_output=True, text=True
@@ -290,3 +296,68 @@ def test_ctrl_c_at_random_moments_keeps_finished_runs_and_resume_completes(tmp_p
         assert resumed.returncode == 0, resumed.stderr
         assert (out / "results.csv").read_bytes() == ref_bytes
     assert interrupted >= 4  # the moments fell inside the sweep, not after it
+
+
+def test_a_worker_that_reuses_its_simulators_gives_the_rows_of_new_ones(tmp_path: Path, monkeypatch) -> None:
+    """Runs restarted on a simulator kept from earlier runs (any order, other seeds, other
+    scenarios and z-modes, a crash before) give the very rows a new simulator gives, and the
+    world and vehicle are built once per airframe, controller and wind, not once per run."""
+    from quadsim.apps.sweep import run as sweep_run
+    from quadsim.apps.sweep.execute import hand_out_order
+    from quadsim.sim.simulator import Simulator
+
+    spec = _write(
+        tmp_path,
+        'scenarios = ["takeoff", "yaw", "climb"]\nairframes = ["quad", "crazyflie"]\nduration_s = 3.0\n'
+        'seeds = 2\nwind = ["0,0", "4,45"]\nturbulence = ["light"]\n'
+        '[controllers.cascade]\nkind = "cascade"\n[controllers.seed]\nkind = "seed"\n',
+    )
+    tasks = [sweep_run.RunTask(run) for run in load_sweep(spec).runs]
+    built = []
+    init = Simulator.__init__
+
+    def counting_init(self, *args, **kwargs):
+        built.append(1)
+        init(self, *args, **kwargs)
+
+    monkeypatch.setattr(Simulator, "__init__", counting_init)
+    fresh = []
+    for task in tasks:
+        sweep_run.forget_simulators()
+        fresh.append(sweep_run.fly_run(task))
+    assert len(built) == len(tasks) == 48
+    built.clear()
+    try:
+        reused = {row["index"]: row for row in map(sweep_run.fly_run, random.Random(7).sample(tasks, len(tasks)))}
+    finally:
+        sweep_run.forget_simulators()
+    assert all(row["status"] in ("ok", "fail") for row in fresh), [r["error"] for r in fresh if r["error"]]
+    assert [repr(reused[row["index"]]) for row in fresh] == [repr(row) for row in fresh]
+    # handed out as a sweep hands them out, a worker builds one simulator per airframe, controller,
+    # wind and z-mode (climb flies in velocity z-mode, the others in height): 2 x 2 x 2 x 2
+    built.clear()
+    try:
+        in_order = [sweep_run.fly_run(task) for task in sorted(tasks, key=hand_out_order)]
+    finally:
+        sweep_run.forget_simulators()
+    assert len(built) == 16
+    assert sorted(map(repr, in_order)) == sorted(map(repr, fresh))
+
+
+def test_the_largest_runs_are_handed_out_first(tmp_path: Path, monkeypatch) -> None:
+    """Work is handed out longest run first; the table keeps the sweep's order."""
+    import quadsim.apps.sweep.execute as execute
+
+    spec = load_sweep(_write(tmp_path, 'scenarios = ["takeoff", "climb", "yaw"]\n'))
+    assert [run.sim_s for run in spec.runs] == [6.0, 10.5, 14.0]
+    handed_out: list[str] = []
+
+    def fly_in_order(fn, tasks, jobs, address, use_ray):
+        handed_out.extend(task.run.scenario for task in tasks)
+        return map(fn, tasks)
+
+    monkeypatch.setattr(execute, "run_tasks", fly_in_order)
+    result = execute.run_sweep(spec, tmp_path / "out", progress=False)
+    assert handed_out == ["yaw", "climb", "takeoff"]
+    assert [row["scenario"] for row in result.rows] == ["takeoff", "climb", "yaw"]
+    assert [row["scenario"] for row in read_table(result.table)] == ["takeoff", "climb", "yaw"]

@@ -156,6 +156,16 @@ class Simulator:
                 self.loop.imu.reseed(imu_seed)
         self.loop.reset()
 
+    def restart(self, driver: InputDriver, seed: int | None = None) -> None:
+        """Back to step 0 (as `reset`), flown from now on by `driver`, in the z-mode the run was
+        made with: the next run of a sweep worker, which loads the world and the vehicle once.
+        It flies bit for bit as a new Simulator with the same config and this seed would."""
+        self.driver = driver
+        self.loop.driver = driver
+        if self.gate.z_mode is not self.z_mode:
+            self.gate.set_z_mode(self.z_mode)
+        self.reset(seed)
+
     @property
     def state(self) -> VehicleState:
         """The vehicle's state after the last step (ground truth, REP 103 frames, SI units)."""

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import importlib
+import os
 
 from quadsim.apps.bench import SECTIONS
 from quadsim.apps.options import whole
@@ -35,6 +36,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
 
 
 def main(args: argparse.Namespace) -> int:
+    print(_load("before"))
     for name, (module, function, _) in SECTIONS.items():
         if args.section in ("all", name):
             run = getattr(importlib.import_module(module), function)
@@ -42,4 +44,16 @@ def main(args: argparse.Namespace) -> int:
                 run(steps=args.steps, repeats=args.repeats)
             else:
                 run()
+    print(_load("after"))
     return 0
+
+
+def _load(when: str) -> str:
+    """The machine's load average: figures taken beside other work are not comparable."""
+    try:
+        one, five, fifteen = os.getloadavg()
+    except OSError:  # not available on this platform
+        return f"load average {when}: unknown"
+    return (
+        f"load average {when}: {one:.2f} (1 min), {five:.2f} (5 min), {fifteen:.2f} (15 min) on {os.cpu_count()} cores"
+    )

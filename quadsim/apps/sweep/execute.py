@@ -9,7 +9,7 @@ from pathlib import Path
 from typing import Any
 
 from quadsim.apps.sweep.backends import Eta, run_tasks
-from quadsim.apps.sweep.run import RunTask, fly_run
+from quadsim.apps.sweep.run import RunTask, fly_run, forget_simulators
 from quadsim.apps.sweep.spec import SweepSpec
 from quadsim.apps.sweep.table import existing_table, read_table, table_path, write_table
 from quadsim.errors import QuadsimError
@@ -27,6 +27,14 @@ class SweepResult:
     skipped: int  # runs already in the table (--resume)
     stopped: bool  # a signal ended it before every run was flown
     wall_s: float
+
+
+def hand_out_order(task: RunTask) -> tuple[Any, ...]:
+    """The order runs are handed to the workers: the largest first, so that no worker is left with
+    a long run at the end; among equals, runs that can share a simulator one after another (a
+    worker keeps a few: quadsim.apps.sweep.run). The table keeps the sweep's own order."""
+    run = task.run
+    return (-run.sim_s, run.airframe, run.controller.name, run.wind, run.turbulence, run.scenario, run.index)
 
 
 def _table(
@@ -77,6 +85,7 @@ def run_sweep(
         for run in spec.runs
         if run.index not in rows
     ]
+    todo.sort(key=hand_out_order)
     skipped = len(rows)
     bar = ProgressBar(len(spec.runs), "sweep", unit="runs") if progress else None
     eta = Eta(len(todo))
@@ -98,6 +107,7 @@ def run_sweep(
             write_table(path, rows.values())
         if bar is not None:
             bar.close()
+        forget_simulators()  # those kept by runs flown in this process (--jobs 1)
     return SweepResult(
         path,
         sorted(rows.values(), key=lambda r: r["index"]),

@@ -4,12 +4,19 @@ any worker), so a pool, Ray or a resumed sweep all give the same table."""
 from __future__ import annotations
 
 import math
+from collections import OrderedDict
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from quadsim.apps.sweep.metrics import METRICS, flight_metrics
 from quadsim.apps.sweep.spec import RunSpec
+from quadsim.core.types import ZMode
+
+if TYPE_CHECKING:
+    from quadsim.drivers import InputDriver
+    from quadsim.sim.config import SimConfig
+    from quadsim.sim.simulator import Simulator
 
 #: what a run reports besides its axes and metrics
 STATUS_COLUMNS = ("index", "key", "status", "failed_limits", "error", "recording")
@@ -27,7 +34,12 @@ class RunTask:
     record_dir: str | None = None
 
 
-def _config(run: RunSpec):
+#: simulators a worker keeps between runs (each holds a PyBullet world: a few MB)
+MAX_KEPT = 4
+_kept: OrderedDict[tuple[Any, ...], Simulator] = OrderedDict()
+
+
+def _config(run: RunSpec, z_mode: ZMode) -> SimConfig:
     from quadsim.physics.wind import wind_from_text
     from quadsim.sim.config import SimConfig
     from quadsim.vehicle.params import SHIPPED_VEHICLES
@@ -35,9 +47,35 @@ def _config(run: RunSpec):
     return SimConfig(
         urdf=SHIPPED_VEHICLES[run.airframe],
         controller=run.controller.kind,
+        z_mode=z_mode,
         wind=wind_from_text(run.wind, run.turbulence),
         seed=run.seed,
     )
+
+
+def _simulator(run: RunSpec, config: SimConfig, driver: InputDriver) -> Simulator:
+    """A simulator for `run`: one this worker built for an earlier run with the same airframe,
+    controller, gains, wind and z-mode, restarted with this run's seed and driver (it flies bit
+    for bit as a new one would: tests/test_sweep.py checks), else a new one. The world and the
+    vehicle are loaded once per worker, not once per run."""
+    from quadsim.sim.simulator import Simulator
+
+    key = (run.airframe, run.controller, run.wind, run.turbulence, config.z_mode)
+    sim = _kept.pop(key, None)
+    if sim is None:
+        sim = Simulator(config, driver, controller_gains=dict(run.controller.gains) or None)
+    else:
+        sim.restart(driver, seed=run.seed)
+    _kept[key] = sim
+    while len(_kept) > MAX_KEPT:
+        _kept.popitem(last=False)[1].close()
+    return sim
+
+
+def forget_simulators() -> None:
+    """Close the simulators this process keeps between runs."""
+    while _kept:
+        _kept.popitem()[1].close()
 
 
 def fly_run(task: RunTask) -> dict[str, Any]:
@@ -45,7 +83,6 @@ def fly_run(task: RunTask) -> dict[str, Any]:
     the row says why)."""
     from quadsim.drivers.scripted import ScriptedDriver, load_script
     from quadsim.sim.loop import StateLog
-    from quadsim.sim.simulator import Simulator
 
     run = task.run
     row: dict[str, Any] = {"index": run.index, "key": run.key, **run.axes()}
@@ -54,18 +91,22 @@ def fly_run(task: RunTask) -> dict[str, Any]:
     try:
         script = load_script(run.scenario)
         duration = run.duration_s if run.duration_s is not None else script.duration_s
-        config = _config(run)
-        gains = dict(run.controller.gains) or None
-        with Simulator(config, ScriptedDriver(script), controller_gains=gains) as sim:
+        config = _config(run, script.z_mode or ZMode.VELOCITY)
+        try:
+            sim = _simulator(run, config, ScriptedDriver(script))
             log = StateLog()
             sim.add_sink(log)
             recorded = _start_recording(task, sim, script.name) if task.record else None
             try:
                 sim.run_for(duration)
             finally:
+                sim.remove_sink(log)
                 if recorded is not None:
                     recorded.close()
-            metrics = flight_metrics(log.states, log.commands, config.rates.physics_hz, sim.events)
+        except BaseException:
+            forget_simulators()  # a run that failed half-way leaves nothing behind to reuse
+            raise
+        metrics = flight_metrics(log.states, log.commands, config.rates.physics_hz, sim.events)
         row.update(metrics)
         failed = [
             name for name, limit in task.limits if not math.isnan(metrics.get(name, math.nan)) and metrics[name] > limit

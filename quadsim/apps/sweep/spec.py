@@ -70,6 +70,9 @@ class RunSpec:
     turbulence: str
     seed: int
     duration_s: float | None
+    #: the simulated time it flies, s (its duration, else its scenario's length): the largest runs
+    #: are handed out first, so that no worker is left with a long run at the end
+    sim_s: float = 0.0
 
     @property
     def key(self) -> str:
@@ -274,7 +277,7 @@ def _runs(
     if count > MAX_RUNS:
         raise ConfigError(f"{where}: {count} runs is more than {MAX_RUNS}; sweep fewer values at once")
     runs = tuple(
-        RunSpec(i, s, a, c, w, t, seed, duration)
+        RunSpec(i, s, a, c, w, t, seed, duration, duration if duration is not None else lengths_s[s])
         for i, (s, a, c, w, t, seed) in enumerate(itertools.product(*axes.values(), range(seeds)))
     )
     return runs, sim_s
