@@ -98,7 +98,8 @@ class CascadeController:
 
     def update(self, state: VehicleState, command: ActiveCommand, dt_s: float) -> RotorForces:
         """Rotor forces for this control step: the set-points of the command (or the holds), then
-        the velocity, attitude and rate loops, outermost first."""
+        the velocity, attitude and rate loops, outermost first. (Each step is a method taking and
+        returning plain floats: this is the hot path, at the control rate.)"""
         if not command.armed:
             self._armed = False
             return self._idle
@@ -110,6 +111,7 @@ class CascadeController:
             self._z_hold = pz
             self._yaw_hold = None
         r = matrix_from_quaternion(state.orientation_xyzw)  # rotation world <- body
+        (r00, _, _), (r10, _, _), (r20, r21, r22) = r
         if command.hold:
             ux = uy = uz = ur = 0.0
         else:
@@ -117,18 +119,17 @@ class CascadeController:
             ux, uy, uz, ur = tw.linear_x, tw.linear_y, tw.linear_z, tw.angular_z
         vx, vy, vz = state.linear_velocity_mps
         wp, wq, wr = state.angular_velocity_body_rps
-        # the heading rate is the body rates' world-z component
-        heading_rate = r[2][0] * wp + r[2][1] * wq + r[2][2] * wr
-        yaw = math.atan2(r[1][0], r[0][0])
-        vsx, vsy, turn_ax, turn_ay = self._horizontal_setpoint(ux, uy, yaw, heading_rate, state)
+        heading_rate = r20 * wp + r21 * wq + r22 * wr  # the body rates' world-z component
+        yaw = math.atan2(r10, r00)
+        vsx, vsy, turn_ax, turn_ay = self._horizontal_setpoint(ux, uy, yaw, heading_rate, px, py, vx, vy)
         vsz = self._vertical_setpoint(uz, command, pz, vz)
         hs = self._heading_setpoint(ur, yaw, heading_rate)
-        ax, ay, az = self._velocity_loop((vsx, vsy, vsz), (vx, vy, vz), (turn_ax, turn_ay), dt_s)
+        ax, ay, az = self._velocity_loop(vsx, vsy, vsz, vx, vy, vz, turn_ax, turn_ay, dt_s)
         thrust, ps, qs = self._attitude_loop(ax, ay, az, r, pz)
-        return self._rate_loop(thrust, ps, qs, hs, r, (wp, wq, wr))
+        return self._rate_loop(thrust, ps, qs, hs, r20, r21, r22, wp, wq, wr)
 
     def _horizontal_setpoint(
-        self, ux: float, uy: float, yaw: float, heading_rate: float, state: VehicleState
+        self, ux: float, uy: float, yaw: float, heading_rate: float, px: float, py: float, vx: float, vy: float
     ) -> tuple[float, float, float, float]:
         """The wanted world velocity: the commanded one (heading frame -> world) with the turn's
         feed-forward acceleration, or back to the held position once slowed down."""
@@ -141,9 +142,7 @@ class CascadeController:
             # (heading rate x velocity) forward, or the loop lags it and the vehicle slips sideways
             turn_ax, turn_ay = -heading_rate * vsy, heading_rate * vsx
             return vsx, vsy, turn_ax, turn_ay
-        g, lim = self.gains, self.vehicle.limits
-        px, py, _ = state.position_m
-        vx, vy, _ = state.linear_velocity_mps
+        g = self.gains
         if self._xy_hold is None and vx * vx + vy * vy < g.hold_latch_speed_mps * g.hold_latch_speed_mps:
             self._xy_hold = (px, py)
         if self._xy_hold is None:
@@ -151,8 +150,9 @@ class CascadeController:
         vsx = g.position_p_per_s * (self._xy_hold[0] - px)
         vsy = g.position_p_per_s * (self._xy_hold[1] - py)
         sp = math.hypot(vsx, vsy)
-        if sp > lim.max_horizontal_speed_mps:
-            k = lim.max_horizontal_speed_mps / sp
+        max_speed = self.vehicle.limits.max_horizontal_speed_mps
+        if sp > max_speed:
+            k = max_speed / sp
             vsx, vsy = vsx * k, vsy * k
         return vsx, vsy, turn_ax, turn_ay
 
@@ -192,19 +192,23 @@ class CascadeController:
 
     def _velocity_loop(
         self,
-        wanted: tuple[float, float, float],
-        velocity: tuple[float, float, float],
-        turn: tuple[float, float],
+        vsx: float,
+        vsy: float,
+        vsz: float,
+        vx: float,
+        vy: float,
+        vz: float,
+        turn_ax: float,
+        turn_ay: float,
         dt_s: float,
     ) -> tuple[float, float, float]:
         """Velocity loop (world frame) -> wanted acceleration, with drag feed-forward, within the
         vertical acceleration and tilt limits; the integrators run only while unsaturated."""
         g = self.gains
-        vsx, vsy, vsz = wanted
-        ex, ey, ez = vsx - velocity[0], vsy - velocity[1], vsz - velocity[2]
+        ex, ey, ez = vsx - vx, vsy - vy, vsz - vz
         drag_xy = self._drag_xy + self._drag_q_xy * math.hypot(vsx, vsy)
-        ax = g.velocity_p_xy_per_s * ex + self._ix + drag_xy * vsx + turn[0]
-        ay = g.velocity_p_xy_per_s * ey + self._iy + drag_xy * vsy + turn[1]
+        ax = g.velocity_p_xy_per_s * ex + self._ix + drag_xy * vsx + turn_ax
+        ay = g.velocity_p_xy_per_s * ey + self._iy + drag_xy * vsy + turn_ay
         az = g.velocity_p_z_per_s * ez + self._iz + (self._drag_z + self._drag_q_z * abs(vsz)) * vsz
         sat_z = False
         if az > g.max_up_accel_mps2:
@@ -255,17 +259,27 @@ class CascadeController:
         return thrust, clamp(-k_att * dy, -mr, mr), clamp(k_att * dx, -mr, mr)
 
     def _rate_loop(
-        self, thrust: float, ps: float, qs: float, hs: float, r: Mat3, rates: tuple[float, float, float]
+        self,
+        thrust: float,
+        ps: float,
+        qs: float,
+        hs: float,
+        r20: float,
+        r21: float,
+        r22: float,
+        wp: float,
+        wq: float,
+        wr: float,
     ) -> RotorForces:
         """The body yaw rate that gives the wanted heading rate in a bank, then the rate loop ->
         body torques (with the gyroscopic term), then the mixer."""
-        g, mr = self.gains, self.gains.max_rate_rp_radps
-        wp, wq, wr = rates
+        g = self.gains
+        mr = g.max_rate_rp_radps
         # the heading rate is the body rates' world-z component (r20 p + r21 q + r22 r): in a bank,
         # the body z rate that gives the wanted heading rate, with the roll/pitch rates wanted
         my = self.vehicle.limits.max_yaw_rate_radps
         hs = clamp(hs, -my, my)
-        rs = clamp((hs - r[2][0] * ps - r[2][1] * qs) / max(r[2][2], 0.5), -mr, mr)
+        rs = clamp((hs - r20 * ps - r21 * qs) / max(r22, 0.5), -mr, mr)
         ap = g.rate_p_rp_per_s * (ps - wp)
         aq = g.rate_p_rp_per_s * (qs - wq)
         ar = g.rate_p_yaw_per_s * (rs - wr)

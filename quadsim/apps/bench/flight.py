@@ -78,17 +78,17 @@ class _ConstantForces:
 
 
 def physics_only(steps: int, repeats: int) -> Figure:
+    """The loop stepping the physics world with constant rotor forces: no controller, driver or sinks."""
     sim = hovering_sim(ControllerKind.CASCADE, Rates())
     phys = sim.physics
-    body, cid = phys.body_id, phys.client_id
     hover = _ConstantForces((sim.vehicle.hover_thrust_per_rotor_n,) * sim.vehicle.rotor_count)
     loop = SimLoop(phys, hover, sim.gate, sim.config.rates)  # no driver, no sinks
 
     def run(n: int) -> None:
         for done in range(0, n, 240):
-            # as the baseline: keep the uncontrolled body in the air
-            pb.resetBasePositionAndOrientation(body, (0, 0, 2.0), (0, 0, 0, 1), physicsClientId=cid)
-            pb.resetBaseVelocity(body, (0, 0, 0), (0, 0, 0), physicsClientId=cid)
+            # as the baseline: keep the uncontrolled body in the air (placed through the world,
+            # so that the attitude it turns forces with is the one it is given)
+            phys.place((0.0, 0.0, 2.0), (0.0, 0.0, 0.0, 1.0))
             loop.run(min(240, n - done))
 
     try:
