@@ -212,3 +212,43 @@ def test_the_window_shows_a_crash_and_resets(tmp_path):
         assert app._model().phase == "landed" and abs(app.sim.state.position_m[0] - 4.0) < 0.05
     finally:
         app.close()
+
+
+@pytest.mark.parametrize("urdf", [None, HEXA], ids=["quad", "hexa"])
+def test_the_contact_query_is_skipped_only_where_pybullet_finds_no_contact(urdf, monkeypatch):
+    """While the vehicle is clear of all the scenery, the loop does not ask PyBullet for its
+    contacts. Checked against PyBullet itself every step of a take-off, a square, a crash into
+    the tower at 4 m/s, a fall from 4 m and a hard landing: wherever the query is skipped,
+    PyBullet has no contact point at all; and both cases happen."""
+    from quadsim.physics.pybullet_world import PhysicsWorld
+
+    clear_of_scenery = PhysicsWorld._clear_of_scenery
+    seen = {"skipped": 0, "asked": 0, "wrongly_skipped": 0}
+
+    def checked(self):
+        clear = clear_of_scenery(self)
+        points = pb.getContactPoints(self.body_id, physicsClientId=self.client_id)
+        seen["skipped" if clear else "asked"] += 1
+        seen["wrongly_skipped"] += bool(clear and points)
+        return clear
+
+    monkeypatch.setattr(PhysicsWorld, "_clear_of_scenery", checked)
+    with Simulator(SimConfig(urdf=urdf, z_mode=ZMode.VELOCITY)) as sim:
+        sim.send(Twist(linear_z=1.0))
+        sim.run_for(1.5)
+        for twist in (Twist(linear_x=1.0), Twist(linear_y=1.0), Twist(linear_x=-1.0), Twist(linear_y=-1.0)):
+            sim.send(twist)
+            sim.run_for(1.5)
+        sim.send(Twist(linear_x=4.0))
+        sim.run_for(4.0)
+        crashes = [e for e in sim.events if e.kind is EventKind.CRASH]
+        sim.physics.place((0.0, 2.0, 4.0))
+        sim.send(Twist())
+        sim.run_for(3.0)
+        sim.send(Twist(linear_z=-3.0))
+        sim.run_for(3.0)
+        landed = sim.state.position_m[2]
+    assert seen["wrongly_skipped"] == 0, seen
+    assert seen["skipped"] > 1000 and seen["asked"] > 100, seen
+    assert crashes and crashes[0].hit == "red_tower", [e.value for e in crashes]
+    assert landed < 0.2
