@@ -265,7 +265,7 @@ def test_ctrl_c_while_encoding_ends_soon_with_whole_videos(tmp_path):
         assert 0 < int(frames) < int(of) == 360 and _frame_count(Path(path)) == int(frames)
 
 
-def test_plot_without_matplotlib_says_how_to_get_it(with_cameras, tmp_path, monkeypatch):
+def test_plot_without_matplotlib_says_how_to_get_it(with_cameras, tmp_path, monkeypatch, capsys):
     import builtins
 
     from quadsim.apps.flight_plot import export_plot
@@ -281,6 +281,15 @@ def test_plot_without_matplotlib_says_how_to_get_it(with_cameras, tmp_path, monk
     monkeypatch.setattr(builtins, "__import__", no_matplotlib)
     with pytest.raises(QuadsimError, match=r"pip install 'quadsim\[plot\]'"):
         export_plot(load_flight(with_cameras), tmp_path / "p.png")
+    # `replay --mp4 --plot` says so before encoding a frame (it used to, after minutes of videos)
+    from quadsim.apps.cli import main
+
+    assert (
+        main(["replay", str(with_cameras), "--mp4", str(tmp_path / "videos"), "--plot", str(tmp_path / "p.png")]) == 2
+    )
+    assert "pip install 'quadsim[plot]'" in capsys.readouterr().err
+    videos = tmp_path / "videos"
+    assert not (videos.exists() and list(videos.iterdir())) and not (tmp_path / "p.png").exists()
 
 
 def test_replay_without_display_prints_summary(with_cameras):

@@ -33,6 +33,11 @@ def _matplotlib() -> Any:
     return plt
 
 
+def require_matplotlib() -> None:
+    """Raise the one-line error now, before a command does work whose end is the plot."""
+    _matplotlib()
+
+
 def _heading_velocity(s: VehicleState) -> tuple[float, float]:
     yaw = s.yaw_rad()
     vx, vy, _ = s.linear_velocity_mps

@@ -78,7 +78,10 @@ def main(args: argparse.Namespace) -> int:
 
     size = window_size(args.window)
     if args.plot is not None:
+        from quadsim.apps.flight_plot import require_matplotlib
+
         check_output_file("--plot", args.plot, PLOT_SUFFIXES)
+        require_matplotlib()  # said before the videos are encoded, not after
     if args.mp4 is not None:
         check_output_dir("--mp4", args.mp4)
     if (args.foxglove is not None or args.ros2) and args.resim:
