@@ -7,16 +7,16 @@ the vehicle's state. It is the only flight module that imports pybullet.
 from __future__ import annotations
 
 import math
-import os
 from typing import NamedTuple
 
 import numpy as np
 
 from quadsim.core.kinematics import Vec3, matrix_from_quaternion
 from quadsim.core.types import RotorForces, StartPose, VehicleState
-from quadsim.errors import QuadsimError
+from quadsim.errors import ConfigError
+from quadsim.physics.client import WorldClient
 from quadsim.physics.pybullet_quiet import pb
-from quadsim.physics.scene import build_world, load_vehicle_body
+from quadsim.physics.scene import load_vehicle_body
 from quadsim.physics.wind import WindField, WindSettings
 from quadsim.physics.world_spec import WorldSpec
 from quadsim.vehicle.aero import drag_force_body_n, ground_effect_ratio
@@ -65,33 +65,40 @@ class PhysicsWorld:
         gui: bool = False,
         wind: WindSettings = WindSettings(),
         wind_seed: np.random.SeedSequence | None = None,
+        client: WorldClient | None = None,
+        name: str = "vehicle",
+        far_index: int = 0,
     ) -> None:
-        if gui and not os.environ.get("DISPLAY") and os.name != "nt":
-            raise QuadsimError("--gui needs a display (DISPLAY is not set); run without --gui")
+        """`client`: the world to fly in, shared with other vehicles (a fleet; it closes the
+        client), else a world of its own; `name`: what other vehicles' contacts call this one;
+        `far_index`: where `reset` parks the body for a moment, apart from the others'."""
         self.vehicle = vehicle
         self.dt_s = 1.0 / physics_hz
         self._inv_dt = 1.0 / self.dt_s
-        self._cid = pb.connect(pb.GUI if gui else pb.DIRECT)
-        if self._cid < 0:
-            raise QuadsimError("could not start PyBullet" + (" with a GUI" if gui else ""))
-        self._gui = gui
-        cid = self._cid
-        pb.setGravity(0.0, 0.0, -vehicle.gravity_mps2, physicsClientId=cid)
-        pb.setTimeStep(self.dt_s, physicsClientId=cid)
-        pb.setPhysicsEngineParameter(deterministicOverlappingPairs=1, physicsClientId=cid)
-        if gui:
-            pb.configureDebugVisualizer(pb.COV_ENABLE_GUI, 0, physicsClientId=cid)
-        self.landmark_ids = build_world(world, cid)
-        self._body_names = {body: name for name, body in self.landmark_ids.items()}
+        self._owns_client = client is None
+        if client is None:
+            client = WorldClient(world, physics_hz, vehicle.gravity_mps2, gui)
+        elif abs(client.dt_s - self.dt_s) > 1e-15 or client.gravity_mps2 != vehicle.gravity_mps2:
+            raise ConfigError(f"{name}: a vehicle's physics rate and gravity must be its world's")
+        self.client = client
+        self._cid = client.cid
+        self._gui = client.gui
+        self.landmark_ids = client.landmark_ids
+        self._body_names = client.body_names
+        self._far = (100.0 * far_index, 0.0, 1e4)
         self.start = start
+        cid = self._cid
         self.body_id = load_vehicle_body(vehicle, cid, self._spawn_position(), self._spawn_orientation())
+        self._body_names[self.body_id] = name
         links = {
             pb.getJointInfo(self.body_id, i, physicsClientId=cid)[12].decode(): i
             for i in range(pb.getNumJoints(self.body_id, physicsClientId=cid))
         }
         self.link_index = links
         self._bound_radius_m = self._bounding_radius()
-        self._scenery = self._static_scenery()
+        #: the static scenery's planes and boxes, found at the first contact query (once every
+        #: vehicle of a fleet is in the world); None: something else can move, always ask
+        self._scenery: tuple[tuple[float, ...], tuple[tuple[Vec3, Vec3], ...]] | bool | None = False
         self._clear_from: Vec3 = (math.inf, math.inf, math.inf)
         self._clear_slack_m = 0.0
         # reaction torque per newton on each rotor, about body z (CCW rotor -> negative yaw)
@@ -205,13 +212,16 @@ class PhysicsWorld:
         operations) until it is used up."""
         if self._scenery is None:
             return False
+        if self._scenery is False:
+            self._scenery = self._static_scenery()
+            return self._clear_of_scenery()
         (x, y, z), (vx, vy, vz) = self._position, self._linear_velocity
         cx, cy, cz = self._clear_from
         # travelled since the measurement, plus two steps at this speed (1-norms: never less)
         used = abs(x - cx) + abs(y - cy) + abs(z - cz) + 2.0 * self.dt_s * (abs(vx) + abs(vy) + abs(vz))
         if used < self._clear_slack_m:
             return True
-        planes, boxes = self._scenery
+        planes, boxes = self._scenery  # type: ignore[misc]
         nearest = min((z - h for h in planes), default=math.inf)
         for (lx, ly, lz), (hx, hy, hz) in boxes:
             dx, dy, dz = max(lx - x, 0.0, x - hx), max(ly - y, 0.0, y - hy), max(lz - z, 0.0, z - hz)
@@ -250,8 +260,7 @@ class PhysicsWorld:
         """Put the vehicle back at its start pose, at rest, rotors stopped."""
         # away from everything first, so that PyBullet forgets the contacts it had (their cached
         # impulses warm-start the solver): a reset then flies the same whatever came before it
-        far = (0.0, 0.0, 1e4)
-        pb.resetBasePositionAndOrientation(self.body_id, far, (0.0, 0.0, 0.0, 1.0), physicsClientId=self._cid)
+        pb.resetBasePositionAndOrientation(self.body_id, self._far, (0.0, 0.0, 0.0, 1.0), physicsClientId=self._cid)
         pb.performCollisionDetection(physicsClientId=self._cid)
         pb.resetBasePositionAndOrientation(
             self.body_id, self._spawn_position(), self._spawn_orientation(), physicsClientId=self._cid
@@ -283,7 +292,14 @@ class PhysicsWorld:
         """Advance one physics step with the given commanded rotor forces (N).
 
         Private to the simulation loop, which counts the steps: stepping from anywhere else
-        would move the vehicle without moving the clock."""
+        would move the vehicle without moving the clock. (A fleet steps its world once for
+        every vehicle: `_apply` for each, one world step, then `_finish_step` for each.)"""
+        self._apply(command_n)
+        pb.stepSimulation(self._cid)
+        self._finish_step()
+
+    def _apply(self, command_n: RotorForces) -> None:
+        """The motors move toward `command_n`; this step's force and torque are applied."""
         # the hot path: PyBullet's calls get positional arguments (parsing the keyword
         # physicsClientId costs about a quarter of a microsecond a call). Every force and torque
         # is summed here, in base_link about its origin, and applied once, turned into the world
@@ -332,7 +348,9 @@ class PhysicsWorld:
             world,
             cid,
         )
-        pb.stepSimulation(cid)
+
+    def _finish_step(self) -> None:
+        """After the world stepped: the vehicle's new pose and velocities."""
         self._previous_velocity = self._linear_velocity
         self._read_kinematics()
 
@@ -370,12 +388,10 @@ class PhysicsWorld:
         return self._cid
 
     def close(self) -> None:
-        if self._cid >= 0:
-            try:
-                pb.disconnect(physicsClientId=self._cid)
-            except pb.error:
-                pass
-            self._cid = -1
+        """Disconnect the world if it is this vehicle's own (a fleet closes a shared one)."""
+        if self._owns_client:
+            self.client.close()
+        self._cid = -1
 
     def __enter__(self) -> PhysicsWorld:
         return self

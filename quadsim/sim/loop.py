@@ -12,6 +12,9 @@ Stepping order, once per physics step n (time n / physics_hz):
                                        sinks receive the state at step n + 1
   6. taps    ((n + 1) % every == 0):       e.g. the cameras capture the state at step n + 1
 Nothing here reads the wall clock; only a window paces these steps to real time.
+
+`run` does stages 1-2 (`before_physics`), 3 and 4-6 (`after_physics`) step after step; a fleet
+(quadsim.sim.fleet) does stages 1-2 for every vehicle, one world step, then 4-6 for every vehicle.
 """
 
 from __future__ import annotations
@@ -199,50 +202,58 @@ class SimLoop:
 
     def run(self, steps: int) -> None:
         """Advance `steps` physics steps (see the module docstring for the order)."""
-        physics, landing, gate, driver = self.physics, self.landing, self.gate, self.driver
-        input_every, control_every, state_every = self._input_every, self._control_every, self._state_every
-        control_dt, hz = self._control_dt_s, self.rates.physics_hz
-        sinks, taps, imu = self.sinks, self._taps, self.imu
-        n = self.step_count
-        command = self._rotor_command
+        physics, before, after = self.physics, self.before_physics, self.after_physics
         # the state after a step is built once, only if someone takes it: the sinks and taps of
         # that step, then the controller at the start of the next one (nothing moves in between)
         state: VehicleState | None = None
         for _ in range(steps):
-            if driver is not None and (n % input_every == 0 or n >= driver.next_poll_step):
-                twist = driver.poll(n, n / hz)
-                if twist is not None:
-                    accepted = gate.receive(twist, n)
-                    if accepted is not None:
-                        for sink in sinks:
-                            sink.on_command(n, accepted)
-            if n % control_every == 0:
-                phase = landing.phase
-                command = landing.update(
-                    physics.state(n) if state is None else state, gate.active(n), self._on_ground, control_dt
-                )
-                if landing.phase is not phase:
-                    if landing.phase is FlightPhase.FLYING:
-                        self._emit(FlightEvent(n, EventKind.TAKEOFF, "climbing from the ground"))
-                    else:
-                        self._emit(FlightEvent(n, EventKind.LANDED, "on the ground, rotors idle"))
-            physics._step(command)
-            n += 1
-            state = None
-            if self._after_contact(n):
-                command = self._idle
-            if n % state_every == 0:
-                if imu is not None:
-                    state = imu.measure(physics.state(n))
-                if sinks:
-                    if state is None:
-                        state = physics.state(n)
-                    for sink in sinks:
-                        sink.on_state(state)
-            for every, tap in taps:
-                if n % every == 0:
-                    if state is None:
-                        state = physics.state(n)
-                    tap(state)
-        self.step_count = n
-        self._rotor_command = command
+            physics._step(before(state))
+            state = after()
+
+    def before_physics(self, state: VehicleState | None = None) -> RotorForces:
+        """Stages 1 and 2 at step n (the step count): the driver's input, then the control
+        update; the rotor forces to apply in this step. `state`: the vehicle's state at n if the
+        last `after_physics` built it."""
+        n, driver, gate = self.step_count, self.driver, self.gate
+        if driver is not None and (n % self._input_every == 0 or n >= driver.next_poll_step):
+            twist = driver.poll(n, n / self.rates.physics_hz)
+            if twist is not None:
+                accepted = gate.receive(twist, n)
+                if accepted is not None:
+                    for sink in self.sinks:
+                        sink.on_command(n, accepted)
+        if n % self._control_every == 0:
+            landing = self.landing
+            phase = landing.phase
+            self._rotor_command = landing.update(
+                self.physics.state(n) if state is None else state, gate.active(n), self._on_ground, self._control_dt_s
+            )
+            if landing.phase is not phase:
+                if landing.phase is FlightPhase.FLYING:
+                    self._emit(FlightEvent(n, EventKind.TAKEOFF, "climbing from the ground"))
+                else:
+                    self._emit(FlightEvent(n, EventKind.LANDED, "on the ground, rotors idle"))
+        return self._rotor_command
+
+    def after_physics(self) -> VehicleState | None:
+        """Stages 4 to 6, once the physics has stepped: the step count moves on to n + 1, then
+        contacts, publishing and taps. The state at n + 1 if one was built (None otherwise)."""
+        n = self.step_count = self.step_count + 1
+        physics = self.physics
+        state: VehicleState | None = None
+        if self._after_contact(n):
+            self._rotor_command = self._idle
+        if n % self._state_every == 0:
+            if self.imu is not None:
+                state = self.imu.measure(physics.state(n))
+            if self.sinks:
+                if state is None:
+                    state = physics.state(n)
+                for sink in self.sinks:
+                    sink.on_state(state)
+        for every, tap in self._taps:
+            if n % every == 0:
+                if state is None:
+                    state = physics.state(n)
+                tap(state)
+        return state

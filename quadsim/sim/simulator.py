@@ -12,7 +12,7 @@ This is also the API for autonomy code:
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import asdict, replace
+from dataclasses import asdict, dataclass, replace
 from typing import Any
 
 import numpy as np
@@ -24,6 +24,7 @@ from quadsim.core.types import Twist, VehicleState, ZMode
 from quadsim.drivers import InputDriver
 from quadsim.drivers.programmatic import ProgrammaticDriver
 from quadsim.errors import QuadsimError
+from quadsim.physics.client import WorldClient
 from quadsim.physics.pybullet_world import PhysicsWorld
 from quadsim.physics.world_spec import load_world
 from quadsim.sensors.imu import ImuNoise
@@ -32,6 +33,15 @@ from quadsim.sim.description import ControllerDescription, RunDescription, Vehic
 from quadsim.sim.flight_events import FlightEvent
 from quadsim.sim.loop import SimLoop, Sink
 from quadsim.vehicle.params import load_vehicle
+
+
+@dataclass(frozen=True)
+class FleetPlace:
+    """Where a vehicle flies in a fleet: the world it shares, its name and its index."""
+
+    client: WorldClient
+    name: str
+    index: int
 
 
 class Simulator:
@@ -45,14 +55,18 @@ class Simulator:
         texture_required: bool = True,
         landing: LandingSettings = LandingSettings(),
         reset_on_crash: bool = False,
+        fleet: FleetPlace | None = None,
     ) -> None:
+        """`fleet`: where this vehicle flies in a fleet (quadsim.sim.fleet.Fleet builds it with
+        this): the shared world, its name, its index. Then only the fleet steps it."""
+        self.fleet = fleet
         self.driver: InputDriver = driver if driver is not None else ProgrammaticDriver()
         if config.z_mode is None:  # the driver's wish (a script's z_mode line), else velocity
             config = replace(config, z_mode=getattr(self.driver, "preferred_z_mode", None) or ZMode.VELOCITY)
         self.config = config
         self.z_mode: ZMode = config.z_mode or ZMode.VELOCITY
         self.vehicle = load_vehicle(config.urdf, config.vehicle_params)
-        self.world = load_world(config.world, texture_required)
+        self.world = load_world(config.world, texture_required) if fleet is None else fleet.client.world
         rates = config.rates
         timeout = config.command_timeout_s
         self.controller = make_controller(config.controller, self.vehicle, controller_gains)
@@ -61,7 +75,16 @@ class Simulator:
         )
         wind_seed, imu_seed = _streams(config.seed)
         self.physics = PhysicsWorld(
-            self.vehicle, self.world, rates.physics_hz, config.start, config.gui, config.wind, wind_seed
+            self.vehicle,
+            self.world,
+            rates.physics_hz,
+            config.start,
+            config.gui,
+            config.wind,
+            wind_seed,
+            client=None if fleet is None else fleet.client,
+            name="vehicle" if fleet is None else fleet.name,
+            far_index=0 if fleet is None else fleet.index,
         )
         imu = ImuNoise(self.vehicle.imu_noise, rates.state_hz, imu_seed) if config.sensor_noise else None
         self.loop = SimLoop(
@@ -91,6 +114,8 @@ class Simulator:
 
     def step(self, steps: int = 1) -> VehicleState:
         """Advance `steps` physics steps through the loop (input, control, physics, outputs); the new state."""
+        if self.fleet is not None:
+            raise QuadsimError(f"{self.fleet.name} flies in a fleet, which steps every vehicle at once: step the fleet")
         self.loop.run(steps)
         return self.state
 

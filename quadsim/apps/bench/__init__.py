@@ -17,4 +17,5 @@ SECTIONS: dict[str, tuple[str, str, str]] = {
     "live": ("quadsim.apps.bench.live", "run_live_bench", "Foxglove streaming"),
     "ros2": ("quadsim.apps.bench.ros2", "run_ros2_bench", "the ROS 2 bridge beside a real rclpy node"),
     "sweep": ("quadsim.apps.bench.sweep", "run_sweep_bench", "a 64-run sweep on 1 worker, every core and Ray"),
+    "fleet": ("quadsim.apps.bench.fleet", "run_fleet_bench", "1 to 25 vehicles in one world"),
 }

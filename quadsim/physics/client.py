@@ -1,0 +1,49 @@
+"""The PyBullet client a simulation runs in: gravity, the step length and the world's scenery
+(floor and landmarks), built once and shared by every vehicle flying in it (one vehicle, or a
+fleet). Stepping it advances every body at once."""
+
+from __future__ import annotations
+
+import os
+
+from quadsim.errors import QuadsimError
+from quadsim.physics.pybullet_quiet import pb
+from quadsim.physics.scene import build_world
+from quadsim.physics.world_spec import WorldSpec
+
+
+class WorldClient:
+    """A PyBullet client holding the world; vehicles add their bodies to it (PhysicsWorld)."""
+
+    def __init__(self, world: WorldSpec, physics_hz: int, gravity_mps2: float, gui: bool = False) -> None:
+        if gui and not os.environ.get("DISPLAY") and os.name != "nt":
+            raise QuadsimError("--gui needs a display (DISPLAY is not set); run without --gui")
+        self.world = world
+        self.dt_s = 1.0 / physics_hz
+        self.gravity_mps2 = gravity_mps2
+        self.gui = gui
+        self.cid = pb.connect(pb.GUI if gui else pb.DIRECT)
+        if self.cid < 0:
+            raise QuadsimError("could not start PyBullet" + (" with a GUI" if gui else ""))
+        cid = self.cid
+        pb.setGravity(0.0, 0.0, -gravity_mps2, physicsClientId=cid)
+        pb.setTimeStep(self.dt_s, physicsClientId=cid)
+        pb.setPhysicsEngineParameter(deterministicOverlappingPairs=1, physicsClientId=cid)
+        if gui:
+            pb.configureDebugVisualizer(pb.COV_ENABLE_GUI, 0, physicsClientId=cid)
+        #: body ids of the scenery by name ('floor' and each landmark)
+        self.landmark_ids = build_world(world, cid)
+        #: what each body is called in contacts: the scenery's names, then each vehicle's
+        self.body_names = {body: name for name, body in self.landmark_ids.items()}
+
+    def step(self) -> None:
+        """One physics step of every body in the world."""
+        pb.stepSimulation(self.cid)
+
+    def close(self) -> None:
+        if self.cid >= 0:
+            try:
+                pb.disconnect(physicsClientId=self.cid)
+            except pb.error:
+                pass
+            self.cid = -1

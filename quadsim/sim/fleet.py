@@ -1,0 +1,200 @@
+"""A fleet: several vehicles in one world, on one clock.
+
+Each vehicle is a full Simulator (its own command gate, controller, landing layer, motors, flight
+events, IMU noise and wind streams, sinks and taps) whose body is in the fleet's one PyBullet
+world. The fleet steps them together: every vehicle's input and control, every vehicle's forces,
+one world step, then every vehicle's contacts, publishing and taps. Vehicles collide with each
+other; a collision is a flight event on both, naming the other.
+
+    from quadsim import Fleet, FleetVehicle, StartPose, Twist
+    with Fleet([FleetVehicle("alpha"), FleetVehicle("bravo", start=StartPose(3.0, 0.0))]) as fleet:
+        fleet["alpha"].send(Twist(linear_z=1.0))
+        fleet.run_for(2.0)
+        print(fleet["alpha"].state.position_m, fleet["bravo"].events)
+"""
+
+from __future__ import annotations
+
+import math
+import re
+from collections.abc import Iterator, Sequence
+from dataclasses import dataclass, field, replace
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from quadsim.control import ControllerKind
+from quadsim.control.landing import LandingSettings
+from quadsim.core.types import StartPose, VehicleState, ZMode
+from quadsim.drivers import InputDriver
+from quadsim.errors import ConfigError
+from quadsim.physics.client import WorldClient
+from quadsim.physics.world_spec import load_world
+from quadsim.sim.config import MAX_SEED, SimConfig
+from quadsim.sim.simulator import FleetPlace, Simulator
+from quadsim.vehicle.params import load_vehicle
+
+#: a vehicle's name is a ROS name segment: it goes in front of its topics (/alpha/quad/odom)
+NAME = re.compile(r"[a-z][a-z0-9_]{0,62}")
+#: at most this many vehicles in one world
+MAX_VEHICLES = 100
+
+
+@dataclass(frozen=True)
+class FleetVehicle:
+    """One vehicle of a fleet: its name, start pose, input and gains, and where it differs from
+    the fleet's config: airframe (URDF), controller, z-mode (None: the fleet's)."""
+
+    name: str
+    start: StartPose = StartPose()
+    urdf: Path | None = None
+    controller: ControllerKind | None = None
+    z_mode: ZMode | None = None
+    driver: InputDriver | None = None
+    controller_gains: dict[str, Any] | None = field(default=None, compare=False)
+
+
+class Fleet:
+    """Vehicles in one world, stepped together on one clock; `fleet["alpha"]` is one of them."""
+
+    def __init__(
+        self,
+        vehicles: Sequence[FleetVehicle],
+        config: SimConfig = SimConfig(),
+        landing: LandingSettings = LandingSettings(),
+        reset_on_crash: bool = False,
+    ) -> None:
+        """`config`: what the vehicles share (world, rates, wind, sensor noise, the run's seed);
+        its vehicle, controller, z-mode and start are each vehicle's own."""
+        _check(vehicles, config)
+        self.config = config
+        world = load_world(config.world)
+        gravity = load_vehicle(vehicles[0].urdf or config.urdf).gravity_mps2  # every vehicle's is checked against it
+        self.client = WorldClient(world, config.rates.physics_hz, gravity, config.gui)
+        self.vehicles: dict[str, Simulator] = {}
+        try:
+            for index, v in enumerate(vehicles):
+                own = replace(
+                    config,
+                    urdf=v.urdf if v.urdf is not None else config.urdf,
+                    controller=v.controller if v.controller is not None else config.controller,
+                    z_mode=v.z_mode if v.z_mode is not None else config.z_mode,
+                    start=v.start,
+                    seed=_vehicle_seed(config.seed, index),
+                )
+                self.vehicles[v.name] = Simulator(
+                    own,
+                    v.driver,
+                    controller_gains=v.controller_gains,
+                    landing=landing,
+                    reset_on_crash=reset_on_crash,
+                    fleet=FleetPlace(self.client, v.name, index),
+                )
+        except BaseException:
+            self.close()
+            raise
+        _check_apart(self.vehicles)
+        self._members = tuple(self.vehicles.values())
+        self._states: list[VehicleState | None] = [None] * len(self._members)
+
+    def __getitem__(self, name: str) -> Simulator:
+        try:
+            return self.vehicles[name]
+        except KeyError:
+            raise KeyError(f"no vehicle named {name!r} in this fleet; it has {', '.join(self.vehicles)}") from None
+
+    def __iter__(self) -> Iterator[str]:
+        return iter(self.vehicles)
+
+    def __len__(self) -> int:
+        return len(self.vehicles)
+
+    # --- stepping ---------------------------------------------------------------------------
+
+    def step(self, steps: int = 1) -> None:
+        """Advance every vehicle `steps` physics steps together: each one's input and control,
+        each one's forces, one world step, then each one's contacts, publishing and taps."""
+        loops = [m.loop for m in self._members]
+        bodies = [m.physics for m in self._members]
+        world_step, states = self.client.step, self._states
+        for _ in range(steps):
+            commands = [loop.before_physics(state) for loop, state in zip(loops, states)]
+            for body, command in zip(bodies, commands):
+                body._apply(command)
+            world_step()
+            for body in bodies:
+                body._finish_step()
+            states = [loop.after_physics() for loop in loops]
+        self._states = states
+
+    def run_for(self, seconds: float) -> None:
+        """Advance by `seconds` of simulation time (rounded to whole physics steps)."""
+        self.step(round(seconds * self.config.rates.physics_hz))
+
+    @property
+    def step_count(self) -> int:
+        """The fleet's one clock, in physics steps."""
+        return self._members[0].step_count
+
+    @property
+    def time_s(self) -> float:
+        return self.step_count / self.config.rates.physics_hz
+
+    def reset(self, seed: int | None = None) -> None:
+        """Every vehicle back at its start at step 0; with `seed`, the run's random streams start
+        again from it (each vehicle's derived from it as at the start)."""
+        for index, member in enumerate(self._members):
+            member.reset(None if seed is None else _vehicle_seed(seed, index))
+        self._states = [None] * len(self._members)
+
+    # --- lifetime ---------------------------------------------------------------------------
+
+    def close(self) -> None:
+        """Close every vehicle and the world."""
+        for member in self.vehicles.values():
+            member.close()
+        self.client.close()
+
+    def __enter__(self) -> Fleet:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+
+def _vehicle_seed(seed: int, index: int) -> int:
+    """Vehicle `index`'s seed: its own random streams, all from the run's seed."""
+    return int(np.random.SeedSequence([seed, index]).generate_state(1, np.uint64)[0] % (MAX_SEED + 1))
+
+
+def _check(vehicles: Sequence[FleetVehicle], config: SimConfig) -> None:
+    if not vehicles:
+        raise ConfigError("a fleet needs at least one vehicle")
+    if len(vehicles) > MAX_VEHICLES:
+        raise ConfigError(f"a fleet of {len(vehicles)} vehicles: at most {MAX_VEHICLES} fly in one world")
+    seen: set[str] = set()
+    for v in vehicles:
+        if not isinstance(v.name, str) or not NAME.fullmatch(v.name):
+            raise ConfigError(
+                f"vehicle name {v.name!r}: a ROS name segment is needed (a lowercase letter, then lowercase "
+                "letters, digits or _; at most 63)"
+            )
+        if v.name in seen:
+            raise ConfigError(f"two vehicles are named {v.name!r}: each name must be unique")
+        seen.add(v.name)
+    if config.gui and len(vehicles) > 1:
+        raise ConfigError("PyBullet's own window (--gui) shows one vehicle's run; leave it out for a fleet")
+
+
+def _check_apart(vehicles: dict[str, Simulator]) -> None:
+    """No two vehicles start inside each other's reach (their rotors would touch)."""
+    placed = [(name, sim.physics.state(0).position_m, sim.physics._bound_radius_m) for name, sim in vehicles.items()]
+    for i, (a, pa, ra) in enumerate(placed):
+        for b, pb_, rb in placed[i + 1 :]:
+            gap = math.dist(pa[:2], pb_[:2])
+            if gap < ra + rb:
+                raise ConfigError(
+                    f"vehicles {a!r} and {b!r} start {gap:.2f} m apart: they would overlap (at least "
+                    f"{ra + rb:.2f} m between their start positions)"
+                )
