@@ -114,3 +114,21 @@ def test_the_docs_fleet_example_runs_and_does_what_it_says(capsys):
     time_s, alpha, bravo = numbers[0], numbers[1:4], numbers[4:7]
     assert time_s == 2.0
     assert 1.0 < alpha[2] < 2.5 and bravo[2] < 0.1  # alpha climbed at 1 m/s; bravo stayed on the ground
+
+
+def test_a_start_on_a_landmark_is_refused_and_leaves_no_world_behind():
+    """A start pose on the red tower's spot (the vehicle would start inside it) is one line
+    naming the landmark, for one vehicle and in a fleet; no PyBullet client is left open."""
+    import pybullet as pb
+
+    def open_clients() -> int:
+        return sum(pb.getConnectionInfo(cid)["isConnected"] for cid in range(64))
+
+    before = open_clients()
+    with pytest.raises(ConfigError, match=r"start pose \(6, 0\) is on the red_tower landmark's spot"):
+        Simulator(SimConfig(start=StartPose(6.0, 0.0)))
+    with pytest.raises(ConfigError, match=r"bravo: the start pose \(5.5, 0.3\) is on the red_tower"):
+        Fleet([FleetVehicle("alpha"), FleetVehicle("bravo", start=StartPose(5.5, 0.3))])
+    assert open_clients() == before
+    with Simulator(SimConfig(start=StartPose(5.0, 0.0))) as sim:  # beside it: fine
+        assert sim.state.position_m[0] == pytest.approx(5.0, abs=1e-6)

@@ -87,15 +87,12 @@ class PhysicsWorld:
         self._body_names = client.body_names
         self._far = (100.0 * far_index, 0.0, 1e4)
         self.start = start
-        cid = self._cid
-        self.body_id = load_vehicle_body(vehicle, cid, self._spawn_position(), self._spawn_orientation())
-        self._body_names[self.body_id] = name
-        links = {
-            pb.getJointInfo(self.body_id, i, physicsClientId=cid)[12].decode(): i
-            for i in range(pb.getNumJoints(self.body_id, physicsClientId=cid))
-        }
-        self.link_index = links
-        self._bound_radius_m = self._bounding_radius()
+        try:
+            self._load_body(name)
+        except BaseException:
+            if self._owns_client:  # a world of its own is not left behind
+                client.close()
+            raise
         #: the static scenery's planes and boxes, found at the first contact query (once every
         #: vehicle of a fleet is in the world); None: something else can move, always ask
         self._scenery: tuple[tuple[float, ...], tuple[tuple[Vec3, Vec3], ...]] | bool | None = False
@@ -176,6 +173,34 @@ class PhysicsWorld:
             for z in (lo[2], hi[2])
         ]
         return max(corners, default=0.0)
+
+    def _load_body(self, name: str) -> None:
+        """The vehicle's body at its start pose, its links by name and its reach."""
+        cid = self._cid
+        self.body_id = load_vehicle_body(self.vehicle, cid, self._spawn_position(), self._spawn_orientation())
+        self._body_names[self.body_id] = name
+        self.link_index = {
+            pb.getJointInfo(self.body_id, i, physicsClientId=cid)[12].decode(): i
+            for i in range(pb.getNumJoints(self.body_id, physicsClientId=cid))
+        }
+        self._bound_radius_m = self._bounding_radius()
+        self._check_start_is_clear(name)
+
+    def _check_start_is_clear(self, name: str) -> None:
+        """Refuse a start pose whose spot on the floor is taken by a landmark (the vehicle would
+        start inside it, stuck), naming both."""
+        x, y = self.start.x_m, self.start.y_m
+        reach = self._bound_radius_m
+        for landmark, body in self.landmark_ids.items():
+            if landmark == "floor" or not pb.getCollisionShapeData(body, -1, physicsClientId=self._cid):
+                continue
+            (lx, ly, _), (hx, hy, _) = pb.getAABB(body, -1, physicsClientId=self._cid)
+            if lx - reach < x < hx + reach and ly - reach < y < hy + reach:
+                raise ConfigError(
+                    f"{name}: the start pose ({x:g}, {y:g}) is on the {landmark} landmark's spot "
+                    f"(x {lx:g} .. {hx:g}, y {ly:g} .. {hy:g}, and the vehicle's {reach:.2f} m reach): "
+                    "start elsewhere"
+                )
 
     def _static_scenery(self) -> tuple[tuple[float, ...], tuple[tuple[Vec3, Vec3], ...]] | None:
         """The heights of the horizontal planes and the boxes of every other body that can touch
