@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import os
 
+from quadsim.core.kinematics import Vec3
 from quadsim.errors import QuadsimError
 from quadsim.physics.pybullet_quiet import pb
 from quadsim.physics.scene import build_world
@@ -35,6 +36,31 @@ class WorldClient:
         self.landmark_ids = build_world(world, cid)
         #: what each body is called in contacts: the scenery's names, then each vehicle's
         self.body_names = {body: name for name, body in self.landmark_ids.items()}
+        #: the scenery as geometry: the heights of its level planes (the floor) and each landmark's
+        #: box by name (a landmark without collision is left out: nothing touches it); None when a
+        #: plane is tilted (no vehicle then skips its contact query)
+        self.scenery = self._scenery_geometry()
+
+    def _scenery_geometry(self) -> tuple[tuple[float, ...], dict[str, tuple[Vec3, Vec3]]] | None:
+        cid = self.cid
+        planes: list[float] = []
+        boxes: dict[str, tuple[Vec3, Vec3]] = {}
+        for name, body in self.landmark_ids.items():
+            shapes = pb.getCollisionShapeData(body, -1, physicsClientId=cid)
+            if not shapes:
+                continue
+            if shapes[0][2] == pb.GEOM_PLANE:
+                position, orientation = pb.getBasePositionAndOrientation(body, physicsClientId=cid)
+                level = tuple(shapes[0][5]) == (0.0, 0.0, 0.0) and tuple(shapes[0][6]) == (0.0, 0.0, 0.0, 1.0)
+                if not (
+                    level and tuple(orientation) == (0.0, 0.0, 0.0, 1.0) and tuple(shapes[0][3]) == (0.0, 0.0, 1.0)
+                ):
+                    return None
+                planes.append(position[2])
+            else:
+                lo, hi = pb.getAABB(body, -1, physicsClientId=cid)
+                boxes[name] = (tuple(lo), tuple(hi))
+        return tuple(planes), boxes
 
     def step(self) -> None:
         """One physics step of every body in the world."""

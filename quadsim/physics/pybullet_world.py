@@ -183,18 +183,17 @@ class PhysicsWorld:
             pb.getJointInfo(self.body_id, i, physicsClientId=cid)[12].decode(): i
             for i in range(pb.getNumJoints(self.body_id, physicsClientId=cid))
         }
-        self._bound_radius_m = self._bounding_radius()
+        #: the radius of a sphere about base_link's origin that holds the vehicle in any attitude
+        self.reach_m = self._bounding_radius()
         self._check_start_is_clear(name)
 
     def _check_start_is_clear(self, name: str) -> None:
         """Refuse a start pose whose spot on the floor is taken by a landmark (the vehicle would
         start inside it, stuck), naming both."""
         x, y = self.start.x_m, self.start.y_m
-        reach = self._bound_radius_m
-        for landmark, body in self.landmark_ids.items():
-            if landmark == "floor" or not pb.getCollisionShapeData(body, -1, physicsClientId=self._cid):
-                continue
-            (lx, ly, _), (hx, hy, _) = pb.getAABB(body, -1, physicsClientId=self._cid)
+        reach = self.reach_m
+        boxes = self.client.scenery[1] if self.client.scenery is not None else {}
+        for landmark, ((lx, ly, _), (hx, hy, _)) in boxes.items():
             if lx - reach < x < hx + reach and ly - reach < y < hy + reach:
                 raise ConfigError(
                     f"{name}: the start pose ({x:g}, {y:g}) is on the {landmark} landmark's spot "
@@ -203,32 +202,19 @@ class PhysicsWorld:
                 )
 
     def _static_scenery(self) -> tuple[tuple[float, ...], tuple[tuple[Vec3, Vec3], ...]] | None:
-        """The heights of the horizontal planes and the boxes of every other body that can touch
-        the vehicle, or None when one of them could move (then the contacts are always asked)."""
-        cid = self._cid
-        planes: list[float] = []
-        boxes: list[tuple[Vec3, Vec3]] = []
+        """The heights of the horizontal planes and the boxes of the scenery, or None when some
+        other body that can touch the vehicle is in the world (another vehicle, or a body added
+        from outside: it may move; then the contacts are always asked)."""
+        cid, scenery = self._cid, self.client.scenery
+        if scenery is None:
+            return None
+        known = {*self.landmark_ids.values(), self.body_id}
         for index in range(pb.getNumBodies(physicsClientId=cid)):
             other = pb.getBodyUniqueId(index, physicsClientId=cid)
-            if other == self.body_id:
-                continue
-            shapes = pb.getCollisionShapeData(other, -1, physicsClientId=cid)
-            if not shapes:
-                continue  # nothing to touch (a landmark without collision)
-            if pb.getNumJoints(other, physicsClientId=cid) or pb.getDynamicsInfo(other, -1, physicsClientId=cid)[0]:
-                return None  # it has mass or links: it may move
-            position, orientation = pb.getBasePositionAndOrientation(other, physicsClientId=cid)
-            if shapes[0][2] == pb.GEOM_PLANE:
-                level = tuple(shapes[0][5]) == (0.0, 0.0, 0.0) and tuple(shapes[0][6]) == (0.0, 0.0, 0.0, 1.0)
-                if not (
-                    level and tuple(orientation) == (0.0, 0.0, 0.0, 1.0) and tuple(shapes[0][3]) == (0.0, 0.0, 1.0)
-                ):
-                    return None  # a tilted plane: not worth a special case
-                planes.append(position[2])
-            else:
-                lo, hi = pb.getAABB(other, -1, physicsClientId=cid)
-                boxes.append((tuple(lo), tuple(hi)))
-        return tuple(planes), tuple(boxes)
+            if other not in known and pb.getCollisionShapeData(other, -1, physicsClientId=cid):
+                return None
+        planes, boxes = scenery
+        return planes, tuple(boxes.values())
 
     def _clear_of_scenery(self) -> bool:
         """True when the vehicle cannot be touching anything: its bounding sphere is more than
@@ -242,9 +228,9 @@ class PhysicsWorld:
             return self._clear_of_scenery()
         (x, y, z), (vx, vy, vz) = self._position, self._linear_velocity
         cx, cy, cz = self._clear_from
-        # travelled since the measurement, plus two steps at this speed (1-norms: never less)
-        used = abs(x - cx) + abs(y - cy) + abs(z - cz) + 2.0 * self.dt_s * (abs(vx) + abs(vy) + abs(vz))
-        if used < self._clear_slack_m:
+        # two steps at this speed, plus (below) how far it went since the measurement (1-norms: never less)
+        ahead = 2.0 * self.dt_s * (abs(vx) + abs(vy) + abs(vz))
+        if abs(x - cx) + abs(y - cy) + abs(z - cz) + ahead < self._clear_slack_m:
             return True
         planes, boxes = self._scenery  # type: ignore[misc]
         nearest = min((z - h for h in planes), default=math.inf)
@@ -252,8 +238,8 @@ class PhysicsWorld:
             dx, dy, dz = max(lx - x, 0.0, x - hx), max(ly - y, 0.0, y - hy), max(lz - z, 0.0, z - hz)
             nearest = min(nearest, math.sqrt(dx * dx + dy * dy + dz * dz))
         self._clear_from = (x, y, z)
-        self._clear_slack_m = nearest - self._bound_radius_m - _CONTACT_CLEARANCE_M
-        return 2.0 * self.dt_s * (abs(vx) + abs(vy) + abs(vz)) < self._clear_slack_m
+        self._clear_slack_m = nearest - self.reach_m - _CONTACT_CLEARANCE_M
+        return ahead < self._clear_slack_m
 
     def contacts(self) -> tuple[Contact, ...]:
         """What the vehicle touches after the last physics step, one entry per other body (with

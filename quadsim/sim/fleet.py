@@ -189,7 +189,7 @@ def _check(vehicles: Sequence[FleetVehicle], config: SimConfig) -> None:
 
 def _check_apart(vehicles: dict[str, Simulator]) -> None:
     """No two vehicles start inside each other's reach (their rotors would touch)."""
-    placed = [(name, sim.physics.state(0).position_m, sim.physics._bound_radius_m) for name, sim in vehicles.items()]
+    placed = [(name, sim.physics.state(0).position_m, sim.physics.reach_m) for name, sim in vehicles.items()]
     for i, (a, pa, ra) in enumerate(placed):
         for b, pb_, rb in placed[i + 1 :]:
             gap = math.dist(pa[:2], pb_[:2])
