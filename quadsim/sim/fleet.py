@@ -33,7 +33,7 @@ from quadsim.physics.client import WorldClient
 from quadsim.physics.world_spec import load_world
 from quadsim.sim.config import MAX_SEED, SimConfig
 from quadsim.sim.simulator import FleetPlace, Simulator
-from quadsim.vehicle.params import load_vehicle
+from quadsim.vehicle.params import VehicleParams
 
 #: a vehicle's name is a ROS name segment: it goes in front of its topics (/alpha/quad/odom)
 NAME = re.compile(r"[a-z][a-z0-9_]{0,62}")
@@ -70,7 +70,7 @@ class Fleet:
         _check(vehicles, config)
         self.config = config
         world = load_world(config.world)
-        gravity = load_vehicle(vehicles[0].urdf or config.urdf).gravity_mps2  # every vehicle's is checked against it
+        gravity = VehicleParams.gravity_mps2  # what every vehicle carries; each is checked against the world's
         self.client = WorldClient(world, config.rates.physics_hz, gravity, config.gui)
         self.vehicles: dict[str, Simulator] = {}
         try:

@@ -4,9 +4,9 @@ cost of a vehicle-step against one Simulator's step measured in the same run."""
 from __future__ import annotations
 
 import math
-import time
 from collections.abc import Callable
 
+from quadsim.apps.bench.figures import best_of
 from quadsim.core.types import StartPose, Twist, ZMode
 from quadsim.sim.config import SimConfig
 from quadsim.sim.fleet import Fleet, FleetVehicle
@@ -15,15 +15,6 @@ from quadsim.sim.simulator import Simulator
 SIZES = (1, 4, 10, 25)
 #: a grid 1.5 m apart in a clear corner of the default world
 SPACING_M, ORIGIN = 1.5, (-12.0, 6.0)
-
-
-def _seconds_per_step(step: Callable[[int], object], steps: int, repeats: int) -> float:
-    best = math.inf
-    for _ in range(repeats):
-        start = time.perf_counter()
-        step(steps)
-        best = min(best, (time.perf_counter() - start) / steps)
-    return best
 
 
 def _hovering_fleet(size: int) -> Fleet:
@@ -44,11 +35,11 @@ def run_fleet_bench(out: Callable[[str], None] = print, steps: int = 2400, repea
     with Simulator(SimConfig(z_mode=ZMode.HEIGHT)) as sim:
         sim.send(Twist())
         sim.run_for(2.0)
-        one = _seconds_per_step(sim.step, steps, repeats)
+        one = best_of(repeats, steps, sim.step)
     out(f"  one Simulator (baseline)   {one * 1e6:8.1f} us/step   {1 / one / 240:6.1f}x real time")
     for size in SIZES:
         with _hovering_fleet(size) as fleet:
-            per_step = _seconds_per_step(fleet.step, steps, repeats)
+            per_step = best_of(repeats, steps, fleet.step)
         out(
             f"  {size:3d} vehicles             {per_step * 1e6:8.1f} us/step   {1 / per_step / 240:6.1f}x real time   "
             f"{per_step / size * 1e6:6.1f} us a vehicle-step ({per_step / size / one:.2f}x the baseline's step)"
