@@ -30,7 +30,7 @@ class Consumer:
     def on_messages(self, messages):
         self.messages.extend(messages)
 
-    def on_event(self, step, kind, value):
+    def on_event(self, step, kind, value, vehicle=""):
         self.events.append((step, kind, value))
 
 

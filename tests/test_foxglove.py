@@ -199,7 +199,7 @@ class _Collect:
     def on_messages(self, messages) -> None:
         self.messages += [(topic.name, ns) for topic, ns, _ in messages]
 
-    def on_event(self, step: int, kind: str, value: str) -> None:
+    def on_event(self, step: int, kind: str, value: str, vehicle: str = "") -> None:
         pass
 
 

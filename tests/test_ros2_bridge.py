@@ -75,7 +75,7 @@ class _Collect:
     def on_messages(self, messages) -> None:
         self.messages += [(t.name, ns, data) for t, ns, data in messages]
 
-    def on_event(self, step: int, kind: str, value: str) -> None:
+    def on_event(self, step: int, kind: str, value: str, vehicle: str = "") -> None:
         pass
 
 

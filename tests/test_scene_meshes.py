@@ -111,7 +111,7 @@ def test_each_consumer_gets_the_urls_it_can_read(tmp_path: Path) -> None:
                 if topic == ROBOT_DESCRIPTION:
                     got[self.name] = _mesh_urls(bytes(data[8:]).rstrip(b"\0").decode())[0]
 
-        def on_event(self, step: int, kind: str, value: str) -> None:
+        def on_event(self, step: int, kind: str, value: str, vehicle: str = "") -> None:
             pass
 
     fanout.add_consumer(Consumer("recorder", False))

@@ -28,6 +28,7 @@ if TYPE_CHECKING:
     from quadsim.drivers import InputDriver
     from quadsim.drivers.scripted import Script
     from quadsim.drivers.subscribed import SubscribedDriver
+    from quadsim.session.fleet_outputs import FleetRecordedRun
     from quadsim.session.headless import RunSummary
     from quadsim.session.outputs import LiveOutput, OutputOptions, RecordedRun
     from quadsim.session.progress import ProgressBar
@@ -192,20 +193,25 @@ class HeadlessFlight:
         if self.summary is not None:
             for line in self.summary.lines():
                 print(line)
-        run = self.run
-        recorder = run.recorder if run is not None else None
-        if recorder is not None:
-            if recorder.error:
-                print(f"recording       {recorder.error}")
-            else:
-                size = run.path.stat().st_size / 1e6 if run and run.path and run.path.exists() else 0.0
-                print(f"recording       {run.path if run else ''} ({size:.1f} MB, {recorder.message_count} messages)")
-        stop = SignalStop.current()
-        if stop is not None and stop.signum is not None:
-            saved = "; the recording is finished and readable" if recorder is not None and not recorder.error else ""
-            print(f"{describe_stop(stop.signum)} at sim time {self.sim_time:.2f} s{saved}", file=sys.stderr)
-            return stop_exit_code(stop.signum)
-        if recorder is not None and recorder.error:
-            print("quadsim: error: the flight finished but its recording did not (see above)", file=sys.stderr)
-            return 1
-        return 0
+        return report_end(self.run, self.sim_time)
+
+
+def report_end(run: RecordedRun | FleetRecordedRun | None, sim_time: float) -> int:
+    """The recording's line and why the run stopped (a signal, a recording that failed); the
+    exit code."""
+    recorder = run.recorder if run is not None else None
+    if recorder is not None:
+        if recorder.error:
+            print(f"recording       {recorder.error}")
+        else:
+            size = run.path.stat().st_size / 1e6 if run and run.path and run.path.exists() else 0.0
+            print(f"recording       {run.path if run else ''} ({size:.1f} MB, {recorder.message_count} messages)")
+    stop = SignalStop.current()
+    if stop is not None and stop.signum is not None:
+        saved = "; the recording is finished and readable" if recorder is not None and not recorder.error else ""
+        print(f"{describe_stop(stop.signum)} at sim time {sim_time:.2f} s{saved}", file=sys.stderr)
+        return stop_exit_code(stop.signum)
+    if recorder is not None and recorder.error:
+        print("quadsim: error: the flight finished but its recording did not (see above)", file=sys.stderr)
+        return 1
+    return 0

@@ -9,7 +9,7 @@ import argparse
 import math
 import os
 import sys
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -299,7 +299,9 @@ def add_parallel_options(p: argparse.ArgumentParser, jobs_help: str) -> None:
     )
 
 
-def live_outputs(args: argparse.Namespace, commands: SubscribedDriver | None = None) -> list[LiveOutput]:
+def live_outputs(
+    args: argparse.Namespace, commands: SubscribedDriver | Sequence[SubscribedDriver] | None = None
+) -> list[LiveOutput]:
     """The live bridges the options ask for (--foxglove, --ros2, and the one an input comes from)."""
     from quadsim.session.live import open_live_outputs
 

@@ -6,8 +6,12 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from quadsim.errors import QuadsimError
+
+if TYPE_CHECKING:
+    from quadsim.session.fleet_resim import FleetResimReport
 
 #: how far a re-flight may stray from its recording, by default (`check`, the pytest plugin)
 DEFAULT_TOLERANCE_M = 1e-3
@@ -41,24 +45,36 @@ def recordings_in(paths: list[Path]) -> list[Path]:
 
 
 def check_one(task: CheckTask) -> CheckOutcome:
-    """Re-fly one recording and say how it went (never raises for a bad file: it is 'unusable')."""
-    from quadsim.recording.flight import load_flight
-    from quadsim.session.resim import resimulate
+    """Re-fly one recording (one vehicle's or a fleet's) and say how it went (never raises for a
+    bad file: it is 'unusable')."""
+    from quadsim.recording.flight import load_flights
+    from quadsim.session.fleet_resim import resimulate_fleet
+    from quadsim.session.resim import ResimReport, resimulate
 
     path = task.path
     try:
         if path.is_dir():
             raise QuadsimError("no .mcap recordings in this folder")
-        flight = load_flight(path)
-        report = resimulate(
-            flight, record=False, position_tolerance_m=task.tolerance_m, attitude_tolerance_rad=task.tolerance_rad
-        )
+        flights = load_flights(path)
+        flight = next(iter(flights.values()))
+        m, rad = task.tolerance_m, task.tolerance_rad
+        if flight.vehicle:
+            report: ResimReport | FleetResimReport = resimulate_fleet(
+                flights, record=False, position_tolerance_m=m, attitude_tolerance_rad=rad
+            )
+        else:
+            report = resimulate(flight, record=False, position_tolerance_m=m, attitude_tolerance_rad=rad)
     except QuadsimError as exc:
         return CheckOutcome(path, "unusable", (f"ERROR {path}: {str(exc).removeprefix(f'{path}: ')}",))
     ok = report.within(task.tolerance_m, task.tolerance_rad)
+    if isinstance(report, ResimReport):
+        position, attitude, what = report.position.max_error, report.attitude.max_error, ""
+    else:
+        position, attitude = report.worst_position_m, report.worst_attitude_rad
+        what = f" (a fleet of {len(report.vehicles)})"
     lines = [
-        f"{'ok   ' if ok else 'FAIL '} {path}: position off by up to {report.position.max_error:.3g} m, "
-        f"attitude by up to {report.attitude.max_error:.3g} rad"
+        f"{'ok   ' if ok else 'FAIL '} {path}{what}: position off by up to {position:.3g} m, "
+        f"attitude by up to {attitude:.3g} rad"
     ]
     if not ok:
         lines += ["     " + line for line in report.lines()[1:]]

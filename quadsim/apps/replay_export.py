@@ -18,11 +18,16 @@ import cv2
 import numpy as np
 
 from quadsim.errors import QuadsimError
+from quadsim.recording.contract import POSE, TWIST, Names
 from quadsim.recording.flight import NS, RecordedFlight
 
 
 def summary_lines(f: RecordedFlight) -> list[str]:
     out = [f"recording   {f.path}", f"duration    {f.duration_s:.2f} s"]
+    if f.fleet is not None:
+        names = [name for name, _ in f.fleet.fleet]
+        out.append(f"fleet       {len(names)} vehicles ({', '.join(names)}); below: {f.vehicle}")
+    wire = Names(f.vehicle)
     if f.states:
         dist = sum(math.dist(a.position_m, b.position_m) for a, b in zip(f.states, f.states[1:]))
         top = max(math.hypot(*s.linear_velocity_mps[:2]) for s in f.states)
@@ -35,8 +40,8 @@ def summary_lines(f: RecordedFlight) -> list[str]:
             ),
         ]
     else:
-        out.append("states      none (no /quad/pose in this file)")
-    out.append(f"commands    {len(f.commands)} on /quad_cmd_twist")
+        out.append(f"states      none (no {wire.topic(POSE).name} in this file)")
+    out.append(f"commands    {len(f.commands)} on {wire.topic(TWIST).name}")
     for cam, frames in sorted(f.frames.items()):
         out.append(f"camera      {cam}: {len(frames)} frames")
     if f.description is not None:

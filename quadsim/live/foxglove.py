@@ -136,23 +136,27 @@ class _Listener(ServerListener):
 
 class FoxgloveBridge:
     """A Foxglove WebSocket server fed by the topic fan-out (a `TopicConsumer`). With
-    `commands`, clients may publish Twists on its topic, which it `deliver`s; without, the
-    server takes nothing from clients. `close` stops the server."""
+    `commands` (one driver, or a fleet's, each on its vehicle's topic), clients may publish
+    Twists on their topics, which it `deliver`s to the driver of the topic; without, the server
+    takes nothing from clients. `close` stops the server."""
 
     def __init__(
         self,
         host: str = DEFAULT_HOST,
         port: int = DEFAULT_PORT,
-        commands: SubscribedDriver | None = None,
+        commands: SubscribedDriver | Sequence[SubscribedDriver] | None = None,
         name: str = "quadsim",
     ) -> None:
-        self.commands = commands
+        drivers = [] if commands is None else [commands] if not isinstance(commands, Sequence) else list(commands)
+        #: topic -> the driver Twists published on it go to
+        self.inputs: dict[str, SubscribedDriver] = {d.topic: d for d in drivers}
         self._context = foxglove.Context()  # the server's channels, apart from a recorder's
         self._channels: dict[str, Any] = {}
         self._log: dict[str, Callable[[bytes, int], None]] = {}
         self._latched: dict[str, tuple[int, bytes]] = {}  # topic -> its last (log time, message)
         self._latched_topics: set[str] = set()
-        self._publishers: dict[tuple[int, int], Callable[[bytes], TwistFields]] = {}  # (client, channel) -> decoder
+        # (client, channel) -> its decoder and the driver its Twists go to
+        self._publishers: dict[tuple[int, int], tuple[Callable[[bytes], TwistFields], SubscribedDriver]] = {}
         self._lock = threading.Lock()
         self.closed = False
         route_sdk_logs_through_python()  # before the first sink starts, or it has no effect
@@ -161,9 +165,9 @@ class FoxgloveBridge:
             name=name,
             host="127.0.0.1",
             port=0,
-            capabilities=[Capability.ClientPublish] if commands is not None else [],
+            capabilities=[Capability.ClientPublish] if self.inputs else [],
             server_listener=_Listener(self),
-            supported_encodings=list(PUBLISH_ENCODINGS) if commands is not None else None,
+            supported_encodings=list(PUBLISH_ENCODINGS) if self.inputs else None,
             context=self._context,
             message_backlog_size=BACKLOG_MESSAGES,
         )
@@ -211,7 +215,7 @@ class FoxgloveBridge:
                     self._latched[topic.name] = (ns, data)
             log_to[topic.name](data, ns)
 
-    def on_event(self, step: int, kind: str, value: str) -> None:
+    def on_event(self, step: int, kind: str, value: str, vehicle: str = "") -> None:
         """Events reach clients as /rosout messages; nothing else to do."""
 
     # --- what clients do (on the server's threads) ------------------------------------------
@@ -227,39 +231,36 @@ class FoxgloveBridge:
     # --- what clients publish (the front calls these on its thread) ------------------------------
 
     def advertised(self, client: FrontClient, channel: dict[str, Any]) -> None:
-        commands, topic = self.commands, channel["topic"]
+        topic = channel["topic"]
         if topic in PANEL_TOPICS:
             return
         decoder = DECODERS.get(channel["encoding"])
-        if (
-            commands is None
-            or topic != commands.topic
-            or decoder is None
-            or not channel["schemaName"].endswith("Twist")
-        ):
+        driver = self.inputs.get(topic)
+        if driver is None or decoder is None or not channel["schemaName"].endswith("Twist"):
             takes = (
-                f"takes only {TWIST.type_name} on {commands.topic}, in {' or '.join(PUBLISH_ENCODINGS)}"
-                if commands is not None
+                f"takes only {TWIST.type_name} on {' or '.join(self.inputs)}, in {' or '.join(PUBLISH_ENCODINGS)}"
+                if self.inputs
                 else "takes no messages from clients (run it with --input foxglove to fly)"
             )
             self._tell(client, f"quadsim {takes}; {topic} ({channel['schemaName']}, {channel['encoding']}) is ignored")
             return
-        self._publishers[(client.id, channel["id"])] = decoder
+        self._publishers[(client.id, channel["id"])] = (decoder, driver)
 
     def unadvertised(self, client: FrontClient, channel_id: int) -> None:
         self._publishers.pop((client.id, channel_id), None)
 
     def received(self, client: FrontClient, channel_id: int, data: bytes) -> None:
-        decoder = self._publishers.get((client.id, channel_id))
-        if decoder is None or self.commands is None:
+        publisher = self._publishers.get((client.id, channel_id))
+        if publisher is None:
             return
+        decoder, driver = publisher
         try:
             linear, angular_z = decoder(data)
         except (ValueError, TypeError, OverflowError, RecursionError) as exc:  # json's errors are ValueErrors
-            self._tell(client, f"a message on {self.commands.topic} was not a Twist ({_reason(exc)}); it is ignored")
+            self._tell(client, f"a message on {driver.topic} was not a Twist ({_reason(exc)}); it is ignored")
             return
-        if not self.commands.deliver(linear, angular_z) and not all(map(math.isfinite, (*linear, angular_z))):
-            self._tell(client, f"a Twist on {self.commands.topic} with a field that is not finite is ignored")
+        if not driver.deliver(linear, angular_z) and not all(map(math.isfinite, (*linear, angular_z))):
+            self._tell(client, f"a Twist on {driver.topic} with a field that is not finite is ignored")
 
     @staticmethod
     def _tell(client: FrontClient, message: str) -> None:

@@ -255,11 +255,13 @@ class Ros2Bridge:
             return name
         return self.namespace + name
 
-    def startup_lines(self, takes_twist: bool) -> list[tuple[str, bool]]:
+    def startup_lines(self, takes_twist: bool | Sequence[str]) -> list[tuple[str, bool]]:
         """What to say at start-up: (line, is a warning). The node, its domain and discovery range;
-        a warning when it takes Twists and discovery reaches beyond this machine."""
+        a warning when it takes Twists (on /quad_cmd_twist, or on the topics given: a fleet's) and
+        discovery reaches beyond this machine."""
         node = f"{self.namespace.rstrip('/')}/{NODE_NAME}"
-        twist = self.graph_name(TWIST.name)
+        topics = [TWIST.name] if takes_twist is True else list(takes_twist or ())
+        twist = " and ".join(self.graph_name(t) for t in topics)
         takes = f"; it takes geometry_msgs/Twist on {twist}" if takes_twist else ""
         lines = [
             (
@@ -269,9 +271,10 @@ class Ros2Bridge:
             )
         ]
         if takes_twist and self.discovery_range not in ("LOCALHOST", "OFF"):
+            what = "this vehicle" if len(topics) == 1 else "these vehicles"
             lines.append(
                 (
-                    f"ROS 2 discovery is not limited to this machine: anyone on the network can fly this vehicle on "
+                    f"ROS 2 discovery is not limited to this machine: anyone on the network can fly {what} on "
                     f"{twist} (export ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST to keep it here)",
                     True,
                 )
@@ -359,7 +362,7 @@ class Ros2Bridge:
                 self.published += 1
         self.busy_s += time.perf_counter() - started
 
-    def on_event(self, step: int, kind: str, value: str) -> None:
+    def on_event(self, step: int, kind: str, value: str, vehicle: str = "") -> None:
         """Events reach the graph as their /rosout messages."""
 
     def _publish_clock(self, ns: int) -> None:
@@ -371,8 +374,9 @@ class Ros2Bridge:
     # --- input --------------------------------------------------------------------------------
 
     def subscribe_twist(self, driver: SubscribedDriver, on_twist: Callable[[], None] | None = None) -> None:
-        """Feed `driver` the geometry_msgs/Twist messages on /quad_cmd_twist, as they arrive (on
-        Cyclone's receive thread). Best effort, so reliable and best-effort publishers both match."""
+        """Feed `driver` the geometry_msgs/Twist messages on its topic (/quad_cmd_twist, or a fleet
+        vehicle's /NAME/quad_cmd_twist), as they arrive (on Cyclone's receive thread). Best
+        effort, so reliable and best-effort publishers both match."""
         from cyclonedds.core import Listener
         from cyclonedds.sub import DataReader
         from cyclonedds.topic import Topic as DdsTopic
@@ -388,7 +392,7 @@ class Ros2Bridge:
 
         Policy = self._Policy
         qos = self._Qos(Policy.Reliability.BestEffort, Policy.History.KeepLast(10))
-        dds_topic = DdsTopic(self._participant, dds_topic_name(self.graph_name(TWIST.name)), kind)
+        dds_topic = DdsTopic(self._participant, dds_topic_name(self.graph_name(driver.topic)), kind)
         self._readers.append(
             DataReader(self._participant, dds_topic, qos=qos, listener=Listener(on_data_available=on_data_available))
         )

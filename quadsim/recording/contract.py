@@ -8,7 +8,7 @@ them) and decodes recordings; it is imported only when one of those is needed.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from functools import cache
 from typing import Any
 
@@ -62,6 +62,30 @@ WIND = Topic("/wind", "geometry_msgs/msg/Vector3Stamped")
 STATE_TOPICS = (POSE, ODOM, IMU, ROTOR_THRUSTS, TF)
 #: topics every quadsim recording has (cameras and /joy depend on the run)
 CORE_TOPICS = (TWIST.name, *(t.name for t in STATE_TOPICS), TF_STATIC.name)
+
+
+#: topics a fleet shares: one world, one TF tree, one log
+SHARED_TOPICS = frozenset({TF.name, TF_STATIC.name, ROSOUT.name, WORLD_MARKERS.name, "/clock"})
+
+
+@dataclass(frozen=True)
+class Names:
+    """How one vehicle's topics and frames are named on the wire: as the contract has them for
+    a run of one vehicle (`vehicle` empty), or with the vehicle's name in front in a fleet
+    (/alpha/quad/odom, /alpha/quad_cmd_twist, TF frame alpha/base_link). The topics in
+    SHARED_TOPICS and the `world` frame are the same for every vehicle."""
+
+    vehicle: str = ""
+
+    def topic(self, topic: Topic) -> Topic:
+        if not self.vehicle or topic.name in SHARED_TOPICS:
+            return topic
+        return replace(topic, name=f"/{self.vehicle}{topic.name}")
+
+    def frame(self, frame: str) -> str:
+        if not self.vehicle or frame == WORLD_FRAME:
+            return frame
+        return f"{self.vehicle}/{frame}"
 
 
 def twist_from_msg(msg: Any) -> Twist:

@@ -20,20 +20,16 @@ from quadsim.physics.world_spec import WorldSpec
 from quadsim.recording import cdr
 from quadsim.recording.contract import (
     BODY_FRAME,
-    IMU,
     JOY,
-    ODOM,
-    POSE,
     ROBOT_DESCRIPTION,
     ROSOUT,
-    ROTOR_THRUSTS,
     STATE_TOPICS,
-    TF,
     TF_STATIC,
     TWIST,
     WIND,
     WORLD_FRAME,
     WORLD_MARKERS,
+    Names,
     Topic,
     camera_info_topic,
     image_topic,
@@ -56,6 +52,10 @@ WARNING_EVENTS = frozenset({"crash"})
 Message = tuple[Topic, int, bytes]
 
 
+#: the names of a run of one vehicle: the contract's, unchanged
+ONE_VEHICLE = Names()
+
+
 class TopicConsumer(Protocol):
     """What the fan-out feeds."""
 
@@ -65,9 +65,9 @@ class TopicConsumer(Protocol):
     def on_messages(self, messages: Sequence[Message]) -> None:
         """Messages from one producer, in log-time order (a state's messages come together)."""
 
-    def on_event(self, step: int, kind: str, value: str) -> None:
-        """Something a re-simulation must know besides the commands (a z-mode switch), at `step`.
-        Its /rosout message comes through `on_messages` as well."""
+    def on_event(self, step: int, kind: str, value: str, vehicle: str = "") -> None:
+        """Something a re-simulation must know besides the commands (a z-mode switch), at `step`,
+        of `vehicle` in a fleet. Its /rosout message comes through `on_messages` as well."""
 
 
 @lru_cache(maxsize=16)
@@ -80,6 +80,7 @@ class _Camera(NamedTuple):
     spec: CameraSpec
     image: Topic
     info: Topic
+    frame: str  # its optical frame's name on the wire
 
 
 class TopicFanout:
@@ -87,7 +88,10 @@ class TopicFanout:
     contract's messages and hands them to its consumers. With no consumer it does nothing.
 
     Given the run's `vehicle` and `world`, the latched messages describe the scene as well: the
-    URDF, the world's markers and every link's static transform (`quadsim.recording.scene`)."""
+    URDF, the world's markers and every link's static transform (`quadsim.recording.scene`).
+
+    `names`: in a fleet, the vehicle's topics and frames have its name in front (contract.Names);
+    the fleet's fan-out (`FleetFanout`) then sends the latched messages the vehicles share."""
 
     def __init__(
         self,
@@ -95,31 +99,45 @@ class TopicFanout:
         cameras: Sequence[tuple[CameraSpec, CameraMount]] = (),
         vehicle: VehicleParams | None = None,
         world: WorldSpec | None = None,
+        names: Names = ONE_VEHICLE,
     ) -> None:
         self.physics_hz = physics_hz
+        self.names = names
+        t, body = names.topic, names.frame(BODY_FRAME)
+        self._twist, self._joy, self._wind, self._description = t(TWIST), t(JOY), t(WIND), t(ROBOT_DESCRIPTION)
+        self._state_topics = tuple(t(topic) for topic in STATE_TOPICS)
+        self._logger = f"{names.vehicle}.{LOGGER_NAME}" if names.vehicle else LOGGER_NAME
+        self._joy_frame = names.frame(JOY_FRAME)
         # the encoders of the state's messages, compiled for their frames
         self._pose = cdr.pose_stamped_encoder(WORLD_FRAME)
-        self._odometry = cdr.odometry_encoder(WORLD_FRAME, BODY_FRAME)
-        self._imu = cdr.imu_encoder(BODY_FRAME)
-        self._tf = cdr.transform_encoder(WORLD_FRAME, BODY_FRAME)
+        self._odometry = cdr.odometry_encoder(WORLD_FRAME, body)
+        self._imu = cdr.imu_encoder(body)
+        self._tf = cdr.transform_encoder(WORLD_FRAME, body)
         self.consumers: list[TopicConsumer] = []
-        self._cameras = {spec.name: _Camera(spec, image_topic(spec), camera_info_topic(spec)) for spec, _ in cameras}
+        self._cameras = {
+            spec.name: _Camera(spec, t(image_topic(spec)), t(camera_info_topic(spec)), names.frame(spec.optical_frame))
+            for spec, _ in cameras
+        }
         self._infos = {spec.name: spec.camera_info() for spec, _ in cameras}
         #: every topic announced so far, in the order consumers get them
-        self.topics: list[Topic] = [TWIST, *STATE_TOPICS, TF_STATIC]
+        self.topics: list[Topic] = [self._twist, *self._state_topics, TF_STATIC]
         for camera in self._cameras.values():
             self.topics += [camera.image, camera.info]
-        self._static = link_transforms(vehicle) if vehicle is not None else []
-        self._static += [
+        static = link_transforms(vehicle) if vehicle is not None else []
+        static += [
             cdr.TransformStamped(
                 0, BODY_FRAME, spec.optical_frame, mount.position_m, quaternion_from_matrix(optical_rotation(mount))
             )
             for spec, mount in cameras
         ]
+        #: base_link -> every URDF link and camera (stamped when sent)
+        self.static_transforms = [
+            s._replace(frame_id=names.frame(s.frame_id), child_frame_id=names.frame(s.child_frame_id)) for s in static
+        ]
         self._urdf_path = vehicle.urdf_path if vehicle is not None else None
         self._robot_description: dict[bool, bytes] = {}  # by local_files: made when first asked for
         self._world = world
-        self.topics += [ROBOT_DESCRIPTION] if vehicle is not None else []
+        self.topics += [self._description] if vehicle is not None else []
         self.topics += [WORLD_MARKERS] if world is not None else []
 
     def latched(self, step: int = 0, local_files: bool = False) -> tuple[Message, ...]:
@@ -127,16 +145,20 @@ class TopicFanout:
         first, whenever it joins. `local_files`: the URDF names its meshes by file:// URLs (for
         a consumer whose readers read files, as RViz does), not data: URLs (scene.py)."""
         ns = self.ns(step)
-        static = [t._replace(ns=ns) for t in self._static]
-        messages: list[Message] = [(TF_STATIC, ns, cdr.tf_message(static))]
-        if self._urdf_path is not None:
-            if local_files not in self._robot_description:
-                text = robot_description(self._urdf_path, inline_meshes=not local_files)
-                self._robot_description[local_files] = cdr.string(text)
-            messages.append((ROBOT_DESCRIPTION, ns, self._robot_description[local_files]))
+        static = [t._replace(ns=ns) for t in self.static_transforms]
+        messages: list[Message] = [(TF_STATIC, ns, cdr.tf_message(static)), *self.own_latched(step, local_files)]
         if self._world is not None:
             messages.append((WORLD_MARKERS, ns, cdr.marker_array(world_markers(self._world, ns))))
         return tuple(messages)
+
+    def own_latched(self, step: int, local_files: bool = False) -> tuple[Message, ...]:
+        """The latched messages that are this vehicle's alone (its /robot_description)."""
+        if self._urdf_path is None:
+            return ()
+        if local_files not in self._robot_description:
+            text = robot_description(self._urdf_path, inline_meshes=not local_files)
+            self._robot_description[local_files] = cdr.string(text)
+        return ((self._description, self.ns(step), self._robot_description[local_files]),)
 
     # --- consumers ----------------------------------------------------------------------------
 
@@ -172,7 +194,7 @@ class TopicFanout:
     def on_command(self, step: int, twist: Twist) -> None:
         """The command as the controller received it -> /quad_cmd_twist."""
         if self.consumers:
-            self._publish(((TWIST, self.ns(step), cdr.twist(twist[:3], twist[3:])),))
+            self._publish(((self._twist, self.ns(step), cdr.twist(twist[:3], twist[3:])),))
 
     def on_state(self, state: VehicleState) -> None:
         """A state -> pose, odometry, IMU (its noisy reading where the run has one), rotor
@@ -187,16 +209,17 @@ class TopicFanout:
         imu_rates, specific_force = (
             (rates, state.specific_force_body_mps2) if imu is None else imu
         )  # ground truth stays on pose and odometry
+        pose, odom, imu_topic, thrust_topic, tf = self._state_topics
         messages = [
-            (POSE, ns, self._pose(ns, p, q)),
-            (ODOM, ns, self._odometry(ns, p, q, velocity, rates)),
-            (IMU, ns, self._imu(ns, q, imu_rates, specific_force)),
-            (ROTOR_THRUSTS, ns, _thrusts_encoder(len(thrusts))(thrusts)),
-            (TF, ns, self._tf(ns, p, q)),
+            (pose, ns, self._pose(ns, p, q)),
+            (odom, ns, self._odometry(ns, p, q, velocity, rates)),
+            (imu_topic, ns, self._imu(ns, q, imu_rates, specific_force)),
+            (thrust_topic, ns, _thrusts_encoder(len(thrusts))(thrusts)),
+            (tf, ns, self._tf(ns, p, q)),
         ]
         if state.wind_mps is not None:
-            self.declare(WIND)
-            messages.append((WIND, ns, cdr.vector3_stamped(ns, WORLD_FRAME, state.wind_mps)))
+            self.declare(self._wind)
+            messages.append((self._wind, ns, cdr.vector3_stamped(ns, WORLD_FRAME, state.wind_mps)))
         self._publish(messages)
 
     def on_camera_frame(self, frame: CameraFrame) -> None:
@@ -211,12 +234,12 @@ class TopicFanout:
             from quadsim.sensors.rendering import encode_jpeg
 
             jpeg = encode_jpeg(frame.rgb, camera.spec.jpeg_quality)
-        spec, ns = camera.spec, self.ns(frame.step)
+        ns = self.ns(frame.step)
         i = self._infos[frame.camera]
-        info = cdr.camera_info(ns, i.frame_id, i.height_px, i.width_px, i.distortion_model, i.d, i.k, i.r, i.p)
+        info = cdr.camera_info(ns, camera.frame, i.height_px, i.width_px, i.distortion_model, i.d, i.k, i.r, i.p)
         self._publish(
             (
-                (camera.image, ns, cdr.compressed_image(ns, spec.optical_frame, "jpeg", jpeg)),
+                (camera.image, ns, cdr.compressed_image(ns, camera.frame, "jpeg", jpeg)),
                 (camera.info, ns, info),
             )
         )
@@ -224,9 +247,9 @@ class TopicFanout:
     def on_joy(self, step: int, axes: Sequence[float], buttons: Sequence[int]) -> None:
         """Joystick axes and buttons in the ROS `joy` convention -> /joy."""
         if self.consumers:
-            self.declare(JOY)
+            self.declare(self._joy)
             ns = self.ns(step)
-            self._publish(((JOY, ns, cdr.joy(ns, JOY_FRAME, axes, buttons)),))
+            self._publish(((self._joy, ns, cdr.joy(ns, self._joy_frame, axes, buttons)),))
 
     def on_event(self, step: int, kind: str, value: str) -> None:
         """A flight event from the loop (take-off, touchdown, landed, crash, reset) -> /rosout."""
@@ -240,7 +263,76 @@ class TopicFanout:
         self.declare(ROSOUT)
         ns = self.ns(step)
         level = cdr.LogLevel.WARN if kind in WARNING_EVENTS else cdr.LogLevel.INFO
-        message = (ROSOUT, ns, cdr.log(ns, level, LOGGER_NAME, f"{kind}: {value}"))
+        message = (ROSOUT, ns, cdr.log(ns, level, self._logger, f"{kind}: {value}"))
+        vehicle = self.names.vehicle
         for consumer in self.consumers:
+            if vehicle:
+                consumer.on_event(step, kind, value, vehicle)
+            else:  # as before fleets: a consumer written for one vehicle takes three
+                consumer.on_event(step, kind, value)
+            consumer.on_messages((message,))
+
+
+class FleetFanout:
+    """The fan-outs of a fleet's vehicles, each with its name in front of its topics, as one: a
+    consumer added here gets every vehicle's topics and messages, and the latched messages once,
+    as a late joiner of a live graph needs them (one message a latched topic keeps): one
+    /tf_static with every vehicle's links, each vehicle's /NAME/robot_description, and the
+    shared /world/markers."""
+
+    def __init__(self, members: Sequence[TopicFanout], world: WorldSpec | None = None) -> None:
+        if not members:
+            raise ValueError("a fleet's fan-out needs at least one vehicle's")
+        self.members = list(members)
+        self._world = world
+        self.consumers: list[TopicConsumer] = []
+
+    @property
+    def topics(self) -> list[Topic]:
+        """Every topic announced so far by any vehicle, once, and the shared ones."""
+        seen: dict[str, Topic] = {}
+        for member in self.members:
+            for topic in member.topics:
+                seen.setdefault(topic.name, topic)
+        if self._world is not None:
+            seen.setdefault(WORLD_MARKERS.name, WORLD_MARKERS)
+        return list(seen.values())
+
+    def ns(self, step: int) -> int:
+        return self.members[0].ns(step)
+
+    def latched(self, step: int = 0, local_files: bool = False) -> tuple[Message, ...]:
+        ns = self.ns(step)
+        static = [t._replace(ns=ns) for member in self.members for t in member.static_transforms]
+        messages: list[Message] = [(TF_STATIC, ns, cdr.tf_message(static))]
+        for member in self.members:
+            messages += member.own_latched(step, local_files)
+        if self._world is not None:
+            messages.append((WORLD_MARKERS, ns, cdr.marker_array(world_markers(self._world, ns))))
+        return tuple(messages)
+
+    def add_consumer(self, consumer: TopicConsumer, step: int = 0) -> None:
+        """As TopicFanout.add_consumer, for every vehicle at once."""
+        for topic in self.topics:
+            consumer.add_topic(topic)
+        consumer.on_messages(self.latched(step, getattr(consumer, "reads_local_files", False)))
+        for member in self.members:
+            member.consumers.append(consumer)
+        self.consumers.append(consumer)
+
+    def remove_consumer(self, consumer: TopicConsumer) -> None:
+        for member in self.members:
+            member.remove_consumer(consumer)
+        if consumer in self.consumers:
+            self.consumers.remove(consumer)
+
+    def note_event(self, step: int, kind: str, value: str) -> None:
+        """An event of the whole run (recording started or stopped) -> /rosout, as quadsim's."""
+        if not self.consumers:
+            return
+        ns = self.ns(step)
+        message = (ROSOUT, ns, cdr.log(ns, cdr.LogLevel.INFO, LOGGER_NAME, f"{kind}: {value}"))
+        for consumer in self.consumers:
+            consumer.add_topic(ROSOUT)
             consumer.on_event(step, kind, value)
             consumer.on_messages((message,))

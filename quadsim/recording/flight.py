@@ -17,6 +17,7 @@ from typing import Any
 
 from quadsim.core.kinematics import matrix_from_quaternion, rotate
 from quadsim.core.types import Twist, VehicleState, ZMode
+from quadsim.errors import QuadsimError
 from quadsim.recording import contract as rm
 from quadsim.recording.mcap_scan import Damage
 from quadsim.recording.reader import RecordingReader
@@ -46,6 +47,8 @@ class RecordedFlight:
     notes: list[str] = field(default_factory=list)  # what was not read though the file is sound there
     bad_events: list[str] = field(default_factory=list)  # event records that are malformed
     undecodable: dict[str, int] = field(default_factory=dict)  # topic -> messages that did not decode
+    vehicle: str = ""  # in a fleet's recording, the vehicle's name (its topics have it in front)
+    fleet: RunDescription | None = None  # in a fleet's recording, the whole run's description
 
     @property
     def is_quadsim(self) -> bool:
@@ -84,10 +87,15 @@ class RecordedFlight:
         out += [f"{n} messages on {topic} do not decode: skipped" for topic, n in sorted(self.undecodable.items())]
         return out
 
+    def _needed_topics(self) -> set[str]:
+        """What a re-flight reads: the commands and the states (under the vehicle's name in a fleet)."""
+        names = rm.Names(self.vehicle)
+        return {names.topic(t).name for t in (rm.TWIST, *rm.STATE_TOPICS)}
+
     def lost_for_resim(self) -> str | None:
         """The damage that cost recorded commands or states, if any: then the flight cannot be
         flown again faithfully (a damaged chunk of camera images alone does not matter)."""
-        needed = {rm.TWIST.name, *(t.name for t in rm.STATE_TOPICS)}
+        needed = self._needed_topics()
         for d in self.damage:
             if d.loses == "messages" and (d.topics is None or needed & set(d.topics)):
                 return d.describe()
@@ -95,7 +103,7 @@ class RecordedFlight:
 
     def unreadable_for_resim(self) -> str | None:
         """Commands, states or events present but unreadable, if any (a crafted or foreign file)."""
-        needed = {rm.TWIST.name, *(t.name for t in rm.STATE_TOPICS)}
+        needed = self._needed_topics()
         for topic in sorted(needed & self.undecodable.keys()):
             return f"{self.undecodable[topic]} messages on {topic} do not decode"
         if self.bad_events:
@@ -118,51 +126,94 @@ class RecordedFlight:
         return mode
 
 
-def load_flight(path: Path | str) -> RecordedFlight:
-    """Everything readable in a recording. Damaged chunks are skipped (listed in `damage`);
-    QuadsimError only for what is not an MCAP file at all."""
+def load_flight(path: Path | str, vehicle: str | None = None) -> RecordedFlight:
+    """Everything readable in a recording (of a fleet's: that of `vehicle`, by default the first
+    vehicle). Damaged chunks are skipped (listed in `damage`); QuadsimError only for what is not
+    an MCAP file at all, or a vehicle the recording does not have."""
+    flights = load_flights(path)
+    if vehicle is None:
+        return next(iter(flights.values()))
+    if vehicle not in flights:
+        have = ", ".join(n for n in flights if n) or "one vehicle, unnamed"
+        raise QuadsimError(f"{path}: no vehicle named {vehicle!r} in this recording (it has {have})")
+    return flights[vehicle]
+
+
+def load_flights(path: Path | str) -> dict[str, RecordedFlight]:
+    """Every vehicle's flight in a recording, read in one pass, by name: a fleet's vehicles in
+    the fleet's order, or "" alone for a run of one vehicle (and for other programs' files)."""
     with RecordingReader(path, require_topics=False, allow_damage=True) as reader:
         description = reader.description
-        hz = description.config.rates.physics_hz if description is not None else 240
-        flight = RecordedFlight(reader.path, description, hz, description_error=reader.description_error)
-        flight.events = reader.events
-        flight.bad_events = reader.bad_events
-        flight.damage, flight.notes = reader.damage, reader.notes
-        flight.attachments = reader.attachments()
-        types = reader.topics
-        flight.topics = reader.topic_counts()
-        flight.end_ns = reader.span_ns[1]
-        parts: dict[str, dict[int, Any]] = {
-            rm.POSE.name: {},
-            rm.ODOM.name: {},
-            rm.IMU.name: {},
-            rm.ROTOR_THRUSTS.name: {},
-        }
-        cameras = {
-            t.split("/")[-3].removesuffix("_camera"): t
-            for t in types
-            if t.endswith("/image_raw/compressed") and types[t] == "sensor_msgs/msg/CompressedImage"
-        }
-        wanted = [t for t in (*parts, rm.TWIST.name, *cameras.values()) if t in types]
-        camera_of = {t: n for n, t in cameras.items()}
-        for topic, ns, msg in reader.raw_messages(wanted):
-            if topic in parts:
-                if _finite(topic, msg):
-                    parts[topic][ns] = msg
-                else:
-                    reader.undecodable[topic] = reader.undecodable.get(topic, 0) + 1
-            elif topic == rm.TWIST.name:
+        members = description.fleet if description is not None and description.fleet else (("", description),)
+        flights: dict[str, RecordedFlight] = {}
+        wanted: dict[str, tuple[RecordedFlight, str]] = {}  # topic -> (its flight, what it is)
+        parts: dict[str, dict[str, dict[int, Any]]] = {}
+        for name, own in members:
+            hz = own.config.rates.physics_hz if own is not None else 240
+            flight = RecordedFlight(
+                reader.path,
+                own,
+                hz,
+                description_error=reader.description_error,
+                vehicle=name,
+                fleet=description if name else None,
+            )
+            flight.events = reader.vehicle_events.get(name, []) if name else reader.events
+            flight.bad_events = reader.bad_events
+            flight.damage, flight.notes = reader.damage, reader.notes
+            flight.attachments = reader.attachments()
+            flight.topics = reader.topic_counts()
+            flight.end_ns = reader.span_ns[1]
+            flights[name] = flight
+            parts[name] = _wanted(flight, reader.topics, wanted)
+        for topic, ns, msg in reader.raw_messages(list(wanted)):
+            flight, what = wanted[topic]
+            if what == _COMMAND:
                 flight.commands.append((ns, rm.twist_from_msg(msg)))
+            elif what.startswith(_FRAME):
+                flight.frames.setdefault(what.removeprefix(_FRAME), []).append((ns, bytes(msg.data)))
+            elif _finite(what, msg):
+                parts[flight.vehicle][what][ns] = msg
             else:
-                flight.frames.setdefault(camera_of[topic], []).append((ns, bytes(msg.data)))
-        flight.undecodable = dict(reader.undecodable)
+                reader.undecodable[topic] = reader.undecodable.get(topic, 0) + 1
+        for flight in flights.values():
+            flight.undecodable = dict(reader.undecodable)
+    for name, flight in flights.items():
+        _assemble_states(flight, parts[name])
+    return flights
+
+
+_COMMAND = "command"
+IMAGE_TYPE = "sensor_msgs/msg/CompressedImage"
+_FRAME = "frame:"
+
+
+def _wanted(
+    flight: RecordedFlight, types: dict[str, str], wanted: dict[str, tuple[RecordedFlight, str]]
+) -> dict[str, dict[int, Any]]:
+    """Adds `flight`'s topics to `wanted` (topic -> what it is: a state part by its contract name,
+    the command, or a camera's frames); the state parts' message tables, empty."""
+    names = rm.Names(flight.vehicle)
+    parts: dict[str, dict[int, Any]] = {t.name: {} for t in (rm.POSE, rm.ODOM, rm.IMU, rm.ROTOR_THRUSTS)}
+    for part in parts:
+        wanted[names.topic(rm.Topic(part, "")).name] = (flight, part)
+    wanted[names.topic(rm.TWIST).name] = (flight, _COMMAND)
+    prefix = f"/{flight.vehicle}/" if flight.vehicle else "/"
+    for t in types:
+        if t.startswith(prefix) and t.endswith("/image_raw/compressed") and types[t] == IMAGE_TYPE:
+            wanted[t] = (flight, _FRAME + t.split("/")[-3].removesuffix("_camera"))
+    for topic in [t for t, (f, _) in wanted.items() if f is flight and t not in types]:
+        del wanted[topic]
+    return parts
+
+
+def _assemble_states(flight: RecordedFlight, parts: dict[str, dict[int, Any]]) -> None:
     for ns in sorted(parts[rm.POSE.name]):
         flight.state_ns.append(ns)
         flight.states.append(_state(flight.step_of(ns), parts, ns))
         odom = parts[rm.ODOM.name].get(ns)
         b = odom.twist.twist.linear if odom is not None else None
         flight.body_velocities.append((b.x, b.y, b.z) if b is not None else (0.0, 0.0, 0.0))
-    return flight
 
 
 def _finite(topic: str, msg: Any) -> bool:

@@ -3,6 +3,7 @@ for a damaged file, what is wrong and how much of it is readable."""
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -70,16 +71,23 @@ class RecordingInfo:
             cfg = d.config
             script = d.driver.get("script")
             out.append("run parameters:")
-            out.append(
-                f"  controller {d.controller.kind.value}, z-mode {d.z_mode.value}, driver {d.driver_name}"
-                + (f" ({script})" if isinstance(script, str) and script else "")
-            )
+            if d.fleet:
+                out.append(f"  a fleet of {len(d.fleet)} vehicles:")
+                out += [f"    {name}: {_vehicle_line(own)}" for name, own in d.fleet]
+            else:
+                out.append(
+                    f"  controller {d.controller.kind.value}, z-mode {d.z_mode.value}, driver {d.driver_name}"
+                    + (f" ({script})" if isinstance(script, str) and script else "")
+                )
             out.append("  rates " + ", ".join(f"{k.replace('_hz', '')} {v} Hz" for k, v in cfg.rates.to_dict().items()))
             timeout = "off" if cfg.command_timeout_s is None else f"{cfg.command_timeout_s} s"
-            out.append(
-                f"  vehicle {d.vehicle.name} ({d.vehicle.rotor_count} rotors), mass {d.vehicle.mass_kg:.3f} kg, "
-                f"command timeout {timeout}"
-            )
+            if d.fleet:
+                out.append(f"  command timeout {timeout}")
+            else:
+                out.append(
+                    f"  vehicle {d.vehicle.name} ({d.vehicle.rotor_count} rotors), mass {d.vehicle.mass_kg:.3f} kg, "
+                    f"command timeout {timeout}"
+                )
             noise = "IMU noise on" if cfg.sensor_noise else "IMU noise off"
             out.append(f"  {cfg.wind.describe()}, {noise}, seed {cfg.seed}")
             for cam in d.cameras:
@@ -98,6 +106,18 @@ class RecordingInfo:
             out.append("notes:")
             out += [f"  {n}" for n in self.notes]
         return out
+
+
+def _vehicle_line(d: RunDescription) -> str:
+    """One fleet vehicle: airframe, start, controller, z-mode and input."""
+    start = d.config.start
+    script = d.driver.get("script")
+    return (
+        f"{d.vehicle.name} ({d.vehicle.rotor_count} rotors, {d.vehicle.mass_kg:.3f} kg) from "
+        f"x={start.x_m:g} y={start.y_m:g} m yaw={math.degrees(start.yaw_rad):g} deg, {d.controller.kind.value}, "
+        f"z-mode {d.z_mode.value}, driver {d.driver_name}"
+        + (f" ({script})" if isinstance(script, str) and script else "")
+    )
 
 
 def read_info(path: Path) -> RecordingInfo:

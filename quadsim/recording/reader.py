@@ -21,14 +21,15 @@ from quadsim.errors import QuadsimError
 from quadsim.recording import contract as rm
 from quadsim.recording.mcap_scan import ChannelDef, Damage, McapFile
 from quadsim.recording.writer import EVENT_METADATA_NAME, METADATA_NAME
-from quadsim.sim.description import DescriptionError, RunDescription
+from quadsim.sim.description import VEHICLE_NAME, DescriptionError, RunDescription
 
 #: an event's step must be a whole number in this range
 MAX_EVENT_STEP = 2**62
 
 
-def _event(metadata: dict[str, str]) -> tuple[int, str, str] | str:
-    """(step, kind, value) of an event record, or why it is malformed."""
+def _event(metadata: dict[str, str]) -> tuple[str, tuple[int, str, str]] | str:
+    """(vehicle, (step, kind, value)) of an event record, or why it is malformed; the vehicle
+    is empty but in a fleet's recording."""
     try:
         step_text, kind, value = metadata["step"], metadata["kind"], metadata["value"]
     except KeyError as exc:
@@ -41,11 +42,24 @@ def _event(metadata: dict[str, str]) -> tuple[int, str, str] | str:
         return f"step {step_text[:40]} is out of range"
     if kind == "z_mode" and value not in {z.value for z in ZMode}:
         return f"z-mode {value[:40]!r} is not one of {', '.join(z.value for z in ZMode)}"
-    return step, kind, value
+    vehicle = metadata.get("vehicle", "")
+    if vehicle and not VEHICLE_NAME.fullmatch(vehicle):
+        return f"vehicle {vehicle[:40]!r} is not a vehicle's name"
+    return vehicle, (step, kind, value)
 
 
 def _contract_type(topic: str) -> str | None:
-    """The message type the recording contract gives a topic (None: not one of its topics)."""
+    """The message type the recording contract gives a topic (None: not one of its topics),
+    also under a fleet vehicle's name (/alpha/quad/odom)."""
+    _, name, rest = topic.partition("/")[2].partition("/")
+    if rest and VEHICLE_NAME.fullmatch(name):
+        own = _own_type(f"/{rest}")
+        if own is not None:
+            return own
+    return _own_type(topic)
+
+
+def _own_type(topic: str) -> str | None:
     for t in (
         rm.TWIST,
         rm.JOY,
@@ -122,8 +136,17 @@ class RecordingReader:
         self.description: RunDescription | None = None
         self.description_error: str | None = None
         self._read_description(bool(ours))
-        #: (step, kind, value) of what happened besides the commands (z-mode switches)
+        self._read_events(records)
+        self.notes += [f"{e}; it is ignored" for e in self.bad_events]
+        #: topic -> messages that could not be decoded (skipped)
+        self.undecodable: dict[str, int] = {}
+
+    def _read_events(self, records: Any) -> None:
+        #: (step, kind, value) of what happened besides the commands (z-mode switches); in a
+        #: fleet's recording, those of the whole run (recording started)
         self.events: list[tuple[int, str, str]] = []
+        #: in a fleet's recording: vehicle name -> its events
+        self.vehicle_events: dict[str, list[tuple[int, str, str]]] = {}
         #: why each malformed event record was left out
         self.bad_events: list[str] = []
         for m in records:
@@ -131,12 +154,13 @@ class RecordingReader:
                 event = _event(m.metadata)
                 if isinstance(event, str):
                     self.bad_events.append(f"the event record at byte {m.offset}: {event}")
+                elif event[0]:
+                    self.vehicle_events.setdefault(event[0], []).append(event[1])
                 else:
-                    self.events.append(event)
+                    self.events.append(event[1])
         self.events.sort()
-        self.notes += [f"{e}; it is ignored" for e in self.bad_events]
-        #: topic -> messages that could not be decoded (skipped)
-        self.undecodable: dict[str, int] = {}
+        for events in self.vehicle_events.values():
+            events.sort()
 
     def _read_description(self, has_record: bool) -> None:
         """The run's typed description from its record's parameters, or why there is none."""

@@ -237,6 +237,33 @@ def route_sdk_logs_through_python() -> None:
             root.removeHandler(stand_in)
 
 
+def _attachments(description: RunDescription) -> dict[str, tuple[bytes, str]]:
+    """The files a re-flight rebuilds the run from, by name: every vehicle's URDF and parameter
+    file (each once, in a fleet) and the world file."""
+    world = description.world_model
+    runs = [d for _, d in description.fleet] or [description]
+    if world is None or any(d.vehicle_model is None for d in runs):
+        raise QuadsimError("a recording needs the description of a live run (with its vehicle and world)")
+    files: dict[str, tuple[bytes, str]] = {}
+    paths = [
+        (p, media)
+        for d in runs
+        if (v := d.vehicle_model) is not None
+        for p, media in (
+            (v.urdf_path, "application/xml"),
+            (v.params_path, "application/toml"),
+        )
+    ]
+    for path, media in [*paths, (world.path, "application/toml")]:
+        data = path.read_bytes()
+        if files.setdefault(path.name, (data, media))[0] != data:
+            raise QuadsimError(
+                f"two different files are named {path.name} ({path}): a recording keeps the run's files by name; "
+                "rename one"
+            )
+    return files
+
+
 class McapRecorder:
     """A consumer of the topic fan-out that writes one MCAP file: the run's metadata and
     attachments when it opens, then every message it is given.
@@ -313,15 +340,8 @@ class McapRecorder:
                 "parameters": json.dumps(params, sort_keys=True),
             },
         )
-        v, world = description.vehicle_model, description.world_model
-        if v is None or world is None:
-            raise QuadsimError("a recording needs the description of a live run (with its vehicle and world)")
-        for path, media in (
-            (v.urdf_path, "application/xml"),
-            (v.params_path, "application/toml"),
-            (world.path, "application/toml"),
-        ):
-            self._writer.attach(log_time=0, create_time=0, name=path.name, media_type=media, data=path.read_bytes())
+        for name, (data, media) in _attachments(description).items():
+            self._writer.attach(log_time=0, create_time=0, name=name, media_type=media, data=data)
 
     # --- what the fan-out calls -----------------------------------------------------------------
 
@@ -358,12 +378,14 @@ class McapRecorder:
                 self._next_flush_ns = (ns // self._flush_every_ns + 1) * self._flush_every_ns
             self._flush()
 
-    def on_event(self, step: int, kind: str, value: str) -> None:
-        """Kept as metadata too, where re-simulation reads it (a z-mode switch)."""
+    def on_event(self, step: int, kind: str, value: str, vehicle: str = "") -> None:
+        """Kept as metadata too, where re-simulation reads it (a z-mode switch); in a fleet, with
+        the name of the vehicle it happened to."""
         if self.error is None and not self.closed:
-            self._call(
-                self._writer.write_metadata, EVENT_METADATA_NAME, {"step": str(step), "kind": kind, "value": value}
-            )
+            record = {"step": str(step), "kind": kind, "value": value}
+            if vehicle:
+                record["vehicle"] = vehicle
+            self._call(self._writer.write_metadata, EVENT_METADATA_NAME, record)
 
     # --- writing ----------------------------------------------------------------------------
 

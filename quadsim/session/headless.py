@@ -1,4 +1,5 @@
-"""Headless runs: fly a driver for a duration as fast as the machine allows, then summarise."""
+"""Headless runs: fly a driver (or a fleet) for a duration as fast as the machine allows, then
+summarise."""
 
 from __future__ import annotations
 
@@ -10,6 +11,7 @@ from dataclasses import dataclass
 from quadsim.core.types import VehicleState
 from quadsim.drivers.subscribed import SubscribedDriver
 from quadsim.session.stopping import stop_requested
+from quadsim.sim.fleet import Fleet
 from quadsim.sim.flight_events import EventKind, FlightEvent
 from quadsim.sim.loop import StateLog
 from quadsim.sim.simulator import Simulator
@@ -51,7 +53,7 @@ class RunSummary:
             f"commands        {self.commands_received} received, {self.commands_rejected} rejected (not finite), "
             f"{self.commands_clamped} clamped to the limits",
             *([f"live input      {self.live_input}"] if self.live_input else []),
-            f"flight events   {self._events_line()}",
+            f"flight events   {self.events_line()}",
             *(
                 f"crash           at t={e.step / self.physics_hz:.2f} s: {e.value}"
                 for e in self.events
@@ -59,7 +61,7 @@ class RunSummary:
             ),
         ]
 
-    def _events_line(self) -> str:
+    def events_line(self) -> str:
         counts = {kind: sum(e.kind is kind for e in self.events) for kind in EventKind}
         return ", ".join(f"{n} {kind.value}" for kind, n in counts.items() if n) or "none"
 
@@ -109,15 +111,47 @@ def run_headless(
     if log is not None:
         sim.add_sink(log)
     hz = sim.config.rates.physics_hz
-    total_steps = round(duration_s * hz)
-    chunk = max(1, round((1.0 / 60.0 if realtime else _CHUNK_S) * hz))
     start_step = sim.step_count
     first_event = len(sim.events)
+    done, total, wall = _advance(sim.step, hz, duration_s, progress, realtime)
+    return _summary(sim, odo, start_step, first_event, wall, done < total)
+
+
+def run_fleet_headless(
+    fleet: Fleet,
+    duration_s: float,
+    progress: Callable[[float], None] | None = None,
+    realtime: bool = False,
+) -> dict[str, RunSummary]:
+    """Advance every vehicle of `fleet` by `duration_s`, together; each vehicle's summary, by name."""
+    odometers = {name: _Odometer() for name in fleet}
+    for name, odo in odometers.items():
+        fleet[name].add_sink(odo)
+    start_step = fleet.step_count
+    first_events = {name: len(fleet[name].events) for name in fleet}
+    done, total, wall = _advance(fleet.step, fleet.config.rates.physics_hz, duration_s, progress, realtime)
+    return {
+        name: _summary(fleet[name], odo, start_step, first_events[name], wall, done < total)
+        for name, odo in odometers.items()
+    }
+
+
+def _advance(
+    step: Callable[[int], object],
+    hz: int,
+    duration_s: float,
+    progress: Callable[[float], None] | None,
+    realtime: bool,
+) -> tuple[int, int, float]:
+    """Call `step(n)` until `duration_s` of sim time have passed or a signal asks to stop (between
+    two chunks), paced to the wall clock with `realtime`: (steps done, steps asked, wall time)."""
+    total_steps = round(duration_s * hz)
+    chunk = max(1, round((1.0 / 60.0 if realtime else _CHUNK_S) * hz))
     t0 = time.perf_counter()
     done = 0
-    while done < total_steps and not stop_requested():  # a signal stops it between two chunks
+    while done < total_steps and not stop_requested():
         n = min(chunk, total_steps - done)
-        sim.step(n)
+        step(n)
         done += n
         if realtime:
             ahead = done / hz - (time.perf_counter() - t0)
@@ -126,7 +160,13 @@ def run_headless(
                 ahead = done / hz - (time.perf_counter() - t0)
         if progress is not None:
             progress(done / hz)
-    wall = time.perf_counter() - t0
+    return done, total_steps, time.perf_counter() - t0
+
+
+def _summary(
+    sim: Simulator, odo: _Odometer, start_step: int, first_event: int, wall: float, stopped_early: bool
+) -> RunSummary:
+    hz = sim.config.rates.physics_hz
     return RunSummary(
         sim_time_s=(sim.step_count - start_step) / hz,
         wall_time_s=wall,
@@ -138,7 +178,7 @@ def run_headless(
         + (sim.driver.rejected if isinstance(sim.driver, SubscribedDriver) else 0),
         commands_clamped=sim.gate.clamped_count,
         live_input=_live_input(sim.driver),
-        stopped_early=done < total_steps,
+        stopped_early=stopped_early,
         events=tuple(sim.events[first_event:]),
         physics_hz=hz,
     )

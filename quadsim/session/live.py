@@ -13,7 +13,6 @@ from collections.abc import Sequence
 from typing import TYPE_CHECKING
 
 from quadsim.live import FOXGLOVE_DEFAULT_ENDPOINT
-from quadsim.recording.contract import TWIST
 
 if TYPE_CHECKING:
     from quadsim.drivers.subscribed import SubscribedDriver
@@ -26,25 +25,29 @@ LIVE_INPUTS = ("foxglove", "ros2")
 def open_live_outputs(
     foxglove: str | None,
     ros2: bool,
-    commands: SubscribedDriver | None = None,
+    commands: SubscribedDriver | Sequence[SubscribedDriver] | None = None,
     ros_namespace: str = "",
     ros_remaps: Sequence[str] = (),
 ) -> list[LiveOutput]:
-    """Open the bridges: a Foxglove server at `foxglove` (HOST:PORT) or when it is the input, a
-    ROS 2 bridge with `ros2` or when it is the input (its node in `ros_namespace`, its topics
-    remapped by `ros_remaps`, FROM:=TO); `commands` is fed by the bridge it names."""
+    """Open the bridges: a Foxglove server at `foxglove` (HOST:PORT) or when it is an input, a
+    ROS 2 bridge with `ros2` or when it is an input (its node in `ros_namespace`, its topics
+    remapped by `ros_remaps`, FROM:=TO); each driver of `commands` (one, or a fleet's, each on
+    its vehicle's topic) is fed by the bridge it names."""
     outputs: list[LiveOutput] = []
-    source = commands.name if commands is not None else None
+    drivers = [] if commands is None else [commands] if not isinstance(commands, Sequence) else list(commands)
+    from_foxglove = [d for d in drivers if d.name == "foxglove"]
+    from_ros2 = [d for d in drivers if d.name == "ros2"]
     try:
-        if foxglove is not None or source == "foxglove":
+        if foxglove is not None or from_foxglove:
             from quadsim.live.foxglove import FoxgloveBridge, parse_endpoint
 
             host, port = parse_endpoint(foxglove or FOXGLOVE_DEFAULT_ENDPOINT)
-            bridge = FoxgloveBridge(host, port, commands if source == "foxglove" else None)
-            takes = f"; it takes Twists on {TWIST.name} (Teleop panel)" if source == "foxglove" else ""
+            bridge = FoxgloveBridge(host, port, from_foxglove)
+            topics = " and ".join(d.topic for d in from_foxglove)
+            takes = f"; it takes Twists on {topics} (Teleop panel)" if from_foxglove else ""
             print(f"Foxglove: serving {bridge.url} (Open connection -> Foxglove WebSocket){takes}", flush=True)
             if bridge.exposed:  # said as the ROS 2 bridge says an unlimited discovery range
-                can = "watch this run and fly the vehicle" if source == "foxglove" else "watch this run"
+                can = "watch this run and fly the vehicle" if from_foxglove else "watch this run"
                 print(
                     f"quadsim: warning: Foxglove: {bridge.host} is not loopback: anyone who can reach port "
                     f"{bridge.port} can {can}",
@@ -52,16 +55,15 @@ def open_live_outputs(
                     flush=True,
                 )
             outputs.append(bridge)
-        if ros2 or source == "ros2":
+        if ros2 or from_ros2:
             from quadsim.live.ros2 import Ros2Bridge
 
-            exclude = (TWIST.name,) if source == "ros2" else ()
+            exclude = tuple(d.topic for d in from_ros2)  # the user's nodes publish those
             ros2_bridge = Ros2Bridge(exclude, namespace=ros_namespace, remaps=ros_remaps)
             outputs.append(ros2_bridge)
-            if source == "ros2":
-                assert commands is not None
-                ros2_bridge.subscribe_twist(commands)
-            for line, warning in ros2_bridge.startup_lines(takes_twist=source == "ros2"):
+            for driver in from_ros2:
+                ros2_bridge.subscribe_twist(driver)
+            for line, warning in ros2_bridge.startup_lines(takes_twist=[d.topic for d in from_ros2]):
                 print(f"quadsim: warning: {line}" if warning else line, file=sys.stderr if warning else sys.stdout)
             sys.stdout.flush()
     except BaseException:

@@ -46,7 +46,99 @@ class OutputOptions:
     ordered_delivery: bool = True  # headless: frames in capture order at fixed points
 
 
-class RecordedRun:
+class RunOutputs:
+    """What every run's outputs do alike, a run of one vehicle's (RecordedRun) and a fleet's
+    (session.fleet_outputs): recording files that start and stop on request, each saying so on
+    /rosout, and live outputs closed with the run. A subclass sets `fanout` (what the recorder and
+    the live outputs consume), says where the run's clock is (`_step`), what a recording's
+    description is, and when the fan-out listens to the run (`_listen`)."""
+
+    options: OutputOptions
+    label: str
+    run_info: dict[str, Any]
+    fanout: Any  # a TopicFanout or a FleetFanout
+    recorder: McapRecorder | None
+    path: Path | None
+    live: list[LiveOutput]
+
+    def _step(self) -> int:
+        raise NotImplementedError
+
+    def _recording_description(self) -> RunDescription:
+        raise NotImplementedError
+
+    def _listen(self, on: bool) -> None:
+        raise NotImplementedError
+
+    def _drain(self) -> None:
+        """Wait for what is still being made for the recording (camera frames)."""
+
+    def _start(self) -> None:
+        """Feed the live outputs from now on, and start recording if asked to."""
+        for output in self.live:
+            self.fanout.add_consumer(output, self._step())
+        if self.live:
+            self._listen(True)
+        if self.options.record:
+            self.start_recording()
+
+    @property
+    def recording(self) -> bool:
+        return self.recorder is not None and not self.recorder.closed
+
+    def start_recording(self) -> Path:
+        """Open a new recording file and start writing to it."""
+        if self.recording:
+            raise RuntimeError("already recording")
+        out = self.options.out
+        if out is not None and out.suffix == ".mcap" and self.path is not None:
+            out = out.parent  # --out FILE names the first recording; later ones go beside it
+        from quadsim.recording.writer import McapRecorder, check_writable, recording_path
+
+        path = recording_path(out, self.label)
+        check_writable(path)
+        recorder = McapRecorder(path, self._recording_description())
+        self.fanout.add_consumer(recorder, self._step())
+        self._listen(True)
+        self.recorder, self.path = recorder, path
+        self.note_event(self._step(), RECORDING_EVENT, "started")
+        return path
+
+    def note_event(self, step: int, kind: str, value: str) -> None:
+        """An event the recording keeps (a z-mode switch, an input device change, recording
+        started or stopped) at `step`: the one way events reach /rosout."""
+        self.fanout.note_event(step, kind, value)
+
+    def stop_recording(self) -> None:
+        """Finish the current file (with what is still being made for it)."""
+        rec = self.recorder
+        if rec is None or rec.closed:
+            return
+        with shielded_from_signals():  # a signal now must not cut the file short
+            self._drain()
+            self._finish(rec)
+
+    def _finish(self, rec: McapRecorder) -> None:
+        """Say in the file that recording stops, and close it."""
+        if not rec.closed:
+            self.note_event(self._step(), RECORDING_EVENT, "stopped")
+        self.fanout.remove_consumer(rec)
+        if not self.fanout.consumers:
+            self._listen(False)
+        rec.close()
+
+    def _close_recording_and_live(self) -> None:
+        try:
+            if self.recorder is not None:
+                self._finish(self.recorder)
+        finally:
+            for output in self.live:
+                self.fanout.remove_consumer(output)
+                output.close()
+            self._listen(bool(self.fanout.consumers))
+
+
+class RecordedRun(RunOutputs):
     """Cameras, topic fan-out and recorder for one run. Use as a context manager; `close` is
     idempotent.
 
@@ -106,38 +198,20 @@ class RecordedRun:
                     scene_client=port.scene_client,
                 )
                 port.add_tap(self.cameras.tap_interval_steps, self.cameras.capture)
-            for output in self.live:
-                self.fanout.add_consumer(output, port.step_count)
-            if self.live:
-                self._listen(True)
-            if options.record:
-                self.start_recording()
+            self._start()
         except BaseException:
             self.close()
             raise
 
-    @property
-    def recording(self) -> bool:
-        return self.recorder is not None and not self.recorder.closed
+    def _step(self) -> int:
+        return self.port.step_count
 
-    def start_recording(self) -> Path:
-        """Open a new recording file and start writing to it."""
-        if self.recording:
-            raise RuntimeError("already recording")
-        out = self.options.out
-        if out is not None and out.suffix == ".mcap" and self.path is not None:
-            out = out.parent  # --out FILE names the first recording; later ones go beside it
-        from quadsim.recording.writer import McapRecorder, check_writable, recording_path
+    def _recording_description(self) -> RunDescription:
+        return self.description.with_outputs(self.camera_specs, self.port.step_count, self.run_info)
 
-        path = recording_path(out, self.label)
-        check_writable(path)
-        description = self.description.with_outputs(self.camera_specs, self.port.step_count, self.run_info)
-        recorder = McapRecorder(path, description)
-        self.fanout.add_consumer(recorder, self.port.step_count)
-        self._listen(True)
-        self.recorder, self.path = recorder, path
-        self.note_event(self.port.step_count, RECORDING_EVENT, "started")
-        return path
+    def _drain(self) -> None:
+        if self.cameras is not None:
+            self.cameras.drain()
 
     def _listen(self, on: bool) -> None:
         """The fan-out listens to the loop and the cameras only while someone consumes it."""
@@ -154,30 +228,6 @@ class RecordedRun:
             if self.cameras is not None and fanout in self.cameras.sinks:
                 self.cameras.sinks.remove(fanout)
 
-    def note_event(self, step: int, kind: str, value: str) -> None:
-        """An event the recording keeps (a z-mode switch, an input device change, recording
-        started or stopped) at `step`: the one way events reach /rosout."""
-        self.fanout.note_event(step, kind, value)
-
-    def stop_recording(self) -> None:
-        """Finish the current file (with the frames still being rendered)."""
-        rec = self.recorder
-        if rec is None or rec.closed:
-            return
-        with shielded_from_signals():  # a signal now must not cut the file short
-            if self.cameras is not None:
-                self.cameras.drain()
-            self._finish(rec)
-
-    def _finish(self, rec: McapRecorder) -> None:
-        """Say in the file that recording stops, and close it."""
-        if not rec.closed:
-            self.note_event(self.port.step_count, RECORDING_EVENT, "stopped")
-        self.fanout.remove_consumer(rec)
-        if not self.fanout.consumers:
-            self._listen(False)
-        rec.close()
-
     def close(self) -> None:
         with shielded_from_signals():  # a signal now must not cut the file short
             try:
@@ -190,14 +240,7 @@ class RecordedRun:
                         if self._own_cameras:
                             self.cameras.close()
             finally:
-                try:
-                    if self.recorder is not None:
-                        self._finish(self.recorder)
-                finally:
-                    for output in self.live:
-                        self.fanout.remove_consumer(output)
-                        output.close()
-                    self._listen(bool(self.fanout.consumers))
+                self._close_recording_and_live()
 
     def __enter__(self) -> RecordedRun:
         return self

@@ -16,6 +16,7 @@ from quadsim.core.kinematics import body_velocity
 from quadsim.core.types import VehicleState, ZMode
 from quadsim.drivers.replay import ReplayDriver
 from quadsim.errors import QuadsimError
+from quadsim.recording.contract import ODOM, POSE, TWIST, Names
 from quadsim.recording.flight import RecordedFlight
 from quadsim.session.outputs import OutputOptions, RecordedRun
 from quadsim.sim.config import SimConfig
@@ -72,7 +73,9 @@ def _plain_name(name: str) -> bool:
     return bool(name) and name == Path(name).name and not name.startswith(".") and "\0" not in name
 
 
-def _config_from(flight: RecordedFlight, folder: Path) -> tuple[SimConfig, dict[str, float]]:
+def rebuild_config(flight: RecordedFlight, folder: Path) -> tuple[SimConfig, dict[str, float]]:
+    """The run's config and gains, with its files written from the attachments to `folder`;
+    refuses a recording that cannot be re-flown faithfully, saying why."""
     d = flight.description
     if d is None:
         if flight.description_error:
@@ -87,16 +90,17 @@ def _config_from(flight: RecordedFlight, folder: Path) -> tuple[SimConfig, dict[
     unreadable = flight.unreadable_for_resim()
     if unreadable is not None:
         raise QuadsimError(f"{flight.path}: {unreadable}, so the flight cannot be re-flown faithfully")
-    if not flight.commands:
-        raise QuadsimError(f"{flight.path}: has no /quad_cmd_twist commands to re-fly")
+    pose = Names(flight.vehicle).topic(POSE).name
+    if not flight.commands and not flight.vehicle:  # a fleet's idle vehicle has none
+        raise QuadsimError(f"{flight.path}: has no {TWIST.name} commands to re-fly")
     if not flight.states:
-        raise QuadsimError(f"{flight.path}: has no /quad/pose states to compare with")
+        raise QuadsimError(f"{flight.path}: has no {pose} states to compare with")
     period = d.config.rates.physics_hz // d.config.rates.state_hz
     most = max(d.config.rates.physics_hz, 2 * period)  # one second, or two state periods
     for a, b in zip(flight.states, flight.states[1:]):
         if b.step - a.step > most:
             raise QuadsimError(
-                f"{flight.path}: its /quad/pose states jump from t={a.step / d.config.rates.physics_hz:.2f} s to "
+                f"{flight.path}: its {pose} states jump from t={a.step / d.config.rates.physics_hz:.2f} s to "
                 f"t={b.step / d.config.rates.physics_hz:.2f} s: the flight between cannot be compared"
             )
     if d.start_step:
@@ -150,7 +154,7 @@ def _deviation(topic: str, quantity: str, unit: str, errors: list[tuple[float, f
     return Deviation(topic, quantity, unit, worst, rms, worst_t, beyond)
 
 
-def _flight_settings(flight: RecordedFlight) -> dict[str, Any]:
+def flight_settings(flight: RecordedFlight) -> dict[str, Any]:
     """The landing settings and reset-on-crash the run was flown with (as the controller's details
     record them; recordings older than those: the defaults)."""
     details = flight.description.controller.details if flight.description is not None else {}
@@ -178,10 +182,10 @@ def resimulate(
 ) -> ResimReport:
     """Fly `flight`'s commands again; with `record`, the new flight is recorded (no cameras)."""
     with tempfile.TemporaryDirectory(prefix="quadsim-resim-") as tmp:
-        config, gains = _config_from(flight, Path(tmp))
+        config, gains = rebuild_config(flight, Path(tmp))
         driver = ReplayDriver(sorted(flight.command_steps(), key=lambda c: c[0]), str(flight.path))
         try:
-            sim = Simulator(config, driver, controller_gains=gains, texture_required=False, **_flight_settings(flight))
+            sim = Simulator(config, driver, controller_gains=gains, texture_required=False, **flight_settings(flight))
         except (QuadsimError, ValueError) as exc:
             # name the recording's attachments, not the temporary folder they were written to
             why = str(exc).replace(f"{tmp}/", "attachment ")
@@ -200,7 +204,7 @@ def resimulate(
                 _fly_commands(sim, run, flight, progress)
                 stepping_wall_s = time.perf_counter() - t_fly
                 new_path = run.path
-    return _compare(
+    return compare_states(
         flight, log, config.rates.physics_hz, new_path, stepping_wall_s, position_tolerance_m, attitude_tolerance_rad
     )
 
@@ -220,7 +224,7 @@ def _fly_commands(sim: Simulator, run: RecordedRun, flight: RecordedFlight, prog
             run.note_event(sim.step_count, "z_mode", mode.value)
 
 
-def _compare(
+def compare_states(
     flight: RecordedFlight,
     log: StateLog,
     physics_hz: int,
@@ -242,14 +246,15 @@ def _compare(
         vel.append(
             (t, math.dist(body_velocity(now.orientation_xyzw, now.linear_velocity_mps), rec_body_velocity))
         )  # as /quad/odom records it
+    names = Names(flight.vehicle)
     if not pos:
         raise QuadsimError(f"{flight.path}: its states are not at this simulation's state rate; nothing to compare")
     return ResimReport(
         flight.path,
         len(pos),
-        _deviation("/quad/pose", "position", "m", pos, position_tolerance_m),
-        _deviation("/quad/pose", "attitude", "rad", att, attitude_tolerance_rad),
-        _deviation("/quad/odom", "velocity", "m/s", vel, position_tolerance_m),
+        _deviation(names.topic(POSE).name, "position", "m", pos, position_tolerance_m),
+        _deviation(names.topic(POSE).name, "attitude", "rad", att, attitude_tolerance_rad),
+        _deviation(names.topic(ODOM).name, "velocity", "m/s", vel, position_tolerance_m),
         new_path,
         flight.states[-1].step / physics_hz,
         stepping_wall_s,

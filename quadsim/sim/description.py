@@ -9,12 +9,15 @@ field (`parameters.config.rates.physics_hz: expected a positive whole number, go
 The JSON layout (`to_parameters`) is the one recordings have always carried, plus
 `schema_version`; files without it are version 1. Version 2 adds the run's wind, sensor noise
 and seed (`config.wind`, `config.sensor_noise`, `config.seed`); a version 1 file had no wind and
-no sensor noise.
+no sensor noise. Version 3 is a fleet's (`fleet`: each vehicle's name and own description; the
+top-level `config` is the fleet's, with the run's seed, and `vehicle`, `controller` and `driver`
+are the first vehicle's); a run of one vehicle is still written as version 2.
 """
 
 from __future__ import annotations
 
 import math
+import re
 from dataclasses import dataclass, field, fields, replace
 from pathlib import Path
 from typing import Any
@@ -28,8 +31,9 @@ from quadsim.sensors.camera import CameraSpec
 from quadsim.sim.config import MAX_SEED, Rates, SimConfig
 from quadsim.vehicle.params import VehicleParams
 
-#: the layout version of the parameters this code writes
+#: the layout version of the parameters this code writes for one vehicle, and for a fleet
 SCHEMA_VERSION = 2
+FLEET_SCHEMA_VERSION = 3
 
 
 class DescriptionError(QuadsimError):
@@ -72,6 +76,9 @@ class RunDescription:
     #: their files); None in a description read back from a recording
     vehicle_model: VehicleParams | None = field(default=None, compare=False, repr=False)
     world_model: WorldSpec | None = field(default=None, compare=False, repr=False)
+    #: a fleet's vehicles: (name, that vehicle's own description), in the fleet's order; empty
+    #: for a run of one vehicle
+    fleet: tuple[tuple[str, RunDescription], ...] = ()
 
     @property
     def z_mode(self) -> ZMode:
@@ -92,6 +99,18 @@ class RunDescription:
 
     def to_parameters(self) -> dict[str, Any]:
         """Plain JSON-able data, the layout recordings carry in their `quadsim` metadata."""
+        params = {
+            **self.extra,
+            "schema_version": FLEET_SCHEMA_VERSION if self.fleet else self.schema_version,
+            **self._own_parameters(),
+            "start_step": self.start_step,
+        }
+        if self.fleet:
+            params["fleet"] = [{"name": name, **d._own_parameters()} for name, d in self.fleet]
+        return params
+
+    def _own_parameters(self) -> dict[str, Any]:
+        """One vehicle's part: its config, vehicle, controller, driver and cameras."""
         vehicle = {
             **self.vehicle.details,
             "name": self.vehicle.name,
@@ -105,14 +124,11 @@ class RunDescription:
             "gains": dict(self.controller.gains),
         }
         return {
-            **self.extra,
-            "schema_version": self.schema_version,
             "config": self.config.to_dict(),
             "vehicle": vehicle,
             "controller": controller,
             "driver": dict(self.driver),
             "cameras": [c.to_dict() for c in self.cameras],
-            "start_step": self.start_step,
         }
 
     # --- reading ----------------------------------------------------------------------------
@@ -122,11 +138,22 @@ class RunDescription:
         """Validate and type a recording's parameters; raises DescriptionError naming the field."""
         p = _Fields(params, "parameters")
         version = p.integer("schema_version", default=1, low=1)
-        if version > SCHEMA_VERSION:
+        if version > FLEET_SCHEMA_VERSION:
             raise DescriptionError(
                 f"parameters.schema_version {version}: written by a newer quadsim (this one reads up to "
-                f"{SCHEMA_VERSION}); upgrade quadsim to read it"
+                f"{FLEET_SCHEMA_VERSION}); upgrade quadsim to read it"
             )
+        start_step = p.integer("start_step", default=0, low=0)
+        own = cls._own_from(p, version, start_step)
+        fleet = _fleet(p, version, start_step) if version >= FLEET_SCHEMA_VERSION else ()
+        known = {"schema_version", "config", "vehicle", "controller", "driver", "cameras", "start_step", "fleet"}
+        return replace(
+            own, extra={k: v for k, v in p.data.items() if k not in known}, schema_version=version, fleet=fleet
+        )
+
+    @classmethod
+    def _own_from(cls, p: _Fields, version: int, start_step: int) -> RunDescription:
+        """One vehicle's part (config, vehicle, controller, driver, cameras) from `p`."""
         config = _config(p.section("config"), version)
         vehicle = _vehicle(p.section("vehicle"))
         c = p.section("controller")
@@ -136,19 +163,38 @@ class RunDescription:
         driver = p.section("driver", optional=True)
         cameras = p.raw("cameras", default=[])
         if not isinstance(cameras, list):
-            raise DescriptionError(f"parameters.cameras: expected a list, got {type(cameras).__name__}")
-        specs = tuple(_camera(cam, f"parameters.cameras[{i}]") for i, cam in enumerate(cameras))
-        known = {"schema_version", "config", "vehicle", "controller", "driver", "cameras", "start_step"}
+            raise DescriptionError(f"{p.where}.cameras: expected a list, got {type(cameras).__name__}")
+        specs = tuple(_camera(cam, f"{p.where}.cameras[{i}]") for i, cam in enumerate(cameras))
         return cls(
             config=config,
             vehicle=vehicle,
             controller=controller,
             driver=dict(driver.data),
             cameras=specs,
-            start_step=p.integer("start_step", default=0, low=0),
-            extra={k: v for k, v in p.data.items() if k not in known},
+            start_step=start_step,
             schema_version=version,
         )
+
+
+#: a vehicle's name in a fleet is a ROS name segment: it goes in front of its topics (/alpha/quad/odom)
+VEHICLE_NAME = re.compile(r"[a-z][a-z0-9_]{0,62}")
+#: at most this many vehicles fly in one world (and are read from a recording's fleet)
+MAX_FLEET = 100
+
+
+def _fleet(p: _Fields, version: int, start_step: int) -> tuple[tuple[str, RunDescription], ...]:
+    """parameters.fleet: each vehicle's name and own description."""
+    entries = p.raw("fleet")
+    if not isinstance(entries, list) or not 1 <= len(entries) <= MAX_FLEET:
+        raise DescriptionError(f"parameters.fleet: expected a list of 1 to {MAX_FLEET} vehicles, got {entries!r:.60}")
+    out: list[tuple[str, RunDescription]] = []
+    for i, entry in enumerate(entries):
+        f = _Fields(entry, f"parameters.fleet[{i}]")
+        name = f.text("name")
+        if not VEHICLE_NAME.fullmatch(name) or name in dict(out):
+            raise DescriptionError(f"{f.where}.name: {name!r:.60} is not a unique ROS name segment")
+        out.append((name, RunDescription._own_from(f, version, start_step)))
+    return tuple(out)
 
 
 # --- validation helpers ---------------------------------------------------------------------

@@ -16,7 +16,6 @@ other; a collision is a flight event on both, naming the other.
 from __future__ import annotations
 
 import math
-import re
 from collections.abc import Iterator, Sequence
 from dataclasses import dataclass, field, replace
 from pathlib import Path
@@ -32,23 +31,20 @@ from quadsim.errors import ConfigError
 from quadsim.physics.client import WorldClient
 from quadsim.physics.world_spec import load_world
 from quadsim.sim.config import MAX_SEED, SimConfig
+from quadsim.sim.description import MAX_FLEET, VEHICLE_NAME, RunDescription
 from quadsim.sim.simulator import FleetPlace, Simulator
 from quadsim.vehicle.params import VehicleParams
-
-#: a vehicle's name is a ROS name segment: it goes in front of its topics (/alpha/quad/odom)
-NAME = re.compile(r"[a-z][a-z0-9_]{0,62}")
-#: at most this many vehicles in one world
-MAX_VEHICLES = 100
 
 
 @dataclass(frozen=True)
 class FleetVehicle:
     """One vehicle of a fleet: its name, start pose, input and gains, and where it differs from
-    the fleet's config: airframe (URDF), controller, z-mode (None: the fleet's)."""
+    the fleet's config: airframe (URDF and parameter file), controller, z-mode (None: the fleet's)."""
 
     name: str
     start: StartPose = StartPose()
     urdf: Path | None = None
+    vehicle_params: Path | None = None
     controller: ControllerKind | None = None
     z_mode: ZMode | None = None
     driver: InputDriver | None = None
@@ -64,12 +60,14 @@ class Fleet:
         config: SimConfig = SimConfig(),
         landing: LandingSettings = LandingSettings(),
         reset_on_crash: bool = False,
+        texture_required: bool = True,
     ) -> None:
         """`config`: what the vehicles share (world, rates, wind, sensor noise, the run's seed);
-        its vehicle, controller, z-mode and start are each vehicle's own."""
+        its vehicle, controller, z-mode and start are each vehicle's own. `texture_required`:
+        False lets a world whose floor texture is missing load (a re-flight draws nothing)."""
         _check(vehicles, config)
         self.config = config
-        world = load_world(config.world)
+        world = load_world(config.world, texture_required)
         gravity = VehicleParams.gravity_mps2  # what every vehicle carries; each is checked against the world's
         self.client = WorldClient(world, config.rates.physics_hz, gravity, config.gui)
         self.vehicles: dict[str, Simulator] = {}
@@ -78,6 +76,7 @@ class Fleet:
                 own = replace(
                     config,
                     urdf=v.urdf if v.urdf is not None else config.urdf,
+                    vehicle_params=v.vehicle_params if v.urdf is not None else config.vehicle_params,
                     controller=v.controller if v.controller is not None else config.controller,
                     z_mode=v.z_mode if v.z_mode is not None else config.z_mode,
                     start=v.start,
@@ -144,9 +143,17 @@ class Fleet:
     def reset(self, seed: int | None = None) -> None:
         """Every vehicle back at its start at step 0; with `seed`, the run's random streams start
         again from it (each vehicle's derived from it as at the start)."""
+        if seed is not None:
+            self.config = replace(self.config, seed=seed)  # validated like any SimConfig
         for index, member in enumerate(self._members):
             member.reset(None if seed is None else _vehicle_seed(seed, index))
         self._states = [None] * len(self._members)
+
+    def description(self) -> RunDescription:
+        """The whole run: the fleet's config (with the run's seed) and each vehicle's own
+        description, in order; its vehicle, controller and driver are the first vehicle's."""
+        members = tuple((name, sim.description()) for name, sim in self.vehicles.items())
+        return replace(members[0][1], config=self.config, fleet=members)
 
     # --- lifetime ---------------------------------------------------------------------------
 
@@ -171,11 +178,11 @@ def _vehicle_seed(seed: int, index: int) -> int:
 def _check(vehicles: Sequence[FleetVehicle], config: SimConfig) -> None:
     if not vehicles:
         raise ConfigError("a fleet needs at least one vehicle")
-    if len(vehicles) > MAX_VEHICLES:
-        raise ConfigError(f"a fleet of {len(vehicles)} vehicles: at most {MAX_VEHICLES} fly in one world")
+    if len(vehicles) > MAX_FLEET:
+        raise ConfigError(f"a fleet of {len(vehicles)} vehicles: at most {MAX_FLEET} fly in one world")
     seen: set[str] = set()
     for v in vehicles:
-        if not isinstance(v.name, str) or not NAME.fullmatch(v.name):
+        if not isinstance(v.name, str) or not VEHICLE_NAME.fullmatch(v.name):
             raise ConfigError(
                 f"vehicle name {v.name!r}: a ROS name segment is needed (a lowercase letter, then lowercase "
                 "letters, digits or _; at most 63)"

@@ -139,7 +139,7 @@ def message_costs(states: int = 6000, repeats: int = 5) -> dict[str, float]:
             if self.keep:
                 self.batches.append(messages)
 
-        def on_event(self, step: int, kind: str, value: str) -> None:
+        def on_event(self, step: int, kind: str, value: str, vehicle: str = "") -> None:
             pass
 
     sim = hovering_sim(ControllerKind.CASCADE, Rates())

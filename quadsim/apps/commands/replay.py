@@ -7,7 +7,7 @@ import argparse
 import sys
 import time
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 from quadsim.apps.options import (
     PLOT_SUFFIXES,
@@ -107,7 +107,14 @@ def _resim(args: argparse.Namespace, flight: RecordedFlight) -> int:
     from quadsim.session.resim import resimulate
 
     bar = ProgressBar(flight.duration_s, "re-flying")
-    report = resimulate(flight, out=args.out, record=not args.no_record, progress=bar.update)
+    if flight.vehicle:  # a fleet's recording: every vehicle flies again, together
+        from quadsim.recording.flight import load_flights
+        from quadsim.session.fleet_resim import resimulate_fleet
+
+        flights = load_flights(args.file)
+        report: Any = resimulate_fleet(flights, out=args.out, record=not args.no_record, progress=bar.update)
+    else:
+        report = resimulate(flight, out=args.out, record=not args.no_record, progress=bar.update)
     bar.close()
     for line in report.lines():
         print(line)

@@ -35,6 +35,15 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         "storage, a quadsim recording) at their log times, counted from the first of them; z-mode: a quadsim "
         "recording's, else --z-mode (default velocity)",
     )
+    what.add_argument(
+        "--fleet",
+        type=Path,
+        metavar="FILE.toml",
+        help="fly a fleet: the vehicles of a fleet file in one world, each with its airframe, start, controller "
+        "and input (script:NAME_OR_FILE, ros2, foxglove or idle; ros2 and foxglove take Twists on "
+        "/NAME/quad_cmd_twist); every vehicle's topics are recorded under its name (/NAME/quad/odom). Default "
+        "duration: the longest script; with a live input, until Ctrl-C. No cameras yet",
+    )
     p.add_argument(
         "--input",
         choices=["script", "foxglove", "ros2"],
@@ -55,6 +64,12 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
 
 
 def main(args: argparse.Namespace) -> int:
+    if args.fleet is not None:
+        if args.input != "script":
+            raise QuadsimError(f"--input {args.input} with --fleet: each vehicle's input is in the fleet file")
+        from quadsim.apps.fleet_flight import fly_fleet
+
+        return fly_fleet(args, "run")
     inputs = [args.script is not None, args.commands_from is not None, args.input in ("foxglove", "ros2")]
     if sum(inputs) > 1:
         what = f"--input {args.input}" if args.input != "script" else "--input"
