@@ -3,7 +3,7 @@
 Written from the protocol's specification (foxglove/ws-protocol docs/spec.md) on a generic
 WebSocket library (`websockets`), not with foxglove-sdk: it subscribes to every channel the
 server advertises, decodes what arrives (CDR with rosbags), and may advertise /quad_cmd_twist
-and publish Twists on it, then go quiet. It prints one JSON report on stdout.
+(or --topic) and publish Twists on it, then go quiet. It prints one JSON report on stdout.
 
     python foxglove_client.py ws://127.0.0.1:8765 --listen-s 3 [--publish json|cdr --twist 1,0,0,0 --publish-s 2]
         [--subprotocol foxglove.websocket.v1] [--program '[[SECONDS, {"linear_x": V, ...}], ...]']
@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 import struct
 import time
 from typing import Any
@@ -41,8 +42,9 @@ def twist_payload(encoding: str, lx: float, ly: float, lz: float, az: float) -> 
 def summarise(type_name: str, msg: Any) -> dict[str, Any]:
     """What the tests look at in a decoded message."""
     if type_name == "nav_msgs/msg/Odometry":
-        p = msg.pose.pose.position
-        return {"x": p.x, "y": p.y, "z": p.z}
+        p, q = msg.pose.pose.position, msg.pose.pose.orientation
+        yaw = math.atan2(2 * (q.w * q.z + q.x * q.y), 1 - 2 * (q.y * q.y + q.z * q.z))
+        return {"x": p.x, "y": p.y, "z": p.z, "yaw": yaw, "child": msg.child_frame_id}
     if type_name == "sensor_msgs/msg/CompressedImage":
         image = cv2.imdecode(np.frombuffer(bytes(msg.data), np.uint8), cv2.IMREAD_COLOR)
         return {
@@ -65,6 +67,7 @@ def main() -> None:
     ap.add_argument("--listen-s", type=float, default=2.0)
     ap.add_argument("--publish", choices=["json", "cdr"], default=None)
     ap.add_argument("--twist", default="0,0,0,0", help="linear x,y,z, angular z")
+    ap.add_argument("--topic", default="/quad_cmd_twist", help="where the Twists go (a fleet vehicle's /NAME/...)")
     ap.add_argument("--publish-s", type=float, default=0.0)
     ap.add_argument("--start-s", type=float, default=0.0, help="wait this long before publishing")
     ap.add_argument("--program", type=json.loads, default=None, help="phases [[seconds, {field: value}], ...]")
@@ -105,7 +108,7 @@ def main() -> None:
                                 "channels": [
                                     {
                                         "id": 7,
-                                        "topic": "/quad_cmd_twist",
+                                        "topic": args.topic,
                                         "encoding": args.publish,
                                         "schemaName": "geometry_msgs/msg/Twist",
                                     }

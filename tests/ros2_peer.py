@@ -6,6 +6,10 @@ quadsim publishes. Not a test module: tests/test_ros2.py and the benchmark start
     python ros2_peer.py latency OUT.json       publish a new climb rate every 0.25 s; report when each went out
     python ros2_peer.py program OUT.json PHASES
                                                fly PHASES, JSON [[SECONDS, {"linear_x": V, ...}], ...]
+    python ros2_peer.py fleet OUT.json NAME OTHER,...
+                                               fly vehicle NAME of a fleet as `fly` does, on its
+                                               /NAME/quad_cmd_twist; read its /NAME/quad/odom and
+                                               the others' odometry
 
 TOPIC is where the Twists go (default /quad_cmd_twist).
 """
@@ -63,6 +67,10 @@ def main() -> int:
     mode, out = sys.argv[1], sys.argv[2]
     program = json.loads(sys.argv[3]) if mode == "program" else []
     cmd_topic = sys.argv[3] if len(sys.argv) > 3 and mode != "program" else "/quad_cmd_twist"
+    prefix = f"/{sys.argv[3]}" if mode == "fleet" else ""  # a fleet vehicle's topics have its name in front
+    others = sys.argv[4].split(",") if mode == "fleet" else []
+    if mode == "fleet":
+        cmd_topic = f"{prefix}/quad_cmd_twist"
     rclpy.init()
     node = Node("quadsim_test_peer")
     clock_ns: list[int] = []
@@ -94,7 +102,18 @@ def main() -> int:
     def counter(name: str) -> Any:
         return lambda _m: counts.__setitem__(name, counts[name] + 1)
 
-    node.create_subscription(Odometry, "/quad/odom", on_odom, 10)
+    node.create_subscription(Odometry, f"{prefix}/quad/odom", on_odom, 10)
+    others_last: dict[str, dict[str, float]] = {}
+
+    def other_odom(name: str) -> Any:
+        def on(m: Odometry) -> None:
+            p = m.pose.pose.position
+            others_last[name] = {"x": p.x, "y": p.y, "z": p.z, "child": m.child_frame_id}
+
+        return on
+
+    for other in others:
+        node.create_subscription(Odometry, f"/{other}/quad/odom", other_odom(other), 10)
     node.create_subscription(CompressedImage, "/quad/front_camera/image_raw/compressed", on_image, 10)
     if mode == "fly":
         for name, (kind, qos) in TOPICS.items():
@@ -125,7 +144,7 @@ def main() -> int:
             sent.append((m.linear.z, time.time()))
             spin_for(0.05)  # 20 Hz, as teleop_twist_joy repeats
 
-    if clock_ns and mode == "fly":
+    if clock_ns and mode in ("fly", "fleet"):
         send(2.5, linear_z=1.0)  # climb 1 m/s
         send(1.5, linear_x=1.0)  # forward 1 m/s
         send(1.5, linear_y=1.0)  # left 1 m/s
@@ -159,6 +178,7 @@ def main() -> int:
         "counts": counts,
         "graph": graph,
         "sent": sent,
+        "others_last": others_last,
     }
     with open(out, "w") as f:
         json.dump(report, f)

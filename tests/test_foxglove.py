@@ -5,6 +5,7 @@ protocol's spec) watches it and flies it."""
 from __future__ import annotations
 
 import json
+import math
 import os
 import re
 import shutil
@@ -461,3 +462,76 @@ def test_a_client_that_stops_reading_does_not_hold_up_or_spoil_the_end_of_the_ru
     assert "Traceback" not in err and "Task was destroyed" not in err and "ERROR" not in err, err
     assert len(err) < 300, err
     assert took < (10 if ending == "sigint" else 20), took
+
+
+FLEET = """
+[[vehicle]]
+name = "alpha"
+start = [0.0, 0.0, 0.0, 0.0]
+input = "script:square"
+
+[[vehicle]]
+name = "bravo"
+start = [0.0, -4.0, 0.0, 0.0]
+input = "foxglove"
+"""
+
+
+def test_a_client_flies_one_vehicle_of_a_fleet_on_its_topic_while_a_script_flies_another(tmp_path: Path) -> None:
+    """The Teleop panel's way (JSON Twists) on /bravo/quad_cmd_twist: climb, then forward while
+    turning; alpha flies its square meanwhile. A client publishing on /quad_cmd_twist is told
+    which topics take Twists. Both vehicles' topics reach the client; outcomes from the recording."""
+    (tmp_path / "pair.toml").write_text(FLEET)
+    recording = tmp_path / "pair.mcap"
+    proc = _quadsim(
+        "run",
+        "--fleet",
+        str(tmp_path / "pair.toml"),
+        "--foxglove",
+        "127.0.0.1:0",
+        "--duration",
+        "9",
+        "--out",
+        str(recording),
+    )
+    try:
+        url = _served_url(proc)
+        time.sleep(1.0)  # a late joiner: the latched topics must still come
+        program = json.dumps([[2.0, {"linear_z": 1.0}], [2.0, {"linear_x": 1.0, "angular_z": 0.5}]])
+        flown = _client(
+            url,
+            "--listen-s",
+            "5",
+            "--publish",
+            "json",
+            "--topic",
+            "/bravo/quad_cmd_twist",
+            "--program",
+            program,
+            *OLD_NAME,
+        )
+        wrong = _client(url, "--listen-s", "1", "--publish", "cdr", "--twist", "1,0,0,0", "--publish-s", "0.5")
+        out, err = proc.communicate(timeout=60)
+    finally:
+        proc.kill()
+    assert proc.returncode == 0, err
+    topics = flown["topics"]
+    assert {"/alpha/quad/odom", "/bravo/quad/odom", "/alpha/robot_description", "/bravo/robot_description"} <= set(
+        topics
+    )
+    assert topics["/bravo/quad/odom"]["last"]["child"] == "bravo/base_link"
+    children = topics["/tf_static"]["first"]["children"]
+    assert any(c.startswith("alpha/rotor") for c in children) and any(c.startswith("bravo/rotor") for c in children)
+    assert any("takes only geometry_msgs/msg/Twist on /bravo/quad_cmd_twist" in s for s in wrong.get("status", []))
+    assert re.search(r"live input      \d+ arrived on /bravo/quad_cmd_twist from foxglove: 0 rejected", out), out
+    from quadsim.recording.reader import RecordingReader
+
+    with RecordingReader(recording) as reader:
+        commands = {(t.linear_x, t.linear_z, t.angular_z) for _, t in reader.commands("bravo")}
+        bravo = [(p, q) for _, p, q in reader.poses("bravo")]
+        alpha = [p for _, p, _ in reader.poses("alpha")]
+    assert {(0.0, 1.0, 0.0), (1.0, 0.0, 0.5)} <= commands  # every field the client set
+    (x, y, z), (qx, qy, qz, qw) = bravo[-1]
+    assert z > 1.0 and x > 0.8 and y > -3.9, (x, y, z)  # climbed, went forward and, turning, drifted left
+    assert 0.6 < math.atan2(2 * (qw * qz + qx * qy), 1 - 2 * (qy * qy + qz * qz)) < 1.4  # turned about 1 rad
+    assert max(p[0] for p in alpha) > 2.5  # alpha's square went on all the while

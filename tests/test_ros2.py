@@ -42,12 +42,16 @@ def _beside_peer(
     cmd_topic: str = "/quad_cmd_twist",
     node_env: dict[str, str] | None = None,
     program: str | None = None,
+    fleet: tuple[str, str] | None = None,
 ) -> tuple[subprocess.CompletedProcess[str], dict]:
     """Run quadsim with `quadsim_args` while the ROS 2 peer flies (it starts publishing once /clock
     comes): its climb, forward, left and turn on `cmd_topic`, or `program` (JSON phases, see
-    tests/ros2_peer.py); return quadsim's outcome and the peer's report."""
+    tests/ros2_peer.py), or with `fleet` (NAME, OTHERS) the climb, forward, left and turn of that
+    fleet vehicle; return quadsim's outcome and the peer's report."""
     report_path = folder / "peer.json"
     mode = ["fly", str(report_path), cmd_topic] if program is None else ["program", str(report_path), program]
+    if fleet is not None:
+        mode = ["fleet", str(report_path), *fleet]
     peer = subprocess.Popen(
         [str(python), str(PEER), *mode],
         env=node_env or env,
@@ -248,3 +252,57 @@ def test_every_configuration_matches_fast_dds_endpoints_by_type_name(monkeypatch
     assert ignore in local and "<AllowMulticast>false</AllowMulticast>" in local
     (own,) = cyclone_configs({"CYCLONEDDS_URI": "file:///etc/mine.xml"})
     assert own.startswith("<CycloneDDS>") and ignore in own and own.endswith(",file:///etc/mine.xml")
+
+
+FLEET = """
+[[vehicle]]
+name = "alpha"
+start = [0.0, 0.0, 0.0, 0.0]
+input = "ros2"
+
+[[vehicle]]
+name = "bravo"
+airframe = "hexa"
+start = [0.0, -4.0, 0.0, 0.0]
+input = "script:square"
+"""
+
+
+@pytest.mark.parametrize("distribution", DISTRIBUTIONS)
+def test_a_ros2_node_flies_one_vehicle_of_a_fleet_by_its_name_while_a_script_flies_another(
+    distribution: str, tmp_path: Path
+) -> None:
+    """The node climbs, goes forward and left and turns alpha on /alpha/quad_cmd_twist, and reads
+    /alpha/quad/odom and /bravo/quad/odom; bravo flies its square all the while. Each vehicle's
+    outcome is read from the recording."""
+    python = _peer_python(distribution)
+    (tmp_path / "pair.toml").write_text(FLEET)
+    recording = tmp_path / "pair.mcap"
+    args = ["run", "--fleet", str(tmp_path / "pair.toml"), "--duration", "11", "--out", str(recording)]
+    env = local_env(free_domain(len(CASES) + 2 + DISTRIBUTIONS.index(distribution)), "LOCALHOST")
+    sim, report = _beside_peer(python, args, tmp_path, env, fleet=("alpha", "bravo"))
+    assert "it takes geometry_msgs/Twist on /alpha/quad_cmd_twist" in sim.stdout
+    twist_readers = [s["node"] for s in report["graph"]["subscriptions"] if s["type"] == "geometry_msgs/msg/Twist"]
+    owner = "_CREATED_BY_BARE_DDS_APP_/_CREATED_BY_BARE_DDS_APP_" if distribution == "kilted" else "/quadsim"
+    assert twist_readers == [owner], report["graph"]  # as for one vehicle (see the first test)
+    assert report["odom_count"] > 100 and report["odom_last"]["frame"] == "world"
+    assert report["others_last"]["bravo"]["child"] == "bravo/base_link"
+    with RecordingReader(recording) as reader:
+        alpha = [twist for _, twist in reader.commands("alpha")]
+        poses = {name: [p for _, p, _ in reader.poses(name)] for name in ("alpha", "bravo")}
+        quats = [q for _, _, q in reader.poses("alpha")]
+    # every field the node set arrived: climb, forward, left, turn
+    assert {(t.linear_x, t.linear_y, t.linear_z, t.angular_z) for t in alpha} >= {
+        (0.0, 0.0, 1.0, 0.0),
+        (1.0, 0.0, 0.0, 0.0),
+        (0.0, 1.0, 0.0, 0.0),
+        (0.0, 0.0, 0.0, 0.5),
+    }
+    top = max(p[2] for p in poses["alpha"])
+    x_end, y_end, _ = poses["alpha"][-1]
+    assert 1.8 < top < 3.2 and 0.8 < x_end < 2.2 and 0.8 < y_end < 2.2, (top, x_end, y_end)
+    x, y, z, w = quats[-1]
+    assert 0.6 < math.atan2(2 * (w * z + x * y), 1 - 2 * (y * y + z * z)) < 1.4  # about 1 rad turned
+    assert report["others_last"]["bravo"]["x"] == pytest.approx(poses["bravo"][-1][0], abs=0.5)
+    bravo_x = [p[0] for p in poses["bravo"]]
+    assert max(bravo_x) > 2.5 and abs(poses["bravo"][-1][2] - 2.0) < 0.2  # its square's first leg, at 2 m

@@ -223,12 +223,16 @@ class RecordingReader:
         for _, ns, msg in self.raw_messages([topic]):
             yield ns, msg
 
-    def commands(self) -> Iterator[tuple[int, Twist]]:
-        for ns, m in self.messages(rm.TWIST.name):
+    def commands(self, vehicle: str = "") -> Iterator[tuple[int, Twist]]:
+        """The commands (of a fleet's `vehicle`), as the controller took them."""
+        for ns, m in self.messages(rm.Names(vehicle).topic(rm.TWIST).name):
             yield ns, rm.twist_from_msg(m)
 
-    def poses(self) -> Iterator[tuple[int, tuple[float, float, float], tuple[float, float, float, float]]]:
-        for ns, m in self.messages(rm.POSE.name):
+    def poses(
+        self, vehicle: str = ""
+    ) -> Iterator[tuple[int, tuple[float, float, float], tuple[float, float, float, float]]]:
+        """(log time, position, orientation xyzw) of the vehicle (of a fleet's `vehicle`)."""
+        for ns, m in self.messages(rm.Names(vehicle).topic(rm.POSE).name):
             p, q = m.pose.position, m.pose.orientation
             yield ns, (p.x, p.y, p.z), (q.x, q.y, q.z, q.w)
 
