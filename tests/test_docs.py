@@ -97,6 +97,18 @@ def test_the_window_picture_shows_the_window():
     assert (hud > 200).all(axis=2).mean() > 0.01  # white text on the HUD
 
 
+def test_the_fleet_picture_shows_every_vehicles_track():
+    """docs/img/fleet.png (replay --plot of the example fleet): the Crazyflie's figure eight in red
+    and the quad's square in grey on the map, commands against the flight on the right."""
+    image = cv2.imread(str(DOCS / "img" / "fleet.png"))
+    assert image is not None and image.shape[1] > image.shape[0]
+    track = image[:, : image.shape[1] * 2 // 5].astype(int)
+    b, g, r = track[:, :, 0], track[:, :, 1], track[:, :, 2]
+    red = (r > 180) & (g < 90) & (b < 90)
+    grey = (abs(r - 140) < 12) & (abs(g - 140) < 12) & (abs(b - 140) < 12)
+    assert red.sum() > 800 and grey.sum() > 500, (red.sum(), grey.sum())  # a landmark alone is ~100 px
+
+
 def test_the_readme_is_a_front_door():
     readme = (ROOT / "README.md").read_text()
     assert len(readme.splitlines()) <= 200

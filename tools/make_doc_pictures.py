@@ -1,11 +1,13 @@
 """The documentation's pictures, made from the simulator itself. Run from the clone:
-`python tools/make_doc_pictures.py [cameras|window]`; tests/test_docs.py checks each is
+`python tools/make_doc_pictures.py [cameras|window|fleet]`; tests/test_docs.py checks each is
 there and shows what it should.
 
 - docs/img/cameras.png: what the two onboard cameras see a few seconds into a flight toward the
   red tower, side by side;
 - docs/img/window.png: the real replay window (SDL's x11 driver in an Xvfb of its own, grabbed
-  from the X server) playing a recorded square flight: cameras, map with the track, HUD, timeline.
+  from the X server) playing a recorded square flight: cameras, map with the track, HUD, timeline;
+- docs/img/fleet.png: `replay --plot` of the example fleet's recording (examples/fleet.toml), the
+  Crazyflie's figure eight in red among the other vehicles' tracks.
 
 (The sweep plot in docs/sweeps.md is the one the wind example's sweep draws.)
 """
@@ -100,7 +102,26 @@ def window() -> None:
     print(f"wrote {out}")
 
 
-PICTURES = {"cameras": cameras, "window": window}
+def fleet() -> None:
+    out = IMG / "fleet.png"
+    with tempfile.TemporaryDirectory(prefix="quadsim-doc-") as tmp:
+        recording = Path(tmp) / "fleet.mcap"
+        main_py = [sys.executable, str(ROOT / "main.py")]
+        subprocess.run(
+            [*main_py, "run", "--fleet", str(ROOT / "examples" / "fleet.toml"), "--out", str(recording)],
+            check=True,
+            capture_output=True,
+        )
+        out.unlink(missing_ok=True)
+        subprocess.run(
+            [*main_py, "replay", str(recording), "--vehicle", "charlie", "--plot", str(out)],
+            check=True,
+            capture_output=True,
+        )
+    print(f"wrote {out}")
+
+
+PICTURES = {"cameras": cameras, "window": window, "fleet": fleet}
 
 
 def main(names: list[str]) -> None:

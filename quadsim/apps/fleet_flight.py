@@ -155,7 +155,8 @@ class FleetFlight:
         from quadsim.session.headless import run_fleet_headless
 
         outputs = replace(output_options(self.args), cameras=())
-        label = f"fleet_{Path(self.args.fleet).stem}"
+        stem = Path(self.args.fleet).stem
+        label = stem if "fleet" in stem else f"fleet_{stem}"
         try:
             with FleetRecordedRun(fleet, outputs, label, self.run_info, live=live) as run:
                 self.run = run

@@ -16,10 +16,12 @@ from typing import Any
 from quadsim.core.types import HEIGHT_MODE_BASE_M, VehicleState, ZMode
 from quadsim.errors import QuadsimError
 from quadsim.physics.world_spec import load_world
+from quadsim.recording.contract import POSE, Names
 from quadsim.recording.flight import NS, RecordedFlight
 
 COMMAND_COLOUR = "#1f77b4"
 FLOWN_COLOUR = "#d62728"
+OTHERS_COLOUR = "#8c8c8c"
 
 
 def _matplotlib() -> Any:
@@ -83,13 +85,27 @@ def _landmarks(f: RecordedFlight) -> list[tuple[str, float, float, tuple[float, 
     return [(lm.name, lm.position_m[0], lm.position_m[1], lm.color_rgba[:3]) for lm in world.landmarks]
 
 
-def _draw_track(track: Any, states: list[VehicleState], landmarks: list[tuple[str, float, float, Any]]) -> None:
-    """The flown track seen from above, with the world's landmarks, the start and the end."""
+def _draw_track(
+    track: Any,
+    states: list[VehicleState],
+    landmarks: list[tuple[str, float, float, Any]],
+    others: dict[str, list[VehicleState]],
+    name: str,
+) -> None:
+    """The flown track seen from above, with the world's landmarks, the start and the end; in a
+    fleet, the other vehicles' tracks in grey, each named at its end."""
     xs, ys = [s.position_m[0] for s in states], [s.position_m[1] for s in states]
-    for name, x, y, colour in landmarks:
+    for landmark, x, y, colour in landmarks:
         track.plot(x, y, "s", color=colour, markersize=9, alpha=0.8)
-        track.annotate(name.replace("_", " "), (x, y), textcoords="offset points", xytext=(6, 6), fontsize=8)
-    track.plot(xs, ys, color=FLOWN_COLOUR, linewidth=1.6, label="flown track")
+        track.annotate(landmark.replace("_", " "), (x, y), textcoords="offset points", xytext=(6, 6), fontsize=8)
+    for i, (other, flown) in enumerate(others.items()):
+        oxs, oys = [s.position_m[0] for s in flown], [s.position_m[1] for s in flown]
+        track.plot(oxs, oys, color=OTHERS_COLOUR, linewidth=1.2, label="the fleet's other vehicles" if i == 0 else None)
+        track.plot(oxs[-1], oys[-1], "X", color=OTHERS_COLOUR)
+        track.annotate(other, (oxs[-1], oys[-1]), textcoords="offset points", xytext=(6, -10), fontsize=8)
+    if others:
+        track.annotate(name, (xs[-1], ys[-1]), textcoords="offset points", xytext=(6, -10), fontsize=8)
+    track.plot(xs, ys, color=FLOWN_COLOUR, linewidth=1.6, label=f"flown track{f' of {name}' if others else ''}")
     track.plot(xs[0], ys[0], "o", color="#2ca02c", label="start")
     track.plot(xs[-1], ys[-1], "X", color="black", label="end")
     track.set_xlabel("x, world (m)")
@@ -131,10 +147,11 @@ def _draw_panels(
     ax.set_xlabel("simulation time (s)")
 
 
-def export_plot(f: RecordedFlight, path: Path) -> Path:
-    """Write the plot to `path` (.png, .jpg, .pdf or .svg) and return it."""
+def export_plot(f: RecordedFlight, path: Path, others: dict[str, list[VehicleState]] | None = None) -> Path:
+    """Write the plot to `path` (.png, .jpg, .pdf or .svg) and return it; `others`: in a fleet's
+    recording, the other vehicles' states by name, drawn on the track."""
     if not f.states:
-        raise QuadsimError(f"{f.path}: has no /quad/pose states to plot")
+        raise QuadsimError(f"{f.path}: has no {Names(f.vehicle).topic(POSE).name} states to plot")
     plt = _matplotlib()
     landmarks = _landmarks(f)
     states = f.states
@@ -147,10 +164,13 @@ def export_plot(f: RecordedFlight, path: Path) -> Path:
     grid = fig.add_gridspec(4, 2, width_ratios=(1.0, 1.35))
     fig.suptitle(
         f"{f.path.name}: {f.duration_s:.1f} s"
+        + (f", vehicle {f.vehicle} of a fleet of {len(others or {}) + 1}" if f.vehicle else "")
         + (f", {f.description.controller.kind.value} controller" if f.description else "")
     )
 
-    _draw_track(fig.add_subplot(grid[:, 0]), states, landmarks)
+    _draw_track(
+        fig.add_subplot(grid[:, 0]), states, landmarks, {k: v for k, v in (others or {}).items() if v}, f.vehicle
+    )
 
     if any_height:
         z_title, z_unit = "altitude", "m"

@@ -68,6 +68,12 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         help="playback speed, 0.25 to 16 (default 1)",
     )
     p.add_argument("--loop", action="store_true", help="start again at the end")
+    p.add_argument(
+        "--vehicle",
+        metavar="NAME",
+        help="in a fleet's recording, the vehicle whose summary, plot and videos are shown (default: the first; "
+        "--plot draws the others' tracks too, --resim re-flies them all)",
+    )
     p.add_argument("--window", default="1280x720", metavar="WxH", help="initial window size")
     add_live_options(p, "the recorded messages, as they are played (put FILE first),")
     p.set_defaults(func=main)
@@ -87,7 +93,7 @@ def main(args: argparse.Namespace) -> int:
     if (args.foxglove is not None or args.ros2) and args.resim:
         option = "--foxglove" if args.foxglove is not None else "--ros2"
         raise QuadsimError(f"{option} plays the recording as it is; with --resim nothing would be played (drop one)")
-    flight = load_flight(args.file)
+    flight = load_flight(args.file, args.vehicle)
     if args.resim:
         return _resim(args, flight)
     warn(flight.warnings(), args.file)
@@ -134,7 +140,12 @@ def _headless(args: argparse.Namespace, flight: RecordedFlight) -> int:
         if code:
             return code
     if args.plot is not None:
-        print(f"plot        {export_plot(flight, args.plot)}")
+        others = None
+        if flight.vehicle:  # a fleet's: the others' tracks too
+            from quadsim.recording.flight import load_flights
+
+            others = {n: f.states for n, f in load_flights(args.file).items() if n != flight.vehicle}
+        print(f"plot        {export_plot(flight, args.plot, others)}")
     if args.foxglove is not None or args.ros2:
         return _play_live(args)
     return 0
