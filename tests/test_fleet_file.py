@@ -41,6 +41,7 @@ input = "script:mine.qscript"
 controller = "seed"
 z_mode = "velocity"
 gains = { yaw_p = 2.5 }
+cameras = ["floor", "front"]
 
 [[vehicle]]
 name = "charlie"
@@ -64,6 +65,7 @@ start = [4.0, 0.0, 0.0, 0.0]
     assert (alpha.start.x_m, alpha.start.y_m) == (1.0, -2.0) and math.isclose(alpha.start.yaw_rad, math.pi / 2)
     assert bravo.urdf == SHIPPED_VEHICLES["hexa"] and bravo.controller is ControllerKind.SEED
     assert bravo.z_mode is ZMode.VELOCITY and bravo.gains == {"yaw_p": 2.5}
+    assert bravo.cameras == ("floor", "front") and alpha.cameras == ()
     assert bravo.script.duration_s == 3.0 and str(tmp_path) in bravo.script.name  # beside the fleet file
     assert (charlie.input, charlie.script, charlie.urdf) == ("ros2", None, SHIPPED_VEHICLES["crazyflie"])
     assert (delta.input, delta.airframe, delta.controller) == ("idle", "quad", ControllerKind.CASCADE)
@@ -99,6 +101,8 @@ VEHICLE = '[[vehicle]]\nname = "{name}"\nstart = [{x}, 0, 0, 0]\n'
         (VEHICLE.format(name="alpha", x=0) + "gains = { kp_magic = 1 }\n", ["vehicle 'alpha'", "no gain 'kp_magic'"]),
         (VEHICLE.format(name="alpha", x=0) + 'z_mode = "up"\n', ["vehicle 'alpha'", "z_mode 'up'"]),
         ("seed = 3\n" + VEHICLE.format(name="alpha", x=0), ["unknown key 'seed'"]),
+        (VEHICLE.format(name="alpha", x=0) + 'cameras = ["rear"]\n', ["vehicle 'alpha'", "unknown camera 'rear'"]),
+        (VEHICLE.format(name="alpha", x=0) + 'cameras = "front"\n', ["vehicle 'alpha'", "cameras: expected a list"]),
         ("", ["no [[vehicle]] tables"]),
     ],
 )
@@ -129,6 +133,7 @@ def test_run_refuses_what_a_fleet_file_says_per_vehicle_and_a_held_input(tmp_pat
     idle = _write(tmp_path, VEHICLE.format(name="alpha", x=0))
     for extra, word in (
         (("--vehicle", "hexa"), "--vehicle with --fleet"),
+        (("--cameras", "front"), "--cameras with --fleet"),
         (("--input", "ros2"), "--input ros2 with --fleet"),
         ((), "no vehicle flies a script: say how long"),
     ):

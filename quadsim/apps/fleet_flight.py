@@ -11,7 +11,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from quadsim.apps.flying import report_end
-from quadsim.apps.options import MAX_DURATION_S, camera_options_given, flight_settings, live_outputs, sim_config
+from quadsim.apps.options import MAX_DURATION_S, camera_specs, flight_settings, live_outputs, sim_config
 from quadsim.errors import ConfigError, QuadsimError
 from quadsim.session.stopping import StopRequested
 
@@ -35,8 +35,10 @@ def fly_fleet(args: argparse.Namespace, command: str) -> int:
     for attr, option in PER_VEHICLE_OPTIONS:
         if getattr(args, attr, None) is not None:
             raise QuadsimError(f"{option} with --fleet: the fleet file gives each vehicle its own (drop {option})")
-    if camera_options_given(args):
-        raise QuadsimError("a fleet's runs record no camera images yet: drop the camera options")
+    if args.cameras is not None:
+        raise QuadsimError("--cameras with --fleet: each vehicle's cameras are in the fleet file (cameras = [...])")
+    if args.renderer != "tiny":
+        raise QuadsimError(f"--renderer {args.renderer} with --fleet: a fleet's cameras render in its one world (tiny)")
     fleet_file = load_fleet_file(args.fleet)
     for device in ("keyboard", "gamepad"):
         held = fleet_file.held_by(device)
@@ -154,11 +156,14 @@ class FleetFlight:
         from quadsim.session.fleet_outputs import FleetRecordedRun
         from quadsim.session.headless import run_fleet_headless
 
-        outputs = replace(output_options(self.args), cameras=())
+        outputs = output_options(self.args)
+        specs = camera_specs(self.args)
+        cameras = {v.name: tuple(specs[c] for c in v.cameras) for v in self.fleet_file.vehicles if v.cameras}
+        outputs = replace(outputs, cameras=())
         stem = Path(self.args.fleet).stem
         label = stem if "fleet" in stem else f"fleet_{stem}"
         try:
-            with FleetRecordedRun(fleet, outputs, label, self.run_info, live=live) as run:
+            with FleetRecordedRun(fleet, outputs, label, self.run_info, live=live, cameras=cameras) as run:
                 self.run = run
                 if run.path is not None:
                     print(f"recording to {run.path}", flush=True)

@@ -26,6 +26,7 @@ from quadsim.vehicle.params import DEFAULT_VEHICLE, SHIPPED_VEHICLES
 
 if TYPE_CHECKING:
     from quadsim.drivers.subscribed import SubscribedDriver
+    from quadsim.sensors.camera import CameraSpec
     from quadsim.session.outputs import LiveOutput, OutputOptions
     from quadsim.sim.config import SimConfig
 
@@ -355,19 +356,25 @@ def camera_options_given(args: argparse.Namespace) -> list[str]:
     ]
 
 
-def output_options(args: argparse.Namespace) -> OutputOptions:
-    """The recording and camera options as OutputOptions, each checked."""
-    from quadsim.sensors.camera import CameraSpec, default_cameras
-    from quadsim.session.outputs import OutputOptions
+def camera_specs(args: argparse.Namespace) -> dict[str, CameraSpec]:
+    """The onboard cameras by name, at --camera-size and --camera-hz."""
+    from quadsim.sensors.camera import default_cameras
 
     size = args.camera_size if args.camera_size is not None else DEFAULT_CAMERA_SIZE
     try:
         width, height = (int(v) for v in size.lower().split("x"))
     except ValueError:
         raise QuadsimError(f"--camera-size must look like 320x240, got {size!r}") from None
-    wanted = [c.strip() for c in (args.cameras or DEFAULT_CAMERAS).split(",") if c.strip()]
     hz = args.camera_hz if args.camera_hz is not None else DEFAULT_CAMERA_HZ
-    available = {c.name: c for c in default_cameras(width, height, hz)}
+    return {c.name: c for c in default_cameras(width, height, hz)}
+
+
+def output_options(args: argparse.Namespace) -> OutputOptions:
+    """The recording and camera options as OutputOptions, each checked."""
+    from quadsim.session.outputs import OutputOptions
+
+    wanted = [c.strip() for c in (args.cameras or DEFAULT_CAMERAS).split(",") if c.strip()]
+    available = camera_specs(args)
     if wanted == ["none"]:
         wanted = []
     unknown = [c for c in wanted if c not in available]

@@ -62,12 +62,7 @@ class QuadEnv(gym.Env):
         config = SimConfig(z_mode=ZMode.VELOCITY, rates=Rates(input_hz=AGENT_HZ), wind=wind or WindSettings())
         self.sim = Simulator(config)
         self.steps_per_action = config.rates.physics_hz // AGENT_HZ
-        limits = self.sim.vehicle.limits
-        v, yaw = limits.max_horizontal_speed_mps, limits.max_yaw_rate_radps
-        # actions in [-1, 1] (what learning libraries expect), scaled to the command limits; climb
-        # and descent have limits of their own, so 1 and -1 are each one's full rate
-        self._up = np.array([v, v, limits.max_climb_rate_mps, yaw])
-        self._down = np.array([v, v, limits.max_descent_rate_mps, yaw])
+        self._scale = ActionScale(self.sim.vehicle.limits)
         self.action_space: spaces.Box = spaces.Box(-1.0, 1.0, (4,), np.float32)
         self._view: Cameras | None = None
 
@@ -100,18 +95,15 @@ class QuadEnv(gym.Env):
 
     def twist_of(self, action: Any) -> np.ndarray:
         """The command an action stands for: forward, left, climb (m/s) and yaw rate (rad/s)."""
-        a = np.clip(np.asarray(action, np.float64), -1.0, 1.0)
-        return np.where(a >= 0, a * self._up, a * self._down)
+        return self._scale.twist_of(action)
 
     def action_of(self, forward_mps: float, left_mps: float, climb_mps: float, yaw_rate_radps: float) -> np.ndarray:
         """The action that commands these velocities (clipped to the limits): for policies
         written by hand in m/s and rad/s."""
-        t = np.array([forward_mps, left_mps, climb_mps, yaw_rate_radps], np.float64)
-        return np.clip(np.where(t >= 0, t / self._up, t / self._down), -1.0, 1.0).astype(np.float32)
+        return self._scale.action_of(forward_mps, left_mps, climb_mps, yaw_rate_radps)
 
     def step(self, action: Any) -> tuple[Any, float, bool, bool, dict[str, Any]]:
-        a = self.twist_of(action)
-        self.sim.send(Twist(linear_x=a[0], linear_y=a[1], linear_z=a[2], angular_z=a[3]))
+        self.sim.send(self._scale.command(action))
         events_before = len(self.sim.events)
         state = self.sim.step(self.steps_per_action)
         reward, done = self._reward(state)
@@ -164,15 +156,8 @@ class HoverEnv(QuadEnv):
 
     def __init__(self, render_mode: str | None = None, wind: WindSettings | None = None) -> None:
         super().__init__(render_mode, wind)
-        # bounds past anything an episode reaches before it ends (the arena, a tumble), so every
-        # observation is inside them; observations are clipped to them all the same
-        reach, top, speed, rate, pi = ARENA_HALF_M + 10.0, ARENA_TOP_M + 10.0, MAX_SPEED_MPS, MAX_RATE_RADPS, math.pi
-        low = [-reach, -reach, -1.0, -speed, -speed, -speed, -pi, -pi, -pi, -rate, -rate, -rate]
-        high = [reach, reach, top, speed, speed, speed, pi, pi, pi, rate, rate, rate]
-        low += [-ARENA_HALF_M, -ARENA_HALF_M, 0.0]  # the target
-        high += [ARENA_HALF_M, ARENA_HALF_M, ARENA_TOP_M]
-        self._low, self._high = np.array(low, np.float32), np.array(high, np.float32)
-        self.observation_space = spaces.Box(self._low, self._high, dtype=np.float32)
+        self._space = hover_observation_space()
+        self.observation_space = self._space
         self.target_m = np.zeros(3)
 
     def _start(self, rng: np.random.Generator, options: dict[str, Any]) -> StartPose:
@@ -180,24 +165,67 @@ class HoverEnv(QuadEnv):
         return StartPose(float(rng.uniform(-1, 1)), float(rng.uniform(-1, 1)), float(rng.uniform(-math.pi, math.pi)))
 
     def _observe(self, state: VehicleState) -> np.ndarray:
-        roll, pitch = state.roll_pitch_rad()
-        observation = np.array(
-            [
-                *state.position_m,
-                *state.linear_velocity_mps,
-                roll,
-                pitch,
-                state.yaw_rad(),
-                *state.angular_velocity_body_rps,
-                *self.target_m,
-            ],
-            np.float32,
-        )
-        return np.clip(observation, self._low, self._high)
+        return hover_observation(state, self.target_m, self._space)
 
     def _reward(self, state: VehicleState) -> tuple[float, bool]:
-        distance = float(np.linalg.norm(np.asarray(state.position_m) - self.target_m))
-        return -distance - 0.1 * float(np.linalg.norm(state.linear_velocity_mps)), False
+        return hover_reward(state, self.target_m), False
+
+
+class ActionScale:
+    """Actions in [-1, 1] (what learning libraries expect), scaled to the command limits; climb
+    and descent have limits of their own, so 1 and -1 are each one's full rate."""
+
+    def __init__(self, limits: Any) -> None:
+        v, yaw = limits.max_horizontal_speed_mps, limits.max_yaw_rate_radps
+        self._up = np.array([v, v, limits.max_climb_rate_mps, yaw])
+        self._down = np.array([v, v, limits.max_descent_rate_mps, yaw])
+
+    def twist_of(self, action: Any) -> np.ndarray:
+        a = np.clip(np.asarray(action, np.float64), -1.0, 1.0)
+        return np.where(a >= 0, a * self._up, a * self._down)
+
+    def command(self, action: Any) -> Twist:
+        a = self.twist_of(action)
+        return Twist(linear_x=a[0], linear_y=a[1], linear_z=a[2], angular_z=a[3])
+
+    def action_of(self, forward_mps: float, left_mps: float, climb_mps: float, yaw_rate_radps: float) -> np.ndarray:
+        t = np.array([forward_mps, left_mps, climb_mps, yaw_rate_radps], np.float64)
+        return np.clip(np.where(t >= 0, t / self._up, t / self._down), -1.0, 1.0).astype(np.float32)
+
+
+def hover_observation_space() -> spaces.Box:
+    """Box(15): position, velocity, roll, pitch, yaw, body rates, target; bounds past anything an
+    episode reaches before it ends (the arena, a tumble), so every observation is inside them
+    (observations are clipped to them all the same)."""
+    reach, top, speed, rate, pi = ARENA_HALF_M + 10.0, ARENA_TOP_M + 10.0, MAX_SPEED_MPS, MAX_RATE_RADPS, math.pi
+    low = [-reach, -reach, -1.0, -speed, -speed, -speed, -pi, -pi, -pi, -rate, -rate, -rate]
+    high = [reach, reach, top, speed, speed, speed, pi, pi, pi, rate, rate, rate]
+    low += [-ARENA_HALF_M, -ARENA_HALF_M, 0.0]  # the target
+    high += [ARENA_HALF_M, ARENA_HALF_M, ARENA_TOP_M]
+    return spaces.Box(np.array(low, np.float32), np.array(high, np.float32), dtype=np.float32)
+
+
+def hover_observation(state: VehicleState, target_m: np.ndarray, space: spaces.Box) -> np.ndarray:
+    roll, pitch = state.roll_pitch_rad()
+    observation = np.array(
+        [
+            *state.position_m,
+            *state.linear_velocity_mps,
+            roll,
+            pitch,
+            state.yaw_rad(),
+            *state.angular_velocity_body_rps,
+            *target_m,
+        ],
+        np.float32,
+    )
+    return np.clip(observation, space.low, space.high)
+
+
+def hover_reward(state: VehicleState, target_m: np.ndarray) -> float:
+    """Minus the distance to the target (m) and a little of the speed."""
+    distance = float(np.linalg.norm(np.asarray(state.position_m) - target_m))
+    return -distance - 0.1 * float(np.linalg.norm(state.linear_velocity_mps))
 
 
 class TowerVisionEnv(QuadEnv):

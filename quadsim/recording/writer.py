@@ -26,7 +26,7 @@ from typing import TYPE_CHECKING, Any, BinaryIO
 
 from quadsim import __version__
 from quadsim.errors import QuadsimError
-from quadsim.recording.contract import Topic, schema_text
+from quadsim.recording.contract import Names, Topic, camera_info_topic, image_topic, schema_text
 from quadsim.recording.paths import default_recordings_dir
 from quadsim.sim.description import RunDescription
 
@@ -237,6 +237,17 @@ def route_sdk_logs_through_python() -> None:
             root.removeHandler(stand_in)
 
 
+def _camera_topics(description: RunDescription) -> set[str]:
+    """The topics of the run's camera frames (of each fleet vehicle's, under its name)."""
+    runs = description.fleet or (("", description),)
+    return {
+        Names(name).topic(topic(spec)).name
+        for name, d in runs
+        for spec in d.cameras
+        for topic in (image_topic, camera_info_topic)
+    }
+
+
 def _attachments(description: RunDescription) -> dict[str, tuple[bytes, str]]:
     """The files a re-flight rebuilds the run from, by name: every vehicle's URDF and parameter
     file (each once, in a fleet) and the world file."""
@@ -284,7 +295,6 @@ class McapRecorder:
         from foxglove.mcap import MCAPCompression, MCAPWriteOptions
 
         route_sdk_logs_through_python()
-        cameras = description.cameras
         self.path = path
         self._own_stream = stream is None
         if stream is None:
@@ -309,17 +319,16 @@ class McapRecorder:
         self._writer: Any = None
         # camera frames are rendered elsewhere and come late: hold the rest until the frames of
         # their time are in, so the file is in log-time order (readers and `mcap doctor` expect it)
-        camera_topics = {f"{c.topic_prefix}/image_raw/compressed" for c in cameras}
-        camera_topics |= {f"{c.topic_prefix}/camera_info" for c in cameras}
+        camera_topics = _camera_topics(description)
         start_ns = description.start_step * 1_000_000_000 // description.config.rates.physics_hz
-        self._reorder = _LogTimeOrder(camera_topics, start_ns) if cameras else None
+        self._reorder = _LogTimeOrder(camera_topics, start_ns) if camera_topics else None
         options = MCAPWriteOptions(
             profile="ros2",
             compression=MCAPCompression.Zstd,
             # without cameras, zstd's fastest level: closing a chunk takes half the time, for about
             # the same size; with cameras, JPEGs are most of the bytes, zstd's default makes the
             # file ~9 % smaller, and rendering dwarfs the time it takes
-            compression_level=0 if cameras else 1,
+            compression_level=0 if camera_topics else 1,
             chunk_size=None,  # chunks end where this class says (see above)
             compression_threads=0,  # compress in this thread: the other core renders cameras
         )

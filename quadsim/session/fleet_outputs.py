@@ -3,12 +3,16 @@
 recording and the live bridges; the latched messages the vehicles share go out once. Opened
 together and always finished together, as a run of one vehicle's (`RecordedRun`).
 
-A fleet's vehicles record no camera images yet: its runs are state-only.
+Cameras are per vehicle (`cameras`: name -> its camera specs; a vehicle left out has none). They
+render in this process, in the fleet's one PyBullet world at the moment of capture, so each
+vehicle's cameras see the others where they are; what they cost is what the vehicles that have
+them render.
 """
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
+from dataclasses import replace
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -20,6 +24,8 @@ from quadsim.session.stopping import shielded_from_signals
 
 if TYPE_CHECKING:
     from quadsim.recording.writer import McapRecorder
+    from quadsim.sensors.camera import CameraSpec
+    from quadsim.sensors.pipeline import CameraPipeline
     from quadsim.sim.description import RunDescription
     from quadsim.sim.fleet import Fleet
 
@@ -35,28 +41,64 @@ class FleetRecordedRun(RunOutputs):
         label: str,
         run_info: dict[str, Any] | None = None,
         live: Sequence[LiveOutput] = (),
+        cameras: Mapping[str, tuple[CameraSpec, ...]] | None = None,
     ) -> None:
         if options.cameras:
-            raise ConfigError("a fleet's runs record no camera images yet: give OutputOptions(cameras=())")
+            raise ConfigError(
+                "a fleet's cameras are each vehicle's: give them as cameras={name: specs}, with OutputOptions(cameras=())"
+            )
+        cameras = {name: specs for name, specs in (cameras or {}).items() if specs}
+        unknown = sorted(set(cameras) - set(fleet.vehicles))
+        if unknown:
+            raise ConfigError(f"cameras for {unknown[0]!r}: no vehicle of that name in the fleet")
         self.fleet = fleet
         self.options = options
         self.label = label
         self.run_info = run_info or {}
-        self.description = fleet.description()
+        whole = fleet.description()
+        members = tuple((name, replace(d, cameras=cameras.get(name, ()))) for name, d in whole.fleet)
+        self.description = replace(whole, fleet=members)
+        self.pipelines: dict[str, CameraPipeline] = {}
         self.recorder: McapRecorder | None = None
         self.path: Path | None = None
         self.live: list[LiveOutput] = list(live)
         hz = fleet.config.rates.physics_hz
-        members = []
+        fanouts = []
         for name, sim in fleet.vehicles.items():
-            members.append(TopicFanout(hz, (), sim.vehicle, None, Names(name)))
-        self.fanout = FleetFanout(members, fleet.client.world)
+            mounts = tuple((spec, sim.vehicle.camera_mount(spec.link_name)) for spec in cameras.get(name, ()))
+            fanouts.append(TopicFanout(hz, mounts, sim.vehicle, None, Names(name)))
+        self.fanout = FleetFanout(fanouts, fleet.client.world)
         self._listening = False
         try:
+            for name, specs in cameras.items():
+                self._start_cameras(name, specs)
             self._start()
         except BaseException:
             self.close()
             raise
+
+    def _start_cameras(self, name: str, specs: tuple[CameraSpec, ...]) -> None:
+        """`name`'s cameras, rendered in the fleet's world when its taps capture."""
+        from quadsim.sensors.camera import ImageKind, RendererKind
+        from quadsim.sensors.pipeline import CameraPipeline
+
+        sim = self.fleet[name]
+        pipeline = CameraPipeline(
+            sim.vehicle,
+            self.fleet.client.world,
+            self.fleet.config.rates.physics_hz,
+            specs,
+            RendererKind.TINY,  # EGL would draw in a client of its own, without the other vehicles
+            workers=0,
+            scene_client=self.fleet.client.cid,
+        )
+        pipeline.want(ImageKind.JPEG)
+        self.pipelines[name] = pipeline
+        sim.add_tap(pipeline.tap_interval_steps, pipeline.capture)
+
+    def _drain(self) -> None:
+        for pipeline in self.pipelines.values():
+            pipeline.drain()
 
     def _step(self) -> int:
         return self.fleet.step_count
@@ -69,15 +111,28 @@ class FleetRecordedRun(RunOutputs):
         if on == self._listening:
             return
         self._listening = on
-        for sim, member in zip(self.fleet.vehicles.values(), self.fanout.members):
+        for (name, sim), member in zip(self.fleet.vehicles.items(), self.fanout.members):
+            pipeline = self.pipelines.get(name)
             if on:
                 sim.add_sink(member)
+                if pipeline is not None:
+                    pipeline.sinks.append(member)
             else:
                 sim.remove_sink(member)
+                if pipeline is not None and member in pipeline.sinks:
+                    pipeline.sinks.remove(member)
 
     def close(self) -> None:
         with shielded_from_signals():  # a signal now must not cut the file short
-            self._close_recording_and_live()
+            try:
+                for name, pipeline in self.pipelines.items():
+                    self.fleet[name].remove_tap(pipeline.capture)
+                    try:
+                        pipeline.drain()
+                    finally:
+                        pipeline.close()
+            finally:
+                self._close_recording_and_live()
 
     def __enter__(self) -> FleetRecordedRun:
         return self

@@ -9,6 +9,7 @@ controller.
     controller = "cascade"        # cascade (default) | seed
     z_mode = "velocity"           # optional: velocity | height (default: the script's, else velocity)
     gains = { velocity_p_xy_per_s = 2.0 }  # optional: replaces the named gains of its controller
+    cameras = ["front", "floor"]  # optional: the onboard cameras it records (default: none)
 
 A bad file is refused with one line naming the file, the vehicle and the key. The inputs are
 read here (a script's text is loaded, so a missing script is said before anything flies); what
@@ -31,7 +32,9 @@ from quadsim.sim.description import MAX_FLEET, VEHICLE_NAME
 from quadsim.vehicle.params import SHIPPED_VEHICLES
 
 #: the keys a vehicle may have
-VEHICLE_KEYS = ("name", "airframe", "start", "input", "controller", "z_mode", "gains")
+VEHICLE_KEYS = ("name", "airframe", "start", "input", "controller", "z_mode", "gains", "cameras")
+#: the onboard cameras a vehicle may record
+CAMERAS = ("front", "floor")
 #: the inputs a vehicle may be flown by (script:NAME_OR_FILE besides)
 INPUTS = ("keyboard", "gamepad", "ros2", "foxglove", "idle")
 #: inputs a person holds: at most one vehicle each
@@ -53,6 +56,7 @@ class FleetEntry:
     controller: ControllerKind = ControllerKind.CASCADE
     z_mode: ZMode | None = None
     gains: dict[str, float] = field(default_factory=dict)
+    cameras: tuple[str, ...] = ()  # names of the onboard cameras it records
 
 
 @dataclass(frozen=True)
@@ -118,7 +122,19 @@ def _entry(path: Path, index: int, data: dict[str, Any]) -> FleetEntry:
         controller=controller,
         z_mode=z_mode,
         gains=_gains(where, controller, data.get("gains", {})),
+        cameras=_cameras(where, data.get("cameras", [])),
     )
+
+
+def _cameras(where: str, value: Any) -> tuple[str, ...]:
+    if not isinstance(value, list) or not all(isinstance(v, str) for v in value):
+        raise ConfigError(f"{where}: cameras: expected a list of names ({', '.join(CAMERAS)}), got {value!r:.40}")
+    unknown = [v for v in value if v not in CAMERAS]
+    if unknown:
+        raise ConfigError(f"{where}: cameras: unknown camera {unknown[0]!r:.40}; choose from {', '.join(CAMERAS)}")
+    if len(set(value)) != len(value):
+        raise ConfigError(f"{where}: cameras: {value} names a camera twice")
+    return tuple(value)
 
 
 def _airframe(path: Path, where: str, value: Any) -> Path:

@@ -1,10 +1,15 @@
 """The fleet section of `bench`: 1, 4, 10 and 25 hovering vehicles in one world, no cameras; the
-cost of a vehicle-step against one Simulator's step measured in the same run."""
+cost of a vehicle-step against one Simulator's step measured in the same run. Then 10 vehicles
+recorded to MCAP, with and without one vehicle's two cameras (320x240 at 30 Hz, rendered in the
+fleet's world), against one vehicle recording the same cameras rendered in-process."""
 
 from __future__ import annotations
 
 import math
+import tempfile
+import time
 from collections.abc import Callable
+from pathlib import Path
 
 from quadsim.apps.bench.figures import best_of
 from quadsim.core.types import StartPose, Twist, ZMode
@@ -45,3 +50,46 @@ def run_fleet_bench(out: Callable[[str], None] = print, steps: int = 2400, repea
             f"{per_step / size * 1e6:6.1f} us a vehicle-step ({per_step / size / one:.2f}x the baseline's step)"
         )
     out("  target: cost linear in the vehicles; 10 vehicles at >= 20x real time")
+
+    _recorded(out)
+
+
+def _recorded(out: Callable[[str], None], seconds: float = 5.0) -> None:
+    """Real-time factors of recorded runs: a wall-clock second per simulated second is 1x."""
+    from quadsim.sensors.camera import default_cameras
+    from quadsim.session.fleet_outputs import FleetRecordedRun
+    from quadsim.session.outputs import OutputOptions, RecordedRun
+
+    cameras = default_cameras(320, 240, 30)
+    out(f"  recorded to MCAP, {seconds:g} s simulated each (best of 2):")
+    with tempfile.TemporaryDirectory(prefix="quadsim-bench-") as tmp:
+        folder = Path(tmp)
+
+        def one_vehicle() -> float:
+            with Simulator(SimConfig(z_mode=ZMode.HEIGHT)) as sim:
+                sim.send(Twist())
+                options = OutputOptions(out=folder, cameras=cameras, render_workers=0)
+                with RecordedRun(sim, sim.description(), options, "bench"):
+                    return _timed(lambda: sim.run_for(seconds))
+
+        def ten(with_cameras: bool) -> float:
+            with _hovering_fleet(10) as fleet:
+                specs = {"v0": cameras} if with_cameras else {}
+                with FleetRecordedRun(fleet, OutputOptions(out=folder, cameras=()), "bench", cameras=specs):
+                    return _timed(lambda: fleet.run_for(seconds))
+
+        baseline = min(one_vehicle() for _ in range(2))
+        rows = [
+            ("one vehicle, its 2 cameras in-process (baseline)", baseline),
+            ("10 vehicles, state only", min(ten(False) for _ in range(2))),
+            ("10 vehicles, one with 2 cameras", min(ten(True) for _ in range(2))),
+        ]
+    for label, wall in rows:
+        out(f"  {label:<50} {seconds / wall:6.1f}x real time   ({wall / baseline:.2f}x the baseline's wall time)")
+    out("  target: 10 vehicles with one vehicle's cameras at >= 1x real time")
+
+
+def _timed(run: Callable[[], object]) -> float:
+    t0 = time.perf_counter()
+    run()
+    return time.perf_counter() - t0

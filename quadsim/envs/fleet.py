@@ -1,0 +1,151 @@
+"""A PettingZoo environment (the `marl` extra): a fleet hovering, each vehicle an agent.
+
+    from quadsim.envs.fleet import HoverFleetEnv
+    env = HoverFleetEnv(agents=3)
+    observations, infos = env.reset(seed=0)
+    while env.agents:
+        actions = {agent: env.action_space(agent).sample() for agent in env.agents}
+        observations, rewards, terminations, truncations, infos = env.step(actions)
+
+A `ParallelEnv`: every agent acts at once, at 30 Hz, on one fleet (quadsim.Fleet: one world, one
+clock; the vehicles collide). Each agent is the task of quadsim/Hover-v0: its action, Box(4) in
+[-1, 1], is forward, left, climb and yaw rate as fractions of its command limits; its observation
+is Hover-v0's, Box(15) (position, velocity, attitude, body rates, its own target); its reward is
+minus its distance to its target and a little of its speed. An agent is terminated (-10) when it
+crashes (into the ground, a landmark or another vehicle: both are), leaves the arena or tips over,
+and truncated after `episode_s`. A finished agent leaves `agents`; its vehicle holds its last
+command. Starts are on a line `spacing_m` apart, each within 0.5 m of its slot; each target is
+within 1 m of its start horizontally, 1 to 2.5 m high.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from quadsim.core.types import StartPose, Twist, ZMode
+from quadsim.envs.quad import (
+    AGENT_HZ,
+    HOVER_EPISODE_S,
+    ActionScale,
+    QuadEnv,
+    hover_observation,
+    hover_observation_space,
+    hover_reward,
+)
+from quadsim.errors import QuadsimError
+from quadsim.physics.wind import WindSettings
+from quadsim.sim.config import Rates, SimConfig
+from quadsim.sim.fleet import Fleet, FleetVehicle
+from quadsim.sim.flight_events import EventKind
+
+try:
+    from gymnasium import spaces
+    from pettingzoo import ParallelEnv
+except ImportError:  # pragma: no cover - depends on what is installed
+    raise QuadsimError("the fleet environment needs PettingZoo: pip install 'quadsim[marl]'") from None
+
+#: the seeds the env hands the fleet (SimConfig's range)
+_SIM_SEEDS = 2**63 - 1
+
+
+class HoverFleetEnv(ParallelEnv):
+    """Each agent takes off and reaches and holds its own target, among the others (see the module)."""
+
+    metadata = {"name": "quadsim_hover_fleet_v0", "render_modes": [], "render_fps": AGENT_HZ}  # noqa: RUF012
+
+    def __init__(
+        self,
+        agents: int = 3,
+        spacing_m: float = 2.0,
+        episode_s: float = HOVER_EPISODE_S,
+        wind: WindSettings | None = None,
+    ) -> None:
+        if not 1 <= agents <= 100:
+            raise ValueError(f"agents must be within 1..100, got {agents}")
+        if spacing_m < 1.5:
+            raise ValueError(f"spacing_m must be at least 1.5 (starts within 0.5 m of their slots), got {spacing_m}")
+        self.possible_agents = [f"drone_{i}" for i in range(agents)]
+        self.agents: list[str] = []
+        self.render_mode = None
+        self._slots = [(spacing_m * (i - (agents - 1) / 2), 0.0) for i in range(agents)]
+        config = SimConfig(z_mode=ZMode.VELOCITY, rates=Rates(input_hz=AGENT_HZ), wind=wind or WindSettings())
+        self.fleet = Fleet(
+            [FleetVehicle(name, start=StartPose(x, y)) for name, (x, y) in zip(self.possible_agents, self._slots)],
+            config,
+        )
+        self.steps_per_action = config.rates.physics_hz // AGENT_HZ
+        self.max_cycles = round(episode_s * AGENT_HZ)
+        self._scale = {name: ActionScale(self.fleet[name].vehicle.limits) for name in self.possible_agents}
+        self._space = hover_observation_space()
+        self._observation_spaces = {name: hover_observation_space() for name in self.possible_agents}
+        self._action_spaces = {name: spaces.Box(-1.0, 1.0, (4,), np.float32) for name in self.possible_agents}
+        self.targets_m = {name: np.zeros(3) for name in self.possible_agents}
+        self._cycles = 0
+        self._rng = np.random.default_rng()
+
+    def observation_space(self, agent: str) -> spaces.Box:
+        return self._observation_spaces[agent]  # the same object each time, as PettingZoo asks
+
+    def action_space(self, agent: str) -> spaces.Box:
+        return self._action_spaces[agent]
+
+    def action_of(self, agent: str, forward_mps: float, left_mps: float, climb_mps: float, yaw_rate_radps: float):
+        """The action that commands these velocities for `agent` (see quadsim/Hover-v0)."""
+        return self._scale[agent].action_of(forward_mps, left_mps, climb_mps, yaw_rate_radps)
+
+    def reset(
+        self, seed: int | None = None, options: dict[str, Any] | None = None
+    ) -> tuple[dict[str, np.ndarray], dict[str, dict[str, Any]]]:
+        if seed is not None:
+            self._rng = np.random.default_rng(seed)
+        rng = self._rng
+        for name, (x, y) in zip(self.possible_agents, self._slots):
+            sx, sy = x + rng.uniform(-0.5, 0.5), y + rng.uniform(-0.5, 0.5)
+            self.fleet[name].physics.start = StartPose(float(sx), float(sy), float(rng.uniform(-np.pi, np.pi)))
+            self.targets_m[name] = np.array([sx + rng.uniform(-1, 1), sy + rng.uniform(-1, 1), rng.uniform(1.0, 2.5)])
+        self.fleet.reset(seed=int(rng.integers(_SIM_SEEDS)))
+        for name in self.possible_agents:
+            self.fleet[name].send(Twist())
+        self.agents = list(self.possible_agents)
+        self._cycles = 0
+        return {a: self._observe(a) for a in self.agents}, {a: self._info(a) for a in self.agents}
+
+    def step(self, actions: dict[str, Any]) -> tuple[dict, dict, dict, dict, dict]:
+        for agent, action in actions.items():
+            if agent in self.agents:
+                self.fleet[agent].send(self._scale[agent].command(action))
+        events_before = {a: len(self.fleet[a].events) for a in self.agents}
+        self.fleet.step(self.steps_per_action)
+        self._cycles += 1
+        observations, rewards, terminations, truncations, infos = {}, {}, {}, {}, {}
+        for agent in self.agents:
+            state = self.fleet[agent].state
+            crashed = any(e.kind is EventKind.CRASH for e in self.fleet[agent].events[events_before[agent] :])
+            failed = crashed or QuadEnv.out_of_arena(state) or QuadEnv.tipped_over(state)
+            observations[agent] = self._observe(agent)
+            rewards[agent] = hover_reward(state, self.targets_m[agent]) - (10.0 if failed else 0.0)
+            terminations[agent] = failed
+            truncations[agent] = self._cycles >= self.max_cycles
+            infos[agent] = self._info(agent)
+        self.agents = [a for a in self.agents if not (terminations[a] or truncations[a])]
+        return observations, rewards, terminations, truncations, infos
+
+    def _observe(self, agent: str) -> np.ndarray:
+        return hover_observation(self.fleet[agent].state, self.targets_m[agent], self._space)
+
+    def _info(self, agent: str) -> dict[str, Any]:
+        state = self.fleet[agent].state
+        return {"step": state.step, "position_m": np.array(state.position_m)}
+
+    def render(self) -> None:
+        return None
+
+    def close(self) -> None:
+        self.fleet.close()
+
+
+def parallel_env(**kwargs: Any) -> HoverFleetEnv:
+    """PettingZoo's conventional constructor."""
+    return HoverFleetEnv(**kwargs)
