@@ -109,6 +109,19 @@ def test_the_fleet_picture_shows_every_vehicles_track():
     assert red.sum() > 800 and grey.sum() > 500, (red.sum(), grey.sum())  # a landmark alone is ~100 px
 
 
+def test_the_fleet_window_picture_shows_the_other_vehicles():
+    """docs/img/fleet_window.png: the real fly --fleet window: the red tower in the front camera,
+    the other vehicles in blue on the dark map, the HUD's text."""
+    image = cv2.imread(str(DOCS / "img" / "fleet_window.png"))
+    assert image is not None and image.shape[:2] == (800, 1280) and image.std() > 30.0
+    front, side = image[120:700, :880].astype(int), image[300:780, 900:].astype(int)
+    red = (front[:, :, 2] > 120) & (front[:, :, 2] > 2 * front[:, :, 1]) & (front[:, :, 2] > 2 * front[:, :, 0])
+    assert red.mean() > 0.03
+    blue = (abs(side[:, :, 0] - 255) < 30) & (abs(side[:, :, 1] - 170) < 30) & (abs(side[:, :, 2] - 110) < 30)
+    assert blue.sum() > 30 and side.mean() < 80  # the others drawn on the dark map
+    assert (image[5:110, 5:760] > 200).all(axis=2).mean() > 0.01  # white text on the HUD
+
+
 def test_the_readme_is_a_front_door():
     readme = (ROOT / "README.md").read_text()
     assert len(readme.splitlines()) <= 200

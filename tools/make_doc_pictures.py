@@ -1,5 +1,5 @@
 """The documentation's pictures, made from the simulator itself. Run from the clone:
-`python tools/make_doc_pictures.py [cameras|window|fleet]`; tests/test_docs.py checks each is
+`python tools/make_doc_pictures.py [cameras|window|fleet|fleet_window]`; tests/test_docs.py checks each is
 there and shows what it should.
 
 - docs/img/cameras.png: what the two onboard cameras see a few seconds into a flight toward the
@@ -7,7 +7,9 @@ there and shows what it should.
 - docs/img/window.png: the real replay window (SDL's x11 driver in an Xvfb of its own, grabbed
   from the X server) playing a recorded square flight: cameras, map with the track, HUD, timeline;
 - docs/img/fleet.png: `replay --plot` of the example fleet's recording (examples/fleet.toml), the
-  Crazyflie's figure eight in red among the other vehicles' tracks.
+  Crazyflie's figure eight in red among the other vehicles' tracks;
+- docs/img/fleet_window.png: the real `fly --fleet` window under Xvfb, alpha climbed with a real W
+  key press (xdotool); its front camera sees bravo and charlie flying ahead; the fleet on the map.
 
 (The sweep plot in docs/sweeps.md is the one the wind example's sweep draws.)
 """
@@ -121,7 +123,71 @@ def fleet() -> None:
     print(f"wrote {out}")
 
 
-PICTURES = {"cameras": cameras, "window": window, "fleet": fleet}
+FLEET_WINDOW = """
+[[vehicle]]
+name = "alpha"
+start = [0.0, 0.0, 0.0, 0.0]
+input = "keyboard"
+cameras = ["front", "floor"]
+
+[[vehicle]]
+name = "bravo"
+airframe = "hexa"
+start = [4.0, 2.0, 0.0, 180.0]
+input = "script:yaw"
+
+[[vehicle]]
+name = "charlie"
+start = [3.0, -3.0, 0.0, 0.0]
+input = "script:figure8"
+"""
+
+
+def fleet_window() -> None:
+    from PIL import ImageGrab
+
+    if shutil.which("Xvfb") is None or shutil.which("xdotool") is None:
+        raise SystemExit("fleet_window.png needs Xvfb and xdotool (apt-get install xvfb xdotool)")
+    with tempfile.TemporaryDirectory() as tmp:
+        (Path(tmp) / "fleet.toml").write_text(FLEET_WINDOW)
+        xvfb, display = _xvfb()
+        env = {**os.environ, "DISPLAY": display, "SDL_AUDIODRIVER": "dummy"}
+        env.pop("SDL_VIDEODRIVER", None)
+        fly = _quadsim("fly", "--fleet", str(Path(tmp) / "fleet.toml"), "--window", "1280x800", "--out", tmp, env=env)
+        try:
+            window = ""
+            for _ in range(60):  # by pid: xdotool's --name does not match SDL's window names
+                time.sleep(0.5)
+                found = subprocess.run(
+                    ["xdotool", "search", "--onlyvisible", "--pid", str(fly.pid)],
+                    env=env,
+                    capture_output=True,
+                    text=True,
+                ).stdout.split()
+                if found:
+                    window = found[0]
+                    break
+            if not window:
+                raise SystemExit("the fleet window did not open")
+            xdo = ["xdotool", "windowfocus", "--sync", window]
+            subprocess.run(xdo, env=env, capture_output=True)
+            subprocess.run(["xdotool", "keydown", "w"], env=env, check=True)
+            time.sleep(2.5)  # climb
+            subprocess.run(["xdotool", "keyup", "w"], env=env, check=True)
+            time.sleep(7.0)  # bravo turning on the spot ahead, charlie on its figure eight
+            shot = ImageGrab.grab(xdisplay=display)
+            subprocess.run(["xdotool", "key", "Escape"], env=env, check=True)
+            fly.wait(timeout=30)
+        finally:
+            fly.kill()
+            xvfb.terminate()
+            xvfb.wait()
+    out = IMG / "fleet_window.png"
+    shot.save(out)
+    print(f"wrote {out}")
+
+
+PICTURES = {"cameras": cameras, "window": window, "fleet": fleet, "fleet_window": fleet_window}
 
 
 def main(names: list[str]) -> None:

@@ -32,13 +32,7 @@ def fly_fleet(args: argparse.Namespace, command: str) -> int:
     until Ctrl-C when a live input drives a vehicle."""
     from quadsim.sim.fleet_file import load_fleet_file
 
-    for attr, option in PER_VEHICLE_OPTIONS:
-        if getattr(args, attr, None) is not None:
-            raise QuadsimError(f"{option} with --fleet: the fleet file gives each vehicle its own (drop {option})")
-    if args.cameras is not None:
-        raise QuadsimError("--cameras with --fleet: each vehicle's cameras are in the fleet file (cameras = [...])")
-    if args.renderer != "tiny":
-        raise QuadsimError(f"--renderer {args.renderer} with --fleet: a fleet's cameras render in its one world (tiny)")
+    check_fleet_options(args)
     fleet_file = load_fleet_file(args.fleet)
     for device in ("keyboard", "gamepad"):
         held = fleet_file.held_by(device)
@@ -47,13 +41,35 @@ def fly_fleet(args: argparse.Namespace, command: str) -> int:
                 f"{args.fleet}: vehicle {held.name!r} takes input = {device!r}: a person flies it in the window, "
                 f"and `{command}` has none (give it a script, ros2, foxglove or idle)"
             )
-    drivers = {v.name: _driver(v) for v in fleet_file.vehicles}
+    drivers = fleet_drivers(fleet_file)
     live_inputs = [d for d in drivers.values() if _subscribed(d)]
     duration = _duration(args, fleet_file, bool(live_inputs))
     run_info = {"command": command, "fleet": str(args.fleet), "duration_s": duration, "realtime": bool(live_inputs)}
     return FleetFlight(args, fleet_file, drivers, live_inputs, run_info).fly(
         duration, bool(live_inputs) or args.realtime
     )
+
+
+def check_fleet_options(args: argparse.Namespace) -> None:
+    """Refuse what each vehicle of a fleet file says for itself."""
+    for attr, option in PER_VEHICLE_OPTIONS:
+        if getattr(args, attr, None) is not None:
+            raise QuadsimError(f"{option} with --fleet: the fleet file gives each vehicle its own (drop {option})")
+    if args.cameras is not None:
+        raise QuadsimError("--cameras with --fleet: each vehicle's cameras are in the fleet file (cameras = [...])")
+    if args.renderer != "tiny":
+        raise QuadsimError(f"--renderer {args.renderer} with --fleet: a fleet's cameras render in its one world (tiny)")
+
+
+def fleet_drivers(fleet_file: FleetFile) -> dict[str, InputDriver | None]:
+    """What drives each vehicle but those a person flies (keyboard, gamepad: None here)."""
+    return {v.name: _driver(v) for v in fleet_file.vehicles}
+
+
+def fleet_cameras(args: argparse.Namespace, fleet_file: FleetFile) -> dict[str, tuple]:
+    """Each vehicle's cameras, at --camera-size and --camera-hz."""
+    specs = camera_specs(args)
+    return {v.name: tuple(specs[c] for c in v.cameras) for v in fleet_file.vehicles if v.cameras}
 
 
 def _driver(entry: FleetEntry) -> InputDriver | None:
@@ -105,20 +121,7 @@ class FleetFlight:
         self.sim_time = 0.0
 
     def vehicles(self) -> list[FleetVehicle]:
-        from quadsim.sim.fleet import FleetVehicle
-
-        return [
-            FleetVehicle(
-                v.name,
-                start=v.start,
-                urdf=v.urdf,
-                controller=v.controller,
-                z_mode=v.z_mode or (v.script.z_mode if v.script is not None else None),
-                driver=self.drivers[v.name],
-                controller_gains=v.gains or None,
-            )
-            for v in self.fleet_file.vehicles
-        ]
+        return [v.fleet_vehicle(self.drivers[v.name]) for v in self.fleet_file.vehicles]
 
     def fly(self, duration: float, realtime: bool) -> int:
         from quadsim.session.progress import ProgressBar
@@ -156,10 +159,8 @@ class FleetFlight:
         from quadsim.session.fleet_outputs import FleetRecordedRun
         from quadsim.session.headless import run_fleet_headless
 
-        outputs = output_options(self.args)
-        specs = camera_specs(self.args)
-        cameras = {v.name: tuple(specs[c] for c in v.cameras) for v in self.fleet_file.vehicles if v.cameras}
-        outputs = replace(outputs, cameras=())
+        outputs = replace(output_options(self.args), cameras=())
+        cameras = fleet_cameras(self.args, self.fleet_file)
         stem = Path(self.args.fleet).stem
         label = stem if "fleet" in stem else f"fleet_{stem}"
         try:

@@ -21,6 +21,8 @@ import socket
 import subprocess
 import sys
 from collections import deque
+from collections.abc import Callable
+from dataclasses import dataclass
 from multiprocessing.connection import Connection
 from typing import Protocol
 
@@ -61,6 +63,16 @@ def _worker_env() -> dict[str, str]:
     return env
 
 
+@dataclass(frozen=True)
+class Companions:
+    """The other bodies of the scene that move (a fleet's other vehicles): their airframes, and
+    where each is now (called at every capture). Render workers hold them too and put them there
+    before rendering; in-process rendering in the physics client sees them already."""
+
+    vehicles: tuple[VehicleParams, ...]
+    poses: Callable[[], tuple[tuple[tuple[float, float, float], tuple[float, float, float, float]], ...]]
+
+
 class CameraPipeline:
     """Renders `specs` of `vehicle` in `world`; it knows nothing of the simulator.
 
@@ -81,6 +93,7 @@ class CameraPipeline:
         worker_start_timeout_s: float = 60.0,
         scene_client: int | None = None,
         worker_niceness: int | None = None,
+        companions: Companions | None = None,
     ) -> None:
         """`worker_niceness`: how much lower the workers run (default: WINDOW_WORKER_NICENESS
         without ordered delivery, where a person flies, else 0)."""
@@ -110,6 +123,7 @@ class CameraPipeline:
         self._rig: CameraRig | None = None
         self.frames_delivered = 0
         self.frames_dropped: dict[str, int] = {}  # camera -> captures skipped (unordered mode only)
+        self._companions = companions
         if not specs:
             return
         for spec in specs:
@@ -143,6 +157,9 @@ class CameraPipeline:
             "specs": self.specs,
             "renderer": self.renderer.value,
             "niceness": self._niceness,
+            "companions": [(str(c.urdf_path), str(c.params_path)) for c in self._companions.vehicles]
+            if self._companions is not None
+            else [],
         }
         try:
             for _ in range(count):
@@ -227,7 +244,8 @@ class CameraPipeline:
         while len(self._pending) >= self._in_flight:
             self._receive_oldest()
         index = self._seq % len(self._conns)
-        job = (self._seq, step, names, state.position_m, state.orientation_xyzw, self.kinds)
+        companions = self._companions.poses() if self._companions is not None else ()
+        job = (self._seq, step, names, state.position_m, state.orientation_xyzw, self.kinds, companions)
         self._conns[index].send(job)
         self._pending.append((self._seq, index))
         self._seq += 1

@@ -6,7 +6,8 @@ receives its settings as the first message. It runs in a session of its own, so 
 signals to the parent's process group are the parent's to act on; it exits when the parent
 says so or goes away (end of file), so it never outlives the parent.
 
-Protocol (parent -> worker): (seq, step, names, position, orientation, image kinds), or None to stop.
+Protocol (parent -> worker): (seq, step, names, position, orientation, image kinds, companion
+poses), or None to stop; the companions (a fleet's other vehicles) are named in the settings.
 Worker -> parent: ("ready",) once set up, then (seq, [CameraFrame, ...]) per job, or
 ("error", message) if it cannot go on.
 """
@@ -21,7 +22,9 @@ from multiprocessing.connection import Connection
 from pathlib import Path
 
 
-def worker_main(conn, urdf: str, params: str, world: str, specs: tuple, renderer_value: str) -> None:
+def worker_main(
+    conn, urdf: str, params: str, world: str, specs: tuple, renderer_value: str, companions: tuple = ()
+) -> None:
     try:
         from quadsim.physics.world_spec import load_world
         from quadsim.sensors.camera import RendererKind
@@ -29,7 +32,11 @@ def worker_main(conn, urdf: str, params: str, world: str, specs: tuple, renderer
         from quadsim.vehicle.params import load_vehicle
 
         rig = CameraRig.standalone(
-            load_vehicle(Path(urdf), Path(params)), load_world(Path(world)), specs, RendererKind(renderer_value)
+            load_vehicle(Path(urdf), Path(params)),
+            load_world(Path(world)),
+            specs,
+            RendererKind(renderer_value),
+            tuple(load_vehicle(Path(u), Path(p)) for u, p in companions),
         )
     except Exception as exc:  # report, do not die silently
         conn.send(("error", f"{type(exc).__name__}: {exc}"))
@@ -40,8 +47,8 @@ def worker_main(conn, urdf: str, params: str, world: str, specs: tuple, renderer
             job = conn.recv()
             if job is None:
                 break
-            seq, step, names, position, orientation, kinds = job
-            conn.send((seq, rig.render(names, step, position, orientation, kinds)))
+            seq, step, names, position, orientation, kinds, companion_poses = job
+            conn.send((seq, rig.render(names, step, position, orientation, kinds, companion_poses)))
     except (EOFError, KeyboardInterrupt, OSError):
         pass  # the parent went away or was interrupted: nothing to report to
     except Exception:
@@ -73,7 +80,15 @@ def main() -> None:
             os.nice(niceness)  # the window and the flight come first on a busy machine
         except OSError:
             pass
-    worker_main(conn, settings["urdf"], settings["params"], settings["world"], settings["specs"], settings["renderer"])
+    worker_main(
+        conn,
+        settings["urdf"],
+        settings["params"],
+        settings["world"],
+        settings["specs"],
+        settings["renderer"],
+        tuple(settings.get("companions", ())),
+    )
     conn.close()
 
 

@@ -37,9 +37,11 @@ class CameraRig:
         renderer: RendererKind,
         cid: int,
         body_id: int | None,
+        companion_ids: tuple[int, ...] = (),
     ) -> None:
         """Render in client `cid`. With `body_id`, the rig moves that body to each pose it is
-        given (a client of its own); without, the body is where physics put it."""
+        given (a client of its own), and the `companion_ids` (a fleet's other vehicles) to theirs;
+        without, the bodies are where physics put them."""
         self.specs = {s.name: s for s in specs}
         self._mounts = {s.name: vehicle.camera_mount(s.link_name) for s in specs}
         self._projections = {s.name: projection_matrix(s) for s in specs}
@@ -49,18 +51,28 @@ class CameraRig:
         self._renderer = renderer
         self._cid = cid
         self._body = body_id
+        self._companions = companion_ids
 
     @classmethod
     def standalone(
-        cls, vehicle: VehicleParams, world: WorldSpec, specs: tuple[CameraSpec, ...], renderer: RendererKind
+        cls,
+        vehicle: VehicleParams,
+        world: WorldSpec,
+        specs: tuple[CameraSpec, ...],
+        renderer: RendererKind,
+        companions: tuple[VehicleParams, ...] = (),
     ) -> CameraRig:
-        """A rig with a DIRECT client of its own holding the world and the vehicle (no physics)."""
+        """A rig with a DIRECT client of its own holding the world, the vehicle and its
+        `companions` (a fleet's other vehicles; no physics)."""
         cid = pb.connect(pb.DIRECT)
         if renderer is RendererKind.EGL:
             enable_egl(cid)
         build_world(world, cid, collisions=False)
         body = load_vehicle_body(vehicle, cid, (0.0, 0.0, 0.0), (0.0, 0.0, 0.0, 1.0))
-        return cls(vehicle, specs, renderer, cid, body)
+        far = tuple(
+            load_vehicle_body(v, cid, (0.0, 0.0, -100.0 - i), (0.0, 0.0, 0.0, 1.0)) for i, v in enumerate(companions)
+        )
+        return cls(vehicle, specs, renderer, cid, body, far)
 
     def render(
         self,
@@ -69,9 +81,12 @@ class CameraRig:
         position: tuple[float, float, float],
         orientation: tuple[float, float, float, float],
         kinds: frozenset[ImageKind] = JPEG_ONLY,
+        companion_poses: tuple[tuple[tuple[float, float, float], tuple[float, float, float, float]], ...] = (),
     ) -> list[CameraFrame]:
         if self._body is not None:
             pb.resetBasePositionAndOrientation(self._body, position, orientation, physicsClientId=self._cid)
+        for companion, (at, facing) in zip(self._companions, companion_poses):
+            pb.resetBasePositionAndOrientation(companion, at, facing, physicsClientId=self._cid)
         segmentation = ImageKind.SEGMENTATION in kinds
         frames = []
         for name in names:

@@ -60,6 +60,7 @@ class RunOutputs:
     recorder: McapRecorder | None
     path: Path | None
     live: list[LiveOutput]
+    cameras: CameraPipeline | None = None  # the run's one camera pipeline (a fleet's are its vehicles')
 
     def _step(self) -> int:
         raise NotImplementedError

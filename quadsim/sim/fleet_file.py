@@ -26,9 +26,11 @@ from typing import Any
 from quadsim.control import ControllerKind, gains_type
 from quadsim.core.toml_files import read_toml
 from quadsim.core.types import StartPose, ZMode
+from quadsim.drivers import InputDriver
 from quadsim.drivers.scripted import Script, load_script
 from quadsim.errors import ConfigError, QuadsimError
 from quadsim.sim.description import MAX_FLEET, VEHICLE_NAME
+from quadsim.sim.fleet import FleetVehicle
 from quadsim.vehicle.params import SHIPPED_VEHICLES
 
 #: the keys a vehicle may have
@@ -57,6 +59,18 @@ class FleetEntry:
     z_mode: ZMode | None = None
     gains: dict[str, float] = field(default_factory=dict)
     cameras: tuple[str, ...] = ()  # names of the onboard cameras it records
+
+    def fleet_vehicle(self, driver: InputDriver | None) -> FleetVehicle:
+        """This vehicle of a Fleet, flown by `driver` (its z-mode: its own, else its script's)."""
+        return FleetVehicle(
+            self.name,
+            start=self.start,
+            urdf=self.urdf,
+            controller=self.controller,
+            z_mode=self.z_mode or (self.script.z_mode if self.script is not None else None),
+            driver=driver,
+            controller_gains=self.gains or None,
+        )
 
 
 @dataclass(frozen=True)

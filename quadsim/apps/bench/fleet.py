@@ -1,7 +1,7 @@
 """The fleet section of `bench`: 1, 4, 10 and 25 hovering vehicles in one world, no cameras; the
 cost of a vehicle-step against one Simulator's step measured in the same run. Then 10 vehicles
-recorded to MCAP, with and without one vehicle's two cameras (320x240 at 30 Hz, rendered in the
-fleet's world), against one vehicle recording the same cameras rendered in-process."""
+recorded to MCAP, with and without one vehicle's two cameras (320x240 at 30 Hz, by render workers
+that hold the whole fleet), against one vehicle recording the same cameras."""
 
 from __future__ import annotations
 
@@ -68,7 +68,7 @@ def _recorded(out: Callable[[str], None], seconds: float = 5.0) -> None:
         def one_vehicle() -> float:
             with Simulator(SimConfig(z_mode=ZMode.HEIGHT)) as sim:
                 sim.send(Twist())
-                options = OutputOptions(out=folder, cameras=cameras, render_workers=0)
+                options = OutputOptions(out=folder, cameras=cameras)
                 with RecordedRun(sim, sim.description(), options, "bench"):
                     return _timed(lambda: sim.run_for(seconds))
 
@@ -80,7 +80,7 @@ def _recorded(out: Callable[[str], None], seconds: float = 5.0) -> None:
 
         baseline = min(one_vehicle() for _ in range(2))
         rows = [
-            ("one vehicle, its 2 cameras in-process (baseline)", baseline),
+            ("one vehicle, its 2 cameras (baseline)", baseline),
             ("10 vehicles, state only", min(ten(False) for _ in range(2))),
             ("10 vehicles, one with 2 cameras", min(ten(True) for _ in range(2))),
         ]

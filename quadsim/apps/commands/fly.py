@@ -5,7 +5,9 @@ from __future__ import annotations
 
 import argparse
 import sys
+from collections.abc import Sequence
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from quadsim.apps.flying import DEMO_SCENARIO, fly_script, fly_subscribed
 from quadsim.apps.options import (
@@ -24,6 +26,10 @@ from quadsim.errors import QuadsimError
 from quadsim.session.stopping import SignalStop, StopRequested, stop_requested
 from quadsim.session.stopping import describe as describe_stop
 from quadsim.session.stopping import exit_code as stop_exit_code
+
+if TYPE_CHECKING:
+    from quadsim.apps.window.teleop import FleetSetup
+    from quadsim.drivers.subscribed import SubscribedDriver
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
@@ -62,12 +68,22 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         "deadzone), axes numbered and signed as on /joy (stick up and left positive)",
     )
     t.add_argument("--window", default="1280x720", metavar="WxH", help="initial window size (default 1280x720)")
+    t.add_argument(
+        "--fleet",
+        type=Path,
+        metavar="FILE.toml",
+        help="fly one vehicle of a fleet file among the others: the first whose input is keyboard or gamepad "
+        "(with none, the window watches the first); the others fly their scripts, ROS 2 or Foxglove inputs; the "
+        "map shows every vehicle, C cycles whose cameras are shown; recorded as run --fleet records",
+    )
     add_sim_options(p)
     add_live_options(p)
     p.set_defaults(func=main)
 
 
 def main(args: argparse.Namespace) -> int:
+    if args.fleet is not None:
+        return _fly_fleet(args)
     if args.gui and not has_display():
         raise QuadsimError("--gui needs a display (DISPLAY is not set); run without --gui")
     if not has_display() and args.input in ("foxglove", "ros2"):
@@ -86,8 +102,11 @@ def main(args: argparse.Namespace) -> int:
     return _fly_window(args)
 
 
-def _fly_window(args: argparse.Namespace) -> int:
-    """The teleop window, until Esc, a signal or a lost display."""
+def _fly_window(
+    args: argparse.Namespace, fleet: FleetSetup | None = None, fleet_inputs: Sequence[SubscribedDriver] = ()
+) -> int:
+    """The teleop window, until Esc, a signal or a lost display; with `fleet` (a FleetSetup),
+    flying one vehicle of it, and `fleet_inputs` fed by the live bridges."""
     from quadsim.apps.window.teleop import TeleopApp, TeleopOptions
     from quadsim.drivers.joystick import JoystickMapping, load_mapping
 
@@ -104,11 +123,14 @@ def _fly_window(args: argparse.Namespace) -> int:
         from quadsim.drivers.subscribed import SubscribedDriver
 
         commands = SubscribedDriver(args.input)
-    live = live_outputs(args, commands)
+    live = live_outputs(args, fleet_inputs or commands)
     flown, recordings, lost = 0.0, [], None
     try:
-        with TeleopApp(config, outputs, options, live=live, commands=commands) as app:
-            print(f"flying with {app.driver.name}; press H or F1 in the window for the keys, Esc to quit")
+        with TeleopApp(config, outputs, options, live=live, commands=commands, fleet=fleet) as app:
+            what = f"{app.fleet.flown} of the fleet " if app.fleet is not None and app.fleet.by_hand else ""
+            if app.fleet is not None and not app.fleet.by_hand:
+                print(f"watching {app.fleet.flown} of the fleet (no vehicle takes the keyboard or a gamepad)")
+            print(f"flying {what}with {app.driver.name}; press H or F1 in the window for the keys, Esc to quit")
             try:
                 app.run(stop=stop_requested)  # a signal ends the window loop at its next frame
             finally:
@@ -120,6 +142,29 @@ def _fly_window(args: argparse.Namespace) -> int:
         for output in live:  # closed with the run, or here if the window never opened
             output.close()
     return _report(flown, recordings, lost)
+
+
+def _fly_fleet(args: argparse.Namespace) -> int:
+    """`fly --fleet`: the window flies the fleet file's keyboard or gamepad vehicle among the others."""
+    from quadsim.apps.fleet_flight import check_fleet_options, fleet_cameras, fleet_drivers
+    from quadsim.apps.window.teleop import FleetSetup
+    from quadsim.drivers.subscribed import SubscribedDriver
+    from quadsim.sim.fleet_file import load_fleet_file
+
+    if not has_display():
+        raise QuadsimError(
+            f"fly --fleet needs a display for its window (DISPLAY is not set); {program()} run --fleet flies a "
+            "fleet headless (its vehicles on scripts, ROS 2, Foxglove or idle)"
+        )
+    if args.input != "auto":
+        raise QuadsimError(f"--input {args.input} with --fleet: each vehicle's input is in the fleet file")
+    check_fleet_options(args)
+    fleet_file = load_fleet_file(args.fleet)
+    hand = next((v for v in fleet_file.vehicles if v.input in ("keyboard", "gamepad")), None)
+    args.input = "joystick" if hand is not None and hand.input == "gamepad" else "keyboard"
+    drivers = fleet_drivers(fleet_file)
+    setup = FleetSetup(fleet_file, drivers, fleet_cameras(args, fleet_file))
+    return _fly_window(args, setup, [d for d in drivers.values() if isinstance(d, SubscribedDriver)])
 
 
 def _report(flown: float, recordings: list, lost: str | None) -> int:

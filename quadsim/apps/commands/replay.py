@@ -175,7 +175,12 @@ def _window(args: argparse.Namespace, flight: RecordedFlight, size: tuple[int, i
     live = live_outputs(args)
     try:
         feed = _feed(args.file, live)
-        with ReplayApp(flight, size, speed=args.speed, loop=args.loop, feed=feed) as app:
+        others = None
+        if flight.vehicle:  # a fleet's: the others on the map
+            from quadsim.recording.flight import load_flights
+
+            others = {n: f for n, f in load_flights(args.file).items() if n != flight.vehicle}
+        with ReplayApp(flight, size, speed=args.speed, loop=args.loop, feed=feed, others=others) as app:
             print("replaying; press H or F1 in the window for the keys, Esc to quit")
             app.run(stop=stop_requested)  # a signal ends the playback at its next frame
     finally:

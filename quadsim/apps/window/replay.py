@@ -62,9 +62,11 @@ class ReplayApp:
         loop: bool = False,
         frame_s: float | None = None,
         feed: RecordingFeed | None = None,
+        others: dict[str, RecordedFlight] | None = None,
     ) -> None:
         """`frame_s`: advance playback by this much per frame instead of by the wall clock (tests);
-        `feed`: handed the recorded messages as playback passes them (replay --foxglove)."""
+        `feed`: handed the recorded messages as playback passes them (replay --foxglove);
+        `others`: a fleet's other vehicles, by name, drawn on the map."""
         import tempfile
 
         pygame.display.init()
@@ -87,6 +89,7 @@ class ReplayApp:
         self.feed = feed
         self._last_wall = time.perf_counter()
         self._track = [s.position_m[:2] for s in flight.states[::6]]
+        self.others = {name: (f, [s.position_m[:2] for s in f.states[::6]]) for name, f in (others or {}).items()}
         self._walls: list[float] = []
         self._clock = pygame.time.Clock()
         self._x11 = X11Guard.install(on_fatal=self._say_lost)
@@ -231,6 +234,12 @@ class ReplayApp:
             warnings=warnings,
             playback=f"{state_word} {self.speed:g}x{'  loop' if self.loop else ''}   {f.path.name}",
             timeline=(t / NS, self.end_ns / NS),
+            others=[
+                (name, s.position_m[:2], s.yaw_rad(), track)
+                for name, (other, track) in self.others.items()
+                if (s := other.state_at(t)) is not None
+            ],
+            cameras_of=f.vehicle,
         )
 
     def run(

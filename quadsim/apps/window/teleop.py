@@ -31,6 +31,7 @@ from typing import Any
 os.environ.setdefault("PYGAME_HIDE_SUPPORT_PROMPT", "1")
 import pygame
 
+from quadsim.apps.window.fleet_window import Track, WindowFleet
 from quadsim.apps.window.pacing import FixedStepPacer, RealTimePacer
 from quadsim.apps.window.view import TeleopView, ViewModel
 from quadsim.apps.window.x11_guard import X11Guard
@@ -43,9 +44,12 @@ from quadsim.drivers.keyboard import LAYOUTS, KeyboardDriver
 from quadsim.drivers.subscribed import SubscribedDriver
 from quadsim.errors import QuadsimError
 from quadsim.recording.fanout import WARNING_EVENTS
-from quadsim.sensors.camera import CameraFrame
+from quadsim.sensors.camera import CameraFrame, CameraSpec
+from quadsim.sensors.pipeline import CameraPipeline
+from quadsim.session.fleet_outputs import FleetRecordedRun
 from quadsim.session.outputs import LiveOutput, OutputOptions, RecordedRun
 from quadsim.sim.config import SimConfig
+from quadsim.sim.fleet_file import FleetFile
 from quadsim.sim.simulator import Simulator
 
 #: wall time over which the HUD's frame rate and real-time factor are measured
@@ -59,8 +63,19 @@ APP_KEYS = [
     "Backspace  reset to the start (a new recording if recording)",
     "Tab        switch z-mode (velocity <-> height)",
     "F5         stop / start a new recording",
+    "C          a fleet: show the next vehicle's cameras",
     "H, F1      this help",
 ]
+
+
+@dataclass(frozen=True)
+class FleetSetup:
+    """A fleet to fly in the window: its file, what drives the vehicles not flown by hand, and
+    each vehicle's cameras."""
+
+    file: FleetFile
+    drivers: dict[str, Any]
+    cameras: dict[str, tuple[CameraSpec, ...]]
 
 
 @dataclass(frozen=True)
@@ -74,20 +89,6 @@ class TeleopOptions:
     max_fps: int = 60
     landing: LandingSettings = field(default_factory=LandingSettings)  # hard landings allowed or not
     reset_on_crash: bool = False  # a crash puts the vehicle back at the start pose
-
-
-class _Track:
-    """A sink keeping the flown path for the map, at 10 Hz."""
-
-    def __init__(self) -> None:
-        self.points: deque[tuple[float, float]] = deque(maxlen=20000)
-
-    def on_command(self, step: int, twist: object) -> None:
-        pass
-
-    def on_state(self, state: VehicleState) -> None:
-        if state.step % 24 == 0:
-            self.points.append(state.position_m[:2])
 
 
 class _FlightNotices:
@@ -170,8 +171,10 @@ class TeleopApp:
         pacer: RealTimePacer | FixedStepPacer | None = None,
         live: Sequence[LiveOutput] = (),
         commands: SubscribedDriver | None = None,
+        fleet: FleetSetup | None = None,
     ) -> None:
-        """`live`: bridges fed for the whole run; `commands`: what flies with --input foxglove."""
+        """`live`: bridges fed for the whole run; `commands`: what flies with --input foxglove;
+        `fleet`: fly one vehicle of a fleet file among the others (fly --fleet)."""
         _check_options(options, commands)
         pygame.display.init()
         pygame.font.init()
@@ -186,19 +189,27 @@ class TeleopApp:
             self.joystick.attach_first()
         use_joystick = options.input == "joystick" or (options.input == "auto" and self.joystick.pad is not None)
         self.input = _ActiveInput(commands or (self.joystick if use_joystick else self.keyboard))
+        settings: dict[str, Any] = {"landing": options.landing, "reset_on_crash": options.reset_on_crash}
+        self.fleet: WindowFleet | None = None
         try:
-            self.sim = Simulator(config, self.input, landing=options.landing, reset_on_crash=options.reset_on_crash)
+            if fleet is None:
+                self.sim = Simulator(config, self.input, **settings)
+            else:
+                self.fleet = WindowFleet(fleet.file, config, self.input, fleet.drivers, settings)
+                self.sim = self.fleet.fleet[self.fleet.flown]
         except BaseException:
             self.joystick.close()
             raise
-        self.track = _Track()
+        self.track = Track() if self.fleet is None else self.fleet.tracks[self.fleet.flown]
         self.sim.add_sink(self.track)
         self.flight_notices = _FlightNotices()
         self.sim.add_sink(self.flight_notices)
         self.frames: dict[str, CameraFrame] = {}
         self.outputs = replace(outputs, ordered_delivery=False)  # show frames as soon as they are ready
-        self.session = self._open_session(config, live)
-        if self.session.cameras is not None:
+        self.session = self._open_session(config, live, fleet)
+        if self.fleet is not None:
+            self.fleet.show(self.fleet.shown, self)
+        elif self.session.cameras is not None:
             self.session.cameras.sinks.append(self)
         self._hook_joy()
         self._init_window_state(pacer or RealTimePacer(config.rates.physics_hz))
@@ -206,10 +217,16 @@ class TeleopApp:
         # last, so nothing after it can fail with the handlers installed
         self._x11 = X11Guard.install(on_fatal=self._finish_after_fatal_loss)
 
-    def _open_session(self, config: SimConfig, live: Sequence[LiveOutput]) -> RecordedRun:
+    def _open_session(
+        self, config: SimConfig, live: Sequence[LiveOutput], fleet: FleetSetup | None
+    ) -> RecordedRun | FleetRecordedRun:
         """The run's recording, cameras and live bridges; the simulator and the pad are closed
         if they cannot open."""
         try:
+            if self.fleet is not None and fleet is not None:
+                info = {"command": "fly", "fleet": str(fleet.file.path), "input": self.driver.name}
+                outputs = replace(self.outputs, cameras=())
+                return self.fleet.open_session(outputs, f"fly_{fleet.file.path.stem}", info, live, fleet.cameras)
             return RecordedRun(
                 self.sim,
                 self.sim.description(),
@@ -219,9 +236,20 @@ class TeleopApp:
                 live=live,
             )
         except BaseException:
-            self.sim.close()
+            self._close_flight()
             self.joystick.close()
             raise
+
+    def _close_flight(self) -> None:
+        if self.fleet is not None:
+            self.fleet.close()
+        else:
+            self.sim.close()
+
+    def _pipelines(self) -> list[CameraPipeline]:
+        if self.fleet is not None:
+            return list(self.fleet.pipelines.values())
+        return [self.session.cameras] if isinstance(self.session, RecordedRun) and self.session.cameras else []
 
     def _init_window_state(self, pacer: RealTimePacer | FixedStepPacer) -> None:
         """What the window shows and counts, before its first frame."""
@@ -255,7 +283,10 @@ class TeleopApp:
     def _hook_joy(self) -> None:
         self.joystick.joy_sinks.clear()
         if self.driver is self.joystick:
-            self.joystick.joy_sinks.append(self.session.fanout.on_joy)
+            fanout = self.session.fanout
+            if self.fleet is not None:  # the flown vehicle's /NAME/joy
+                fanout = fanout.members[list(self.fleet.fleet).index(self.fleet.flown)]
+            self.joystick.joy_sinks.append(fanout.on_joy)
 
     @property
     def display_lost(self) -> str | None:
@@ -314,6 +345,9 @@ class TeleopApp:
             if key == pygame.K_F5:
                 self.toggle_recording()
                 return
+            if key == pygame.K_c and self.fleet is not None:
+                self.next_cameras()
+                return
         # both track their device; only the one that is the input driver is polled by the loop
         self.keyboard.handle_event(event)
         if self.options.input in ("auto", "joystick"):
@@ -356,6 +390,18 @@ class TeleopApp:
         self.joystick.set_z_mode(new, altitude)
         self._say(f"z-mode: {new.value}")
 
+    def next_cameras(self) -> None:
+        """A fleet: show the next vehicle's cameras (those that have some)."""
+        assert self.fleet is not None
+        name = self.fleet.next_cameras()
+        if name is None:
+            self._say("no vehicle of this fleet has cameras")
+            return
+        self.fleet.show(name, self)
+        self.frames.clear()
+        self._camera_walls.clear()
+        self._say(f"cameras: {name}'s")
+
     def toggle_recording(self) -> None:
         if self.session.recording:
             self.session.stop_recording()
@@ -374,7 +420,12 @@ class TeleopApp:
         was_recording = self.session.recording
         if was_recording:
             self.session.stop_recording()
-        self.sim.reset()
+        if self.fleet is not None:
+            self.fleet.fleet.reset()
+            for track in self.fleet.tracks.values():
+                track.points.clear()
+        else:
+            self.sim.reset()
         self.keyboard.reset()
         self.joystick.reset()
         self.track.points.clear()
@@ -398,9 +449,12 @@ class TeleopApp:
         if not self.paused:
             steps = self.pacer.steps_for_frame(self.sim.step_count)
             if steps:
-                self.sim.step(steps)
-        if self.session.cameras is not None:
-            self.session.cameras.poll()
+                if self.fleet is not None:
+                    self.fleet.fleet.step(steps)
+                else:
+                    self.sim.step(steps)
+        for pipeline in self._pipelines():
+            pipeline.poll()
         self.view.draw(self.screen, self._model())
         pygame.display.flip()
         if self._display_gone():
@@ -470,8 +524,11 @@ class TeleopApp:
             show_help=self.show_help,
             notice=self.notice,
             warnings=warnings,
-            camera_rates=self.camera_rates() if self.session.cameras is not None else {},
-            camera_rate_hz=max((c.rate_hz for c in self.outputs.cameras), default=0),
+            camera_rates=self.camera_rates() if self._pipelines() else {},
+            camera_rate_hz=max((c.rate_hz for p in self._pipelines() for c in p.specs), default=0),
+            others=self.fleet.others() if self.fleet is not None else [],
+            cameras_of=self.fleet.shown or "" if self.fleet is not None else "",
+            camera_names=self.fleet.camera_names() if self.fleet is not None else None,
         )
 
     def run(
@@ -493,7 +550,7 @@ class TeleopApp:
         try:
             self.session.close()
         finally:
-            self.sim.close()
+            self._close_flight()
             self.joystick.close()
             if self._x11 is None:
                 pygame.display.quit()

@@ -55,6 +55,10 @@ class ViewModel:
     phase: str = ""  # landed / flying (empty: not known, as in replay)
     flight_event: str = ""  # the last flight event (take-off, touchdown, landed, crash, reset), while shown
     flight_alert: bool = False  # that event is a crash
+    #: a fleet: (name, position, yaw, track) of every other vehicle, drawn on the map
+    others: list[tuple[str, tuple[float, float], float, list[tuple[float, float]]]] = field(default_factory=list)
+    cameras_of: str = ""  # a fleet: whose cameras are shown
+    camera_names: frozenset[str] | None = None  # a fleet: the cameras that vehicle has (None: not said)
 
 
 class TeleopView:
@@ -83,8 +87,11 @@ class TeleopView:
     def draw(self, surface: pygame.Surface, m: ViewModel) -> None:
         surface.fill(BACKGROUND)
         rects = self.layout(surface.get_size())
-        self._camera(surface, rects["front"], m.frames.get("front"), "front camera")
-        self._camera(surface, rects["floor"], m.frames.get("floor"), "floor camera")
+        whose = f" ({m.cameras_of})" if m.cameras_of else ""
+        for name in ("front", "floor"):
+            absent = m.camera_names is not None and name not in m.camera_names
+            empty = f"{m.cameras_of} has no {name} camera" if absent else "no image yet"
+            self._camera(surface, rects[name], m.frames.get(name), f"{name} camera{whose}", empty)
         self._map(surface, rects["map"], m)
         self._hud(surface, rects["front"], m)
         if m.timeline is not None:
@@ -106,7 +113,9 @@ class TeleopView:
             return surf
         return cached[1]
 
-    def _camera(self, surface: pygame.Surface, rect: pygame.Rect, frame: CameraFrame | None, label: str) -> None:
+    def _camera(
+        self, surface: pygame.Surface, rect: pygame.Rect, frame: CameraFrame | None, label: str, empty: str
+    ) -> None:
         pygame.draw.rect(surface, (10, 10, 12), rect)
         if frame is not None:
             img = self._image(frame)
@@ -119,7 +128,7 @@ class TeleopView:
                 self._scaled[frame.camera] = cached
             surface.blit(cached[2], cached[2].get_rect(center=rect.center))
         else:
-            self._text(surface, "no image yet", rect.center, TEXT, center=True)
+            self._text(surface, empty, rect.center, TEXT, center=True)
         pygame.draw.rect(surface, (70, 70, 80), rect, 1)
         self._text(surface, label, (rect.x + 6, rect.bottom - 20), (220, 220, 220), backed=True)
 
@@ -146,13 +155,14 @@ class TeleopView:
                 pygame.draw.rect(surface, color, pygame.Rect(cx - w / 2, cy - h / 2, max(2, w), max(2, h)))
             else:
                 pygame.draw.circle(surface, color, (cx, cy), max(2, int(lm.size_m[0] * k)))
+        for name, (ox, oy), oyaw, points in m.others:  # a fleet's other vehicles, in blue
+            if len(points) > 1:
+                pygame.draw.lines(surface, (110, 170, 255), False, [px(x, y) for x, y in points], 1)
+            pygame.draw.polygon(surface, (110, 170, 255), _arrow(px, ox, oy, oyaw))
+            self._text(surface, name, px(ox - 0.6, oy - 0.4), (170, 205, 255))
         if len(m.track) > 1:
             pygame.draw.lines(surface, (255, 220, 80), False, [px(x, y) for x, y in m.track], 2)
-        yaw = m.state.yaw_rad()
-        nose = px(x0 + 0.9 * math.cos(yaw), y0 + 0.9 * math.sin(yaw))
-        left = px(x0 + 0.5 * math.cos(yaw + 2.5), y0 + 0.5 * math.sin(yaw + 2.5))
-        right = px(x0 + 0.5 * math.cos(yaw - 2.5), y0 + 0.5 * math.sin(yaw - 2.5))
-        pygame.draw.polygon(surface, (255, 70, 70), [nose, left, right])
+        pygame.draw.polygon(surface, (255, 70, 70), _arrow(px, x0, y0, m.state.yaw_rad()))
         surface.set_clip(clip)
         pygame.draw.rect(surface, (70, 70, 80), rect, 1)
         self._text(
@@ -253,3 +263,12 @@ class TeleopView:
         if backed:
             surface.fill((10, 10, 12), where.inflate(8, 2))
         surface.blit(img, where)
+
+
+def _arrow(px, x: float, y: float, yaw: float) -> list[tuple[int, int]]:
+    """A vehicle on the map: an arrow head at (x, y) pointing along its heading."""
+    return [
+        px(x + 0.9 * math.cos(yaw), y + 0.9 * math.sin(yaw)),
+        px(x + 0.5 * math.cos(yaw + 2.5), y + 0.5 * math.sin(yaw + 2.5)),
+        px(x + 0.5 * math.cos(yaw - 2.5), y + 0.5 * math.sin(yaw - 2.5)),
+    ]

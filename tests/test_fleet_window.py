@@ -1,0 +1,110 @@
+"""`fly --fleet`: the teleop window flies one vehicle of a fleet among the others (SDL dummy
+video, synthetic key events; tests/test_window_x11.py has the real window)."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import pygame
+
+from quadsim import SimConfig
+from quadsim.apps.fleet_flight import fleet_drivers
+from quadsim.apps.window.pacing import FixedStepPacer
+from quadsim.apps.window.teleop import FleetSetup, TeleopApp, TeleopOptions
+from quadsim.recording.flight import load_flights
+from quadsim.sensors.camera import default_cameras
+from quadsim.session.outputs import OutputOptions
+from quadsim.sim.fleet_file import load_fleet_file
+from tests.test_cli import cli
+from tests.test_teleop import FPS, key, run_with
+
+FLEET = """
+[[vehicle]]
+name = "alpha"
+start = [0.0, 0.0, 0.0, 0.0]
+input = "keyboard"
+cameras = ["front", "floor"]
+
+[[vehicle]]
+name = "bravo"
+start = [0.0, -4.0, 0.0, 0.0]
+input = "script:square"
+cameras = ["front"]
+
+[[vehicle]]
+name = "charlie"
+start = [-4.0, 0.0, 0.0, 0.0]
+"""
+
+
+def _app(tmp_path: Path) -> TeleopApp:
+    (tmp_path / "three.toml").write_text(FLEET)
+    fleet_file = load_fleet_file(tmp_path / "three.toml")
+    specs = {c.name: c for c in default_cameras(160, 120, 30)}
+    cameras = {v.name: tuple(specs[c] for c in v.cameras) for v in fleet_file.vehicles if v.cameras}
+    return TeleopApp(
+        SimConfig(),
+        OutputOptions(out=tmp_path, cameras=()),
+        TeleopOptions(input="keyboard"),
+        pacer=FixedStepPacer(240, 1 / FPS),
+        fleet=FleetSetup(fleet_file, fleet_drivers(fleet_file), cameras),
+    )
+
+
+def test_the_keyboard_flies_its_vehicle_the_map_shows_the_others_and_c_cycles_the_cameras(tmp_path):
+    app = _app(tmp_path)
+    assert app.fleet is not None and app.fleet.flown == "alpha" and app.fleet.shown == "alpha"
+    run_with(
+        app,
+        180,
+        {
+            0: [lambda: key(pygame.K_w)],
+            60: [lambda: key(pygame.K_w, False)],  # climb 2 s
+            75: [lambda: key(pygame.K_UP)],
+            135: [lambda: key(pygame.K_UP, False)],  # forward 2 s
+        },
+    )
+    alpha = app.sim.state.position_m
+    assert 1.3 < alpha[2] < 1.8 and alpha[0] > 1.2, alpha  # the keys flew alpha
+    bravo = app.fleet.fleet["bravo"].state.position_m
+    assert bravo[2] > 1.5 and bravo[0] > 0.5, bravo  # its square, meanwhile (6 s: take-off, then forward)
+    assert app.fleet.fleet["charlie"].state.position_m[2] < 0.1  # idle
+    model = app._model()
+    assert [name for name, *_ in model.others] == ["bravo", "charlie"] and model.cameras_of == "alpha"
+    (_, position, _, points) = model.others[0]
+    assert math.dist(position, bravo[:2]) < 1e-9 and len(points) > 10  # bravo's track, for the map
+    assert set(app.frames) == {"front", "floor"}
+    first = app.frames["front"].step
+    run_with(app, 3, {0: [lambda: key(pygame.K_c)]})
+    assert app.fleet.shown == "bravo" and app._model().cameras_of == "bravo"
+    run_with(app, 6)
+    assert set(app.frames) == {"front"} and app.frames["front"].step > first  # bravo has only a front camera
+    run_with(app, 3, {0: [lambda: key(pygame.K_c)]})
+    assert app.fleet.shown == "alpha"  # and round again
+    app.view.draw(app.screen, app._model())  # the map with the others draws
+    app.close()
+    flights = load_flights(app.recordings[0])
+    assert list(flights) == ["alpha", "bravo", "charlie"]
+    assert any(t.linear_z > 0.5 for _, t in flights["alpha"].commands)  # the keyboard's climb, under alpha
+    assert {len(f) for f in flights["alpha"].frames.values()} and set(flights["bravo"].frames) == {"front"}
+    out = cli("check", str(app.recordings[0]), "--tolerance-m", "0", "--tolerance-rad", "0")
+    assert out.returncode == 0 and "(a fleet of 3)" in out.stdout, out.stdout + out.stderr
+
+
+def test_backspace_resets_the_whole_fleet(tmp_path):
+    app = _app(tmp_path)
+    run_with(app, 90, {0: [lambda: key(pygame.K_w)], 60: [lambda: key(pygame.K_w, False)]})
+    assert app.sim.state.position_m[2] > 1.0 and app.fleet.fleet["bravo"].state.position_m[2] > 0.5
+    run_with(app, 1, {0: [lambda: key(pygame.K_BACKSPACE)]})
+    for name in ("alpha", "bravo"):
+        assert app.fleet.fleet[name].state.position_m[2] < 0.2, name
+    assert app.fleet.fleet.step_count < 20
+    app.close()
+    assert len(app.recordings) == 2  # a new recording from the reset on
+
+
+def test_fly_fleet_without_a_display_says_what_to_do(tmp_path):
+    (tmp_path / "f.toml").write_text(FLEET)
+    out = cli("fly", "--fleet", str(tmp_path / "f.toml"))
+    assert out.returncode == 2 and "fly --fleet needs a display" in out.stderr and "run --fleet" in out.stderr
