@@ -78,13 +78,13 @@ def _processes_of(tmpdir: Path) -> list[int]:
     return found
 
 
-def _trial(folder: Path, signum: int, to_group: bool, delay_s: float) -> Trial:
+def _trial(folder: Path, signum: int, to_group: bool, delay_s: float, command=_command) -> Trial:
     folder.mkdir(parents=True)
     tmpdir = folder / "tmp"
     tmpdir.mkdir()
     out = folder / "run.mcap"
     proc = subprocess.Popen(
-        _command(out),
+        command(out),
         stdout=subprocess.PIPE,
         stderr=subprocess.PIPE,
         text=True,
@@ -169,6 +169,61 @@ def test_the_summary_is_printed_and_the_recording_finished(trials):
             summary = make_reader(fh).get_summary()  # a finished file has its summary
         assert summary is not None and summary.statistics is not None, _where(t)
         assert summary.statistics.message_count > 0
+
+
+# --- a fleet --------------------------------------------------------------------------------------
+
+FLEET = """
+[[vehicle]]
+name = "alpha"
+start = [0.0, 0.0, 0.0, 0.0]
+input = "script:square"
+cameras = ["front", "floor"]
+
+[[vehicle]]
+name = "bravo"
+start = [0.0, 3.0, 0.0, 0.0]
+input = "script:yaw"
+"""
+
+
+def test_a_fleet_run_stopped_at_any_moment_ends_cleanly_with_every_vehicle_recorded(tmp_path):
+    """`run --fleet` (one vehicle with cameras and two render workers holding the fleet), signalled
+    at seeded random moments, to the process and to its group: 130 / 143, no traceback, no
+    process left, and a finished recording with both vehicles' states, as many of each (one clock)."""
+    from quadsim.recording.flight import load_flights
+
+    (tmp_path / "pair.toml").write_text(FLEET)
+
+    def command(out: Path) -> list[str]:
+        fleet = ["run", "--fleet", str(tmp_path / "pair.toml"), "--duration", "1.5", "--camera-size", "64x48"]
+        return [sys.executable, str(ROOT / "main.py"), *fleet, "--out", str(out)]
+
+    t0 = time.monotonic()
+    calm = subprocess.run(command(tmp_path / "calm.mcap"), capture_output=True, text=True, env=_env(tmp_path))
+    wall_s = time.monotonic() - t0
+    assert calm.returncode == 0, calm.stderr
+    rng = random.Random(20261125)
+    cases = [
+        (signum, to_group, rng.uniform(0.12, wall_s * 1.6))
+        for signum in (signal.SIGINT, signal.SIGTERM)
+        for to_group in (False, True)
+        for _ in range(3)
+    ]
+    with ThreadPoolExecutor(max_workers=2) as pool:
+        trials = list(pool.map(lambda c: _trial(tmp_path / f"t{c[0]:02d}", *c[1], command=command), enumerate(cases)))
+    for t in trials:
+        assert "Traceback" not in t.stderr and t.returncode in (0, EXPECTED[t.signum]), f"{_where(t)}:\n{t.stderr}"
+        assert not t.leftover_processes and not list(t.tmpdir.iterdir()), _where(t)
+        if "recording to" not in t.stdout:
+            continue
+        with open(t.recording, "rb") as fh:
+            assert make_reader(fh).get_summary() is not None, _where(t)  # finished
+        flights = load_flights(t.recording)
+        states = {name: len(f.states) for name, f in flights.items()}
+        assert list(states) == ["alpha", "bravo"] and states["alpha"] == states["bravo"], (_where(t), states)
+        assert not any(f.damage for f in flights.values()), _where(t)
+    assert sum(t.returncode != 0 for t in trials) >= len(trials) // 2
 
 
 # --- the first second, under load ---------------------------------------------------------------
