@@ -238,12 +238,20 @@ def test_help_speaks_of_the_command_the_user_typed(installed):
 def test_the_examples_ship_in_the_wheel_and_copy_out(installed):
     listed = check(installed.quadsim("examples")).stdout
     assert [line.split()[0] for line in listed.splitlines()] == [
+        "fleet.toml",
         "fly_to_tower.py",
         "sweep_controllers.toml",
         "sweep_wind.toml",
     ]
     check(installed.quadsim("examples", "--copy", "mine"))
-    for name in ("fly_to_tower.py", "sweep_wind.toml"):
+    for name in ("fleet.toml", "fly_to_tower.py", "sweep_wind.toml"):
         assert (installed.work / "mine" / name).read_bytes() == (ROOT / "examples" / name).read_bytes()
+    fleet = check(installed.quadsim("run", "--fleet", "mine/fleet.toml", "--duration", "3", "--no-record")).stdout
+    assert "flying a fleet of 4 for 3.0 s" in fleet and [line.split()[0] for line in fleet.splitlines()][-4:] == [
+        "alpha",
+        "bravo",
+        "charlie",
+        "delta",
+    ]
     again = installed.quadsim("examples", "--copy", "mine")
     assert again.returncode == 2 and "exists: nothing was copied" in again.stderr
