@@ -17,12 +17,14 @@ os.environ.setdefault("PYGAME_HIDE_SUPPORT_PROMPT", "1")
 
 import pygame  # noqa: E402
 
-from quadsim import ControllerKind, SimConfig, Simulator, ZMode  # noqa: E402
+from quadsim import ControllerKind, Fleet, FleetVehicle, SimConfig, Simulator, StartPose, ZMode  # noqa: E402
 from quadsim.apps.window.pacing import FixedStepPacer  # noqa: E402
 from quadsim.apps.window.teleop import TeleopApp, TeleopOptions  # noqa: E402
 from quadsim.drivers.scripted import ScriptedDriver, load_script  # noqa: E402
 from quadsim.physics.wind import Turbulence, WindSettings  # noqa: E402
+from quadsim.session.fleet_outputs import FleetRecordedRun  # noqa: E402
 from quadsim.session.outputs import OutputOptions, RecordedRun  # noqa: E402
+from quadsim.vehicle.params import SHIPPED_VEHICLES  # noqa: E402
 
 OUT = ROOT / "tests" / "recordings"
 
@@ -79,6 +81,28 @@ def keyboard_session() -> Path:
     return path
 
 
+def fleet_trio() -> Path:
+    """A fleet of three in light turbulence: a square (cascade), a turn on the spot (the seed
+    controller) and an idle hexacopter, each with its own wind and IMU-noise streams."""
+    path = OUT / "fleet_trio_wind.mcap"
+    path.unlink(missing_ok=True)
+    vehicles = [
+        FleetVehicle("alpha", driver=ScriptedDriver(load_script("square"))),
+        FleetVehicle(
+            "bravo",
+            start=StartPose(0.0, 4.0, 1.57),
+            controller=ControllerKind.SEED,
+            driver=ScriptedDriver(load_script("yaw")),
+        ),
+        FleetVehicle("charlie", start=StartPose(-4.0, 0.0), urdf=SHIPPED_VEHICLES["hexa"]),
+    ]
+    config = SimConfig(z_mode=ZMode.HEIGHT, wind=WindSettings(3.0, 45.0, Turbulence.LIGHT), seed=11)
+    with Fleet(vehicles, config) as fleet:
+        with FleetRecordedRun(fleet, OutputOptions(out=path, cameras=()), "fleet", {"command": "run"}):
+            fleet.run_for(10.0)
+    return path
+
+
 RECORDINGS = {
     "square_cascade": lambda: scripted("square", ControllerKind.CASCADE),
     "figure8_seed": lambda: scripted("figure8", ControllerKind.SEED),
@@ -88,6 +112,8 @@ RECORDINGS = {
         "takeoff", ControllerKind.CASCADE, WindSettings(5.0, 90.0, Turbulence.MODERATE), seed=7
     ),
     "keyboard_session_cascade": keyboard_session,
+    # a fleet: every vehicle under its name, one clock, each with its own random streams
+    "fleet_trio_wind": fleet_trio,
 }
 
 if __name__ == "__main__":
