@@ -255,3 +255,73 @@ def test_a_vehicles_cameras_see_the_other_vehicles_and_only_it_records_them(tmp_
     assert 15 < diff.sum() < 2000, diff.sum()
     assert abs(cols.mean() - 80) < 15 and rows.mean() < 60  # ahead of it, and above the horizon
     assert not (abs(with_bravo[0].astype(int) - alone[0].astype(int)) > 40)[:, :10].any()  # the rest: the same
+
+
+def _with_parameters(src: Path, dst: Path, edit) -> Path:
+    """Copy a recording with its run parameters edited (a crafted or damaged file)."""
+    from mcap.writer import Writer
+
+    with open(src, "rb") as fh:
+        reader = make_reader(fh)
+        summary, header = reader.get_summary(), reader.get_header()
+        with open(dst, "wb") as out:
+            w = Writer(out)
+            w.start(header.profile, header.library)
+            sids = {i: w.register_schema(s.name, s.encoding, s.data) for i, s in summary.schemas.items()}
+            cids = {
+                i: w.register_channel(c.topic, c.message_encoding, sids[c.schema_id], c.metadata)
+                for i, c in summary.channels.items()
+            }
+            for m in reader.iter_metadata():
+                data = dict(m.metadata)
+                if m.name == "quadsim":
+                    data["parameters"] = json.dumps(edit(json.loads(data["parameters"])))
+                w.add_metadata(m.name, data)
+            for a in reader.iter_attachments():
+                w.add_attachment(a.log_time, a.create_time, a.name, a.media_type, a.data)
+            for _, channel, message in reader.iter_messages():
+                w.add_message(cids[channel.id], message.log_time, message.data, message.publish_time, message.sequence)
+            w.finish()
+    return dst
+
+
+def _set(params: dict, path: str, value) -> dict:
+    where = params
+    *parents, last = path.split(".")
+    for key in parents:
+        where = where[int(key)] if isinstance(where, list) else where[key]
+    where[int(last) if isinstance(where, list) else last] = value
+    return params
+
+
+CRAFTED = {
+    "too_many": (lambda p: {**p, "fleet": p["fleet"] * 40}, "parameters.fleet: expected a list of 1 to 100"),
+    "traversing_name": (lambda p: _set(p, "fleet.1.name", "../../bravo"), "not a unique ROS name segment"),
+    "not_an_object": (lambda p: _set(p, "fleet.2", "charlie"), "parameters.fleet[2]: expected an object"),
+    "traversing_urdf": (
+        lambda p: _set(p, "fleet.0.vehicle.urdf", "../../../etc/evil.urdf"),
+        "attachment(s) evil.urdf missing",
+    ),
+    "no_such_vehicle": (lambda p: _set(p, "fleet.2.name", "zulu"), "has no /zulu/quad/pose states"),
+    "fleet_left_out": (lambda p: {k: v for k, v in p.items() if k != "fleet"}, "parameters.fleet: expected a list"),
+}
+
+
+@pytest.mark.parametrize("case", list(CRAFTED))
+def test_a_crafted_fleet_recording_is_refused_in_one_line_by_every_command(fleet_recording, tmp_path, case):
+    """Hostile parameters in a fleet's recording: info and replay still show what is there,
+    check and replay --resim refuse it in one line naming why, and nothing is written outside
+    the folder asked for."""
+    edit, why = CRAFTED[case]
+    path = _with_parameters(fleet_recording[0], tmp_path / f"{case}.mcap", edit)
+    before = set(Path("/etc").iterdir())
+    out = cli("check", str(path))
+    assert out.returncode == 2 and "Traceback" not in out.stderr, out.stdout + out.stderr
+    assert f"ERROR {path}:" in out.stdout and why in out.stdout, out.stdout
+    resim = cli("replay", str(path), "--resim", "--out", str(tmp_path / "resim"))
+    assert resim.returncode == 2 and "Traceback" not in resim.stderr and why in resim.stderr, resim.stderr
+    assert len(resim.stderr.strip().splitlines()) == 1, resim.stderr
+    for argv in (("info", str(path)), ("replay", str(path), "--headless")):
+        shown = cli(*argv)
+        assert shown.returncode == 0 and "Traceback" not in shown.stderr, (argv, shown.stderr)
+    assert set(Path("/etc").iterdir()) == before and not (tmp_path / "resim").exists()
