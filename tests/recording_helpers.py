@@ -1,6 +1,10 @@
 """Helpers for recording tests: fly a short scripted flight with recording on."""
 
+from collections.abc import Callable
 from pathlib import Path
+
+from mcap.reader import make_reader
+from mcap.writer import Writer
 
 from quadsim import SimConfig, Simulator, StateLog, ZMode
 from quadsim.drivers.scripted import ScriptedDriver, parse_script
@@ -19,3 +23,33 @@ def record_flight(path: Path, workers: int = 0, size=(160, 120), cameras=True, s
         with RecordedRun(sim, sim.description(), options, "test", {"script": "test"}):
             sim.run_for(parsed.duration_s)
     return log
+
+
+def copy_recording(
+    src: Path,
+    dst: Path,
+    metadata: Callable[[str, dict[str, str]], dict[str, str]] = lambda name, data: data,
+    attachment: Callable[[str, bytes], bytes] = lambda name, data: data,
+) -> Path:
+    """Copy a recording record by record, editing its metadata or attachments on the way
+    (a crafted or damaged file, or one whose vehicle file has changed)."""
+    with open(src, "rb") as fh:
+        reader = make_reader(fh)
+        summary, header = reader.get_summary(), reader.get_header()
+        assert summary is not None
+        with open(dst, "wb") as out:
+            w = Writer(out)
+            w.start(header.profile, header.library)
+            sids = {i: w.register_schema(s.name, s.encoding, s.data) for i, s in summary.schemas.items()}
+            cids = {
+                i: w.register_channel(c.topic, c.message_encoding, sids[c.schema_id], c.metadata)
+                for i, c in summary.channels.items()
+            }
+            for m in reader.iter_metadata():
+                w.add_metadata(m.name, metadata(m.name, dict(m.metadata)))
+            for a in reader.iter_attachments():
+                w.add_attachment(a.log_time, a.create_time, a.name, a.media_type, attachment(a.name, a.data))
+            for _, channel, message in reader.iter_messages():
+                w.add_message(cids[channel.id], message.log_time, message.data, message.publish_time, message.sequence)
+            w.finish()
+    return dst

@@ -15,6 +15,7 @@ from mcap_ros2.decoder import DecoderFactory
 
 from quadsim.recording.flight import load_flight, load_flights
 from quadsim.sim.description import DescriptionError, RunDescription
+from tests.recording_helpers import copy_recording
 from tests.test_cli import cli
 
 FLEET = """
@@ -259,30 +260,13 @@ def test_a_vehicles_cameras_see_the_other_vehicles_and_only_it_records_them(tmp_
 
 def _with_parameters(src: Path, dst: Path, edit) -> Path:
     """Copy a recording with its run parameters edited (a crafted or damaged file)."""
-    from mcap.writer import Writer
 
-    with open(src, "rb") as fh:
-        reader = make_reader(fh)
-        summary, header = reader.get_summary(), reader.get_header()
-        with open(dst, "wb") as out:
-            w = Writer(out)
-            w.start(header.profile, header.library)
-            sids = {i: w.register_schema(s.name, s.encoding, s.data) for i, s in summary.schemas.items()}
-            cids = {
-                i: w.register_channel(c.topic, c.message_encoding, sids[c.schema_id], c.metadata)
-                for i, c in summary.channels.items()
-            }
-            for m in reader.iter_metadata():
-                data = dict(m.metadata)
-                if m.name == "quadsim":
-                    data["parameters"] = json.dumps(edit(json.loads(data["parameters"])))
-                w.add_metadata(m.name, data)
-            for a in reader.iter_attachments():
-                w.add_attachment(a.log_time, a.create_time, a.name, a.media_type, a.data)
-            for _, channel, message in reader.iter_messages():
-                w.add_message(cids[channel.id], message.log_time, message.data, message.publish_time, message.sequence)
-            w.finish()
-    return dst
+    def parameters(name: str, data: dict[str, str]) -> dict[str, str]:
+        if name == "quadsim":
+            data["parameters"] = json.dumps(edit(json.loads(data["parameters"])))
+        return data
+
+    return copy_recording(src, dst, metadata=parameters)
 
 
 def _set(params: dict, path: str, value) -> dict:

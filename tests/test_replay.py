@@ -11,7 +11,6 @@ from pathlib import Path
 import cv2
 import pygame
 import pytest
-from mcap.reader import make_reader
 from mcap.writer import Writer
 
 from quadsim import QuadsimError, SimConfig
@@ -22,7 +21,7 @@ from quadsim.apps.window.teleop import TeleopApp, TeleopOptions
 from quadsim.recording.flight import load_flight
 from quadsim.session.outputs import OutputOptions
 from quadsim.session.resim import resimulate
-from tests.recording_helpers import record_flight
+from tests.recording_helpers import copy_recording, record_flight
 
 ROOT = Path(__file__).resolve().parent.parent
 RECORDINGS = sorted((ROOT / "tests" / "recordings").glob("*.mcap"))
@@ -81,26 +80,7 @@ def test_fresh_interactive_recording_reflies_to_zero(tmp_path):
 
 def _with_changed_attachment(src: Path, dst: Path, name: str, edit) -> None:
     """Copy a recording, editing one attachment (as if the vehicle file had changed)."""
-    with open(src, "rb") as fh:
-        reader = make_reader(fh)
-        summary = reader.get_summary()
-        header = reader.get_header()
-        with open(dst, "wb") as out:
-            w = Writer(out)
-            w.start(header.profile, header.library)
-            sids = {i: w.register_schema(s.name, s.encoding, s.data) for i, s in summary.schemas.items()}
-            cids = {
-                i: w.register_channel(c.topic, c.message_encoding, sids[c.schema_id], c.metadata)
-                for i, c in summary.channels.items()
-            }
-            for m in reader.iter_metadata():
-                w.add_metadata(m.name, m.metadata)
-            for a in reader.iter_attachments():
-                data = edit(a.data) if a.name == name else a.data
-                w.add_attachment(a.log_time, a.create_time, a.name, a.media_type, data)
-            for _, ch, msg in reader.iter_messages():
-                w.add_message(cids[ch.id], msg.log_time, msg.data, msg.publish_time, msg.sequence)
-            w.finish()
+    copy_recording(src, dst, attachment=lambda n, data: edit(data) if n == name else data)
 
 
 def test_check_passes_then_fails_with_a_readable_report(tmp_path):
