@@ -58,3 +58,24 @@ def test_driver_follows_the_timeline():
     assert driver.poll(0, 1.0) == Twist(linear_y=2.0)
     assert not driver.finished
     assert driver.poll(0, 1.5) is None and driver.finished
+
+
+@pytest.mark.parametrize(
+    ("name", "says"),
+    [
+        ("", "no script named"),
+        ("  ", "no script named"),
+        ("{tmp}", "not a script file (a directory or a device)"),
+        ("/dev/zero", "not a script file (a directory or a device)"),
+        ("{tmp}/huge.qscript", "is larger than 4 MB"),
+        ("{tmp}/latin1.qscript", "is not a UTF-8 text file"),
+        ("{tmp}/missing.qscript", "script file not found"),
+    ],
+)
+def test_a_script_path_that_is_not_a_small_text_file_is_refused_in_one_line(tmp_path, name, says):
+    with open(tmp_path / "huge.qscript", "wb") as fh:  # sparse: 5 GB it never reads
+        fh.truncate(5 * 1024**3)
+    (tmp_path / "latin1.qscript").write_bytes("1.0 linear.x=1 # caf\u00e9\n".encode("latin-1"))
+    with pytest.raises(ScriptError) as refused:
+        load_script(name.format(tmp=tmp_path))
+    assert says in str(refused.value) and "\n" not in str(refused.value)

@@ -26,6 +26,9 @@ from quadsim.core.types import Twist, ZMode
 from quadsim.drivers import NEVER
 from quadsim.errors import ScriptError
 
+#: the largest script file read (a scenario is a few hundred bytes; a day of 0.05 s segments fits)
+MAX_SCRIPT_BYTES = 4 * 1024 * 1024
+
 _FIELDS = ("linear.x", "linear.y", "linear.z", "angular.x", "angular.y", "angular.z")
 
 
@@ -108,14 +111,25 @@ def builtin_scenarios() -> dict[str, str]:
 
 def load_script(name_or_path: str) -> Script:
     """A built-in scenario by name, or a script file by path."""
+    if not name_or_path.strip():
+        raise ScriptError("no script named: give a built-in scenario's name or a script file path")
     path = Path(name_or_path)
     if path.suffix or path.exists() or "/" in name_or_path:
-        if not path.is_file():
+        if not path.exists():
             raise ScriptError(f"script file not found: {name_or_path}")
+        if not path.is_file():
+            raise ScriptError(f"not a script file (a directory or a device): {name_or_path}")
         try:
-            text = path.read_text(encoding="utf-8-sig")  # a BOM from a Windows editor is not a command
-        except (OSError, UnicodeDecodeError) as exc:
-            raise ScriptError(f"cannot read script {name_or_path}: {exc}") from None
+            with path.open("rb") as fh:
+                raw = fh.read(MAX_SCRIPT_BYTES + 1)
+        except OSError as exc:
+            raise ScriptError(f"cannot read script {name_or_path}: {exc.strerror or exc}") from None
+        if len(raw) > MAX_SCRIPT_BYTES:
+            raise ScriptError(f"script {name_or_path} is larger than {MAX_SCRIPT_BYTES // (1024 * 1024)} MB")
+        try:
+            text = raw.decode("utf-8-sig")  # a BOM from a Windows editor is not a command
+        except UnicodeDecodeError:
+            raise ScriptError(f"script {name_or_path} is not a UTF-8 text file") from None
         return parse_script(text, str(path))
     scenarios = builtin_scenarios()
     if name_or_path not in scenarios:
