@@ -38,22 +38,24 @@ start = [-4.0, 0.0, 0.0, 0.0]
 """
 
 
-def _app(tmp_path: Path) -> TeleopApp:
-    (tmp_path / "three.toml").write_text(FLEET)
+def fleet_app(tmp_path: Path, text: str = FLEET, input: str = "keyboard") -> TeleopApp:
+    """The window as `fly --fleet` opens it for the fleet file `text` (`input`: the device of its
+    first keyboard or gamepad vehicle, as fly --fleet sets it)."""
+    (tmp_path / "three.toml").write_text(text)
     fleet_file = load_fleet_file(tmp_path / "three.toml")
     specs = {c.name: c for c in default_cameras(160, 120, 30)}
     cameras = {v.name: tuple(specs[c] for c in v.cameras) for v in fleet_file.vehicles if v.cameras}
     return TeleopApp(
         SimConfig(),
         OutputOptions(out=tmp_path, cameras=()),
-        TeleopOptions(input="keyboard"),
+        TeleopOptions(input=input),
         pacer=FixedStepPacer(240, 1 / FPS),
         fleet=FleetSetup(fleet_file, fleet_drivers(fleet_file), cameras),
     )
 
 
 def test_the_keyboard_flies_its_vehicle_the_map_shows_the_others_and_c_cycles_the_cameras(tmp_path):
-    app = _app(tmp_path)
+    app = fleet_app(tmp_path)
     assert app.fleet is not None and app.fleet.flown == "alpha" and app.fleet.shown == "alpha"
     run_with(
         app,
@@ -93,7 +95,7 @@ def test_the_keyboard_flies_its_vehicle_the_map_shows_the_others_and_c_cycles_th
 
 
 def test_backspace_resets_the_whole_fleet(tmp_path):
-    app = _app(tmp_path)
+    app = fleet_app(tmp_path)
     run_with(app, 90, {0: [lambda: key(pygame.K_w)], 60: [lambda: key(pygame.K_w, False)]})
     assert app.sim.state.position_m[2] > 1.0 and app.fleet.fleet["bravo"].state.position_m[2] > 0.5
     run_with(app, 1, {0: [lambda: key(pygame.K_BACKSPACE)]})
@@ -108,3 +110,15 @@ def test_fly_fleet_without_a_display_says_what_to_do(tmp_path):
     (tmp_path / "f.toml").write_text(FLEET)
     out = cli("fly", "--fleet", str(tmp_path / "f.toml"))
     assert out.returncode == 2 and "fly --fleet needs a display" in out.stderr and "run --fleet" in out.stderr
+
+
+def test_a_keyboard_vehicle_in_height_mode_is_flown_in_height_mode(tmp_path):
+    """The keys read in the z-mode of the vehicle they fly: at rest nothing moves (in velocity
+    terms a zero climb would have meant 'hold 2 m' to a height-mode gate), and W climbs."""
+    app = fleet_app(tmp_path, FLEET.replace('input = "keyboard"', 'input = "keyboard"\nz_mode = "height"'))
+    assert app.sim.gate.z_mode.value == "height" and app.keyboard.z_mode.value == "height"
+    run_with(app, 60, {0: [lambda: key(pygame.K_UP)], 2: [lambda: key(pygame.K_UP, False)]})
+    assert app.sim.state.position_m[2] < 0.1, app.sim.state.position_m  # a tap forward: still on the ground
+    run_with(app, 90, {0: [lambda: key(pygame.K_w)], 45: [lambda: key(pygame.K_w, False)]})
+    assert app.sim.state.position_m[2] > 0.5, app.sim.state.position_m
+    app.close()

@@ -382,3 +382,56 @@ def test_the_docs_mapping_example_is_the_default_mapping_plus_buttons(tmp_path):
     block = teleop_page.split("write a mapping file", 1)[1].split("```toml\n", 1)[1].split("```", 1)[0]
     (tmp_path / "pad.toml").write_text(block)
     assert load_mapping(tmp_path / "pad.toml") == JoystickMapping(enable_button=9, enable_turbo_button=10)
+
+
+TWO_HANDS = """
+[[vehicle]]
+name = "alpha"
+start = [0.0, 0.0, 0.0, 0.0]
+input = "keyboard"
+
+[[vehicle]]
+name = "bravo"
+start = [0.0, -4.0, 0.0, 0.0]
+input = "gamepad"
+
+[[vehicle]]
+name = "charlie"
+start = [-4.0, 0.0, 0.0, 0.0]
+input = "script:hover"
+"""
+
+
+def test_a_fleet_with_a_keyboard_and_a_gamepad_vehicle_is_flown_by_two_people(tmp_path, pads):
+    """fly --fleet: the keyboard flies alpha and a real (virtual) SDL pad flies bravo at the same
+    time, each only its own vehicle; bravo's pad is recorded on /bravo/joy; a pad pulled out holds
+    bravo where it is."""
+    from tests.test_fleet_window import fleet_app
+
+    pad = pads(game_controller=True)
+    app = fleet_app(tmp_path, TWO_HANDS)
+    assert app.fleet is not None and (app.fleet.flown, app.fleet.second) == ("alpha", "bravo")
+    assert app.driver is app.keyboard and app.second_hand is app.joystick and app.joystick.pad is not None
+    assert "the gamepad flies bravo" in app._input_status()
+    bravo = app.fleet.fleet["bravo"]
+    run_with(app, 5)
+    hold(app, pad, {LEFTY: -1.0}, 1.5)  # left stick up: bravo climbs, alpha stays down
+    assert bravo.state.position_m[2] > 1.0 and app.sim.state.position_m[2] < 0.1
+    pad.set_axis(RIGHTY, -0.6)  # bravo forward while the keyboard climbs alpha
+    run_with(app, 45, {0: [lambda: key(pygame.K_w)], 40: [lambda: key(pygame.K_w, False)]})
+    pad.set_axis(RIGHTY, 0.0)
+    run_with(app, FPS)
+    (ax, ay, az), (bx, by, bz) = app.sim.state.position_m, bravo.state.position_m
+    assert az > 0.8 and abs(ax) < 0.1 and abs(ay) < 0.1, (ax, ay, az)  # W climbed alpha only
+    assert bx > 0.8 and abs(by + 4.0) < 0.2 and bz > 1.0, (bx, by, bz)  # the stick flew bravo forward
+    pad.unplug()
+    run_with(app, FPS)
+    held = bravo.state.position_m
+    run_with(app, FPS)
+    assert math.dist(held, bravo.state.position_m) < 0.1  # unplugged: bravo holds position
+    app.close()
+    joy = read_topic(app.recordings[0], "/bravo/joy")
+    assert joy and any(m.axes[1] > 0.9 for _, m in joy)  # the left stick held up (+1 in Joy), under bravo's name
+    assert read_topic(app.recordings[0], "/alpha/joy") == []
+    with RecordingReader(app.recordings[0]) as rec:
+        assert any("gamepad unplugged" in value and "bravo holds position" in value for _, _, value in rec.events)

@@ -1,6 +1,8 @@
 """What the teleop window needs of a fleet (`fly --fleet FILE.toml`): the fleet built with the
 window's input driver flying one vehicle (the first whose input is the keyboard or a gamepad; with
-none, the window watches the first vehicle), every other vehicle driven by its own input, one
+none, the window watches the first vehicle), a second person's device flying the vehicle that
+takes the other one (a keyboard vehicle and a gamepad vehicle: two people in one window), every
+other vehicle driven by its own input, one
 recording of them all, every vehicle's track for the map, and which vehicle's cameras are shown
 (C cycles through the vehicles that have cameras)."""
 
@@ -37,7 +39,8 @@ class Track:
 
 class WindowFleet:
     """The fleet of a fleet file, with `held` (the window's input driver) flying the first vehicle
-    whose input is the keyboard or a gamepad; `drivers` give the others theirs."""
+    whose input is the keyboard or a gamepad, `second_hand` the vehicle that takes the other
+    device (if one does); `drivers` give the others theirs."""
 
     def __init__(
         self,
@@ -46,12 +49,21 @@ class WindowFleet:
         held: InputDriver,
         drivers: Mapping[str, InputDriver | None],
         flight_settings: dict[str, Any],
+        second_hand: InputDriver | None = None,
     ) -> None:
-        hand = next((v for v in fleet_file.vehicles if v.input in HELD_INPUTS), None)
+        hands = [v for v in fleet_file.vehicles if v.input in HELD_INPUTS]  # one per device, at most
+        hand = hands[0] if hands else None
         #: the vehicle the window flies (or, with no keyboard or gamepad vehicle, watches)
         self.flown = hand.name if hand is not None else fleet_file.vehicles[0].name
         self.by_hand = hand is not None
-        vehicles = [v.fleet_vehicle(held if v is hand else drivers.get(v.name)) for v in fleet_file.vehicles]
+        #: the vehicle the other device flies (the gamepad's, when the keyboard's is flown), or None
+        self.second = hands[1].name if len(hands) > 1 and second_hand is not None else None
+        by_hand: dict[str, InputDriver | None] = {self.flown: held} if hand is not None else {}
+        if self.second is not None:
+            by_hand[self.second] = second_hand
+        vehicles = [
+            v.fleet_vehicle(by_hand[v.name] if v.name in by_hand else drivers.get(v.name)) for v in fleet_file.vehicles
+        ]
         self.fleet = Fleet(vehicles, config, **flight_settings)
         self.tracks = {name: Track() for name in self.fleet}
         for name, track in self.tracks.items():

@@ -49,7 +49,7 @@ from quadsim.sensors.pipeline import CameraPipeline
 from quadsim.session.fleet_outputs import FleetRecordedRun
 from quadsim.session.outputs import LiveOutput, OutputOptions, RecordedRun
 from quadsim.sim.config import SimConfig
-from quadsim.sim.fleet_file import FleetFile
+from quadsim.sim.fleet_file import HELD_INPUTS, FleetFile
 from quadsim.sim.simulator import Simulator
 
 #: wall time over which the HUD's frame rate and real-time factor are measured
@@ -189,14 +189,17 @@ class TeleopApp:
             self.joystick.attach_first()
         use_joystick = options.input == "joystick" or (options.input == "auto" and self.joystick.pad is not None)
         self.input = _ActiveInput(commands or (self.joystick if use_joystick else self.keyboard))
+        #: the device a second person flies a fleet's other held vehicle with (or None)
+        self.second_hand = self._second_hand(fleet)
         settings: dict[str, Any] = {"landing": options.landing, "reset_on_crash": options.reset_on_crash}
         self.fleet: WindowFleet | None = None
         try:
             if fleet is None:
                 self.sim = Simulator(config, self.input, **settings)
             else:
-                self.fleet = WindowFleet(fleet.file, config, self.input, fleet.drivers, settings)
+                self.fleet = WindowFleet(fleet.file, config, self.input, fleet.drivers, settings, self.second_hand)
                 self.sim = self.fleet.fleet[self.fleet.flown]
+                self._match_z_modes()
         except BaseException:
             self.joystick.close()
             raise
@@ -216,6 +219,25 @@ class TeleopApp:
         self.recordings: list[Path] = [self.session.path] if self.session.path else []
         # last, so nothing after it can fail with the handlers installed
         self._x11 = X11Guard.install(on_fatal=self._finish_after_fatal_loss)
+
+    def _second_hand(self, fleet: FleetSetup | None) -> KeyboardDriver | JoystickDriver | None:
+        """A fleet with a keyboard vehicle and a gamepad vehicle: the device of the one the
+        window does not fly (the pad is attached for it)."""
+        devices = [v.input for v in fleet.file.vehicles if v.input in HELD_INPUTS] if fleet is not None else []
+        if len(devices) < 2:
+            return None
+        if devices[1] == "gamepad":
+            self.joystick.attach_first()
+            return self.joystick
+        return self.keyboard
+
+    def _match_z_modes(self) -> None:
+        """Each hand's device reads its sticks or keys in the z-mode of the vehicle it flies."""
+        assert self.fleet is not None
+        for driver in (self.keyboard, self.joystick):
+            second = self.fleet.second if driver is self.second_hand else None
+            sim = self.fleet.fleet[second or self.fleet.flown]
+            driver.set_z_mode(sim.gate.z_mode, sim.state.position_m[2])
 
     def _open_session(
         self, config: SimConfig, live: Sequence[LiveOutput], fleet: FleetSetup | None
@@ -282,10 +304,11 @@ class TeleopApp:
 
     def _hook_joy(self) -> None:
         self.joystick.joy_sinks.clear()
-        if self.driver is self.joystick:
+        if self.driver is self.joystick or self.second_hand is self.joystick:
             fanout = self.session.fanout
-            if self.fleet is not None:  # the flown vehicle's /NAME/joy
-                fanout = fanout.members[list(self.fleet.fleet).index(self.fleet.flown)]
+            if self.fleet is not None:  # the pad's vehicle's /NAME/joy
+                name = self.fleet.second if self.second_hand is self.joystick else None
+                fanout = fanout.members[list(self.fleet.fleet).index(name or self.fleet.flown)]
             self.joystick.joy_sinks.append(fanout.on_joy)
 
     @property
@@ -350,7 +373,7 @@ class TeleopApp:
                 return
         # both track their device; only the one that is the input driver is polled by the loop
         self.keyboard.handle_event(event)
-        if self.options.input in ("auto", "joystick"):
+        if self.options.input in ("auto", "joystick") or self.second_hand is self.joystick:
             before = self.joystick.pad
             self.joystick.handle_event(event)
             if self.joystick.pad is not before:
@@ -359,14 +382,28 @@ class TeleopApp:
     def _input_status(self) -> str:
         driver = self.driver
         if driver is self.joystick:
-            return self.joystick.status
-        if isinstance(driver, SubscribedDriver):
-            return f"{driver.name}: Twists on {driver.topic} ({driver.received} received)"
-        return f"keyboard ({self.keyboard.layout.name}, speed x{self.keyboard.scale:.2f})"
+            status = self.joystick.status
+        elif isinstance(driver, SubscribedDriver):
+            status = f"{driver.name}: Twists on {driver.topic} ({driver.received} received)"
+        else:
+            status = f"keyboard ({self.keyboard.layout.name}, speed x{self.keyboard.scale:.2f})"
+        if self.fleet is not None and self.fleet.second is not None:
+            status += (
+                f"; {'the gamepad' if self.second_hand is self.joystick else 'the keyboard'} flies {self.fleet.second}"
+            )
+        return status
 
     def _pad_changed(self, before: Pad | None) -> None:
         """A gamepad appeared or went: switch to it (--input auto), say so, and record it."""
         pad = self.joystick.pad
+        if self.fleet is not None and self.second_hand is self.joystick:  # it flies the other vehicle
+            if pad is not None:
+                self._hook_joy()
+                self._record_event("input", f"gamepad plugged in: {pad.name}; it flies {self.fleet.second}")
+                self._say(f"gamepad plugged in: {pad.name} flies {self.fleet.second}", 6.0)
+            elif before is not None:
+                self._record_event("input", f"gamepad unplugged: {before.name}; {self.fleet.second} holds position")
+            return
         if pad is not None:
             what = f"{pad.name} ({pad.kind.value})"
             if self.driver is not self.joystick:
@@ -386,8 +423,9 @@ class TeleopApp:
         self.sim.set_z_mode(new)
         self._record_event("z_mode", new.value)
         altitude = self.sim.state.position_m[2]
-        self.keyboard.set_z_mode(new, altitude)
-        self.joystick.set_z_mode(new, altitude)
+        for driver in (self.keyboard, self.joystick):
+            if driver is not self.second_hand:  # the other person's vehicle keeps its z-mode
+                driver.set_z_mode(new, altitude)
         self._say(f"z-mode: {new.value}")
 
     def next_cameras(self) -> None:
