@@ -83,7 +83,11 @@ def test_a_vehicle_without_a_gains_file_flies_with_the_default_airframes(tmp_pat
         (lambda t: t.replace("altitude_p_per_s = 2.0", ""), "missing gains altitude_p_per_s"),
         (
             lambda t: t.replace("heading_p_per_s = 2.5", 'heading_p_per_s = "fast"'),
-            "heading_p_per_s must be a finite number",
+            "heading_p_per_s = 'fast': expected a finite number",
+        ),
+        (
+            lambda t: t.replace("heading_p_per_s = 2.5", "heading_p_per_s = -2.5"),
+            "heading_p_per_s = -2.5: expected a number >= 0",
         ),
         (lambda t: t.replace("[cascade]", "[cascade_gains]"), "missing the [cascade] table"),
     ],

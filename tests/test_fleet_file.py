@@ -78,8 +78,19 @@ VEHICLE = '[[vehicle]]\nname = "{name}"\nstart = [{x}, 0, 0, 0]\n'
 @pytest.mark.parametrize(
     "body, words",
     [
-        (VEHICLE.format(name="alpha", x=0) + VEHICLE.format(name="alpha", x=3), ["two vehicles are named 'alpha'"]),
-        (VEHICLE.format(name="alpha", x=0) + VEHICLE.format(name="bravo", x=0), ["'alpha' and 'bravo'", "same spot"]),
+        (
+            VEHICLE.format(name="alpha", x=0) + VEHICLE.format(name="alpha", x=3),
+            ["vehicle 2 ('alpha'): name", "another vehicle is named 'alpha'"],
+        ),
+        (
+            VEHICLE.format(name="alpha", x=0) + VEHICLE.format(name="bravo", x=0),
+            ["vehicle 'bravo': start", "where 'alpha' starts"],
+        ),
+        (VEHICLE.format(name="alpha", x=0).replace("[[vehicle]]", "[vehicle]"), ["write [[vehicle]]"]),
+        (
+            VEHICLE.format(name="alpha", x=0) + "gains = { velocity_p_xy_per_s = -2.0 }\n",
+            ["vehicle 'alpha'", "gains: velocity_p_xy_per_s = -2.0", "expected a number >= 0"],
+        ),
         (
             VEHICLE.format(name="alpha", x=0)
             + 'input = "keyboard"\n'
@@ -121,7 +132,7 @@ def test_the_command_line_says_a_bad_fleet_file_in_one_line(tmp_path):
     out = cli("run", "--fleet", str(path), "--no-record")
     assert out.returncode == 2 and out.stdout == ""
     assert out.stderr.strip().splitlines() == [
-        f"quadsim: error: {path}: two vehicles are named 'alpha': each name must be unique"
+        f"quadsim: error: {path}: vehicle 2 ('alpha'): name: another vehicle is named 'alpha'; each name must be unique"
     ]
 
 
@@ -144,3 +155,10 @@ def test_run_refuses_what_a_fleet_file_says_per_vehicle_and_a_held_input(tmp_pat
     near = _write(tmp_path, VEHICLE.format(name="alpha", x=0) + VEHICLE.format(name="bravo", x=0.3))
     out = cli("run", "--fleet", str(near), "--no-record", "--duration", "1")
     assert out.returncode == 2 and f"{near}: vehicles 'alpha' and 'bravo' start 0.30 m apart" in out.stderr
+
+
+def test_a_folder_given_as_a_fleet_file_is_said_as_one(tmp_path):
+    out = cli("run", "--fleet", str(tmp_path), "--no-record")
+    assert out.returncode == 2 and out.stderr.strip().splitlines() == [
+        f"quadsim: error: {tmp_path}: a folder, not a fleet file"
+    ]

@@ -105,6 +105,10 @@ def test_the_runs_are_the_product_of_the_axes_in_order(tmp_path: Path) -> None:
             'scenarios = ["hover"]\n[controllers.c]\nkind = "cascade"\ngains = { speed = 2 }',
             "unknown cascade gain 'speed'",
         ),
+        (
+            'scenarios = ["hover"]\n[controllers.c]\nkind = "cascade"\ngains = { altitude_p_per_s = -1 }',
+            r"controllers.c.gains.altitude_p_per_s = -1: expected a number >= 0",
+        ),
         ('scenarios = ["hover"]\n[limits]\nwobble = 3', "limits.wobble: no such metric"),
         ('scenarios = ["hover"', "not valid TOML"),
     ],

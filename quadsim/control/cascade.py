@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import asdict, dataclass
-from typing import Any
+from typing import Any, ClassVar
 
 from quadsim.control import ControllerKind
 from quadsim.control.gains import load_gains
@@ -28,6 +28,9 @@ from quadsim.vehicle.params import VehicleParams
 class CascadeGains:
     """Gains and saturations of the cascade; units in the names (1/s is a loop bandwidth).
     Their values are data: the [cascade] table of the airframe's NAME.gains.toml."""
+
+    #: every one is a magnitude (a gain, a limit, a band): none may be negative
+    NON_NEGATIVE: ClassVar[bool] = True
 
     position_p_per_s: float
     altitude_p_per_s: float

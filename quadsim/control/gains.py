@@ -22,6 +22,16 @@ def gains_path(vehicle: VehicleParams) -> Path:
     return own if own.is_file() else DEFAULT_URDF.with_suffix(".gains.toml")
 
 
+def gain_problem(gains_type: type, value: object) -> str | None:
+    """Why `value` cannot be a gain of `gains_type` (None: it can): not a finite number, or
+    negative for a controller whose gains and limits are all magnitudes (its NON_NEGATIVE)."""
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+        return "expected a finite number"
+    if value < 0 and getattr(gains_type, "NON_NEGATIVE", False):
+        return "expected a number >= 0 (its gains and limits are magnitudes: a negative one flips its loop)"
+    return None
+
+
 def load_gains(vehicle: VehicleParams, section: str, gains_type: type[G], overrides: dict[str, Any] | None = None) -> G:
     """The `[section]` gains of the vehicle's gains file, `overrides` (as a recording holds them)
     replacing any of them. Raises ConfigError naming the file and the gain at fault."""
@@ -49,6 +59,8 @@ def load_gains(vehicle: VehicleParams, section: str, gains_type: type[G], overri
             )
         )
     for key, value in values.items():
-        if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
-            raise ConfigError(f"{path}: [{section}] {key} must be a finite number, got {value!r}")
+        problem = gain_problem(gains_type, value)
+        if problem is not None:
+            source = "the gains given" if key in (overrides or {}) else f"{path}: [{section}]"
+            raise ConfigError(f"{source}: {key} = {value!r:.40}: {problem}")
     return gains_type(**{k: float(v) for k, v in values.items()})

@@ -35,8 +35,10 @@ def read_toml(path: Path, what: str) -> dict[str, Any]:
             raw = fh.read(MAX_TOML_BYTES + 1)
     except FileNotFoundError:
         raise ConfigError(f"{what} not found: {path}") from None
+    except IsADirectoryError:
+        raise ConfigError(f"{path}: a folder, not a {what}") from None
     except OSError as exc:
-        raise ConfigError(f"cannot read {what} {path}: {exc.strerror or exc}") from None
+        raise ConfigError(f"{path}: cannot read this {what}: {exc.strerror or exc}") from None
     if len(raw) > MAX_TOML_BYTES:
         raise ConfigError(f"{path}: a {what} may be at most {MAX_TOML_BYTES // 1024} kB; this one is larger")
     try:

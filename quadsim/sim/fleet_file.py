@@ -24,6 +24,7 @@ from pathlib import Path
 from typing import Any
 
 from quadsim.control import ControllerKind, gains_type
+from quadsim.control.gains import gain_problem
 from quadsim.core.toml_files import read_toml
 from quadsim.core.types import StartPose, ZMode
 from quadsim.drivers import InputDriver
@@ -90,6 +91,8 @@ def load_fleet_file(path: Path) -> FleetFile:
     if unknown:
         raise ConfigError(f"{path}: unknown key {unknown[0]!r} (a fleet file lists [[vehicle]] tables)")
     raw = table.get("vehicle")
+    if isinstance(raw, dict):  # [vehicle], one table, where [[vehicle]] makes a list of them
+        raise ConfigError(f"{path}: [vehicle] is one table: write [[vehicle]] (double brackets) before each vehicle")
     if not isinstance(raw, list) or not raw or not all(isinstance(v, dict) for v in raw):
         raise ConfigError(f"{path}: no [[vehicle]] tables: a fleet file lists at least one vehicle")
     if len(raw) > MAX_FLEET:
@@ -98,7 +101,10 @@ def load_fleet_file(path: Path) -> FleetFile:
     for index, data in enumerate(raw):
         entry = _entry(path, index, data)
         if any(e.name == entry.name for e in entries):
-            raise ConfigError(f"{path}: two vehicles are named {entry.name!r}: each name must be unique")
+            raise ConfigError(
+                f"{path}: vehicle {index + 1} ({entry.name!r}): name: another vehicle is named {entry.name!r}; "
+                "each name must be unique"
+            )
         entries.append(entry)
     for device in HELD_INPUTS:
         holders = [e.name for e in entries if e.input == device]
@@ -210,8 +216,9 @@ def _gains(where: str, controller: ControllerKind, value: Any) -> dict[str, floa
     for key, number in value.items():
         if key not in known:
             raise ConfigError(f"{where}: gains: {controller.value} has no gain {key!r:.40}")
-        if isinstance(number, bool) or not isinstance(number, (int, float)) or not math.isfinite(number):
-            raise ConfigError(f"{where}: gains: {key} = {number!r:.40}: expected a finite number")
+        problem = gain_problem(gains_type(controller), number)
+        if problem is not None:
+            raise ConfigError(f"{where}: gains: {key} = {number!r:.40}: {problem}")
         out[key] = float(number)
     return out
 
@@ -221,4 +228,7 @@ def _check_apart(path: Path, entries: list[FleetEntry]) -> None:
     for i, a in enumerate(entries):
         for b in entries[i + 1 :]:
             if math.dist((a.start.x_m, a.start.y_m), (b.start.x_m, b.start.y_m)) < 0.05:
-                raise ConfigError(f"{path}: vehicles {a.name!r} and {b.name!r} start at the same spot")
+                raise ConfigError(
+                    f"{path}: vehicle {b.name!r}: start: ({b.start.x_m:g}, {b.start.y_m:g}) is where {a.name!r} "
+                    "starts; give each vehicle its own spot"
+                )

@@ -33,6 +33,7 @@ from pathlib import Path
 from typing import Any
 
 from quadsim.control import ControllerKind, gains_type
+from quadsim.control.gains import gain_problem
 from quadsim.core.toml_files import read_toml
 from quadsim.errors import ConfigError
 from quadsim.physics.wind import Turbulence, wind_from_text
@@ -146,8 +147,9 @@ def _controllers(data: Any, where: str) -> list[ControllerChoice]:
         if not isinstance(gains, dict):
             raise ConfigError(f"{where}: controllers.{name}.gains must be a table of numbers")
         for g, v in gains.items():
-            if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
-                raise ConfigError(f"{where}: controllers.{name}.gains.{g} must be a finite number, got {v!r}")
+            problem = gain_problem(gains_type(ControllerKind(kind)), v)
+            if problem is not None:
+                raise ConfigError(f"{where}: controllers.{name}.gains.{g} = {v!r:.40}: {problem}")
         _check_gains(ControllerKind(kind), gains, f"{where}: controllers.{name}")
         out.append(ControllerChoice(name, ControllerKind(kind), tuple(sorted((k, float(v)) for k, v in gains.items()))))
     return out
