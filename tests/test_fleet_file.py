@@ -162,3 +162,13 @@ def test_a_folder_given_as_a_fleet_file_is_said_as_one(tmp_path):
     assert out.returncode == 2 and out.stderr.strip().splitlines() == [
         f"quadsim: error: {tmp_path}: a folder, not a fleet file"
     ]
+
+
+def test_a_missing_fleet_file_named_like_the_shipped_example_says_how_to_copy_it(tmp_path):
+    out = cli("run", "--fleet", str(tmp_path / "fleet.toml"), "--no-record")
+    assert out.returncode == 2 and "examples --copy . fleet.toml" in out.stderr, out.stderr
+    other = cli("run", "--fleet", str(tmp_path / "mine.toml"), "--no-record")
+    assert (
+        other.returncode == 2
+        and other.stderr.strip() == f"quadsim: error: fleet file not found: {tmp_path / 'mine.toml'}"
+    )

@@ -11,7 +11,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from quadsim.apps.flying import report_end
-from quadsim.apps.options import MAX_DURATION_S, camera_specs, flight_settings, live_outputs, sim_config
+from quadsim.apps.options import MAX_DURATION_S, camera_specs, flight_settings, live_outputs, program, sim_config
 from quadsim.errors import ConfigError, QuadsimError
 from quadsim.session.stopping import StopRequested
 
@@ -30,10 +30,8 @@ PER_VEHICLE_OPTIONS = (("vehicle", "--vehicle"), ("urdf", "--urdf"), ("script", 
 def fly_fleet(args: argparse.Namespace, command: str) -> int:
     """Fly the fleet file of --fleet headless for --duration (default: the longest script), or
     until Ctrl-C when a live input drives a vehicle."""
-    from quadsim.sim.fleet_file import load_fleet_file
-
     check_fleet_options(args)
-    fleet_file = load_fleet_file(args.fleet)
+    fleet_file = read_fleet_file(args.fleet)
     for device in ("keyboard", "gamepad"):
         held = fleet_file.held_by(device)
         if held is not None:
@@ -48,6 +46,19 @@ def fly_fleet(args: argparse.Namespace, command: str) -> int:
     return FleetFlight(args, fleet_file, drivers, live_inputs, run_info).fly(
         duration, bool(live_inputs) or args.realtime
     )
+
+
+def read_fleet_file(path: Path) -> FleetFile:
+    """The fleet file of --fleet; when it is not there but a shipped example has its name, say
+    how to copy that one out."""
+    from quadsim.apps.commands.examples import shipped
+    from quadsim.sim.fleet_file import load_fleet_file
+
+    if not path.exists() and path.name in shipped():
+        raise ConfigError(
+            f"fleet file not found: {path} (the example ships with quadsim: {program()} examples --copy . {path.name})"
+        )
+    return load_fleet_file(path)
 
 
 def check_fleet_options(args: argparse.Namespace) -> None:

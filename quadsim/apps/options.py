@@ -272,7 +272,7 @@ def add_live_options(p: argparse.ArgumentParser, what: str = "the run") -> None:
         "--ros-namespace",
         default="",
         metavar="NS",
-        help="with --ros2 or --input ros2: the ROS 2 node quadsim is (/quadsim) lives in namespace NS and its topics "
+        help="with --ros2 (or --input ros2, or a ros2 vehicle of a fleet): the ROS 2 node quadsim is (/quadsim) lives in namespace NS and its topics "
         "too (/NS/quad/odom; /clock, /tf, /tf_static and /rosout stay global, as ROS 2 nodes name them), like "
         "--ros-args -r __ns:=NS",
     )
@@ -281,7 +281,7 @@ def add_live_options(p: argparse.ArgumentParser, what: str = "the run") -> None:
         action="append",
         default=[],
         metavar="FROM:=TO",
-        help="with --ros2 or --input ros2: rename a topic, like --ros-args -r FROM:=TO; e.g. "
+        help="with --ros2 (or --input ros2, or a ros2 vehicle of a fleet): rename a topic, like --ros-args -r FROM:=TO; e.g. "
         "/quad_cmd_twist:=/cmd_vel lets teleop_twist_keyboard fly it unchanged (repeatable)",
     )
 

@@ -19,13 +19,27 @@ def shipped() -> dict[str, Path]:
     return {p.name: p for p in sorted(folder.iterdir()) if p.suffix in SUFFIXES}
 
 
-def summary(path: Path) -> str:
-    """An example's first line of explanation: a program's docstring, a sweep file's comment."""
+def summary(path: Path, width: int = 100) -> str:
+    """An example's first sentence of explanation (a program's docstring, a sweep or fleet file's
+    comment), whole, or cut at a word with an ellipsis when longer than `width`."""
+    words: list[str] = []
     for line in path.read_text(encoding="utf-8").splitlines():
         text = line.strip().strip('"').lstrip("#").strip()
-        if text:
-            return text
-    return ""
+        if not text:
+            if words:
+                break  # the end of the first paragraph
+            continue
+        words.extend(text.split())
+        if text.endswith("."):
+            break
+    sentence = ""
+    for word in words:
+        sentence = f"{sentence} {word}".strip()
+        if word.endswith("."):
+            break
+    if len(sentence) <= width:
+        return sentence
+    return sentence[: sentence.rfind(" ", 0, width - 1)] + " \u2026"
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:

@@ -146,10 +146,9 @@ def _fly_window(
 
 def _fly_fleet(args: argparse.Namespace) -> int:
     """`fly --fleet`: the window flies the fleet file's keyboard or gamepad vehicle among the others."""
-    from quadsim.apps.fleet_flight import check_fleet_options, fleet_cameras, fleet_drivers
+    from quadsim.apps.fleet_flight import check_fleet_options, fleet_cameras, fleet_drivers, read_fleet_file
     from quadsim.apps.window.teleop import FleetSetup
     from quadsim.drivers.subscribed import SubscribedDriver
-    from quadsim.sim.fleet_file import load_fleet_file
 
     if not has_display():
         raise QuadsimError(
@@ -159,7 +158,7 @@ def _fly_fleet(args: argparse.Namespace) -> int:
     if args.input != "auto":
         raise QuadsimError(f"--input {args.input} with --fleet: each vehicle's input is in the fleet file")
     check_fleet_options(args)
-    fleet_file = load_fleet_file(args.fleet)
+    fleet_file = read_fleet_file(args.fleet)
     hand = next((v for v in fleet_file.vehicles if v.input in ("keyboard", "gamepad")), None)
     args.input = "joystick" if hand is not None and hand.input == "gamepad" else "keyboard"
     drivers = fleet_drivers(fleet_file)

@@ -1,5 +1,5 @@
-"""Fly to the red tower by looking for it: find it in the front camera, turn until it is centred,
-approach it, stop short of it.
+"""Fly to the red tower by looking for it with the front camera. Find it in the image, turn until
+it is centred, approach it, stop short of it.
 
     python examples/fly_to_tower.py                      # start facing away from it (yaw 150 deg)
     python examples/fly_to_tower.py --start-yaw-deg 0 --save-frame tower.png
