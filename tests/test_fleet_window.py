@@ -122,3 +122,20 @@ def test_a_keyboard_vehicle_in_height_mode_is_flown_in_height_mode(tmp_path):
     run_with(app, 90, {0: [lambda: key(pygame.K_w)], 45: [lambda: key(pygame.K_w, False)]})
     assert app.sim.state.position_m[2] > 0.5, app.sim.state.position_m
     app.close()
+
+
+def test_a_fleet_without_a_keyboard_or_gamepad_vehicle_is_watched_and_says_so(tmp_path):
+    """No vehicle takes a hand: the window watches the first, named in the HUD with what flies
+    it, its camera panes say whose cameras are missing, and the keys fly nothing."""
+    watched = FLEET.replace('input = "keyboard"\ncameras = ["front", "floor"]', 'input = "script:yaw"')
+    app = fleet_app(tmp_path, watched)
+    assert app.fleet is not None and not app.fleet.by_hand and app.fleet.flown == "alpha"
+    assert app._input_status() == "watching alpha (script yaw); the keys fly nothing"
+    run_with(app, 60, {0: [lambda: key(pygame.K_UP)], 50: [lambda: key(pygame.K_UP, False)]})
+    model = app._model()
+    assert model.cameras_of == "bravo" and model.camera_names == frozenset({"front"})  # the only camera'd one
+    x, y, _ = app.sim.state.position_m
+    assert abs(x) < 0.05 and abs(y) < 0.05  # the arrow key moved nothing: alpha turns on the spot
+    app.close()
+    flights = load_flights(app.recordings[0])
+    assert flights["charlie"].description is not None and flights["charlie"].description.driver_name == "idle"

@@ -93,7 +93,9 @@ def _driver(entry: FleetEntry) -> InputDriver | None:
         return ScriptedDriver(entry.script)
     if entry.input in ("ros2", "foxglove"):
         return SubscribedDriver(entry.input, Names(entry.name).topic(TWIST).name)
-    return None  # idle: nothing is sent (a programmatic driver no one drives)
+    from quadsim.drivers.programmatic import IdleDriver
+
+    return IdleDriver()  # nothing is sent, unless from Python
 
 
 def _subscribed(driver: InputDriver | None) -> bool:

@@ -46,3 +46,11 @@ class ProgrammaticDriver:
 
     def describe(self) -> dict[str, Any]:
         return {"name": self.name}
+
+
+class IdleDriver(ProgrammaticDriver):
+    """A vehicle no one flies (a fleet file's `input = "idle"`): its rotors stay still until
+    something sends it a command from Python (`fleet["delta"].send(...)`); it says "idle"
+    wherever its input is named (a recording's info, replay)."""
+
+    name = "idle"

@@ -127,10 +127,14 @@ def _fly_window(
     flown, recordings, lost = 0.0, [], None
     try:
         with TeleopApp(config, outputs, options, live=live, commands=commands, fleet=fleet) as app:
-            what = f"{app.fleet.flown} of the fleet " if app.fleet is not None and app.fleet.by_hand else ""
             if app.fleet is not None and not app.fleet.by_hand:
-                print(f"watching {app.fleet.flown} of the fleet (no vehicle takes the keyboard or a gamepad)")
-            print(f"flying {what}with {app.driver.name}; press H or F1 in the window for the keys, Esc to quit")
+                print(
+                    f"watching {app.fleet.flown} of the fleet: no vehicle takes the keyboard or a gamepad (give one "
+                    'input = "keyboard" to fly it); C cycles the cameras, Esc quits'
+                )
+            else:
+                what = f"{app.fleet.flown} of the fleet " if app.fleet is not None else ""
+                print(f"flying {what}with {app.driver.name}; press H or F1 in the window for the keys, Esc to quit")
             try:
                 app.run(stop=stop_requested)  # a signal ends the window loop at its next frame
             finally:

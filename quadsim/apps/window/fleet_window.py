@@ -56,6 +56,10 @@ class WindowFleet:
         #: the vehicle the window flies (or, with no keyboard or gamepad vehicle, watches)
         self.flown = hand.name if hand is not None else fleet_file.vehicles[0].name
         self.by_hand = hand is not None
+        #: what flies each vehicle, as the fleet file says it ("script square", "ros2", "idle", ...)
+        self.inputs = {
+            v.name: f"script {v.script.name}" if v.script is not None else v.input for v in fleet_file.vehicles
+        }
         #: the vehicle the other device flies (the gamepad's, when the keyboard's is flown), or None
         self.second = hands[1].name if len(hands) > 1 and second_hand is not None else None
         by_hand: dict[str, InputDriver | None] = {self.flown: held} if hand is not None else {}

@@ -240,6 +240,7 @@ class ReplayApp:
                 if (s := other.state_at(t)) is not None
             ],
             cameras_of=f.vehicle,
+            camera_names=frozenset(f.frames),
         )
 
     def run(

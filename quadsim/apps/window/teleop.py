@@ -381,6 +381,8 @@ class TeleopApp:
 
     def _input_status(self) -> str:
         driver = self.driver
+        if self.fleet is not None and not self.fleet.by_hand:
+            return f"watching {self.fleet.flown} ({self.fleet.inputs[self.fleet.flown]}); the keys fly nothing"
         if driver is self.joystick:
             status = self.joystick.status
         elif isinstance(driver, SubscribedDriver):
@@ -565,7 +567,7 @@ class TeleopApp:
             camera_rates=self.camera_rates() if self._pipelines() else {},
             camera_rate_hz=max((c.rate_hz for p in self._pipelines() for c in p.specs), default=0),
             others=self.fleet.others() if self.fleet is not None else [],
-            cameras_of=self.fleet.shown or "" if self.fleet is not None else "",
+            cameras_of=(self.fleet.shown or self.fleet.flown) if self.fleet is not None else "",
             camera_names=self.fleet.camera_names() if self.fleet is not None else None,
         )
 

@@ -90,7 +90,12 @@ class TeleopView:
         whose = f" ({m.cameras_of})" if m.cameras_of else ""
         for name in ("front", "floor"):
             absent = m.camera_names is not None and name not in m.camera_names
-            empty = f"{m.cameras_of} has no {name} camera" if absent else "no image yet"
+            if not absent:
+                empty = "no image yet"
+            elif m.cameras_of:
+                empty = f"{m.cameras_of} has no {name} camera"
+            else:
+                empty = f"no {name} camera in this recording"
             self._camera(surface, rects[name], m.frames.get(name), f"{name} camera{whose}", empty)
         self._map(surface, rects["map"], m)
         self._hud(surface, rects["front"], m)
