@@ -106,14 +106,27 @@ def _draw_track(
     if others:
         track.annotate(name, (xs[-1], ys[-1]), textcoords="offset points", xytext=(6, -10), fontsize=8)
     track.plot(xs, ys, color=FLOWN_COLOUR, linewidth=1.6, label=f"flown track{f' of {name}' if others else ''}")
-    track.plot(xs[0], ys[0], "o", color="#2ca02c", label="start")
-    track.plot(xs[-1], ys[-1], "X", color="black", label="end")
+    # above the landmarks' squares (a start on the landing pad was hidden under it)
+    track.plot(xs[0], ys[0], "o", color="#2ca02c", label="start", zorder=5)
+    track.plot(xs[-1], ys[-1], "X", color="black", label="end", zorder=5)
     track.set_xlabel("x, world (m)")
     track.set_ylabel("y, world (m)")
     track.set_title("track seen from above")
     track.set_aspect("equal", adjustable="datalim")
     track.grid(True, alpha=0.3)
     track.legend(loc="best", fontsize=8)
+
+
+#: the least height of a panel's y axis, in its units: a field that stays at 0 (or within rounding
+#: of it) is drawn flat, not autoscaled until 1e-16 looks like a wild oscillation
+MIN_SPAN = 0.2
+
+
+def _at_least(ax: Any, span: float) -> None:
+    low, high = ax.get_ylim()
+    if high - low < span:
+        middle = (low + high) / 2.0
+        ax.set_ylim(middle - span / 2.0, middle + span / 2.0)
 
 
 def _draw_panels(
@@ -138,6 +151,7 @@ def _draw_panels(
         ax.plot(t, flown, color=FLOWN_COLOUR, linewidth=1.2, label="flown")
         ax.set_ylabel(f"{title}\n({unit})", fontsize=9)
         ax.grid(True, alpha=0.3)
+        _at_least(ax, MIN_SPAN)
         if row == 0:
             ax.legend(loc="upper right", fontsize=8, ncols=3)
         if row < len(panels) - 1:
