@@ -102,6 +102,9 @@ def test_backspace_resets_the_whole_fleet(tmp_path):
     for name in ("alpha", "bravo"):
         assert app.fleet.fleet[name].state.position_m[2] < 0.2, name
     assert app.fleet.fleet.step_count < 20
+    assert app.flown_s > 1.3  # the clock started again; the time flown did not
+    lines = app.final_lines()
+    assert [line.split()[0] for line in lines] == ["alpha", "bravo", "charlie"] and "script square" in lines[1]
     app.close()
     assert len(app.recordings) == 2  # a new recording from the reset on
 

@@ -98,3 +98,22 @@ def test_a_run_without_out_lands_in_the_default_folder(monkeypatch, tmp_path):
     path = recording_path(None, "square cascade")
     assert path.parent == tmp_path / "runs" and path.name.endswith("_square-cascade.mcap")
     assert recording_path(Path("here.mcap"), "x") == Path("here.mcap")  # --out still decides
+
+
+def test_out_file_names_the_first_recording_and_numbers_the_later_ones(tmp_path):
+    """--out FILE.mcap in the window: F5 or a reset starts FILE-2.mcap, then FILE-3.mcap, beside
+    it (a dated name lost the user's name), skipping names that are taken."""
+    from quadsim import SimConfig, Simulator
+    from quadsim.session.outputs import OutputOptions, RecordedRun
+
+    (tmp_path / "mine-2.mcap").write_bytes(b"someone else's")
+    with Simulator(SimConfig()) as sim:
+        session = RecordedRun(sim, sim.description(), OutputOptions(out=tmp_path / "mine.mcap", cameras=()), "t", {})
+        paths = [session.path]
+        for _ in range(2):
+            session.stop_recording()
+            sim.step(10)
+            paths.append(session.start_recording())
+        session.close()
+    assert [p.name for p in paths] == ["mine.mcap", "mine-3.mcap", "mine-4.mcap"]
+    assert (tmp_path / "mine-2.mcap").read_bytes() == b"someone else's"

@@ -268,3 +268,19 @@ def test_a_full_disk_under_camera_frames_is_one_message_not_hundreds(tmp_path, l
     assert len(problems) == 2, result.stderr  # recording stopped (with why); the run's closing line
     assert "recording stopped at sim time" in problems[0] and "quadsim recover" in problems[0]
     assert "its recording did not" in problems[1]
+
+
+def test_a_signal_after_the_last_step_says_the_run_was_flown_whole(capsys):
+    """A Ctrl-C that lands while a finished run writes its last bytes: still 130, but not
+    'interrupted at sim time 60.00 s' as if the flight had been cut short."""
+    import signal as signals
+
+    from quadsim.apps.flying import report_end
+    from quadsim.session.stopping import SignalStop
+
+    with SignalStop() as stop:
+        stop.signum = signals.SIGINT
+        assert report_end(None, 60.0, planned_s=60.0) == 130
+        assert report_end(None, 12.5, planned_s=60.0) == 130
+    err = capsys.readouterr().err.splitlines()
+    assert err == ["interrupted while finishing, after all 60.00 s were flown", "interrupted at sim time 12.50 s"]

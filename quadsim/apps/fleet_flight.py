@@ -132,6 +132,7 @@ class FleetFlight:
         self.summaries: dict[str, RunSummary] = {}
         self.run: FleetRecordedRun | None = None
         self.sim_time = 0.0
+        self.planned_s: float | None = None  # how long the run is to fly
 
     def vehicles(self) -> list[FleetVehicle]:
         return [v.fleet_vehicle(self.drivers[v.name]) for v in self.fleet_file.vehicles]
@@ -141,6 +142,7 @@ class FleetFlight:
 
         if not duration > 0:
             raise QuadsimError(f"--duration must be > 0 s, got {duration}")
+        self.planned_s = duration
         live = live_outputs(self.args, self.live_inputs or None)
         bar = None
         try:
@@ -207,8 +209,8 @@ class FleetFlight:
                 print(f"{name:<{width}}  {_vehicle_line(summary)}")
                 for line in summary.lines():
                     if line.startswith(("crash", "live input")):
-                        print(f"{'':<{width}}  {line}")
-        return report_end(self.run, self.sim_time)
+                        print(f"{name:<{width}}  {line}")  # under its vehicle, named again
+        return report_end(self.run, self.sim_time, self.planned_s)
 
 
 def _input_text(entry: FleetEntry) -> str:

@@ -125,6 +125,7 @@ class HeadlessFlight:
         self.summary: RunSummary | None = None
         self.run: RecordedRun | None = None
         self.sim_time = 0.0
+        self.planned_s: float | None = None  # how long the run is to fly
         self.bar: ProgressBar | None = None
 
     def outputs(self) -> OutputOptions:
@@ -149,6 +150,7 @@ class HeadlessFlight:
         if not duration > 0:
             raise QuadsimError(f"--duration must be > 0 s, got {duration}")
         live = live_outputs(self.args, self.commands)
+        self.planned_s = duration
         try:
             self._fly(outputs, live, what, duration, realtime, label)
         except StopRequested:
@@ -193,12 +195,13 @@ class HeadlessFlight:
         if self.summary is not None:
             for line in self.summary.lines():
                 print(line)
-        return report_end(self.run, self.sim_time)
+        return report_end(self.run, self.sim_time, self.planned_s)
 
 
-def report_end(run: RecordedRun | FleetRecordedRun | None, sim_time: float) -> int:
+def report_end(run: RecordedRun | FleetRecordedRun | None, sim_time: float, planned_s: float | None = None) -> int:
     """The recording's line and why the run stopped (a signal, a recording that failed); the
-    exit code."""
+    exit code. `planned_s`: how long the run was to fly (a signal after the last step came while
+    it was finishing)."""
     recorder = run.recorder if run is not None else None
     if recorder is not None:
         if recorder.error:
@@ -209,7 +212,10 @@ def report_end(run: RecordedRun | FleetRecordedRun | None, sim_time: float) -> i
     stop = SignalStop.current()
     if stop is not None and stop.signum is not None:
         saved = "; the recording is finished and readable" if recorder is not None and not recorder.error else ""
-        print(f"{describe_stop(stop.signum)} at sim time {sim_time:.2f} s{saved}", file=sys.stderr)
+        when = f"at sim time {sim_time:.2f} s"
+        if planned_s is not None and sim_time >= planned_s - 1e-9:
+            when = f"while finishing, after all {sim_time:.2f} s were flown"
+        print(f"{describe_stop(stop.signum)} {when}{saved}", file=sys.stderr)
         return stop_exit_code(stop.signum)
     if recorder is not None and recorder.error:
         print("quadsim: error: the flight finished but its recording did not (see above)", file=sys.stderr)

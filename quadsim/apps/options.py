@@ -216,8 +216,8 @@ def _add_recording_options(o: argparse._ArgumentGroup) -> None:
         type=Path,
         default=None,
         metavar="DIR|FILE",
-        help="where the MCAP recording goes: a folder (a dated name is made) or a .mcap file "
-        f"(default: {recordings_default()})",
+        help="where the MCAP recording goes: a folder (a dated name is made) or a .mcap file (in the window, "
+        f"later recordings are FILE-2.mcap, FILE-3.mcap...) (default: {recordings_default()})",
     )
     o.add_argument("--no-record", action="store_true", help="do not record")
     o.add_argument(

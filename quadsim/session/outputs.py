@@ -92,11 +92,13 @@ class RunOutputs:
         if self.recording:
             raise RuntimeError("already recording")
         out = self.options.out
-        if out is not None and out.suffix == ".mcap" and self.path is not None:
-            out = out.parent  # --out FILE names the first recording; later ones go beside it
         from quadsim.recording.writer import McapRecorder, check_writable, recording_path
 
-        path = recording_path(out, self.label)
+        if out is not None and out.suffix == ".mcap" and self.path is not None:
+            # --out FILE names the first recording; later ones (F5, a reset) FILE-2.mcap, FILE-3.mcap...
+            path = next(p for n in range(2, 10**6) if not (p := out.with_name(f"{out.stem}-{n}.mcap")).exists())
+        else:
+            path = recording_path(out, self.label)
         check_writable(path)
         recorder = McapRecorder(path, self._recording_description())
         self.fanout.add_consumer(recorder, self._step())

@@ -124,7 +124,7 @@ def _fly_window(
 
         commands = SubscribedDriver(args.input)
     live = live_outputs(args, fleet_inputs or commands)
-    flown, recordings, lost = 0.0, [], None
+    flown, recordings, lost, finals = 0.0, [], None, []
     try:
         with TeleopApp(config, outputs, options, live=live, commands=commands, fleet=fleet) as app:
             if app.fleet is not None and not app.fleet.by_hand:
@@ -138,14 +138,14 @@ def _fly_window(
             try:
                 app.run(stop=stop_requested)  # a signal ends the window loop at its next frame
             finally:
-                flown, recordings = app.sim.time_s, app.recordings
+                flown, recordings, finals = app.flown_s, app.recordings, app.final_lines()
         lost = app.display_lost  # the window was destroyed from outside or its X connection lost
     except StopRequested:
         pass
     finally:
         for output in live:  # closed with the run, or here if the window never opened
             output.close()
-    return _report(flown, recordings, lost)
+    return _report(flown, recordings, lost, finals)
 
 
 def _fly_fleet(args: argparse.Namespace) -> int:
@@ -170,8 +170,10 @@ def _fly_fleet(args: argparse.Namespace) -> int:
     return _fly_window(args, setup, [d for d in drivers.values() if isinstance(d, SubscribedDriver)])
 
 
-def _report(flown: float, recordings: list, lost: str | None) -> int:
+def _report(flown: float, recordings: list, lost: str | None, finals: Sequence[str] = ()) -> int:
     print(f"flew {flown:.1f} s of simulation time")
+    for line in finals:  # a fleet's vehicles, where each ended
+        print(line)
     for path in recordings:
         print(f"recording       {path}")
     if lost is not None:

@@ -19,6 +19,7 @@ come from the simulator to the HUD, as they go to the recording's /rosout.
 
 from __future__ import annotations
 
+import math
 import os
 import sys
 import time
@@ -276,6 +277,7 @@ class TeleopApp:
     def _init_window_state(self, pacer: RealTimePacer | FixedStepPacer) -> None:
         """What the window shows and counts, before its first frame."""
         self.view = TeleopView()
+        self._flown_before_resets_s = 0.0
         self.pacer = pacer
         self.paused = False
         self.show_help = False
@@ -456,7 +458,30 @@ class TeleopApp:
             self._hook_joy()
             self._say(f"recording to {path}")
 
+    @property
+    def flown_s(self) -> float:
+        """Simulation time flown in this window, over every reset (each starts the clock again)."""
+        return self._flown_before_resets_s + self.sim.time_s
+
+    def final_lines(self) -> list[str]:
+        """A fleet's vehicles where they ended, one line each (none for one vehicle)."""
+        if self.fleet is None:
+            return []
+        width = max(len(name) for name in self.fleet.fleet)
+        lines = []
+        for name in self.fleet.fleet:
+            sim = self.fleet.fleet[name]
+            x, y, z = sim.state.position_m
+            crashes = sum(e.kind.value == "crash" for e in sim.events)
+            lines.append(
+                f"{name:<{width}}  final x={x:+.2f} y={y:+.2f} z={z:+.2f} m yaw={math.degrees(sim.state.yaw_rad()):+.0f} "
+                f"deg; {self.fleet.inputs[name]}"
+                + (f"; {crashes} crash{'es' if crashes > 1 else ''}" if crashes else "")
+            )
+        return lines
+
     def reset(self) -> None:
+        self._flown_before_resets_s += self.sim.time_s
         was_recording = self.session.recording
         if was_recording:
             self.session.stop_recording()
