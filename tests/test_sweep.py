@@ -365,3 +365,88 @@ def test_the_largest_runs_are_handed_out_first(tmp_path: Path, monkeypatch) -> N
     assert handed_out == ["yaw", "climb", "takeoff"]
     assert [row["scenario"] for row in result.rows] == ["takeoff", "climb", "yaw"]
     assert [row["scenario"] for row in read_table(result.table)] == ["takeoff", "climb", "yaw"]
+
+
+PAIR = """
+[[vehicle]]
+name = "alpha"
+start = [0.0, 0.0, 0.0, 0.0]
+input = "script:square"
+
+[[vehicle]]
+name = "bravo"
+airframe = "hexa"
+start = [0.0, -4.0, 0.0, 0.0]
+input = "script:yaw"
+
+[[vehicle]]
+name = "charlie"
+start = [-4.0, 0.0, 0.0, 0.0]
+input = "idle"
+"""
+
+
+def test_a_fleet_file_is_a_scenario_whose_row_is_its_worst_vehicle(tmp_path: Path) -> None:
+    """A fleet in a sweep: flown whole in each run, over wind and seeds, beside a plain scenario;
+    its row holds each metric's largest over its vehicles (computed again here by flying the same
+    fleet), a broken limit names the vehicle, the pool gives the table one process gives, and its
+    recording re-flies at zero as a fleet."""
+    from quadsim.apps.fleet_flight import fleet_drivers
+    from quadsim.apps.sweep.metrics import flight_metrics
+    from quadsim.physics.wind import wind_from_text
+    from quadsim.sim.config import SimConfig
+    from quadsim.sim.fleet import Fleet
+    from quadsim.sim.fleet_file import load_fleet_file
+    from quadsim.sim.loop import StateLog
+
+    (tmp_path / "pair.toml").write_text(PAIR)
+    text = 'scenarios = ["hover", "pair.toml"]\nduration_s = 6.0\nwind = ["0,0", "2,90"]\n[limits]\nmax_tilt_deg = 8\n'
+    outs = {}
+    for jobs in ("1", "2"):
+        done = _sweep(
+            tmp_path, text, "--jobs", jobs, "--out", str(tmp_path / jobs), "--format", "csv", "--no-plot", "--record"
+        )
+        assert done.returncode in (0, 1), done.stdout + done.stderr
+        outs[jobs] = (tmp_path / jobs / "results.csv").read_text()
+    assert outs["1"].replace(str(tmp_path / "1"), "") == outs["2"].replace(str(tmp_path / "2"), "")
+    rows = read_table(tmp_path / "1" / "results.csv")
+    fleet_rows = [r for r in rows if r["scenario"] == "pair.toml"]
+    assert len(rows) == 4 and len(fleet_rows) == 2
+    assert all(r["airframe"] == "per vehicle" and r["controller"] == "per vehicle" for r in fleet_rows)
+    windy = next(r for r in fleet_rows if r["wind"] == "2,90")
+    fleet_file = load_fleet_file(tmp_path / "pair.toml")
+    drivers = fleet_drivers(fleet_file)
+    config = SimConfig(wind=wind_from_text("2,90", "none"), seed=0)
+    with Fleet([v.fleet_vehicle(drivers[v.name]) for v in fleet_file.vehicles], config) as fleet:
+        logs = {name: StateLog() for name in fleet}
+        for name, log in logs.items():
+            fleet[name].add_sink(log)
+        fleet.run_for(6.0)
+        each = {n: flight_metrics(log.states, log.commands, 240, fleet[n].events) for n, log in logs.items()}
+    for metric in ("max_tilt_deg", "max_altitude_m", "distance_m"):
+        assert float(windy[metric]) == pytest.approx(max(m[metric] for m in each.values()), rel=1e-9), metric
+    tilted = max(each, key=lambda n: each[n]["max_tilt_deg"])
+    assert windy["status"] == "fail" and windy["failed_limits"] == f"max_tilt_deg ({tilted})"
+    check = _run("check", windy["recording"], "--tolerance-m", "0", "--tolerance-rad", "0")
+    assert check.returncode == 0 and "(a fleet of 3)" in check.stdout, check.stdout + check.stderr
+
+
+@pytest.mark.parametrize(
+    ("text", "expected"),
+    [
+        ('scenarios = ["pair.toml"]\nairframes = ["hexa"]\n', "'airframes' with a fleet file among the scenarios"),
+        ('scenarios = ["pair.toml"]\n[controllers.c]\nkind = "seed"\n', "'controllers' with a fleet file"),
+        (
+            'scenarios = ["live.toml"]\n',
+            "vehicle 'alpha' takes input = 'ros2'; in a sweep every vehicle flies a script",
+        ),
+        ('scenarios = ["idle.toml"]\n', "idle.toml: no vehicle flies a script: give duration_s"),
+        ('scenarios = ["nowhere.toml"]\n', "fleet file not found"),
+    ],
+)
+def test_a_sweep_refuses_a_fleet_it_cannot_fly(tmp_path: Path, text: str, expected: str) -> None:
+    (tmp_path / "pair.toml").write_text(PAIR)
+    (tmp_path / "live.toml").write_text('[[vehicle]]\nname = "alpha"\ninput = "ros2"\n')
+    (tmp_path / "idle.toml").write_text('[[vehicle]]\nname = "alpha"\n')
+    with pytest.raises(ConfigError, match=re.escape(expected)):
+        load_sweep(_write(tmp_path, text))

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import math
 from collections import OrderedDict
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -81,36 +81,14 @@ def forget_simulators() -> None:
 def fly_run(task: RunTask) -> dict[str, Any]:
     """Fly one run headless and return its table row (never raises for a run that cannot fly:
     the row says why)."""
-    from quadsim.drivers.scripted import ScriptedDriver, load_script
-    from quadsim.sim.loop import StateLog
-
     run = task.run
     row: dict[str, Any] = {"index": run.index, "key": run.key, **run.axes()}
     row.update(dict.fromkeys(METRICS, math.nan))
     row.update(status="error", failed_limits="", error="", recording="")
     try:
-        script = load_script(run.scenario)
-        duration = run.duration_s if run.duration_s is not None else script.duration_s
-        config = _config(run, script.z_mode or ZMode.VELOCITY)
-        try:
-            sim = _simulator(run, config, ScriptedDriver(script))
-            log = StateLog()
-            sim.add_sink(log)
-            recorded = _start_recording(task, sim, script.name) if task.record else None
-            try:
-                sim.run_for(duration)
-            finally:
-                sim.remove_sink(log)
-                if recorded is not None:
-                    recorded.close()
-        except BaseException:
-            forget_simulators()  # a run that failed half-way leaves nothing behind to reuse
-            raise
-        metrics = flight_metrics(log.states, log.commands, config.rates.physics_hz, sim.events)
+        fly = _fly_fleet if run.is_fleet else _fly_script
+        metrics, failed, recorded = fly(task)
         row.update(metrics)
-        failed = [
-            name for name, limit in task.limits if not math.isnan(metrics.get(name, math.nan)) and metrics[name] > limit
-        ]
         row["status"] = "fail" if failed else "ok"
         row["failed_limits"] = ",".join(failed)
         if recorded is not None and recorded.path is not None:
@@ -124,15 +102,93 @@ def fly_run(task: RunTask) -> dict[str, Any]:
     return row
 
 
-def _start_recording(task: RunTask, sim: Any, script_name: str):
-    from quadsim.session.outputs import OutputOptions, RecordedRun
+def _beyond(limits: tuple[tuple[str, float], ...], metrics: dict[str, float]) -> list[str]:
+    return [name for name, limit in limits if not math.isnan(metrics.get(name, math.nan)) and metrics[name] > limit]
+
+
+def _fly_script(task: RunTask) -> tuple[dict[str, float], list[str], Any]:
+    """A scenario's run on this worker's kept simulator: its metrics, the limits it broke, its recording."""
+    from quadsim.drivers.scripted import ScriptedDriver, load_script
+    from quadsim.sim.loop import StateLog
 
     run = task.run
-    folder = Path(task.record_dir or ".")
+    script = load_script(run.scenario)
+    duration = run.duration_s if run.duration_s is not None else script.duration_s
+    config = _config(run, script.z_mode or ZMode.VELOCITY)
+    try:
+        sim = _simulator(run, config, ScriptedDriver(script))
+        log = StateLog()
+        sim.add_sink(log)
+        recorded = _start_recording(task, sim, script.name) if task.record else None
+        try:
+            sim.run_for(duration)
+        finally:
+            sim.remove_sink(log)
+            if recorded is not None:
+                recorded.close()
+    except BaseException:
+        forget_simulators()  # a run that failed half-way leaves nothing behind to reuse
+        raise
+    metrics = flight_metrics(log.states, log.commands, config.rates.physics_hz, sim.events)
+    return metrics, _beyond(task.limits, metrics), recorded
+
+
+def _fly_fleet(task: RunTask) -> tuple[dict[str, float], list[str], Any]:
+    """A fleet file's run: every vehicle flown in one world; each metric the largest over the
+    vehicles, and each broken limit named with the vehicle that broke it worst."""
+    from quadsim.apps.fleet_flight import fleet_drivers
+    from quadsim.sim.fleet import Fleet
+    from quadsim.sim.fleet_file import load_fleet_file
+    from quadsim.sim.loop import StateLog
+
+    run = task.run
+    fleet_file = load_fleet_file(Path(run.scenario))
+    duration = run.duration_s if run.duration_s is not None else run.sim_s
+    drivers = fleet_drivers(fleet_file)
+    config = _config(run, ZMode.VELOCITY)
+    config = replace(config, z_mode=None)  # each vehicle's own (its file's, else its script's)
+    with Fleet([v.fleet_vehicle(drivers[v.name]) for v in fleet_file.vehicles], config) as fleet:
+        logs = {name: StateLog() for name in fleet}
+        for name, log in logs.items():
+            fleet[name].add_sink(log)
+        recorded = _start_fleet_recording(task, fleet, fleet_file.path.name) if task.record else None
+        try:
+            fleet.run_for(duration)
+        finally:
+            if recorded is not None:
+                recorded.close()
+        each = {
+            name: flight_metrics(log.states, log.commands, config.rates.physics_hz, fleet[name].events)
+            for name, log in logs.items()
+        }
+    metrics: dict[str, float] = {}
+    worst: dict[str, str] = {}
+    for name in METRICS:
+        known = [(m[name], vehicle) for vehicle, m in each.items() if not math.isnan(m.get(name, math.nan))]
+        metrics[name], worst[name] = max(known) if known else (math.nan, "")
+    return metrics, [f"{name} ({worst[name]})" for name in _beyond(task.limits, metrics)], recorded
+
+
+def _recording_options(task: RunTask) -> Any:
+    from quadsim.session.outputs import OutputOptions
+
+    run = task.run
     name = f"{run.index:05d}_" + "_".join(str(v) for v in run.axes().values())
-    options = OutputOptions(record=True, out=folder / f"{_safe(name)}.mcap", cameras=())
-    info = {"command": "sweep", "script": script_name, "key": run.key}
-    return RecordedRun(sim, sim.description(), options, f"sweep_{run.index}", info)
+    return OutputOptions(record=True, out=Path(task.record_dir or ".") / f"{_safe(name)}.mcap", cameras=())
+
+
+def _start_recording(task: RunTask, sim: Any, script_name: str):
+    from quadsim.session.outputs import RecordedRun
+
+    info = {"command": "sweep", "script": script_name, "key": task.run.key}
+    return RecordedRun(sim, sim.description(), _recording_options(task), f"sweep_{task.run.index}", info)
+
+
+def _start_fleet_recording(task: RunTask, fleet: Any, fleet_name: str):
+    from quadsim.session.fleet_outputs import FleetRecordedRun
+
+    info = {"command": "sweep", "fleet": fleet_name, "key": task.run.key}
+    return FleetRecordedRun(fleet, _recording_options(task), f"sweep_{task.run.index}", info)
 
 
 def _safe(name: str) -> str:

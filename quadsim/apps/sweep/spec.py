@@ -1,7 +1,8 @@
 """A sweep file (TOML) and the runs it stands for.
 
     name = "wind"                        # optional; default: the file's name
-    scenarios = ["hover", "square"]      # built-in names or .qscript paths (relative to this file)
+    scenarios = ["hover", "square"]      # built-in names, .qscript paths or fleet .toml files
+                                         # (paths relative to this file)
     airframes = ["quad"]                 # shipped presets (quad, hexa, crazyflie); default: quad
     seeds = 3                            # runs per combination, seeded 0, 1, 2 (default 1)
     duration_s = 20.0                    # optional; default: each scenario's own duration
@@ -20,6 +21,11 @@
 
 The runs are the product scenarios x airframes x controllers x wind x turbulence x seeds, in
 that order; each has a key naming its values, by which `--resume` recognises it.
+
+A fleet file as a scenario flies its whole fleet in each run (its vehicles on their scripts, or
+idle), swept over wind, turbulence and seeds: its vehicles name their own airframes and
+controllers, so a sweep with a fleet leaves `airframes` and `controllers` out. Its row holds each
+metric's largest over the vehicles (no vehicle beyond a limit, or the run fails, naming which).
 """
 
 from __future__ import annotations
@@ -76,6 +82,11 @@ class RunSpec:
     sim_s: float = 0.0
 
     @property
+    def is_fleet(self) -> bool:
+        """Whether the scenario is a fleet file (its vehicles say their airframes and controllers)."""
+        return self.scenario.endswith(".toml")
+
+    @property
     def key(self) -> str:
         """The run's values, named: equal keys are the same run."""
         return " ".join(f"{k}={v}" for k, v in self.axes().items())
@@ -84,8 +95,8 @@ class RunSpec:
         """The swept values of this run, as table columns."""
         return {
             "scenario": Path(self.scenario).name if "/" in self.scenario else self.scenario,
-            "airframe": self.airframe,
-            "controller": self.controller.name,
+            "airframe": "per vehicle" if self.is_fleet else self.airframe,
+            "controller": "per vehicle" if self.is_fleet else self.controller.name,
             "wind": self.wind,
             "turbulence": self.turbulence,
             "seed": self.seed,
@@ -181,6 +192,13 @@ def load_sweep(path: Path) -> SweepSpec:
             f"no path), got {_short(name)}"
         )
     scenarios, lengths_s = _scenarios(data, path, where)
+    if any(s.endswith(".toml") for s in scenarios):
+        given = [key for key in ("airframes", "controllers") if key in data]
+        if given:
+            raise ConfigError(
+                f"{where}: '{given[0]}' with a fleet file among the scenarios: its vehicles name their own "
+                "airframes and controllers (sweep fleets over wind, turbulence and seeds)"
+            )
     airframes = _list_of_str(data, "airframes", ["quad"], where)
     for a in airframes:
         if a not in SHIPPED_VEHICLES:
@@ -218,6 +236,10 @@ def _scenarios(data: dict[str, Any], path: Path, where: str) -> tuple[list[str],
     lengths_s: dict[str, float] = {}
     for s in _list_of_str(data, "scenarios", [], where):
         candidate = (path.parent / s).resolve()
+        if s.endswith(".toml"):
+            scenarios.append(str(candidate))
+            lengths_s[str(candidate)] = _fleet_length_s(candidate, data, where)
+            continue
         ref = str(candidate) if (s.endswith(".qscript") or "/" in s) else s
         try:
             script = load_script(ref)
@@ -228,6 +250,27 @@ def _scenarios(data: dict[str, Any], path: Path, where: str) -> tuple[list[str],
         scenarios.append(ref)
         lengths_s[ref] = script.duration_s
     return scenarios, lengths_s
+
+
+def _fleet_length_s(path: Path, data: dict[str, Any], where: str) -> float:
+    """A fleet file as a scenario, checked now: its vehicles fly scripts or sit idle (a sweep has
+    no window and no live input); how long it flies: its longest script."""
+    from quadsim.sim.fleet_file import load_fleet_file
+
+    try:
+        fleet = load_fleet_file(path)
+    except ConfigError as exc:
+        raise ConfigError(f"{where}: scenarios: {exc}") from None
+    live = next((v for v in fleet.vehicles if v.script is None and v.input != "idle"), None)
+    if live is not None:
+        raise ConfigError(
+            f"{where}: scenarios: {path.name}: vehicle {live.name!r} takes input = {live.input!r}; in a sweep every "
+            "vehicle flies a script or is idle"
+        )
+    scripts = [v.script.duration_s for v in fleet.vehicles if v.script is not None]
+    if not scripts and "duration_s" not in data:
+        raise ConfigError(f"{where}: scenarios: {path.name}: no vehicle flies a script: give duration_s")
+    return max(scripts, default=0.0)
 
 
 def _duration(data: dict[str, Any], lengths_s: dict[str, float], where: str) -> float | None:
