@@ -27,8 +27,8 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         help="fly every combination of a sweep file (scenarios x controllers x airframes x wind x seeds) "
         "and tabulate their flight metrics",
         description="Fly the runs a sweep file stands for (a TOML file of scenarios, airframes, controllers, wind, "
-        "turbulence, seeds and [limits]), each a headless "
-        "run measured with flight metrics, on a pool of processes (--jobs) or on Ray (--ray). Results go "
+        "turbulence, seeds and [limits]; a scenario may be a fleet file, whose row is its worst vehicle's), "
+        "each a headless run measured with flight metrics, on a pool of processes (--jobs) or on Ray (--ray). Results go "
         "to one table (results.parquet with pyarrow installed, else results.csv) in --out, with a summary "
         "printed (mean and worst per group) and a plot (plot.png, with matplotlib). The same sweep file "
         "gives the same table whatever runs it. Ctrl-C stops cleanly and keeps the runs flown; --resume "
