@@ -478,8 +478,8 @@ input = "foxglove"
 
 
 def test_a_client_flies_one_vehicle_of_a_fleet_on_its_topic_while_a_script_flies_another(tmp_path: Path) -> None:
-    """The Teleop panel's way (JSON Twists) on /bravo/quad_cmd_twist: climb, then forward while
-    turning; alpha flies its square meanwhile. A client publishing on /quad_cmd_twist is told
+    """The Teleop panel's way (JSON Twists) on /bravo/quad_cmd_twist: climb, left, then forward
+    while turning; alpha flies its square meanwhile. A client publishing on /quad_cmd_twist is told
     which topics take Twists. Both vehicles' topics reach the client; outcomes from the recording."""
     (tmp_path / "pair.toml").write_text(FLEET)
     recording = tmp_path / "pair.mcap"
@@ -490,18 +490,20 @@ def test_a_client_flies_one_vehicle_of_a_fleet_on_its_topic_while_a_script_flies
         "--foxglove",
         "127.0.0.1:0",
         "--duration",
-        "9",
+        "11",
         "--out",
         str(recording),
     )
     try:
         url = _served_url(proc)
         time.sleep(1.0)  # a late joiner: the latched topics must still come
-        program = json.dumps([[2.0, {"linear_z": 1.0}], [2.0, {"linear_x": 1.0, "angular_z": 0.5}]])
+        program = json.dumps(
+            [[2.0, {"linear_z": 1.0}], [1.5, {"linear_y": 1.0}], [2.0, {"linear_x": 1.0, "angular_z": 0.5}]]
+        )
         flown = _client(
             url,
             "--listen-s",
-            "5",
+            "6.5",
             "--publish",
             "json",
             "--topic",
@@ -527,11 +529,11 @@ def test_a_client_flies_one_vehicle_of_a_fleet_on_its_topic_while_a_script_flies
     from quadsim.recording.reader import RecordingReader
 
     with RecordingReader(recording) as reader:
-        commands = {(t.linear_x, t.linear_z, t.angular_z) for _, t in reader.commands("bravo")}
+        commands = {(t.linear_x, t.linear_y, t.linear_z, t.angular_z) for _, t in reader.commands("bravo")}
         bravo = [(p, q) for _, p, q in reader.poses("bravo")]
         alpha = [p for _, p, _ in reader.poses("alpha")]
-    assert {(0.0, 1.0, 0.0), (1.0, 0.0, 0.5)} <= commands  # every field the client set
+    assert {(0.0, 0.0, 1.0, 0.0), (0.0, 1.0, 0.0, 0.0), (1.0, 0.0, 0.0, 0.5)} <= commands  # every field it set
     (x, y, z), (qx, qy, qz, qw) = bravo[-1]
-    assert z > 1.0 and x > 0.8 and y > -3.9, (x, y, z)  # climbed, went forward and, turning, drifted left
+    assert z > 1.0 and x > 0.8 and y > -2.9, (x, y, z)  # climbed, went left, then forward while turning left
     assert 0.6 < math.atan2(2 * (qw * qz + qx * qy), 1 - 2 * (qy * qy + qz * qz)) < 1.4  # turned about 1 rad
     assert max(p[0] for p in alpha) > 2.5  # alpha's square went on all the while
