@@ -142,3 +142,19 @@ def test_a_fleet_without_a_keyboard_or_gamepad_vehicle_is_watched_and_says_so(tm
     app.close()
     flights = load_flights(app.recordings[0])
     assert flights["charlie"].description is not None and flights["charlie"].description.driver_name == "idle"
+
+
+def test_backspace_plays_a_finished_script_again_from_its_start(tmp_path):
+    """A script that had ended before the reset flies again after it (the clock starts at 0,
+    and so does the script), and its commands are in the new recording."""
+    (tmp_path / "short.qscript").write_text("z_mode height\n1.0 linear.z=0\n")
+    app = fleet_app(tmp_path, FLEET.replace('input = "script:square"', 'input = "script:short.qscript"'))
+    bravo = app.fleet.fleet["bravo"]
+    run_with(app, 3 * FPS)
+    assert bravo.driver.finished and bravo.state.position_m[2] > 1.0
+    run_with(app, 1, {0: [lambda: key(pygame.K_BACKSPACE)]})
+    run_with(app, 2 * FPS)
+    assert bravo.state.position_m[2] > 1.0, bravo.state.position_m
+    app.close()
+    again = load_flights(app.recordings[1])["bravo"]
+    assert again.commands and again.commands[0][0] < 0.1  # from the reset's first step on

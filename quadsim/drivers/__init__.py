@@ -37,3 +37,5 @@ class InputDriver(Protocol):
 
     # Optional: `preferred_z_mode: ZMode | None`, the z-mode the driver's commands are written
     # for (a script's `z_mode` line). A SimConfig without a z_mode takes it.
+    # Optional: `rewind()`, start over from the beginning: a Simulator's reset calls it (a script
+    # plays again from its start when the clock does).

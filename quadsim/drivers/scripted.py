@@ -156,6 +156,11 @@ class ScriptedDriver:
         self._index = 0
         self._finished = False
 
+    def rewind(self) -> None:
+        """Play the script from its start again (the simulator's reset: time starts at 0 again)."""
+        self._index = 0
+        self._finished = False
+
     @property
     def preferred_z_mode(self) -> ZMode | None:
         """The z-mode the script is written for (its `z_mode` line); the Simulator uses it

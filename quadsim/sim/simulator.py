@@ -180,6 +180,9 @@ class Simulator:
             if self.loop.imu is not None:
                 self.loop.imu.reseed(imu_seed)
         self.loop.reset()
+        rewind = getattr(self.driver, "rewind", None)
+        if rewind is not None:  # a script plays from its start again, as the clock does
+            rewind()
 
     def restart(self, driver: InputDriver, seed: int | None = None) -> None:
         """Back to step 0 (as `reset`), flown from now on by `driver`, in the z-mode the run was
