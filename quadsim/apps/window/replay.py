@@ -209,6 +209,9 @@ class ReplayApp:
         d = f.description
         state_word = "PLAYING" if self.playing else "paused"
         warnings = [] if f.states else ["this file has no /quad/pose: nothing to show on the map or HUD"]
+        with_cameras = [name for name, (other, _) in self.others.items() if other.frames]
+        if not f.frames and with_cameras:
+            warnings.append(f"{', '.join(with_cameras)} recorded cameras: replay this file with --vehicle NAME")
         return ViewModel(
             state=state,
             command=command or Twist(),
@@ -216,7 +219,7 @@ class ReplayApp:
             armed=command is not None,
             z_mode=zm.value if (zm := f.z_mode_at(t)) is not None else "?",
             controller=d.controller.kind.value if d else "?",
-            input_status=f"replay of {d.driver_name if d else 'another program'}",
+            input_status=f"replay: flown by {d.driver_name if d else 'another program'}",
             recording_path=None,
             recording_error=None,
             paused=False,
@@ -241,6 +244,7 @@ class ReplayApp:
             ],
             cameras_of=f.vehicle,
             camera_names=frozenset(f.frames),
+            flown_name=f.vehicle if self.others else "",
         )
 
     def run(

@@ -391,6 +391,8 @@ class TeleopApp:
             status = f"{driver.name}: Twists on {driver.topic} ({driver.received} received)"
         else:
             status = f"keyboard ({self.keyboard.layout.name}, speed x{self.keyboard.scale:.2f})"
+        if self.fleet is not None:
+            status = f"{self.fleet.flown}: {status}"
         if self.fleet is not None and self.fleet.second is not None:
             status += (
                 f"; {'the gamepad' if self.second_hand is self.joystick else 'the keyboard'} flies {self.fleet.second}"
@@ -594,6 +596,7 @@ class TeleopApp:
             others=self.fleet.others() if self.fleet is not None else [],
             cameras_of=(self.fleet.shown or self.fleet.flown) if self.fleet is not None else "",
             camera_names=self.fleet.camera_names() if self.fleet is not None else None,
+            flown_name=self.fleet.flown if self.fleet is not None else "",
         )
 
     def run(

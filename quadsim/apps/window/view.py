@@ -12,7 +12,7 @@ from dataclasses import dataclass, field
 os.environ.setdefault("PYGAME_HIDE_SUPPORT_PROMPT", "1")
 import pygame
 
-from quadsim.core.types import Twist, VehicleState
+from quadsim.core.types import HEIGHT_MODE_BASE_M, Twist, VehicleState
 from quadsim.physics.world_spec import Shape, WorldSpec
 from quadsim.sensors.camera import CameraFrame
 from quadsim.sensors.rendering import decode_jpeg
@@ -59,6 +59,7 @@ class ViewModel:
     others: list[tuple[str, tuple[float, float], float, list[tuple[float, float]]]] = field(default_factory=list)
     cameras_of: str = ""  # a fleet: whose cameras are shown
     camera_names: frozenset[str] | None = None  # a fleet: the cameras that vehicle has (None: not said)
+    flown_name: str = ""  # a fleet: the vehicle the HUD and the red arrow are (named on the map)
 
 
 class TeleopView:
@@ -164,10 +165,12 @@ class TeleopView:
             if len(points) > 1:
                 pygame.draw.lines(surface, (110, 170, 255), False, [px(x, y) for x, y in points], 1)
             pygame.draw.polygon(surface, (110, 170, 255), _arrow(px, ox, oy, oyaw))
-            self._text(surface, name, px(ox - 0.6, oy - 0.4), (170, 205, 255))
+            self._text(surface, name, px(ox + 1.0, oy), (170, 205, 255), center=True, backed=True)
         if len(m.track) > 1:
             pygame.draw.lines(surface, (255, 220, 80), False, [px(x, y) for x, y in m.track], 2)
         pygame.draw.polygon(surface, (255, 70, 70), _arrow(px, x0, y0, m.state.yaw_rad()))
+        if m.flown_name:  # each name centred above its arrow, on a dark box: names do not run together
+            self._text(surface, m.flown_name, px(x0 + 1.0, y0), (255, 150, 150), center=True, backed=True)
         surface.set_clip(clip)
         pygame.draw.rect(surface, (70, 70, 80), rect, 1)
         self._text(
@@ -188,7 +191,7 @@ class TeleopView:
             "holding (no command)"
             if m.command_held
             else (
-                f"x {c.linear_x:+.2f}  y {c.linear_y:+.2f}  z {c.linear_z:+.2f}  yaw {c.angular_z:+.2f}"
+                f"x {c.linear_x:+.2f}  y {c.linear_y:+.2f}  {_z_text(c, m.z_mode)}  yaw {c.angular_z:+.2f}"
                 if m.armed
                 else "idle: no command yet"
             )
@@ -228,7 +231,8 @@ class TeleopView:
         if m.notice:
             lines.append((m.notice, OK))
         height = 8 + 20 * len(lines)
-        panel = pygame.Surface((min(rect.width - 12, 760), height), pygame.SRCALPHA)
+        widest = max(self.font.size(text)[0] for text, _ in lines)
+        panel = pygame.Surface((min(rect.width - 12, widest + 14), height), pygame.SRCALPHA)
         panel.fill(PANEL)
         surface.blit(panel, (rect.x + 6, rect.y + 6))
         for i, (text, color) in enumerate(lines):
@@ -268,6 +272,13 @@ class TeleopView:
         if backed:
             surface.fill((10, 10, 12), where.inflate(8, 2))
         surface.blit(img, where)
+
+
+def _z_text(command: Twist, z_mode: str) -> str:
+    """linear.z as the HUD says it: a climb rate, or in height z-mode the altitude it wants."""
+    if z_mode == "height":
+        return f"alt wanted {HEIGHT_MODE_BASE_M + command.linear_z:.2f} m"
+    return f"z {command.linear_z:+.2f}"
 
 
 def _arrow(px, x: float, y: float, yaw: float) -> list[tuple[int, int]]:
