@@ -381,6 +381,14 @@ class TeleopApp:
             if self.joystick.pad is not before:
                 self._pad_changed(before)
 
+    def _help_lines(self) -> list[str]:
+        """The flying keys (or the gamepad's sticks) of the vehicle flown, then the window's own
+        keys (a watched fleet: the window's keys only, since nothing is flown)."""
+        if self.fleet is not None and not self.fleet.by_hand:
+            return APP_KEYS
+        flying = self.joystick.help_lines() if self.driver is self.joystick else self.keyboard.layout.help_lines()
+        return [*flying, "", *APP_KEYS]
+
     def _input_status(self) -> str:
         driver = self.driver
         if self.fleet is not None and not self.fleet.by_hand:
@@ -583,11 +591,7 @@ class TeleopApp:
             frames=self.frames,
             track=list(self.track.points),
             world=self.sim.world,
-            help_lines=[
-                *(self.joystick.help_lines() if self.driver is self.joystick else self.keyboard.layout.help_lines()),
-                "",
-                *APP_KEYS,
-            ],
+            help_lines=self._help_lines(),
             show_help=self.show_help,
             notice=self.notice,
             warnings=warnings,

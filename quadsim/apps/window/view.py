@@ -253,8 +253,13 @@ class TeleopView:
         rect = panel.get_rect(center=(w // 2, h // 2))
         surface.blit(panel, rect)
         self._text(surface, "quadsim keys", (rect.x + 16, rect.y + 10), WARN, font=self.big)
-        for i, line in enumerate(lines):
-            self._text(surface, line, (rect.x + 16, rect.y + 40 + 22 * i), TEXT)
+        # the lines are "KEYS" padded to column 11, then what they do: two aligned columns
+        rows = [(line[:11].strip(), line[11:], True) if line[10:11] == " " else ("", line, False) for line in lines]
+        column = 16 + max((self.font.size(keys)[0] for keys, _, _ in rows), default=0) + 18
+        for i, (keys, what, aligned) in enumerate(rows):
+            y = rect.y + 40 + 22 * i
+            self._text(surface, keys, (rect.x + 16, y), WARN)
+            self._text(surface, what, (rect.x + (column if aligned else 16), y), TEXT)
 
     def _text(
         self,
