@@ -170,8 +170,9 @@ def test_two_vehicles_flown_into_each_other_both_crash_and_the_recording_refies(
     (tmp_path / "ram.toml").write_text(COLLISION)
     out = cli("run", "--fleet", str(tmp_path / "ram.toml"), "--out", str(tmp_path / "ram.mcap"))
     assert out.returncode == 0, out.stderr
-    crash_lines = [line.strip() for line in out.stdout.splitlines() if line.strip().startswith("crash")]
-    assert len(crash_lines) == 2 and "hit bravo" in crash_lines[0] and "hit alpha" in crash_lines[1], out.stdout
+    crash_lines = [line.split() for line in out.stdout.splitlines() if line.split()[1:2] == ["crash"]]
+    assert [line[0] for line in crash_lines] == ["alpha", "bravo"], out.stdout  # each under its vehicle's name
+    assert "bravo" in crash_lines[0] and "alpha" in crash_lines[1], out.stdout  # each names the other
     topics, metadata, _ = _decoded(tmp_path / "ram.mcap")
     crashes = {m.name: m for _, m in topics["/rosout"] if m.msg.startswith("crash")}
     assert set(crashes) == {"alpha.quadsim", "bravo.quadsim"}
