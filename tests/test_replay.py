@@ -343,3 +343,15 @@ def test_the_replay_hud_shows_the_z_mode_in_effect():
         assert app.model().z_mode == "velocity"
         app.t_ns = switch_ns + 50_000_000
         assert app.model().z_mode == "height"
+
+
+def test_mp4_given_a_file_name_writes_each_camera_beside_it(with_cameras, tmp_path):
+    """`--mp4 flight.mp4` (a name, not a folder): flight_floor.mp4 and flight_front.mp4 beside
+    it, not a folder called flight.mp4."""
+    (tmp_path / "out").mkdir()
+    out = cli("replay", with_cameras, "--headless", "--mp4", tmp_path / "out" / "flight.mp4")
+    assert out.returncode == 0, out.stdout + out.stderr
+    assert sorted(p.name for p in (tmp_path / "out").iterdir()) == ["flight_floor.mp4", "flight_front.mp4"]
+    cap = cv2.VideoCapture(str(tmp_path / "out" / "flight_front.mp4"))
+    ok, frame = cap.read()
+    assert ok and frame.mean() > 20  # a picture, not black

@@ -67,14 +67,19 @@ class Video:
 
 def export_mp4(
     f: RecordedFlight,
-    folder: Path,
+    where: Path,
     progress: Callable[[int, int], None] | None = None,
     stop: Callable[[], bool] = lambda: False,
 ) -> list[Video]:
     """One MP4 (VP9) per camera stream, at the stream's frame rate, the streams encoded side by
     side (libvpx holds one core per stream, and OpenCV lets go of the GIL while it encodes).
     `progress(frames done, frames in all)` is called from the encoding threads, one at a time;
-    once `stop()` is true every stream ends at its next frame, as a shorter but whole video."""
+    once `stop()` is true every stream ends at its next frame, as a shorter but whole video.
+    `where`: a folder (RECORDING_front.mp4 in it), or NAME.mp4 (NAME_front.mp4 beside it)."""
+    if where.suffix.lower() == ".mp4":
+        folder, stem = where.parent, where.stem
+    else:
+        folder, stem = where, f.path.stem
     if not f.frames:
         raise QuadsimError(f"{f.path}: has no camera images to export")
     streams = []
@@ -82,7 +87,7 @@ def export_mp4(
         first = cv2.imdecode(np.frombuffer(frames[0][1], np.uint8), cv2.IMREAD_COLOR)
         if first is None:
             raise QuadsimError(f"{f.path}: {cam} camera images are not decodable JPEG")
-        streams.append((folder / f"{f.path.stem}_{cam}.mp4", frames, first.shape))
+        streams.append((folder / f"{stem}_{cam}.mp4", frames, first.shape))
     folder.mkdir(parents=True, exist_ok=True)
     total, done, lock, ended = sum(len(frames) for _, frames, _ in streams), 0, threading.Lock(), threading.Event()
 

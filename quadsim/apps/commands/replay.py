@@ -44,7 +44,14 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     )
     p.add_argument("file", type=Path, metavar="FILE.mcap")
     p.add_argument("--headless", action="store_true", help="no window: print a summary")
-    p.add_argument("--mp4", type=Path, default=None, metavar="DIR", help="export each camera stream to DIR as MP4")
+    p.add_argument(
+        "--mp4",
+        type=Path,
+        default=None,
+        metavar="DIR|NAME.mp4",
+        help="export each camera stream as MP4: into DIR (RECORDING_front.mp4, ...), or beside NAME.mp4 as "
+        "NAME_front.mp4, NAME_floor.mp4",
+    )
     p.add_argument(
         "--plot",
         type=Path,
@@ -89,7 +96,7 @@ def main(args: argparse.Namespace) -> int:
         check_output_file("--plot", args.plot, PLOT_SUFFIXES)
         require_matplotlib()  # said before the videos are encoded, not after
     if args.mp4 is not None:
-        check_output_dir("--mp4", args.mp4)
+        check_output_dir("--mp4", args.mp4.parent if args.mp4.suffix.lower() == ".mp4" else args.mp4)
     if (args.foxglove is not None or args.ros2) and args.resim:
         option = "--foxglove" if args.foxglove is not None else "--ros2"
         raise QuadsimError(f"{option} plays the recording as it is; with --resim nothing would be played (drop one)")
