@@ -5,7 +5,6 @@ nothing), recorded with every vehicle's topics under its name, then summarised v
 from __future__ import annotations
 
 import argparse
-import math
 from dataclasses import replace
 from pathlib import Path
 from typing import TYPE_CHECKING
@@ -109,10 +108,10 @@ def _duration(args: argparse.Namespace, fleet_file: FleetFile, live: bool) -> fl
         return float(args.duration)
     if live:
         return MAX_DURATION_S
-    scripts = [v.script.duration_s for v in fleet_file.vehicles if v.script is not None]
-    if not scripts:
+    longest = fleet_file.longest_script_s
+    if longest is None:
         raise QuadsimError(f"{args.fleet}: no vehicle flies a script: say how long to fly with --duration SECONDS")
-    return max(scripts)
+    return longest
 
 
 class FleetFlight:
@@ -135,7 +134,7 @@ class FleetFlight:
         self.planned_s: float | None = None  # how long the run is to fly
 
     def vehicles(self) -> list[FleetVehicle]:
-        return [v.fleet_vehicle(self.drivers[v.name]) for v in self.fleet_file.vehicles]
+        return self.fleet_file.fleet_vehicles(self.drivers)
 
     def fly(self, duration: float, realtime: bool) -> int:
         from quadsim.session.progress import ProgressBar
@@ -191,7 +190,7 @@ class FleetFlight:
     def _headline(self, fleet: Fleet, duration: float) -> str:
         config = fleet.config
         until = f"for {duration:.1f} s" if duration < MAX_DURATION_S else "until Ctrl-C"
-        who = ", ".join(f"{v.name} ({v.airframe}, {_input_text(v)})" for v in self.fleet_file.vehicles)
+        who = ", ".join(f"{v.name} ({v.airframe}, {v.input_text})" for v in self.fleet_file.vehicles)
         return (
             f"flying a fleet of {len(fleet)} {until}: {who}; physics {config.rates.physics_hz} Hz, "
             f"control {config.rates.control_hz} Hz, cameras none"
@@ -213,13 +212,10 @@ class FleetFlight:
         return report_end(self.run, self.sim_time, self.planned_s)
 
 
-def _input_text(entry: FleetEntry) -> str:
-    return f"script {entry.script.name}" if entry.script is not None else entry.input
-
-
 def _vehicle_line(s: RunSummary) -> str:
-    x, y, z = s.final_state.position_m
+    from quadsim.session.headless import final_pose_text
+
     return (
-        f"final x={x:+.2f} y={y:+.2f} z={z:+.2f} m yaw={math.degrees(s.final_state.yaw_rad()):+.0f} deg; "
+        f"{final_pose_text(s.final_state)}; "
         f"flown {s.distance_m:.2f} m; {s.commands_received} commands; events: {s.events_line()}"
     )

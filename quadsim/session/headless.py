@@ -20,6 +20,12 @@ from quadsim.sim.simulator import Simulator
 _CHUNK_S = 0.5
 
 
+def final_pose_text(state: VehicleState) -> str:
+    """Where a fleet vehicle ended, as its summary line starts: position and heading."""
+    x, y, z = state.position_m
+    return f"final x={x:+.2f} y={y:+.2f} z={z:+.2f} m yaw={math.degrees(state.yaw_rad()):+.0f} deg"
+
+
 @dataclass(frozen=True)
 class RunSummary:
     sim_time_s: float

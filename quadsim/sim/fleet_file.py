@@ -19,6 +19,7 @@ drives each vehicle is made by the app that flies the fleet.
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass, field, fields
 from pathlib import Path
 from typing import Any
@@ -61,6 +62,11 @@ class FleetEntry:
     gains: dict[str, float] = field(default_factory=dict)
     cameras: tuple[str, ...] = ()  # names of the onboard cameras it records
 
+    @property
+    def input_text(self) -> str:
+        """What flies it, as a person reads it: "script square", "ros2", "idle", "keyboard"..."""
+        return f"script {self.script.name}" if self.script is not None else self.input
+
     def fleet_vehicle(self, driver: InputDriver | None) -> FleetVehicle:
         """This vehicle of a Fleet, flown by `driver` (its z-mode: its own, else its script's)."""
         return FleetVehicle(
@@ -82,6 +88,20 @@ class FleetFile:
     def held_by(self, device: str) -> FleetEntry | None:
         """The vehicle flown by `device` (keyboard, gamepad), if any."""
         return next((v for v in self.vehicles if v.input == device), None)
+
+    @property
+    def held(self) -> tuple[FleetEntry, ...]:
+        """The vehicles a person flies (keyboard, gamepad), in the file's order: one per device."""
+        return tuple(v for v in self.vehicles if v.input in HELD_INPUTS)
+
+    @property
+    def longest_script_s(self) -> float | None:
+        """How long its longest script lasts (None: no vehicle flies one)."""
+        return max((v.script.duration_s for v in self.vehicles if v.script is not None), default=None)
+
+    def fleet_vehicles(self, drivers: Mapping[str, InputDriver | None]) -> list[FleetVehicle]:
+        """Its vehicles for a Fleet, each flown by its driver in `drivers` (none given: None)."""
+        return [v.fleet_vehicle(drivers.get(v.name)) for v in self.vehicles]
 
 
 def load_fleet_file(path: Path) -> FleetFile:

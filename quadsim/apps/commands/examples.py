@@ -4,6 +4,7 @@ and copied into a folder of the user's choice to run and change."""
 from __future__ import annotations
 
 import argparse
+import re
 import shutil
 from pathlib import Path
 
@@ -22,21 +23,15 @@ def shipped() -> dict[str, Path]:
 def summary(path: Path, width: int = 100) -> str:
     """An example's first sentence of explanation (a program's docstring, a sweep or fleet file's
     comment), whole, or cut at a word with an ellipsis when longer than `width`."""
-    words: list[str] = []
+    paragraph: list[str] = []
     for line in path.read_text(encoding="utf-8").splitlines():
         text = line.strip().strip('"').lstrip("#").strip()
-        if not text:
-            if words:
-                break  # the end of the first paragraph
-            continue
-        words.extend(text.split())
-        if text.endswith("."):
-            break
-    sentence = ""
-    for word in words:
-        sentence = f"{sentence} {word}".strip()
-        if word.endswith("."):
-            break
+        if text:
+            paragraph.append(text)
+        elif paragraph:
+            break  # the end of the first paragraph
+    first = re.match(r".*?\.(?=\s|$)", " ".join(paragraph))
+    sentence = first.group(0) if first else " ".join(paragraph)
     if len(sentence) <= width:
         return sentence
     return sentence[: sentence.rfind(" ", 0, width - 1)] + " \u2026"

@@ -163,8 +163,8 @@ def _fly_fleet(args: argparse.Namespace) -> int:
         raise QuadsimError(f"--input {args.input} with --fleet: each vehicle's input is in the fleet file")
     check_fleet_options(args)
     fleet_file = read_fleet_file(args.fleet)
-    hand = next((v for v in fleet_file.vehicles if v.input in ("keyboard", "gamepad")), None)
-    args.input = "joystick" if hand is not None and hand.input == "gamepad" else "keyboard"
+    hands = fleet_file.held
+    args.input = "joystick" if hands and hands[0].input == "gamepad" else "keyboard"
     drivers = fleet_drivers(fleet_file)
     setup = FleetSetup(fleet_file, drivers, fleet_cameras(args, fleet_file))
     return _fly_window(args, setup, [d for d in drivers.values() if isinstance(d, SubscribedDriver)])

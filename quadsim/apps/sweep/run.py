@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import math
 from collections import OrderedDict
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -39,7 +39,7 @@ MAX_KEPT = 4
 _kept: OrderedDict[tuple[Any, ...], Simulator] = OrderedDict()
 
 
-def _config(run: RunSpec, z_mode: ZMode) -> SimConfig:
+def _config(run: RunSpec, z_mode: ZMode | None) -> SimConfig:
     from quadsim.physics.wind import wind_from_text
     from quadsim.sim.config import SimConfig
     from quadsim.vehicle.params import SHIPPED_VEHICLES
@@ -144,10 +144,8 @@ def _fly_fleet(task: RunTask) -> tuple[dict[str, float], list[str], Any]:
     run = task.run
     fleet_file = load_fleet_file(Path(run.scenario))
     duration = run.duration_s if run.duration_s is not None else run.sim_s
-    drivers = fleet_drivers(fleet_file)
-    config = _config(run, ZMode.VELOCITY)
-    config = replace(config, z_mode=None)  # each vehicle's own (its file's, else its script's)
-    with Fleet([v.fleet_vehicle(drivers[v.name]) for v in fleet_file.vehicles], config) as fleet:
+    config = _config(run, None)  # each vehicle's z-mode its own (its file's, else its script's)
+    with Fleet(fleet_file.fleet_vehicles(fleet_drivers(fleet_file)), config) as fleet:
         logs = {name: StateLog() for name in fleet}
         for name, log in logs.items():
             fleet[name].add_sink(log)

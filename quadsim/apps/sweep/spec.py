@@ -56,6 +56,11 @@ MAX_RUN_S = 3600.0
 NAME_PATTERN = re.compile(r"\w[\w .+-]{0,99}")
 
 
+def is_fleet_scenario(scenario: str) -> bool:
+    """A scenario given as a fleet file (NAME.toml), not a script."""
+    return scenario.endswith(".toml")
+
+
 @dataclass(frozen=True)
 class ControllerChoice:
     """A named controller: its kind and the gains that replace its defaults."""
@@ -84,7 +89,7 @@ class RunSpec:
     @property
     def is_fleet(self) -> bool:
         """Whether the scenario is a fleet file (its vehicles say their airframes and controllers)."""
-        return self.scenario.endswith(".toml")
+        return is_fleet_scenario(self.scenario)
 
     @property
     def key(self) -> str:
@@ -192,7 +197,7 @@ def load_sweep(path: Path) -> SweepSpec:
             f"no path), got {_short(name)}"
         )
     scenarios, lengths_s = _scenarios(data, path, where)
-    if any(s.endswith(".toml") for s in scenarios):
+    if any(is_fleet_scenario(s) for s in scenarios):
         given = [key for key in ("airframes", "controllers") if key in data]
         if given:
             raise ConfigError(
@@ -236,7 +241,7 @@ def _scenarios(data: dict[str, Any], path: Path, where: str) -> tuple[list[str],
     lengths_s: dict[str, float] = {}
     for s in _list_of_str(data, "scenarios", [], where):
         candidate = (path.parent / s).resolve()
-        if s.endswith(".toml"):
+        if is_fleet_scenario(s):
             scenarios.append(str(candidate))
             lengths_s[str(candidate)] = _fleet_length_s(candidate, data, where)
             continue
@@ -267,10 +272,9 @@ def _fleet_length_s(path: Path, data: dict[str, Any], where: str) -> float:
             f"{where}: scenarios: {path.name}: vehicle {live.name!r} takes input = {live.input!r}; in a sweep every "
             "vehicle flies a script or is idle"
         )
-    scripts = [v.script.duration_s for v in fleet.vehicles if v.script is not None]
-    if not scripts and "duration_s" not in data:
+    if fleet.longest_script_s is None and "duration_s" not in data:
         raise ConfigError(f"{where}: scenarios: {path.name}: no vehicle flies a script: give duration_s")
-    return max(scripts, default=0.0)
+    return fleet.longest_script_s or 0.0
 
 
 def _duration(data: dict[str, Any], lengths_s: dict[str, float], where: str) -> float | None:

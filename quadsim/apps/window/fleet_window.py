@@ -20,7 +20,7 @@ from quadsim.session.fleet_outputs import FleetRecordedRun
 from quadsim.session.outputs import LiveOutput, OutputOptions
 from quadsim.sim.config import SimConfig
 from quadsim.sim.fleet import Fleet
-from quadsim.sim.fleet_file import HELD_INPUTS, FleetFile
+from quadsim.sim.fleet_file import FleetFile
 
 
 class Track:
@@ -51,24 +51,19 @@ class WindowFleet:
         flight_settings: dict[str, Any],
         second_hand: InputDriver | None = None,
     ) -> None:
-        hands = [v for v in fleet_file.vehicles if v.input in HELD_INPUTS]  # one per device, at most
+        hands = fleet_file.held
         hand = hands[0] if hands else None
         #: the vehicle the window flies (or, with no keyboard or gamepad vehicle, watches)
         self.flown = hand.name if hand is not None else fleet_file.vehicles[0].name
         self.by_hand = hand is not None
         #: what flies each vehicle, as the fleet file says it ("script square", "ros2", "idle", ...)
-        self.inputs = {
-            v.name: f"script {v.script.name}" if v.script is not None else v.input for v in fleet_file.vehicles
-        }
+        self.inputs = {v.name: v.input_text for v in fleet_file.vehicles}
         #: the vehicle the other device flies (the gamepad's, when the keyboard's is flown), or None
         self.second = hands[1].name if len(hands) > 1 and second_hand is not None else None
         by_hand: dict[str, InputDriver | None] = {self.flown: held} if hand is not None else {}
         if self.second is not None:
             by_hand[self.second] = second_hand
-        vehicles = [
-            v.fleet_vehicle(by_hand[v.name] if v.name in by_hand else drivers.get(v.name)) for v in fleet_file.vehicles
-        ]
-        self.fleet = Fleet(vehicles, config, **flight_settings)
+        self.fleet = Fleet(fleet_file.fleet_vehicles({**drivers, **by_hand}), config, **flight_settings)
         self.tracks = {name: Track() for name in self.fleet}
         for name, track in self.tracks.items():
             self.fleet[name].add_sink(track)

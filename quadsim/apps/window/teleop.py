@@ -19,7 +19,6 @@ come from the simulator to the HUD, as they go to the recording's /rosout.
 
 from __future__ import annotations
 
-import math
 import os
 import sys
 import time
@@ -48,9 +47,11 @@ from quadsim.recording.fanout import WARNING_EVENTS
 from quadsim.sensors.camera import CameraFrame, CameraSpec
 from quadsim.sensors.pipeline import CameraPipeline
 from quadsim.session.fleet_outputs import FleetRecordedRun
+from quadsim.session.headless import final_pose_text
 from quadsim.session.outputs import LiveOutput, OutputOptions, RecordedRun
 from quadsim.sim.config import SimConfig
-from quadsim.sim.fleet_file import HELD_INPUTS, FleetFile
+from quadsim.sim.fleet_file import FleetFile
+from quadsim.sim.flight_events import EventKind
 from quadsim.sim.simulator import Simulator
 
 #: wall time over which the HUD's frame rate and real-time factor are measured
@@ -224,10 +225,10 @@ class TeleopApp:
     def _second_hand(self, fleet: FleetSetup | None) -> KeyboardDriver | JoystickDriver | None:
         """A fleet with a keyboard vehicle and a gamepad vehicle: the device of the one the
         window does not fly (the pad is attached for it)."""
-        devices = [v.input for v in fleet.file.vehicles if v.input in HELD_INPUTS] if fleet is not None else []
-        if len(devices) < 2:
+        hands = fleet.file.held if fleet is not None else ()
+        if len(hands) < 2:
             return None
-        if devices[1] == "gamepad":
+        if hands[1].input == "gamepad":
             self.joystick.attach_first()
             return self.joystick
         return self.keyboard
@@ -481,11 +482,9 @@ class TeleopApp:
         lines = []
         for name in self.fleet.fleet:
             sim = self.fleet.fleet[name]
-            x, y, z = sim.state.position_m
-            crashes = sum(e.kind.value == "crash" for e in sim.events)
+            crashes = sum(e.kind is EventKind.CRASH for e in sim.events)
             lines.append(
-                f"{name:<{width}}  final x={x:+.2f} y={y:+.2f} z={z:+.2f} m yaw={math.degrees(sim.state.yaw_rad()):+.0f} "
-                f"deg; {self.fleet.inputs[name]}"
+                f"{name:<{width}}  {final_pose_text(sim.state)}; {self.fleet.inputs[name]}"
                 + (f"; {crashes} crash{'es' if crashes > 1 else ''}" if crashes else "")
             )
         return lines
