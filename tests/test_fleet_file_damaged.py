@@ -87,9 +87,8 @@ CASES = 400
 def _fly_briefly(fleet_file: FleetFile) -> None:
     """A fleet file that was read builds its fleet (whose own checks may still refuse it, in one
     line) and flies a tenth of a second."""
-    drivers = fleet_drivers(fleet_file)
     try:
-        fleet = Fleet([entry.fleet_vehicle(drivers[entry.name]) for entry in fleet_file.vehicles], SimConfig())
+        fleet = Fleet(fleet_file.fleet_vehicles(fleet_drivers(fleet_file)), SimConfig())
     except QuadsimError as exc:
         assert "\n" not in str(exc), str(exc)
         return

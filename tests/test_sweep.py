@@ -415,9 +415,8 @@ def test_a_fleet_file_is_a_scenario_whose_row_is_its_worst_vehicle(tmp_path: Pat
     assert all(r["airframe"] == "per vehicle" and r["controller"] == "per vehicle" for r in fleet_rows)
     windy = next(r for r in fleet_rows if r["wind"] == "2,90")
     fleet_file = load_fleet_file(tmp_path / "pair.toml")
-    drivers = fleet_drivers(fleet_file)
     config = SimConfig(wind=wind_from_text("2,90", "none"), seed=0)
-    with Fleet([v.fleet_vehicle(drivers[v.name]) for v in fleet_file.vehicles], config) as fleet:
+    with Fleet(fleet_file.fleet_vehicles(fleet_drivers(fleet_file)), config) as fleet:
         logs = {name: StateLog() for name in fleet}
         for name, log in logs.items():
             fleet[name].add_sink(log)
