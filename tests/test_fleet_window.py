@@ -124,6 +124,12 @@ def test_a_keyboard_vehicle_in_height_mode_is_flown_in_height_mode(tmp_path):
     assert app.sim.state.position_m[2] < 0.1, app.sim.state.position_m  # a tap forward: still on the ground
     run_with(app, 90, {0: [lambda: key(pygame.K_w)], 45: [lambda: key(pygame.K_w, False)]})
     assert app.sim.state.position_m[2] > 0.5, app.sim.state.position_m
+    run_with(
+        app,
+        60,
+        {0: [lambda: key(pygame.K_BACKSPACE)], 2: [lambda: key(pygame.K_UP)], 4: [lambda: key(pygame.K_UP, False)]},
+    )
+    assert app.sim.state.position_m[2] < 0.1, app.sim.state.position_m  # after a reset as at the start
     app.close()
 
 

@@ -502,6 +502,8 @@ class TeleopApp:
             self.sim.reset()
         self.keyboard.reset()
         self.joystick.reset()
+        if self.fleet is not None:  # as at the start: each device reads in its vehicle's z-mode, from where it is
+            self._match_z_modes()
         self.track.points.clear()
         self.pacer.rebase(0)
         self._frame_walls.clear()  # rates restart with the clock (no negative real-time factor)
