@@ -18,6 +18,13 @@ the front stops reading and TCP slows the sender); at most MAX_CLIENT_CHANNELS a
 and MAX_NAME_CHARS in a name; at most MAX_CLIENTS connections. Problems go to that client as a
 status message, at most one a second, and to the log at most one line every LOG_EVERY_S seconds
 for all clients together.
+
+One race of the SDK's is mended here: it sends a channel's advertisement before it files the
+channel under the client, so a client quick enough to subscribe at once (the npm client on a
+loaded machine) is told "Unknown channel ID" for a channel it was just offered. The front knows
+which channels the SDK has advertised to each client, so it sends such a subscription again
+(RESUBSCRIBE_S later, at most RESUBSCRIBE_TRIES times) instead of passing that answer on; an
+answer about a channel never advertised goes to the client as it is.
 """
 
 from __future__ import annotations
@@ -27,6 +34,7 @@ import contextlib
 import itertools
 import json
 import logging
+import re
 import struct
 import threading
 import time
@@ -53,6 +61,11 @@ STATUS_EVERY_S = 1.0
 LOG_EVERY_S = 5.0
 CLOSE_TIMEOUT_S = 1.0  # for a client's closing handshake, at the end of a run (websockets' default is 10 s)
 MAX_STATUS_CHARS = 300
+RESUBSCRIBE_S = 0.02  # the SDK files an advertised channel microseconds after sending it
+RESUBSCRIBE_TRIES = 3
+#: the SDK's answer to a subscription to a channel it has not filed under the client
+UNKNOWN_CHANNEL = re.compile(r"Unknown channel ID: (\d+)")
+UNKNOWN_CHANNEL_LOG = "attempted to subscribe to unknown channel"  # the line the SDK logs with it
 
 #: client requests the SDK answers (to the asking client alone); anything else is refused here
 FORWARDED_OPS = frozenset(
@@ -121,6 +134,8 @@ class _LogLimiter(logging.Filter):
     def filter(self, record: logging.LogRecord) -> bool:
         if record.levelno < logging.WARNING:
             return True
+        if UNKNOWN_CHANNEL_LOG in record.getMessage():  # raced ones are mended; the client hears of others
+            return False
         more = self._every.allow()
         if more is None:
             return False
@@ -134,7 +149,10 @@ class FrontClient:
     def __init__(self, client_id: int, ws: ServerConnection, logger: _LogLimiter) -> None:
         self.id = client_id
         self.address = ":".join(map(str, ws.remote_address[:2])) if ws.remote_address else "?"
-        self.channels: set[int] = set()
+        self.channels: set[int] = set()  # those it advertised (to publish on)
+        self.offered: set[int] = set()  # those the SDK advertised to it
+        self.subscribing: dict[int, tuple[int, int]] = {}  # offered channel -> (subscription id, tries)
+        self.resending: set[asyncio.Task[None]] = set()
         self._ws = ws
         self._logger = logger
         self._status = _Every(STATUS_EVERY_S, "similar problems since not reported")
@@ -248,8 +266,12 @@ class FoxgloveFront:
         the SDK's backlog for it, bounded and dropping the oldest data, is where they wait),
         but its status answers, one per bad request, at most one a second as ours."""
         async for frame in upstream:
-            if isinstance(frame, str) and frame.startswith('{"op":"status"') and client.status_allowed() is None:
-                continue
+            if isinstance(frame, str):
+                if frame.startswith('{"op":"status"'):
+                    if _resubscribed(upstream, client, frame) or client.status_allowed() is None:
+                        continue
+                elif frame.startswith(('{"op":"advertise"', '{"op":"unadvertise"')):
+                    _note_offers(client, frame)
             await ws.send(frame)
         await ws.close()
 
@@ -281,6 +303,8 @@ class FoxgloveFront:
             return False
         op = msg.get("op") if isinstance(msg, dict) else None
         if isinstance(op, str) and op in FORWARDED_OPS:
+            if op == "subscribe":
+                _note_subscriptions(client, msg.get("subscriptions"))
             return True
         if op == "advertise" and isinstance(msg.get("channels"), list):
             for channel in msg["channels"]:
@@ -358,3 +382,56 @@ class FoxgloveFront:
 def _offered(ws: ServerConnection, offered: Any) -> Subprotocol | None:
     """The client's first choice among the names we speak."""
     return next((Subprotocol(name) for name in offered if name in SUBPROTOCOLS), None)
+
+
+def _note_offers(client: FrontClient, frame: str) -> None:
+    """The channels the SDK advertises to `client` (or takes back), from its frame."""
+    try:
+        msg = json.loads(frame)
+    except ValueError:
+        return
+    if msg.get("op") == "advertise":
+        client.offered.update(c["id"] for c in msg.get("channels", ()) if isinstance(c.get("id"), int))
+    else:
+        for channel_id in msg.get("channelIds", ()):
+            client.offered.discard(channel_id)
+            client.subscribing.pop(channel_id, None)
+
+
+def _note_subscriptions(client: FrontClient, subscriptions: Any) -> None:
+    """The subscriptions `client` asks of the SDK, kept for channels the SDK offered it (so
+    bounded by them), in case the SDK has not filed the channel yet."""
+    if not isinstance(subscriptions, list):
+        return
+    for sub in subscriptions:
+        if isinstance(sub, dict) and isinstance(sub.get("id"), int) and sub.get("channelId") in client.offered:
+            client.subscribing[sub["channelId"]] = (sub["id"], 0)
+
+
+def _resubscribed(upstream: Any, client: FrontClient, frame: str) -> bool:
+    """True when `frame` is the SDK's "Unknown channel ID" about a channel it did advertise to
+    `client`, which asked to subscribe: the subscription is sent again a little later, and the
+    answer is not passed on."""
+    try:
+        message = json.loads(frame).get("message")
+    except (ValueError, AttributeError):
+        return False
+    match = UNKNOWN_CHANNEL.fullmatch(message) if isinstance(message, str) else None
+    channel_id = int(match.group(1)) if match else None
+    if channel_id not in client.offered or channel_id not in client.subscribing:
+        return False
+    sub_id, tries = client.subscribing[channel_id]
+    if tries >= RESUBSCRIBE_TRIES:
+        return False
+    client.subscribing[channel_id] = (sub_id, tries + 1)
+    again = json.dumps({"op": "subscribe", "subscriptions": [{"id": sub_id, "channelId": channel_id}]})
+
+    async def resend() -> None:
+        await asyncio.sleep(RESUBSCRIBE_S * (tries + 1))
+        with contextlib.suppress(ConnectionClosed):
+            await upstream.send(again)
+
+    task = asyncio.get_running_loop().create_task(resend())
+    client.resending.add(task)  # the loop holds tasks weakly
+    task.add_done_callback(client.resending.discard)
+    return True

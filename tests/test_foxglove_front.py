@@ -1,0 +1,91 @@
+"""The Foxglove front against an upstream that answers as foxglove-sdk 0.30 does when it loses its
+race: it advertises a channel before filing it under the client, so a quick subscription is
+answered "Unknown channel ID". The upstream here loses that race every time, so the test fails
+without the front's mend (the npm client met it once in a CI run on a loaded machine)."""
+
+from __future__ import annotations
+
+import asyncio
+import json
+import struct
+from typing import Any
+
+from websockets.asyncio.client import connect
+from websockets.asyncio.server import ServerConnection, serve
+
+from quadsim.live.foxglove_front import SDK_SUBPROTOCOL, FoxgloveFront
+
+RACED, NEVER = 7, 99  # a channel advertised but filed late, and one never advertised
+
+
+def _sdk_json(msg: dict[str, Any]) -> str:
+    return json.dumps(msg, separators=(",", ":"))  # compact, as the SDK writes it
+
+
+class _NoInput:
+    def advertised(self, client: Any, channel: dict[str, Any]) -> None: ...
+    def unadvertised(self, client: Any, channel_id: int) -> None: ...
+    def received(self, client: Any, channel_id: int, data: bytes) -> None: ...
+
+
+async def _late_filing_sdk(ws: ServerConnection) -> None:
+    """Advertises RACED, answers its first subscription as unknown and the next with a message;
+    answers a subscription to any other channel as unknown."""
+    await ws.send(_sdk_json({"op": "serverInfo", "name": "fake", "capabilities": []}))
+    channel = {
+        "id": RACED,
+        "topic": "/quad/odom",
+        "encoding": "cdr",
+        "schemaName": "nav_msgs/msg/Odometry",
+        "schema": "",
+    }
+    await ws.send(_sdk_json({"op": "advertise", "channels": [channel]}))
+    filed = False
+    async for frame in ws:
+        msg = json.loads(frame)
+        if msg["op"] != "subscribe":
+            continue
+        for sub in msg["subscriptions"]:
+            if sub["channelId"] == RACED and filed:
+                await ws.send(struct.pack("<BIQ", 1, sub["id"], 123) + b"odom")
+                continue
+            filed = filed or sub["channelId"] == RACED
+            await ws.send(_sdk_json({"op": "status", "level": 2, "message": f"Unknown channel ID: {sub['channelId']}"}))
+
+
+async def _client_through_front(subprotocol: str) -> tuple[list[bytes], list[str]]:
+    async with serve(_late_filing_sdk, "127.0.0.1", 0, subprotocols=[SDK_SUBPROTOCOL]) as sdk:  # type: ignore[list-item]
+        upstream_port = sdk.sockets[0].getsockname()[1]
+        front = FoxgloveFront("127.0.0.1", 0, upstream_port, _NoInput())
+        data: list[bytes] = []
+        statuses: list[str] = []
+        try:
+            async with connect(f"ws://127.0.0.1:{front.port}", subprotocols=[subprotocol]) as ws:  # type: ignore[list-item]
+                loop = asyncio.get_running_loop()
+                end = loop.time() + 3.0
+                while loop.time() < end and not (data and statuses):
+                    try:
+                        frame = await asyncio.wait_for(ws.recv(), end - loop.time())
+                    except TimeoutError:
+                        break
+                    if isinstance(frame, bytes):
+                        data.append(frame)
+                        continue
+                    msg = json.loads(frame)
+                    if msg["op"] == "advertise":  # subscribe at once, as the npm client does
+                        subs = [{"id": 1, "channelId": RACED}, {"id": 2, "channelId": NEVER}]
+                        await ws.send(json.dumps({"op": "subscribe", "subscriptions": subs}))
+                    elif msg["op"] == "status":
+                        statuses.append(msg["message"])
+        finally:
+            await asyncio.to_thread(front.close)
+    return data, statuses
+
+
+def test_a_subscription_the_sdk_answers_too_early_is_sent_again_and_its_messages_arrive() -> None:
+    for subprotocol in ("foxglove.websocket.v1", SDK_SUBPROTOCOL):
+        data, statuses = asyncio.run(_client_through_front(subprotocol))
+        # the raced subscription was made again and its message came, under the client's id
+        assert data == [struct.pack("<BIQ", 1, 1, 123) + b"odom"], subprotocol
+        # the client heard only of the channel that was never advertised
+        assert statuses == [f"Unknown channel ID: {NEVER}"], subprotocol
