@@ -56,14 +56,17 @@ def tower_push():
         sim.send(Twist(linear_z=1.0))
         sim.run_for(1.5)
         sim.send(Twist(linear_x=2.0))
-        physics = sim.physics
-        rotor_links = [physics.link_index[r.link_name] for r in sim.vehicle.rotors]
-        camera_link = physics.link_index["front_camera_link"]
+        # the links where the URDF puts them on base_link (the flight body is one merged body)
+        frames = {f.link_name: f for f in sim.vehicle.link_frames}
+        rotor_links = [frames[r.link_name] for r in sim.vehicle.rotors]
+        camera_link = frames["front_camera_link"]
         for _ in range(6 * 60):
             sim.run_for(1 / 60)
+            base = sim.state
+            r = np.array(pb.getMatrixFromQuaternion(base.orientation_xyzw)).reshape(3, 3)
             for link in [*rotor_links, camera_link]:
-                position, orientation = pb.getLinkState(physics.body_id, link, physicsClientId=physics.client_id)[4:6]
-                m = np.array(pb.getMatrixFromQuaternion(orientation)).reshape(3, 3)
+                position = np.array(base.position_m) + r @ np.array(link.position_m)
+                m = r @ np.array(link.rotation)
                 if link == camera_link:
                     if m[0, 0] < math.cos(math.radians(45.0)):  # not looking at the wall (+x)
                         continue

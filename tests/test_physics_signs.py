@@ -139,3 +139,40 @@ def test_thrust_follows_the_attitude_of_the_step_it_is_applied_in(airframe):
             before = after
     assert max(off_start) < 0.1 * step_deg, off_start  # along this step's body z
     assert min(off_end) > 0.9 * step_deg, off_end  # and not along the next one's: the measure can tell
+
+
+@pytest.mark.parametrize("airframe", ["quadsim_x", "quadsim_hexa", "crazyflie"])
+def test_the_flight_body_turns_with_the_urdf_inertia_and_is_placed_at_base_link(airframe):
+    """The flight body is the URDF's links merged into one: a torque about each body axis turns
+    it at torque / the principal inertia the URDF gives (PyBullet's own merge made the quad's
+    roll and pitch inertia 8 % wrong), and the pose placed and read is base_link's origin's, in
+    any attitude, not that of the centre of mass (where PyBullet keeps a merged body's pose)."""
+    from quadsim.assets import asset_path
+    from quadsim.physics.pybullet_world import PhysicsWorld
+    from quadsim.physics.world_spec import load_world
+    from quadsim.vehicle.params import load_vehicle
+
+    vehicle = load_vehicle(asset_path("urdf", f"{airframe}.urdf"))
+    with PhysicsWorld(vehicle, load_world(), 240) as world:
+        cid = world.client_id
+        assert pb.getNumJoints(world.body_id, physicsClientId=cid) == 0  # one body
+        turned = pb.getQuaternionFromEuler((0.3, -0.2, 1.0))
+        world.place((1.0, 2.0, 20.0), turned)
+        placed = world.state(0)
+        assert placed.position_m == pytest.approx((1.0, 2.0, 20.0), abs=1e-12)
+        assert placed.orientation_xyzw == pytest.approx(turned, abs=1e-12)
+        assert placed.linear_velocity_mps == pytest.approx((0.0, 0.0, 0.0), abs=1e-12)
+        # PyBullet's pose of it is the centre of mass's, com_m from base_link's origin in body axes
+        com = pb.getBasePositionAndOrientation(world.body_id, physicsClientId=cid)[0]
+        m = pb.getMatrixFromQuaternion(turned)
+        expected = [p + sum(m[3 * i + j] * vehicle.com_m[j] for j in range(3)) for i, p in enumerate((1.0, 2.0, 20.0))]
+        assert com == pytest.approx(expected, abs=1e-12)
+        for axis in range(3):
+            world.place((0.0, 0.0, 20.0), (0.0, 0.0, 0.0, 1.0))
+            inertia = vehicle.inertia_kgm2[axis][axis]
+            torque = [0.0, 0.0, 0.0]
+            torque[axis] = 0.1 * inertia  # 0.1 rad/s^2 about the body (and world) axis
+            pb.applyExternalTorque(world.body_id, -1, torque, pb.WORLD_FRAME, physicsClientId=cid)
+            pb.stepSimulation(physicsClientId=cid)
+            spin = pb.getBaseVelocity(world.body_id, physicsClientId=cid)[1]
+            assert spin[axis] * 240 == pytest.approx(0.1, rel=0.002), (airframe, axis)

@@ -16,7 +16,7 @@ from quadsim.core.types import RotorForces, StartPose, VehicleState
 from quadsim.errors import ConfigError
 from quadsim.physics.client import WorldClient
 from quadsim.physics.pybullet_quiet import pb
-from quadsim.physics.scene import load_vehicle_body
+from quadsim.physics.scene import inertial_offset, load_vehicle_body
 from quadsim.physics.wind import WindField, WindSettings
 from quadsim.physics.world_spec import WorldSpec
 from quadsim.vehicle.aero import drag_force_body_n, ground_effect_ratio
@@ -51,6 +51,10 @@ class PhysicsWorld:
     step before; a LINK_FRAME torque on the base is applied in the world frame: STYLE.md); then
     one `stepSimulation`. PyBullet clears external forces after each step, so both are
     re-applied. The ground effect sees the floor (z = 0) only, not the landmarks.
+
+    The body is the URDF with its fixed links merged into one rigid body (scene.load_vehicle_body),
+    whose pose PyBullet keeps at the centre of mass; what this class reads, sets and reports is
+    base_link's origin, as the URDF and the recording contract have it.
 
     It keeps no clock: the simulation loop (quadsim.sim.loop.SimLoop) is the only caller of
     `_step` and owns the step count, which it hands to `state`.
@@ -162,7 +166,8 @@ class PhysicsWorld:
         """The radius of a sphere about base_link's origin holding every collision shape of the
         vehicle in any attitude (the farthest corner of the links' boxes as loaded)."""
         cid, body = self._cid, self.body_id
-        base = pb.getBasePositionAndOrientation(body, physicsClientId=cid)[0]
+        self._read_kinematics()
+        base = self._position
         corners = [
             math.dist(base, (x, y, z))
             for link in range(-1, pb.getNumJoints(body, physicsClientId=cid))
@@ -177,7 +182,15 @@ class PhysicsWorld:
     def _load_body(self, name: str) -> None:
         """The vehicle's body at its start pose, its links by name and its reach."""
         cid = self._cid
-        self.body_id = load_vehicle_body(self.vehicle, cid, self._spawn_position(), self._spawn_orientation())
+        at, facing = self._spawn_position(), self._spawn_orientation()
+        self.body_id = load_vehicle_body(self.vehicle, cid, at, facing, merged=True)
+        offset = inertial_offset(self.body_id, cid)
+        if offset is None:  # a merge that turned the inertial frame: the URDF's tree as it is
+            pb.removeBody(self.body_id, physicsClientId=cid)
+            self.body_id = load_vehicle_body(self.vehicle, cid, at, facing)
+            offset = inertial_offset(self.body_id, cid) or (0.0, 0.0, 0.0)
+        #: base_link's origin to the base's inertial frame, where PyBullet has the body's pose
+        self._offset: Vec3 = offset
         self._body_names[self.body_id] = name
         self.link_index = {
             pb.getJointInfo(self.body_id, i, physicsClientId=cid)[12].decode(): i
@@ -271,11 +284,9 @@ class PhysicsWorld:
         """Put the vehicle back at its start pose, at rest, rotors stopped."""
         # away from everything first, so that PyBullet forgets the contacts it had (their cached
         # impulses warm-start the solver): a reset then flies the same whatever came before it
-        pb.resetBasePositionAndOrientation(self.body_id, self._far, (0.0, 0.0, 0.0, 1.0), physicsClientId=self._cid)
+        self._put(self._far, (0.0, 0.0, 0.0, 1.0))
         pb.performCollisionDetection(physicsClientId=self._cid)
-        pb.resetBasePositionAndOrientation(
-            self.body_id, self._spawn_position(), self._spawn_orientation(), physicsClientId=self._cid
-        )
+        self._put(self._spawn_position(), self._spawn_orientation())
         pb.resetBaseVelocity(self.body_id, (0.0, 0.0, 0.0), (0.0, 0.0, 0.0), physicsClientId=self._cid)
         self.motors.reset()
         self._reset_wind()
@@ -293,7 +304,7 @@ class PhysicsWorld:
         stopped). For drop tests, measurements and tests that start in the air; the loop's clock
         is not touched."""
         orientation = orientation_xyzw if orientation_xyzw is not None else self._spawn_orientation()
-        pb.resetBasePositionAndOrientation(self.body_id, position_m, orientation, physicsClientId=self._cid)
+        self._put(position_m, orientation)
         pb.resetBaseVelocity(self.body_id, (0.0, 0.0, 0.0), (0.0, 0.0, 0.0), physicsClientId=self._cid)
         self.motors.reset(thrusts_n)
         self._read_kinematics()
@@ -365,11 +376,37 @@ class PhysicsWorld:
         self._previous_velocity = self._linear_velocity
         self._read_kinematics()
 
+    def _put(self, position_m: Vec3, orientation_xyzw: tuple[float, float, float, float]) -> None:
+        """base_link's origin at `position_m`, in `orientation_xyzw` (PyBullet sets the base's
+        inertial frame)."""
+        (m00, m01, m02), (m10, m11, m12), (m20, m21, m22) = matrix_from_quaternion(orientation_xyzw)
+        ox, oy, oz = self._offset
+        x, y, z = position_m
+        at = (
+            x + m00 * ox + m01 * oy + m02 * oz,
+            y + m10 * ox + m11 * oy + m12 * oz,
+            z + m20 * ox + m21 * oy + m22 * oz,
+        )
+        pb.resetBasePositionAndOrientation(self.body_id, at, orientation_xyzw, physicsClientId=self._cid)
+
     def _read_kinematics(self) -> None:
+        """The pose and velocity of base_link's origin, from those of the base's inertial frame."""
         body, cid = self.body_id, self._cid
-        self._position, self._orientation = pb.getBasePositionAndOrientation(body, cid)
-        self._linear_velocity, self._angular_velocity = pb.getBaseVelocity(body, cid)
-        self._rotation = matrix_from_quaternion(self._orientation)
+        (x, y, z), self._orientation = pb.getBasePositionAndOrientation(body, cid)
+        (vx, vy, vz), w = pb.getBaseVelocity(body, cid)
+        self._angular_velocity = w
+        self._rotation = (m00, m01, m02), (m10, m11, m12), (m20, m21, m22) = matrix_from_quaternion(self._orientation)
+        ox, oy, oz = self._offset
+        dx, dy, dz = m00 * ox + m01 * oy + m02 * oz, m10 * ox + m11 * oy + m12 * oz, m20 * ox + m21 * oy + m22 * oz
+        wx, wy, wz = w
+        self._position = (x - dx, y - dy, z - dz)
+        # the origin moves with the inertial frame's velocity, less the turn about it: w x d
+        self._linear_velocity = (vx - (wy * dz - wz * dy), vy - (wz * dx - wx * dz), vz - (wx * dy - wy * dx))
+
+    @property
+    def pose(self) -> tuple[Vec3, tuple[float, float, float, float]]:
+        """base_link's origin and orientation after the last physics step (world frame)."""
+        return self._position, self._orientation
 
     def state(self, step: int) -> VehicleState:
         """The vehicle's state after the last physics step, which the loop counts as `step`

@@ -11,7 +11,7 @@ import tempfile
 from pathlib import Path
 
 from quadsim.errors import ConfigError
-from quadsim.physics.pybullet_quiet import pb
+from quadsim.physics.pybullet_quiet import c_output_silenced, pb
 from quadsim.physics.world_spec import Shape, WorldSpec
 from quadsim.vehicle.params import VehicleParams
 
@@ -119,15 +119,41 @@ def load_vehicle_body(
     cid: int,
     position: tuple[float, float, float],
     orientation: tuple[float, float, float, float],
+    merged: bool = False,
 ) -> int:
+    """The vehicle's URDF in the world, base_link at `position` and `orientation`.
+
+    `merged`: as one rigid body (the flight world's): its fixed links (rotors, camera mounts)
+    merged into base_link, so PyBullet steps one body instead of a tree of fixed joints (about
+    half the cost of a step). PyBullet's merge gets the compound inertia wrong (the quad's roll
+    and pitch inertia come out 8 % off, one too large and the other too small), so the
+    inertia is set to the one VehicleParams computes from the URDF (its principal moments: the
+    products of inertia of the shipped airframes are under 1e-3 of them). The merged body's
+    inertial frame sits at the centre of mass: `inertial_offset` says where."""
+    flags = pb.URDF_USE_INERTIA_FROM_FILE | (pb.URDF_MERGE_FIXED_LINKS if merged else 0)
     try:
-        body = pb.loadURDF(
-            str(vehicle.urdf_path), position, orientation, flags=pb.URDF_USE_INERTIA_FROM_FILE, physicsClientId=cid
-        )
+        with c_output_silenced():  # the merge prints a line for each link it merges
+            body = pb.loadURDF(str(vehicle.urdf_path), position, orientation, flags=flags, physicsClientId=cid)
     except pb.error as exc:
         raise ConfigError(f"PyBullet could not load {vehicle.urdf_path}: {exc}") from None
     # PyBullet damps every link a little by default (0.04); the parameter file's drag is the
     # only drag the vehicle should feel
     for link in range(-1, pb.getNumJoints(body, physicsClientId=cid)):
         pb.changeDynamics(body, link, linearDamping=0.0, angularDamping=0.0, physicsClientId=cid)
+    if merged and pb.getNumJoints(body, physicsClientId=cid) == 0:
+        inertia = vehicle.inertia_kgm2
+        diagonal = (inertia[0][0], inertia[1][1], inertia[2][2])
+        pb.changeDynamics(body, -1, mass=vehicle.mass_kg, localInertiaDiagonal=diagonal, physicsClientId=cid)
     return body
+
+
+def inertial_offset(body: int, cid: int) -> tuple[float, float, float] | None:
+    """Where PyBullet's pose of `body`'s base (its inertial frame) is, from base_link's origin,
+    in base_link axes; None when that frame is also turned. PyBullet reports and sets a base's
+    pose at its inertial frame; a URDF is placed, and the simulator reports, at base_link's origin."""
+    info = pb.getDynamicsInfo(body, -1, physicsClientId=cid)
+    x, y, z, _ = info[4]
+    if max(abs(x), abs(y), abs(z)) > 1e-9:
+        return None
+    ox, oy, oz = info[3]
+    return (ox, oy, oz)

@@ -79,17 +79,15 @@ class FleetRecordedRun(RunOutputs):
 
     def _start_cameras(self, name: str, specs: tuple[CameraSpec, ...]) -> None:
         """`name`'s cameras, rendered in the fleet's world when its taps capture."""
-        from quadsim.physics.pybullet_quiet import pb
         from quadsim.sensors.camera import ImageKind, RendererKind
         from quadsim.sensors.pipeline import CameraPipeline, Companions
 
         sim = self.fleet[name]
         others = [other for other_name, other in self.fleet.vehicles.items() if other_name != name]
-        cid = self.fleet.client.cid
-        bodies = tuple(other.physics.body_id for other in others)
+        worlds = tuple(other.physics for other in others)
 
         def poses() -> tuple:
-            return tuple(pb.getBasePositionAndOrientation(body, physicsClientId=cid) for body in bodies)
+            return tuple(world.pose for world in worlds)
 
         pipeline = CameraPipeline(
             sim.vehicle,
@@ -99,7 +97,7 @@ class FleetRecordedRun(RunOutputs):
             RendererKind.TINY,  # EGL would draw in a client of its own, without the other vehicles
             workers=self.options.render_workers,
             ordered_delivery=self.options.ordered_delivery,
-            scene_client=cid,
+            scene_client=self.fleet.client.cid,
             companions=Companions(tuple(other.vehicle for other in others), poses),
         )
         pipeline.want(ImageKind.JPEG)
