@@ -68,6 +68,33 @@ def test_vehicles_that_fly_into_each_other_both_crash_naming_the_other():
     assert "hit bravo" in crashes["alpha"][0].value and "hit alpha" in crashes["bravo"][0].value
 
 
+def test_the_contacts_asked_once_a_step_for_the_world_are_each_vehicles_own():
+    """A fleet asks PyBullet for the world's contacts once a step and hands each vehicle its
+    own: the same points, with the normal turned to point at it, as asking for each vehicle."""
+    from quadsim.physics.pybullet_quiet import pb
+
+    seen = {"floor": 0, "other vehicle": 0}
+    with Fleet(
+        [FleetVehicle("alpha"), FleetVehicle("bravo", start=StartPose(3.0, 0.0))], SimConfig(z_mode=ZMode.VELOCITY)
+    ) as fleet:
+        bodies = {fleet[n].physics.body_id: n for n in fleet}
+        cid = fleet.client.cid
+        for name in fleet:
+            fleet[name].send(Twist(linear_z=1.0))
+        fleet.run_for(1.5)
+        for name in fleet:
+            fleet[name].send(Twist())
+        fleet["alpha"].send(Twist(linear_x=3.0))  # into bravo, then both down to the floor
+        for _ in range(3 * 240):
+            fleet.step()
+            for body in bodies:
+                asked = [(p[2], p[7][2]) for p in pb.getContactPoints(body, physicsClientId=cid)]
+                assert list(fleet.client.touching(body)) == asked
+                for other, _ in asked:
+                    seen["other vehicle" if other in bodies else "floor"] += 1
+    assert seen["floor"] > 0 and seen["other vehicle"] > 0, seen  # both kinds were compared
+
+
 def test_only_the_fleet_steps_its_vehicles_and_a_reset_flies_again_the_same():
     vehicles = [
         FleetVehicle("alpha", driver=ScriptedDriver(load_script("step_forward"))),

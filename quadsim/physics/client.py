@@ -40,6 +40,8 @@ class WorldClient:
         #: box by name (a landmark without collision is left out: nothing touches it); None when a
         #: plane is tilted (no vehicle then skips its contact query)
         self.scenery = self._scenery_geometry()
+        #: the world's contacts after the last step by body, asked when first wanted (touching)
+        self._touching: dict[int, tuple[tuple[int, float], ...]] | None = None
 
     def _scenery_geometry(self) -> tuple[tuple[float, ...], dict[str, tuple[Vec3, Vec3]]] | None:
         cid = self.cid
@@ -65,6 +67,25 @@ class WorldClient:
     def step(self) -> None:
         """One physics step of every body in the world."""
         pb.stepSimulation(self.cid)
+        self._touching = None
+
+    def forget_contacts(self) -> None:
+        """A body was moved by hand: the contacts are asked again when next wanted."""
+        self._touching = None
+
+    def touching(self, body: int) -> tuple[tuple[int, float], ...]:
+        """What `body` touches after the last step: (other body, world z of the contact normal
+        pointing at `body`) for each contact point, as `getContactPoints(body)` gives them. The
+        world's contacts are asked once a step, for every vehicle in it (a fleet asked once per
+        vehicle, about a tenth of a vehicle's step each)."""
+        if self._touching is None:
+            table: dict[int, list[tuple[int, float]]] = {}
+            for point in pb.getContactPoints(physicsClientId=self.cid):
+                a, b, nz = point[1], point[2], point[7][2]  # the normal on b points at a
+                table.setdefault(a, []).append((b, nz))
+                table.setdefault(b, []).append((a, -nz))
+            self._touching = {body: tuple(points) for body, points in table.items()}
+        return self._touching.get(body, ())
 
     def close(self) -> None:
         if self.cid >= 0:

@@ -7,6 +7,7 @@ the vehicle's state. It is the only flight module that imports pybullet.
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from typing import NamedTuple
 
 import numpy as np
@@ -260,12 +261,16 @@ class PhysicsWorld:
         of all the scenery (the query costs about a tenth of a step)."""
         if self._clear_of_scenery():
             return ()
-        points = pb.getContactPoints(self.body_id, physicsClientId=self._cid)
+        if self._owns_client:
+            points: Sequence[tuple[int, float]] = [
+                (p[2], p[7][2]) for p in pb.getContactPoints(self.body_id, physicsClientId=self._cid)
+            ]
+        else:  # a fleet's world: its contacts are asked once a step for every vehicle
+            points = self.client.touching(self.body_id)
         if not points:
             return ()
         normal_z: dict[int, float] = {}
-        for point in points:
-            other, nz = point[2], point[7][2]
+        for other, nz in points:
             if nz > normal_z.get(other, -2.0):
                 normal_z[other] = nz
         return tuple(Contact(self._body_names.get(b, f"body {b}"), nz) for b, nz in normal_z.items())
@@ -317,7 +322,7 @@ class PhysicsWorld:
         would move the vehicle without moving the clock. (A fleet steps its world once for
         every vehicle: `_apply` for each, one world step, then `_finish_step` for each.)"""
         self._apply(command_n)
-        pb.stepSimulation(self._cid)
+        self.client.step()
         self._finish_step()
 
     def _apply(self, command_n: RotorForces) -> None:
@@ -378,7 +383,8 @@ class PhysicsWorld:
 
     def _put(self, position_m: Vec3, orientation_xyzw: tuple[float, float, float, float]) -> None:
         """base_link's origin at `position_m`, in `orientation_xyzw` (PyBullet sets the base's
-        inertial frame)."""
+        inertial frame); the world's contacts are asked again."""
+        self.client.forget_contacts()
         (m00, m01, m02), (m10, m11, m12), (m20, m21, m22) = matrix_from_quaternion(orientation_xyzw)
         ox, oy, oz = self._offset
         x, y, z = position_m
