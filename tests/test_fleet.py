@@ -68,6 +68,30 @@ def test_vehicles_that_fly_into_each_other_both_crash_naming_the_other():
     assert "hit bravo" in crashes["alpha"][0].value and "hit alpha" in crashes["bravo"][0].value
 
 
+def test_with_reset_on_crash_vehicles_that_collide_both_crash_and_both_go_back():
+    """The first vehicle's reset moves it away within the step: the second still has the
+    step's contact with it (it was left uncrashed and hit again)."""
+    with Fleet(
+        [FleetVehicle("alpha"), FleetVehicle("bravo", start=StartPose(3.0, 0.0))],
+        SimConfig(z_mode=ZMode.VELOCITY),
+        reset_on_crash=True,
+    ) as fleet:
+        for name in fleet:
+            fleet[name].send(Twist(linear_z=1.0))
+        fleet.run_for(1.5)
+        for name in fleet:
+            fleet[name].send(Twist())
+        fleet["alpha"].send(Twist(linear_x=3.0))
+        fleet.run_for(2.0)
+        kinds = {
+            n: [(e.kind, e.step) for e in fleet[n].events if e.kind in (EventKind.CRASH, EventKind.RESET)]
+            for n in fleet
+        }
+    crash = kinds["alpha"][0][1]
+    assert kinds["alpha"][:2] == [(EventKind.CRASH, crash), (EventKind.RESET, crash)], kinds
+    assert kinds["bravo"][:2] == [(EventKind.CRASH, crash), (EventKind.RESET, crash)], kinds
+
+
 def test_the_contacts_asked_once_a_step_for_the_world_are_each_vehicles_own():
     """A fleet asks PyBullet for the world's contacts once a step and hands each vehicle its
     own: the same points, with the normal turned to point at it, as asking for each vehicle."""

@@ -227,6 +227,7 @@ def _front_frames(folder: Path, with_bravo: bool) -> tuple[Path, list]:
     (folder / "pair.toml").write_text(PAIR.format(bravo=BRAVO if with_bravo else ""))
     out = cli("run", "--fleet", str(folder / "pair.toml"), "--camera-size", "160x120", "--out", str(folder / "p.mcap"))
     assert out.returncode == 0, out.stderr
+    assert "control 240 Hz, cameras alpha (front, floor)" in out.stdout.splitlines()[0]  # whose it records
     flight = load_flight(folder / "p.mcap", "alpha")
     frames = [cv2.imdecode(np.frombuffer(jpeg, np.uint8), cv2.IMREAD_GRAYSCALE) for _, jpeg in flight.frames["front"]]
     return folder / "p.mcap", frames

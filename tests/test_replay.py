@@ -126,10 +126,24 @@ def _foreign(path: Path) -> Path:
 def test_resim_refuses_clearly(tmp_path):
     with pytest.raises(QuadsimError, match="not a quadsim recording"):
         resimulate(load_flight(_foreign(tmp_path / "f.mcap")))
+    # a flight without a command (a window closed at once) is a vehicle at rest: it re-flies
     path = tmp_path / "no_commands.mcap"
     record_flight(path, cameras=False, script="silence 1.0\n")
-    with pytest.raises(QuadsimError, match="no /quad_cmd_twist commands"):
-        resimulate(load_flight(path))
+    silent = resimulate(load_flight(path))
+    assert silent.position.max_error == 0.0 and silent.attitude.max_error == 0.0
+    assert silent.states_compared >= 60
+    # a window closed (or signalled) before its first step: nothing flown, nothing to re-fly
+    app = TeleopApp(SimConfig(), OutputOptions(out=tmp_path / "at_once.mcap", cameras=()), TeleopOptions())
+    app.close()
+    with pytest.raises(QuadsimError, match="nothing was flown"):
+        resimulate(load_flight(tmp_path / "at_once.mcap"))
+    checked = subprocess.run(
+        [sys.executable, str(ROOT / "main.py"), "check", str(tmp_path / "at_once.mcap")],
+        capture_output=True,
+        text=True,
+    )
+    assert checked.returncode == 0, checked.stdout + checked.stderr  # `check recordings/` is not failed by it
+    assert "nothing was flown" in checked.stdout
     app = TeleopApp(
         SimConfig(),
         OutputOptions(out=tmp_path / "mid", record=False, cameras=()),

@@ -191,9 +191,10 @@ class FleetFlight:
         config = fleet.config
         until = f"for {duration:.1f} s" if duration < MAX_DURATION_S else "until Ctrl-C"
         who = ", ".join(f"{v.name} ({v.airframe}, {v.input_text})" for v in self.fleet_file.vehicles)
+        seen = ", ".join(f"{v.name} ({', '.join(v.cameras)})" for v in self.fleet_file.vehicles if v.cameras)
         return (
             f"flying a fleet of {len(fleet)} {until}: {who}; physics {config.rates.physics_hz} Hz, "
-            f"control {config.rates.control_hz} Hz, cameras none"
+            f"control {config.rates.control_hz} Hz, cameras {seen or 'none'}"
             + (f", {config.wind.describe()}" if config.wind.enabled else "")
         )
 

@@ -49,7 +49,7 @@ def check_one(task: CheckTask) -> CheckOutcome:
     bad file: it is 'unusable')."""
     from quadsim.recording.flight import load_flights
     from quadsim.session.fleet_resim import resimulate_fleet
-    from quadsim.session.resim import ResimReport, resimulate
+    from quadsim.session.resim import NothingFlown, ResimReport, resimulate
 
     path = task.path
     try:
@@ -64,6 +64,8 @@ def check_one(task: CheckTask) -> CheckOutcome:
             )
         else:
             report = resimulate(flight, record=False, position_tolerance_m=m, attitude_tolerance_rad=rad)
+    except NothingFlown:  # a run stopped at once: its (empty) flight is the same as re-flown
+        return CheckOutcome(path, "ok", (f"ok    {path}: nothing was flown (stopped before the first step)",))
     except QuadsimError as exc:
         return CheckOutcome(path, "unusable", (f"ERROR {path}: {str(exc).removeprefix(f'{path}: ')}",))
     ok = report.within(task.tolerance_m, task.tolerance_rad)

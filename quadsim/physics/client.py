@@ -69,15 +69,12 @@ class WorldClient:
         pb.stepSimulation(self.cid)
         self._touching = None
 
-    def forget_contacts(self) -> None:
-        """A body was moved by hand: the contacts are asked again when next wanted."""
-        self._touching = None
-
     def touching(self, body: int) -> tuple[tuple[int, float], ...]:
-        """What `body` touches after the last step: (other body, world z of the contact normal
+        """What `body` touched in the last step: (other body, world z of the contact normal
         pointing at `body`) for each contact point, as `getContactPoints(body)` gives them. The
         world's contacts are asked once a step, for every vehicle in it (a fleet asked once per
-        vehicle, about a tenth of a vehicle's step each)."""
+        vehicle, about a tenth of a vehicle's step each), and kept until the next step, whoever
+        is moved by hand in between: a collision is the same contact for both vehicles."""
         if self._touching is None:
             table: dict[int, list[tuple[int, float]]] = {}
             for point in pb.getContactPoints(physicsClientId=self.cid):

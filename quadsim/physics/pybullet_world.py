@@ -383,8 +383,8 @@ class PhysicsWorld:
 
     def _put(self, position_m: Vec3, orientation_xyzw: tuple[float, float, float, float]) -> None:
         """base_link's origin at `position_m`, in `orientation_xyzw` (PyBullet sets the base's
-        inertial frame); the world's contacts are asked again."""
-        self.client.forget_contacts()
+        inertial frame). A fleet's vehicles keep the contacts of the step they were asked in:
+        one vehicle put back after a crash leaves the vehicle it hit that step its contact."""
         (m00, m01, m02), (m10, m11, m12), (m20, m21, m22) = matrix_from_quaternion(orientation_xyzw)
         ox, oy, oz = self._offset
         x, y, z = position_m

@@ -16,7 +16,7 @@ from quadsim.core.kinematics import body_velocity
 from quadsim.core.types import VehicleState, ZMode
 from quadsim.drivers.replay import ReplayDriver
 from quadsim.errors import QuadsimError
-from quadsim.recording.contract import ODOM, POSE, TWIST, Names
+from quadsim.recording.contract import ODOM, POSE, Names
 from quadsim.recording.flight import RecordedFlight
 from quadsim.session.outputs import OutputOptions, RecordedRun
 from quadsim.sim.config import SimConfig
@@ -68,6 +68,10 @@ class ResimReport:
         return out
 
 
+class NothingFlown(QuadsimError):
+    """A whole recording of a run stopped before its first physics step."""
+
+
 def _plain_name(name: str) -> bool:
     """A file name that stays inside the folder it is written to."""
     return bool(name) and name == Path(name).name and not name.startswith(".") and "\0" not in name
@@ -91,8 +95,8 @@ def rebuild_config(flight: RecordedFlight, folder: Path) -> tuple[SimConfig, dic
     if unreadable is not None:
         raise QuadsimError(f"{flight.path}: {unreadable}, so the flight cannot be re-flown faithfully")
     pose = Names(flight.vehicle).topic(POSE).name
-    if not flight.commands and not flight.vehicle:  # a fleet's idle vehicle has none
-        raise QuadsimError(f"{flight.path}: has no {TWIST.name} commands to re-fly")
+    if not flight.states and not flight.end_ns and not flight.commands:
+        raise NothingFlown(f"{flight.path}: nothing was flown (it ended before the first step): nothing to re-fly")
     if not flight.states:
         raise QuadsimError(f"{flight.path}: has no {pose} states to compare with")
     period = d.config.rates.physics_hz // d.config.rates.state_hz
