@@ -50,16 +50,24 @@ def test_each_vehicle_flies_as_it_would_alone_on_one_clock():
     assert charlie.position_m[2] < 0.1  # idle: never took off
 
 
+def _ramming_pair(reset_on_crash: bool = False) -> Fleet:
+    """alpha and bravo 3 m apart, climbed to 1.5 m; alpha then flies at bravo at 3 m/s."""
+    fleet = Fleet(
+        [FleetVehicle("alpha"), FleetVehicle("bravo", start=StartPose(3.0, 0.0))],
+        SimConfig(z_mode=ZMode.VELOCITY),
+        reset_on_crash=reset_on_crash,
+    )
+    for name in fleet:
+        fleet[name].send(Twist(linear_z=1.0))
+    fleet.run_for(1.5)
+    for name in fleet:
+        fleet[name].send(Twist())
+    fleet["alpha"].send(Twist(linear_x=3.0))
+    return fleet
+
+
 def test_vehicles_that_fly_into_each_other_both_crash_naming_the_other():
-    with Fleet(
-        [FleetVehicle("alpha"), FleetVehicle("bravo", start=StartPose(3.0, 0.0))], SimConfig(z_mode=ZMode.VELOCITY)
-    ) as fleet:
-        for name in fleet:
-            fleet[name].send(Twist(linear_z=1.0))
-        fleet.run_for(1.5)
-        for name in fleet:
-            fleet[name].send(Twist())
-        fleet["alpha"].send(Twist(linear_x=3.0))
+    with _ramming_pair() as fleet:
         fleet.run_for(2.0)
         crashes = {n: [e for e in fleet[n].events if e.kind is EventKind.CRASH] for n in fleet}
     assert crashes["alpha"] and crashes["alpha"][0].hit == "bravo", crashes
@@ -71,17 +79,7 @@ def test_vehicles_that_fly_into_each_other_both_crash_naming_the_other():
 def test_with_reset_on_crash_vehicles_that_collide_both_crash_and_both_go_back():
     """The first vehicle's reset moves it away within the step: the second still has the
     step's contact with it (it was left uncrashed and hit again)."""
-    with Fleet(
-        [FleetVehicle("alpha"), FleetVehicle("bravo", start=StartPose(3.0, 0.0))],
-        SimConfig(z_mode=ZMode.VELOCITY),
-        reset_on_crash=True,
-    ) as fleet:
-        for name in fleet:
-            fleet[name].send(Twist(linear_z=1.0))
-        fleet.run_for(1.5)
-        for name in fleet:
-            fleet[name].send(Twist())
-        fleet["alpha"].send(Twist(linear_x=3.0))
+    with _ramming_pair(reset_on_crash=True) as fleet:
         fleet.run_for(2.0)
         kinds = {
             n: [(e.kind, e.step) for e in fleet[n].events if e.kind in (EventKind.CRASH, EventKind.RESET)]
@@ -98,17 +96,9 @@ def test_the_contacts_asked_once_a_step_for_the_world_are_each_vehicles_own():
     from quadsim.physics.pybullet_quiet import pb
 
     seen = {"floor": 0, "other vehicle": 0}
-    with Fleet(
-        [FleetVehicle("alpha"), FleetVehicle("bravo", start=StartPose(3.0, 0.0))], SimConfig(z_mode=ZMode.VELOCITY)
-    ) as fleet:
+    with _ramming_pair() as fleet:  # into bravo, then both down to the floor
         bodies = {fleet[n].physics.body_id: n for n in fleet}
         cid = fleet.client.cid
-        for name in fleet:
-            fleet[name].send(Twist(linear_z=1.0))
-        fleet.run_for(1.5)
-        for name in fleet:
-            fleet[name].send(Twist())
-        fleet["alpha"].send(Twist(linear_x=3.0))  # into bravo, then both down to the floor
         for _ in range(3 * 240):
             fleet.step()
             for body in bodies:
