@@ -367,7 +367,7 @@ def test_the_largest_runs_are_handed_out_first(tmp_path: Path, monkeypatch) -> N
     assert [row["scenario"] for row in read_table(result.table)] == ["takeoff", "climb", "yaw"]
 
 
-PAIR = """
+TRIO = """
 [[vehicle]]
 name = "alpha"
 start = [0.0, 0.0, 0.0, 0.0]
@@ -399,8 +399,8 @@ def test_a_fleet_file_is_a_scenario_whose_row_is_its_worst_vehicle(tmp_path: Pat
     from quadsim.sim.fleet_file import load_fleet_file
     from quadsim.sim.loop import StateLog
 
-    (tmp_path / "pair.toml").write_text(PAIR)
-    text = 'scenarios = ["hover", "pair.toml"]\nduration_s = 6.0\nwind = ["0,0", "2,90"]\n[limits]\nmax_tilt_deg = 8\n'
+    (tmp_path / "trio.toml").write_text(TRIO)
+    text = 'scenarios = ["hover", "trio.toml"]\nduration_s = 6.0\nwind = ["0,0", "2,90"]\n[limits]\nmax_tilt_deg = 8\n'
     outs = {}
     for jobs in ("1", "2"):
         done = _sweep(
@@ -410,11 +410,11 @@ def test_a_fleet_file_is_a_scenario_whose_row_is_its_worst_vehicle(tmp_path: Pat
         outs[jobs] = (tmp_path / jobs / "results.csv").read_text()
     assert outs["1"].replace(str(tmp_path / "1"), "") == outs["2"].replace(str(tmp_path / "2"), "")
     rows = read_table(tmp_path / "1" / "results.csv")
-    fleet_rows = [r for r in rows if r["scenario"] == "pair.toml"]
+    fleet_rows = [r for r in rows if r["scenario"] == "trio.toml"]
     assert len(rows) == 4 and len(fleet_rows) == 2
     assert all(r["airframe"] == "per vehicle" and r["controller"] == "per vehicle" for r in fleet_rows)
     windy = next(r for r in fleet_rows if r["wind"] == "2,90")
-    fleet_file = load_fleet_file(tmp_path / "pair.toml")
+    fleet_file = load_fleet_file(tmp_path / "trio.toml")
     config = SimConfig(wind=wind_from_text("2,90", "none"), seed=0)
     with Fleet(fleet_file.fleet_vehicles(fleet_drivers(fleet_file)), config) as fleet:
         logs = {name: StateLog() for name in fleet}
@@ -433,8 +433,8 @@ def test_a_fleet_file_is_a_scenario_whose_row_is_its_worst_vehicle(tmp_path: Pat
 @pytest.mark.parametrize(
     ("text", "expected"),
     [
-        ('scenarios = ["pair.toml"]\nairframes = ["hexa"]\n', "'airframes' with a fleet file among the scenarios"),
-        ('scenarios = ["pair.toml"]\n[controllers.c]\nkind = "seed"\n', "'controllers' with a fleet file"),
+        ('scenarios = ["trio.toml"]\nairframes = ["hexa"]\n', "'airframes' with a fleet file among the scenarios"),
+        ('scenarios = ["trio.toml"]\n[controllers.c]\nkind = "seed"\n', "'controllers' with a fleet file"),
         (
             'scenarios = ["live.toml"]\n',
             "vehicle 'alpha' takes input = 'ros2'; in a sweep every vehicle flies a script",
@@ -444,7 +444,7 @@ def test_a_fleet_file_is_a_scenario_whose_row_is_its_worst_vehicle(tmp_path: Pat
     ],
 )
 def test_a_sweep_refuses_a_fleet_it_cannot_fly(tmp_path: Path, text: str, expected: str) -> None:
-    (tmp_path / "pair.toml").write_text(PAIR)
+    (tmp_path / "trio.toml").write_text(TRIO)
     (tmp_path / "live.toml").write_text('[[vehicle]]\nname = "alpha"\ninput = "ros2"\n')
     (tmp_path / "idle.toml").write_text('[[vehicle]]\nname = "alpha"\n')
     with pytest.raises(ConfigError, match=re.escape(expected)):

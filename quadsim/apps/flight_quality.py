@@ -173,7 +173,7 @@ def ground_effect_thrust_ratio(rotor_heights_d: float = 0.5, config: SimConfig |
 
     with Simulator(config or SimConfig()) as sim:
         v, physics = sim.vehicle, sim.physics
-        hub_z = sum(v.com_m[2] + r.position_m[2] for r in v.rotors) / len(v.rotors)
+        hub_z = sum(z for _, _, z in v.rotor_hubs_m) / len(v.rotors)
         floor = physics.landmark_ids["floor"]
         for link in range(-1, len(physics.link_index)):
             pb.setCollisionFilterPair(physics.body_id, floor, link, -1, 0, physicsClientId=physics.client_id)

@@ -65,6 +65,14 @@ class Video:
         return f"video       {self.path} (VP9{short})"
 
 
+def mp4_target(where: Path, recording: Path) -> tuple[Path, str]:
+    """Where `--mp4 WHERE` puts a recording's videos: the folder and the name before `_CAMERA.mp4`
+    (WHERE a folder: RECORDING_front.mp4 in it; WHERE NAME.mp4: NAME_front.mp4 beside it)."""
+    if where.suffix.lower() == ".mp4":
+        return where.parent, where.stem
+    return where, recording.stem
+
+
 def export_mp4(
     f: RecordedFlight,
     where: Path,
@@ -76,10 +84,7 @@ def export_mp4(
     `progress(frames done, frames in all)` is called from the encoding threads, one at a time;
     once `stop()` is true every stream ends at its next frame, as a shorter but whole video.
     `where`: a folder (RECORDING_front.mp4 in it), or NAME.mp4 (NAME_front.mp4 beside it)."""
-    if where.suffix.lower() == ".mp4":
-        folder, stem = where.parent, where.stem
-    else:
-        folder, stem = where, f.path.stem
+    folder, stem = mp4_target(where, f.path)
     if not f.frames:
         raise QuadsimError(f"{f.path}: has no camera images to export")
     streams = []

@@ -83,8 +83,8 @@ class CascadeController:
         self._drag_q_z = aero.body_drag_quadratic_ns2_per_m2[2] / m
         self._tan_tilt = math.tan(gains.max_tilt_rad)
         # the rotor hubs' mean position relative to the base origin, for their height above the floor
-        n = len(vehicle.rotors)
-        self._hub = tuple(sum(c + r.position_m[i] for r in vehicle.rotors) / n for i, c in enumerate(vehicle.com_m))
+        hubs = vehicle.rotor_hubs_m
+        self._hub = tuple(sum(hub[i] for hub in hubs) / len(hubs) for i in range(3))
         self._ground_effect = aero.ground_effect
         self.reset()
 

@@ -153,8 +153,7 @@ class ScriptedDriver:
             t += seg.duration_s
             ends.append(t)
         self._ends = tuple(ends)
-        self._index = 0
-        self._finished = False
+        self.rewind()
 
     def rewind(self) -> None:
         """Play the script from its start again (the simulator's reset: time starts at 0 again)."""

@@ -109,7 +109,7 @@ class PhysicsWorld:
         self._aero = vehicle.aero
         self._com: Vec3 = vehicle.com_m
         # rotor hubs relative to the base_link origin, for their height above the floor
-        self._hubs = tuple(tuple(c + r for c, r in zip(vehicle.com_m, rotor.position_m)) for rotor in vehicle.rotors)
+        self._hubs = vehicle.rotor_hubs_m
         self._inv_kf = 1.0 / vehicle.thrust_coefficient_n_per_rad2s2
         self.wind_settings = wind
         self._wind_seed = wind_seed if wind_seed is not None else np.random.SeedSequence(0)

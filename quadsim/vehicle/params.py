@@ -135,6 +135,13 @@ class VehicleParams:
         return len(self.rotors)
 
     @property
+    def rotor_hubs_m(self) -> tuple[Vec3, ...]:
+        """Each rotor's hub from base_link's origin, in base_link (a RotorSpec's position is
+        from the centre of mass)."""
+        cx, cy, cz = self.com_m
+        return tuple((cx + x, cy + y, cz + z) for x, y, z in (r.position_m for r in self.rotors))
+
+    @property
     def weight_n(self) -> float:
         return self.mass_kg * self.gravity_mps2
 

@@ -40,7 +40,7 @@ def bare_pybullet_loop(steps: int, repeats: int, merged: bool = False, physics_h
     body = load_vehicle_body(vehicle, cid, (0.0, 0.0, 2.0), (0.0, 0.0, 0.0, 1.0), merged=merged)
     if merged:  # at each hub, from the merged body's inertial frame
         offset = inertial_offset(body, cid) or (0.0, 0.0, 0.0)
-        hubs = [(-1, tuple(c + p - o for c, p, o in zip(vehicle.com_m, r.position_m, offset))) for r in vehicle.rotors]
+        hubs = [(-1, tuple(h - o for h, o in zip(hub, offset))) for hub in vehicle.rotor_hubs_m]
     else:  # on each rotor link
         links = {
             pb.getJointInfo(body, i, physicsClientId=cid)[12].decode(): i

@@ -96,7 +96,9 @@ def main(args: argparse.Namespace) -> int:
         check_output_file("--plot", args.plot, PLOT_SUFFIXES)
         require_matplotlib()  # said before the videos are encoded, not after
     if args.mp4 is not None:
-        check_output_dir("--mp4", args.mp4.parent if args.mp4.suffix.lower() == ".mp4" else args.mp4)
+        from quadsim.apps.replay_export import mp4_target
+
+        check_output_dir("--mp4", mp4_target(args.mp4, args.file)[0])
     if (args.foxglove is not None or args.ros2) and args.resim:
         option = "--foxglove" if args.foxglove is not None else "--ros2"
         raise QuadsimError(f"{option} plays the recording as it is; with --resim nothing would be played (drop one)")
