@@ -434,3 +434,17 @@ def test_seed_refuses_a_rotor_layout_it_cannot_fly(vehicle):
     swapped = dataclasses.replace(vehicle, rotors=tuple(reversed(vehicle.rotors)))
     with pytest.raises(ConfigError, match="rotor_4"):
         SeedController(swapped)
+
+
+def test_matrix_from_quaternion_remembers_only_what_cannot_change():
+    """The last tuple's matrix is kept (the physics and the controller turn the same attitude);
+    another tuple, or a list changed in place, gets its own matrix."""
+    level, turned = (0.0, 0.0, 0.0, 1.0), quaternion_from_matrix(matrix_from_rpy(0.1, -0.2, 0.3))
+    first = matrix_from_quaternion(turned)
+    assert matrix_from_quaternion(turned) is first
+    assert np.allclose(matrix_from_quaternion(level), np.eye(3))
+    assert np.allclose(matrix_from_quaternion(turned), matrix_from_rpy(0.1, -0.2, 0.3), atol=1e-12)
+    changing = list(level)
+    assert np.allclose(matrix_from_quaternion(changing), np.eye(3))  # type: ignore[arg-type]
+    changing[:] = turned
+    assert np.allclose(matrix_from_quaternion(changing), first, atol=0)  # type: ignore[arg-type]

@@ -21,16 +21,28 @@ def clamp(value: float, low: float, high: float) -> float:
     return low if value < low else (high if value > high else value)
 
 
+#: the last quaternion turned into a matrix, and its matrix: the physics turns each step's
+#: attitude into a matrix, then the controller turns the same tuple again (a tuple cannot change)
+_last: tuple[Quat | None, Mat3] = (None, IDENTITY)
+
+
 def matrix_from_quaternion(q: Quat) -> Mat3:
     """The rotation matrix of a unit quaternion (x, y, z, w), rows first: world <- body."""
+    global _last
+    last = _last
+    if q is last[0]:
+        return last[1]
     x, y, z, w = q
     xx, yy, zz = x * x, y * y, z * z
     xy, xz, yz, wx, wy, wz = x * y, x * z, y * z, w * x, w * y, w * z
-    return (
+    m = (
         (1.0 - 2.0 * (yy + zz), 2.0 * (xy - wz), 2.0 * (xz + wy)),
         (2.0 * (xy + wz), 1.0 - 2.0 * (xx + zz), 2.0 * (yz - wx)),
         (2.0 * (xz - wy), 2.0 * (yz + wx), 1.0 - 2.0 * (xx + yy)),
     )
+    if type(q) is tuple:  # a list could change under the same identity
+        _last = (q, m)
+    return m
 
 
 def quaternion_from_matrix(m: Mat3) -> Quat:

@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import math
 
-from quadsim.core.kinematics import clamp
 from quadsim.core.types import RotorForces
 
 
@@ -40,5 +39,7 @@ class MotorBank:
             raise self._wrong_count(command_n)
         a, top = self._alpha, self._max
         # clip the command first: a motor cannot be asked for more than it has
-        self.thrusts_n = tuple([f + a * (clamp(u, 0.0, top) - f) for f, u in zip(self.thrusts_n, command_n)])
+        self.thrusts_n = tuple(
+            [f + a * ((0.0 if u < 0.0 else (top if u > top else u)) - f) for f, u in zip(self.thrusts_n, command_n)]
+        )
         return self.thrusts_n
