@@ -164,3 +164,27 @@ def test_backspace_plays_a_finished_script_again_from_its_start(tmp_path):
     app.close()
     again = load_flights(app.recordings[1])["bravo"]
     assert again.commands and again.commands[0][0] < 0.1  # from the reset's first step on
+
+
+def test_a_z_mode_switch_in_the_window_is_recorded_under_the_vehicle_flown(tmp_path):
+    """Tab switches the flown vehicle's z-mode: the recording keeps the switch under its name, so
+    the fleet re-flies to zero (it was a run event, and alpha's height commands re-flew as climbs)."""
+    app = fleet_app(tmp_path)
+    run_with(
+        app,
+        200,
+        {
+            0: [lambda: key(pygame.K_w)],
+            40: [lambda: key(pygame.K_w, False)],
+            60: [lambda: key(pygame.K_TAB)],  # height mode at the altitude reached
+            80: [lambda: key(pygame.K_w)],
+            120: [lambda: key(pygame.K_w, False)],
+        },
+    )
+    assert app.sim.gate.z_mode.value == "height"
+    app.close()
+    flights = load_flights(app.recordings[0])
+    assert [v for _, kind, v in flights["alpha"].events if kind == "z_mode"] == ["height"]
+    assert not [v for _, kind, v in flights["bravo"].events if kind == "z_mode"]
+    out = cli("check", str(app.recordings[0]), "--tolerance-m", "0", "--tolerance-rad", "0")
+    assert out.returncode == 0 and "(a fleet of 3)" in out.stdout, out.stdout + out.stderr

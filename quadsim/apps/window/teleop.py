@@ -43,7 +43,7 @@ from quadsim.drivers.joystick import JoystickDriver, JoystickMapping
 from quadsim.drivers.keyboard import LAYOUTS, KeyboardDriver
 from quadsim.drivers.subscribed import SubscribedDriver
 from quadsim.errors import QuadsimError
-from quadsim.recording.fanout import WARNING_EVENTS
+from quadsim.recording.fanout import WARNING_EVENTS, TopicFanout
 from quadsim.sensors.camera import CameraFrame, CameraSpec
 from quadsim.sensors.pipeline import CameraPipeline
 from quadsim.session.fleet_outputs import FleetRecordedRun
@@ -58,6 +58,7 @@ from quadsim.sim.simulator import Simulator
 RATE_WINDOW_S = 1.0
 #: wall time over which each camera's delivered frame rate is counted
 CAMERA_RATE_WINDOW_S = 2.0
+CAMERA_RATE_MIN_WINDOW_S = 0.5  # a camera's rate is not shown until it has been counted this long
 
 APP_KEYS = [
     "Esc        quit (the recording is finished properly)",
@@ -288,6 +289,7 @@ class TeleopApp:
         self.frame_count = 0
         self._frame_walls: deque[tuple[float, int]] = deque()  # (wall s, step) of the last second
         self._camera_walls: dict[str, deque[float]] = {}  # wall times of the frames that came in
+        self._camera_rates_from = time.perf_counter()  # since when they are counted
         self._help_keys = {pygame.K_F1} | (
             {pygame.K_h} if pygame.K_h not in {b.key for b in self.keyboard.layout.bindings} else set()
         )
@@ -308,11 +310,18 @@ class TeleopApp:
     def _hook_joy(self) -> None:
         self.joystick.joy_sinks.clear()
         if self.driver is self.joystick or self.second_hand is self.joystick:
-            fanout = self.session.fanout
-            if self.fleet is not None:  # the pad's vehicle's /NAME/joy
+            if self.fleet is None:
+                fanout = self.session.fanout
+            else:  # the pad's vehicle's /NAME/joy
                 name = self.fleet.second if self.second_hand is self.joystick else None
-                fanout = fanout.members[list(self.fleet.fleet).index(name or self.fleet.flown)]
+                fanout = self._vehicle_fanout(name or self.fleet.flown)
             self.joystick.joy_sinks.append(fanout.on_joy)
+
+    def _vehicle_fanout(self, name: str) -> TopicFanout:
+        """A fleet: where the topics of the vehicle `name` go (named /NAME/...)."""
+        assert self.fleet is not None
+        fanout: TopicFanout = self.session.fanout.members[list(self.fleet.fleet).index(name)]
+        return fanout
 
     @property
     def display_lost(self) -> str | None:
@@ -340,9 +349,14 @@ class TeleopApp:
         self.notice = text
         self._notice_until = time.monotonic() + seconds
 
-    def _record_event(self, kind: str, value: str) -> None:
-        """The one place events reach the recording (z-mode switches, input device changes)."""
-        self.session.note_event(self.sim.step_count, kind, value)
+    def _record_event(self, kind: str, value: str, vehicle: bool = False) -> None:
+        """The one place events reach the recording (z-mode switches, input device changes).
+        `vehicle`: an event of the vehicle flown (a z-mode switch), which a fleet's recording
+        keeps under that vehicle's name (a re-flight switches that vehicle)."""
+        if vehicle and self.fleet is not None:
+            self._vehicle_fanout(self.fleet.flown).note_event(self.sim.step_count, kind, value)
+        else:
+            self.session.note_event(self.sim.step_count, kind, value)
 
     # --- events -----------------------------------------------------------------------------
 
@@ -361,6 +375,7 @@ class TeleopApp:
             if key == pygame.K_p:
                 self.paused = not self.paused
                 self.pacer.rebase(self.sim.step_count)
+                self._restart_camera_rates()
                 return
             if key == pygame.K_BACKSPACE:
                 self.reset()
@@ -436,7 +451,7 @@ class TeleopApp:
     def toggle_z_mode(self) -> None:
         new = ZMode.HEIGHT if self.sim.gate.z_mode is ZMode.VELOCITY else ZMode.VELOCITY
         self.sim.set_z_mode(new)
-        self._record_event("z_mode", new.value)
+        self._record_event("z_mode", new.value, vehicle=True)
         altitude = self.sim.state.position_m[2]
         for driver in (self.keyboard, self.joystick):
             if driver is not self.second_hand:  # the other person's vehicle keeps its z-mode
@@ -452,7 +467,7 @@ class TeleopApp:
             return
         self.fleet.show(name, self)
         self.frames.clear()
-        self._camera_walls.clear()
+        self._restart_camera_rates()
         self._say(f"cameras: {name}'s")
 
     def toggle_recording(self) -> None:
@@ -552,14 +567,23 @@ class TeleopApp:
         span = max(t1 - t0, 1e-9)
         return (len(self._frame_walls) - 1) / span, max(0, s1 - s0) / self.sim.config.rates.physics_hz / span
 
+    def _restart_camera_rates(self) -> None:
+        """Count the cameras' frames afresh (after a pause, or another vehicle's cameras)."""
+        self._camera_walls.clear()
+        self._camera_rates_from = time.perf_counter()
+
     def camera_rates(self) -> dict[str, float]:
-        """Frames per second each camera actually delivered over the last two seconds."""
+        """Frames per second each camera actually delivered over the last two seconds (none while
+        paused, or in the first half second after a pause or a switch of cameras: not measured)."""
         now = time.perf_counter()
+        window = min(CAMERA_RATE_WINDOW_S, now - self._camera_rates_from)
+        if self.paused or window < CAMERA_RATE_MIN_WINDOW_S:
+            return {}
         rates = {}
         for name, walls in self._camera_walls.items():
-            while walls and now - walls[0] > CAMERA_RATE_WINDOW_S:
+            while walls and now - walls[0] > window:
                 walls.popleft()
-            rates[name] = len(walls) / CAMERA_RATE_WINDOW_S
+            rates[name] = len(walls) / window
         return rates
 
     def _model(self) -> ViewModel:
