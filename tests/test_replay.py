@@ -344,6 +344,17 @@ def test_playback_window_controls(with_cameras):
     app.close()
 
 
+def test_the_plot_shades_the_stretch_flown_in_height_mode():
+    """Switches at steps whose log time is not a whole nanosecond (1 / 240 s): the shaded span is
+    the one between them, not the one after the switch back."""
+    from quadsim.apps.flight_plot import _height_spans
+
+    flight = load_flight(ROOT / "tests" / "recordings" / "keyboard_session_cascade.mcap")
+    flight.events = [(1441, "z_mode", "height"), (2001, "z_mode", "velocity")]
+    ((start, end),) = _height_spans(flight)
+    assert abs(start - 1441 / 240) < 1e-9 and abs(end - 2001 / 240) < 1e-9
+
+
 def test_the_replay_hud_shows_the_z_mode_in_effect():
     """The keyboard session switches to height mode part-way: the HUD follows the switch."""
 
@@ -352,6 +363,8 @@ def test_the_replay_hud_shows_the_z_mode_in_effect():
     switch_ns = switch_step * 1_000_000_000 // flight.physics_hz
     assert flight.z_mode_at(switch_ns - 1_000_000).value == "velocity"
     assert flight.z_mode_at(switch_ns + 1_000_000).value == "height"
+    assert flight.z_mode_at(switch_ns).value == "height"  # from the log time of its step on
+    assert flight.z_mode_at(switch_ns - 1).value == "velocity"
     with ReplayApp(flight, (640, 360)) as app:
         app.t_ns = switch_ns - 50_000_000
         assert app.model().z_mode == "velocity"

@@ -8,8 +8,10 @@ from mcap.reader import make_reader
 from mcap_ros2.decoder import DecoderFactory
 
 from quadsim import SimConfig, ZMode
+from quadsim.apps.replay_export import summary_lines
 from quadsim.apps.window.pacing import FixedStepPacer
 from quadsim.apps.window.teleop import TeleopApp, TeleopOptions
+from quadsim.recording.flight import load_flight
 from quadsim.session.outputs import OutputOptions
 
 FPS = 30  # each frame advances 1/30 s of simulation time
@@ -148,6 +150,10 @@ def test_pause_reset_zmode_and_recording_keys(tmp_path):
         "recording: stopped",
     ]
     assert second == [(round(started_at, 6), "recording: started"), (round(reset_at, 6), "recording: stopped")]
+    # its summary gives the time it spans, and from when to when (as `info` does)
+    summary = summary_lines(load_flight(app.recordings[1]))[1]
+    assert summary == f"duration    {reset_at - started_at:.2f} s ({started_at:.2f} .. {reset_at:.2f} s)", summary
+    assert summary_lines(load_flight(app.recordings[0]))[1] == f"duration    {stopped_at:.2f} s"
     assert third == [
         (0.0, "recording: started"),
         (0.0, "takeoff: climbing from the ground"),  # after the reset, from the ground again
@@ -193,6 +199,12 @@ def test_window_shows_both_cameras_map_and_hud(tmp_path):
     blue = (column[:, 2] > column[:, 0] + 40) & (column[:, 2] > 150)
     assert blue.sum() > 20  # the front camera's blue sky, below the HUD
     assert set(app.frames) == {"front", "floor"}
+    # paused, the cameras deliver nothing and the HUD says nothing of their rate (it used to say
+    # the machine was busy); resumed, they are counted afresh
+    run_with(app, 2, {0: [lambda: key(pygame.K_p)]})
+    assert app.paused and app.camera_rates() == {} and not app._model().camera_rates
+    run_with(app, 2, {0: [lambda: key(pygame.K_p)]})
+    assert not app.paused and app.camera_rates() == {}  # not yet counted for half a second
     # the window resizes
     app.screen = pygame.display.set_mode((640, 480), pygame.RESIZABLE)
     run_with(app, 2)

@@ -23,7 +23,9 @@ from quadsim.recording.flight import NS, RecordedFlight
 
 
 def summary_lines(f: RecordedFlight) -> list[str]:
-    out = [f"recording   {f.path}", f"duration    {f.duration_s:.2f} s"]
+    start_s = f.start_ns / NS  # later than 0: recorded from part-way through a flight (F5)
+    span = f" ({start_s:.2f} .. {f.duration_s:.2f} s)" if f.start_ns else ""
+    out = [f"recording   {f.path}", f"duration    {f.duration_s - start_s:.2f} s{span}"]
     if f.fleet is not None:
         names = [name for name, _ in f.fleet.fleet]
         out.append(f"fleet       {len(names)} vehicles ({', '.join(names)}); below: {f.vehicle}")

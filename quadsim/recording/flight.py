@@ -41,6 +41,7 @@ class RecordedFlight:
     events: list[tuple[int, str, str]] = field(default_factory=list)  # (step, kind, value)
     attachments: dict[str, bytes] = field(default_factory=dict)
     topics: dict[str, int] = field(default_factory=dict)  # topic -> message count
+    start_ns: int = 0  # the first message's log time (later than 0: recorded from part-way, F5)
     end_ns: int = 0
     description_error: str | None = None  # why the run's parameters could not be read, if so
     damage: list[Damage] = field(default_factory=list)  # what is wrong with the file (chunks skipped...)
@@ -115,10 +116,11 @@ class RecordedFlight:
         return self.frames[camera][i] if i >= 0 else None
 
     def z_mode_at(self, ns: int) -> ZMode | None:
-        """The z-mode in effect at log time `ns`: the run's, then each recorded switch."""
+        """The z-mode in effect at log time `ns`: the run's, then each recorded switch, from the
+        log time of its step on (floor(step * 1e9 / physics_hz), as every message of that step)."""
         mode = self.description.z_mode if self.description is not None else None
         for step, kind, value in self.events:
-            if kind == "z_mode" and step * NS <= ns * self.physics_hz:
+            if kind == "z_mode" and step * NS // self.physics_hz <= ns:
                 try:
                     mode = ZMode(value)
                 except ValueError:
@@ -163,7 +165,7 @@ def load_flights(path: Path | str) -> dict[str, RecordedFlight]:
             flight.damage, flight.notes = reader.damage, reader.notes
             flight.attachments = reader.attachments()
             flight.topics = reader.topic_counts()
-            flight.end_ns = reader.span_ns[1]
+            flight.start_ns, flight.end_ns = reader.span_ns
             flights[name] = flight
             parts[name] = _wanted(flight, reader.topics, wanted)
         for topic, ns, msg in reader.raw_messages(list(wanted)):

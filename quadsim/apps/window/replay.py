@@ -219,7 +219,7 @@ class ReplayApp:
             armed=command is not None,
             z_mode=zm.value if (zm := f.z_mode_at(t)) is not None else "?",
             controller=d.controller.kind.value if d else "?",
-            input_status=f"replay: flown by {d.driver_name if d else 'another program'}",
+            input_status=f"replay: flown with the {d.driver_name} input" if d else "replay: flown by another program",
             recording_path=None,
             recording_error=None,
             paused=False,
@@ -227,7 +227,7 @@ class ReplayApp:
             fps=(len(self._walls) - 1) / (self._walls[-1] - self._walls[0])
             if len(self._walls) > 1 and self._walls[-1] > self._walls[0]
             else 0.0,
-            real_time_factor=self.speed,
+            real_time_factor=self.speed if self.playing else 0.0,
             sim_time_s=t / NS,
             frames=frames,
             track=self._track,
