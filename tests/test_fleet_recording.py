@@ -311,3 +311,29 @@ def test_a_crafted_fleet_recording_is_refused_in_one_line_by_every_command(fleet
         shown = cli(*argv)
         assert shown.returncode == 0 and "Traceback" not in shown.stderr, (argv, shown.stderr)
     assert set(Path("/etc").iterdir()) == before and not (tmp_path / "resim").exists()
+
+
+def test_c_in_the_replay_window_follows_each_vehicle_in_turn(fleet_recording):
+    """The replay window of a fleet's recording: C follows the next vehicle (its HUD's state and
+    cameras, the others on the map), in the fleet's order and round again."""
+    import pygame
+
+    from quadsim.apps.window.replay import ReplayApp
+
+    path, _ = fleet_recording
+    flights = load_flights(path)
+    others = {n: f for n, f in flights.items() if n != "alpha"}
+    with ReplayApp(flights["alpha"], (640, 360), frame_s=0.1, others=others) as app:
+        app.seek(12.0)
+        followed = []
+        for _ in range(3):
+            model = app.model()
+            followed.append(model.cameras_of)
+            expected = flights[model.cameras_of].state_at(app.t_ns)
+            assert model.state == expected and [n for n, *_ in model.others] == sorted(
+                set(flights) - {model.cameras_of}
+            )
+            pygame.event.post(pygame.event.Event(pygame.KEYDOWN, key=pygame.K_c, mod=0, unicode="c", scancode=0))
+            app.run(max_frames=app.frame_count + 1)
+        assert followed == ["alpha", "bravo", "charlie"] and app.model().cameras_of == "alpha"
+        assert "following alpha (it recorded no cameras)" in app.model().warnings

@@ -34,6 +34,7 @@ KEYS = [
     ". ,        one state forward / back (pauses)",
     "L          loop on / off",
     "Home/End   start / end",
+    "C          a fleet: follow the next vehicle (its HUD and cameras)",
     "H, F1      this help;  Esc quit",
 ]
 
@@ -90,6 +91,7 @@ class ReplayApp:
         self._last_wall = time.perf_counter()
         self._track = [s.position_m[:2] for s in flight.states[::6]]
         self.others = {name: (f, [s.position_m[:2] for s in f.states[::6]]) for name, f in (others or {}).items()}
+        self._notice, self._notice_until = "", 0.0
         self._walls: list[float] = []
         self._clock = pygame.time.Clock()
         self._x11 = X11Guard.install(on_fatal=self._say_lost)
@@ -160,10 +162,34 @@ class ReplayApp:
                 self.seek(self.end_ns / NS)
             elif k in (pygame.K_h, pygame.K_F1):
                 self.show_help = not self.show_help
+            elif k == pygame.K_c:
+                self.follow_next()
         elif event.type == pygame.MOUSEBUTTONDOWN and event.button == 1:
             bar = self.view.layout(self.screen.get_size())["timeline"].inflate(0, 16)
             if bar.collidepoint(event.pos):
                 self.seek((event.pos[0] - bar.x) / bar.width * self.end_ns / NS)
+
+    def follow_next(self) -> None:
+        """A fleet's recording: follow the next vehicle in the fleet's order (the HUD, the
+        cameras and the map's highlight are then its own)."""
+        if not self.others:
+            self._say("one vehicle in this recording: nothing else to follow")
+            return
+        order = [name for name, _ in self.flight.fleet.fleet] if self.flight.fleet is not None else []
+        names = [n for n in order if n == self.flight.vehicle or n in self.others] or [
+            self.flight.vehicle,
+            *self.others,
+        ]
+        name = names[(names.index(self.flight.vehicle) + 1) % len(names)]
+        now_followed = self.others.pop(name)
+        self.others[self.flight.vehicle] = (self.flight, self._track)
+        self.flight, self._track = now_followed
+        self.others = {n: self.others[n] for n in names if n in self.others}  # in the fleet's order
+        self.end_ns = max(self.end_ns, self.flight.end_ns)
+        self._say(f"following {name}" + ("" if self.flight.frames else " (it recorded no cameras)"))
+
+    def _say(self, text: str, seconds: float = 3.0) -> None:
+        self._notice, self._notice_until = text, time.monotonic() + seconds
 
     # --- frames -----------------------------------------------------------------------------
 
@@ -211,7 +237,9 @@ class ReplayApp:
         warnings = [] if f.states else ["this file has no /quad/pose: nothing to show on the map or HUD"]
         with_cameras = [name for name, (other, _) in self.others.items() if other.frames]
         if not f.frames and with_cameras:
-            warnings.append(f"{', '.join(with_cameras)} recorded cameras: replay this file with --vehicle NAME")
+            warnings.append(f"{', '.join(with_cameras)} recorded cameras: C follows the next vehicle")
+        if self._notice and time.monotonic() < self._notice_until:
+            warnings.append(self._notice)
         return ViewModel(
             state=state,
             command=command or Twist(),
