@@ -183,10 +183,13 @@ class SimLoop:
         if asked for. True if the vehicle was put back at its start pose."""
         physics = self.physics
         contacts = physics.contacts()
-        self._on_ground = any(c.normal_z >= WALL_NORMAL_Z for c in contacts)
         monitor = self.contact_monitor
-        if not contacts and not monitor.touching:
-            return False
+        if not contacts:  # in the air, most steps
+            self._on_ground = False
+            if not monitor.touching:
+                return False
+        else:
+            self._on_ground = any(c.normal_z >= WALL_NORMAL_Z for c in contacts)
         events = monitor.update(n, contacts, physics.velocity_before_step_mps, physics.body_z_up)
         for event in events:
             self._emit(event)
