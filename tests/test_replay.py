@@ -382,3 +382,27 @@ def test_mp4_given_a_file_name_writes_each_camera_beside_it(with_cameras, tmp_pa
     cap = cv2.VideoCapture(str(tmp_path / "out" / "flight_front.mp4"))
     ok, frame = cap.read()
     assert ok and frame.mean() > 20  # a picture, not black
+    # a second export to the same name is refused before anything is encoded: nothing is overwritten
+    size = (tmp_path / "out" / "flight_front.mp4").stat().st_size
+    again = cli("replay", with_cameras, "--headless", "--mp4", tmp_path / "out" / "flight.mp4")
+    assert again.returncode == 2 and "flight_floor.mp4 already exists" in again.stderr, again.stderr
+    assert "duration" not in again.stdout  # refused before the summary
+    assert (tmp_path / "out" / "flight_front.mp4").stat().st_size == size
+
+
+def test_replay_refuses_options_it_would_ignore(tmp_path):
+    recording = ROOT / "tests" / "recordings" / "climb_cascade.mcap"  # recorded without cameras
+    out = cli("replay", recording, "--headless", "--mp4", tmp_path / "videos")
+    assert out.returncode == 2 and "recorded no camera images" in out.stderr, out.stderr
+    assert not (tmp_path / "videos").exists()  # no empty folder left behind
+    for options, said in (
+        (["--resim", "--mp4", tmp_path / "v"], "--mp4 exports the recording as it is"),
+        (["--resim", "--plot", tmp_path / "p.png"], "--plot exports the recording as it is"),
+        (["--out", tmp_path / "new"], "--out is for the new flight of --resim"),
+        (["--no-record"], "--no-record is for the new flight of --resim"),
+    ):
+        out = cli("replay", recording, "--headless", *options)
+        assert out.returncode == 2 and said in out.stderr and len(out.stderr.splitlines()) == 1, out.stderr
+    fleet = ROOT / "tests" / "recordings" / "fleet_trio_wind.mcap"
+    out = cli("replay", fleet, "--headless", "--vehicle", "bravo", "--mp4", tmp_path / "v")
+    assert out.returncode == 2 and "vehicle bravo recorded no camera images" in out.stderr, out.stderr

@@ -75,6 +75,20 @@ def mp4_target(where: Path, recording: Path) -> tuple[Path, str]:
     return where, recording.stem
 
 
+def mp4_paths(where: Path, f: RecordedFlight) -> dict[str, Path]:
+    """The video each camera stream of `f` goes to with `--mp4 WHERE`, refused (before anything is
+    made) when the flight has no camera images or a video of that name is already there."""
+    if not f.frames:
+        whose = f"vehicle {f.vehicle}" if f.vehicle else "it"
+        raise QuadsimError(f"{f.path}: {whose} recorded no camera images: there is no video to export")
+    folder, stem = mp4_target(where, f.path)
+    paths = {cam: folder / f"{stem}_{cam}.mp4" for cam in sorted(f.frames)}
+    for path in paths.values():
+        if path.exists():
+            raise QuadsimError(f"{path} already exists; choose another --mp4 (nothing is overwritten)")
+    return paths
+
+
 def export_mp4(
     f: RecordedFlight,
     where: Path,
@@ -86,16 +100,15 @@ def export_mp4(
     `progress(frames done, frames in all)` is called from the encoding threads, one at a time;
     once `stop()` is true every stream ends at its next frame, as a shorter but whole video.
     `where`: a folder (RECORDING_front.mp4 in it), or NAME.mp4 (NAME_front.mp4 beside it)."""
-    folder, stem = mp4_target(where, f.path)
-    if not f.frames:
-        raise QuadsimError(f"{f.path}: has no camera images to export")
+    paths = mp4_paths(where, f)
     streams = []
-    for cam, frames in sorted(f.frames.items()):
+    for cam, path in paths.items():
+        frames = f.frames[cam]
         first = cv2.imdecode(np.frombuffer(frames[0][1], np.uint8), cv2.IMREAD_COLOR)
         if first is None:
             raise QuadsimError(f"{f.path}: {cam} camera images are not decodable JPEG")
-        streams.append((folder / f"{stem}_{cam}.mp4", frames, first.shape))
-    folder.mkdir(parents=True, exist_ok=True)
+        streams.append((path, frames, first.shape))
+    mp4_target(where, f.path)[0].mkdir(parents=True, exist_ok=True)
     total, done, lock, ended = sum(len(frames) for _, frames, _ in streams), 0, threading.Lock(), threading.Event()
 
     def next_frame() -> bool:

@@ -4,6 +4,7 @@ plot, served live to Foxglove and ROS 2 as it plays, or flown again (--resim).""
 from __future__ import annotations
 
 import argparse
+import contextlib
 import sys
 import time
 from pathlib import Path
@@ -95,14 +96,36 @@ def main(args: argparse.Namespace) -> int:
 
         check_output_file("--plot", args.plot, PLOT_SUFFIXES)
         require_matplotlib()  # said before the videos are encoded, not after
-    if args.mp4 is not None:
+    mp4_folder = None
+    if args.mp4 is not None and not args.resim:
         from quadsim.apps.replay_export import mp4_target
 
-        check_output_dir("--mp4", mp4_target(args.mp4, args.file)[0])
+        mp4_folder = mp4_target(args.mp4, args.file)[0]
+        made = not mp4_folder.exists()
+        check_output_dir("--mp4", mp4_folder)
     if (args.foxglove is not None or args.ros2) and args.resim:
         option = "--foxglove" if args.foxglove is not None else "--ros2"
         raise QuadsimError(f"{option} plays the recording as it is; with --resim nothing would be played (drop one)")
-    flight = load_flight(args.file, args.vehicle)
+    if args.resim and (args.mp4 is not None or args.plot is not None):
+        option = "--mp4" if args.mp4 is not None else "--plot"
+        raise QuadsimError(
+            f"{option} exports the recording as it is; with --resim nothing would be exported (drop one, "
+            "or replay the new flight's recording)"
+        )
+    if not args.resim and (args.out is not None or args.no_record):
+        option = "--out" if args.out is not None else "--no-record"
+        raise QuadsimError(f"{option} is for the new flight of --resim; without --resim nothing is recorded")
+    try:
+        flight = load_flight(args.file, args.vehicle)
+        if mp4_folder is not None:  # refused before anything is encoded or printed
+            from quadsim.apps.replay_export import mp4_paths
+
+            mp4_paths(args.mp4, flight)
+    except QuadsimError:
+        if mp4_folder is not None and made:
+            with contextlib.suppress(OSError):  # made for the videos, empty: not left behind
+                mp4_folder.rmdir()
+        raise
     if args.resim:
         return _resim(args, flight)
     warn(flight.warnings(), args.file)
