@@ -314,7 +314,8 @@ def test_a_worker_that_reuses_its_simulators_gives_the_rows_of_new_ones(tmp_path
         tmp_path,
         'scenarios = ["takeoff", "yaw", "climb"]\nairframes = ["quad", "crazyflie"]\nduration_s = 3.0\n'
         'seeds = 2\nwind = ["0,0", "4,45"]\nturbulence = ["light"]\n'
-        '[controllers.cascade]\nkind = "cascade"\n[controllers.seed]\nkind = "seed"\n',
+        '[controllers.cascade]\nkind = "cascade"\n[controllers.slow]\nkind = "cascade"\n'
+        "gains = { velocity_p_xy_per_s = 0.8 }\n",
     )
     tasks = [sweep_run.RunTask(run) for run in load_sweep(spec).runs]
     built = []
@@ -449,3 +450,19 @@ def test_a_sweep_refuses_a_fleet_it_cannot_fly(tmp_path: Path, text: str, expect
     (tmp_path / "idle.toml").write_text('[[vehicle]]\nname = "alpha"\n')
     with pytest.raises(ConfigError, match=re.escape(expected)):
         load_sweep(_write(tmp_path, text))
+
+
+def test_a_sweep_where_no_run_can_fly_says_so_and_draws_no_plot(tmp_path):
+    """Every run refused (the seed controller does not fly the Crazyflie): each run's error in
+    the summary, the table kept, 'plot none' and exit 1 (it ended in matplotlib's traceback)."""
+    (tmp_path / "cf.toml").write_text(
+        'name = "cf"\nscenarios = ["takeoff"]\nairframes = ["crazyflie"]\n[controllers.seed]\nkind = "seed"\n'
+    )
+    done = subprocess.run(
+        [sys.executable, str(ROOT / "main.py"), "sweep", str(tmp_path / "cf.toml"), "--out", str(tmp_path / "out")],
+        capture_output=True,
+        text=True,
+    )
+    assert done.returncode == 1 and "Traceback" not in done.stderr, done.stderr
+    assert "1 runs: 0 ok, 0 beyond limits, 1 could not fly" in done.stdout
+    assert "plot            none: no run flew" in done.stdout and (tmp_path / "out" / "results.parquet").exists()

@@ -49,6 +49,13 @@ from quadsim.vehicle.params import Spin, VehicleParams
 
 DT_REF_S = 0.05  # the V-REP simulation step the original's difference terms assumed
 HOVER_COMMAND = 5.335  # the original's hover propeller command
+#: how fast the original quad (quadsim_x) turns per unit of its rotors' hover thrust moved from
+#: one side to the other (rad/s^2): roll (hover thrust x arm / Ixx) and yaw (hover thrust x k_m/k_f
+#: / Izz). The original's constants are gains on commands, not on the physics: they fly a
+#: vehicle that turns within SEED_RESPONSE_RANGE of these, and none other
+SEED_ROLL_RESPONSE = 34.08
+SEED_YAW_RESPONSE = 2.49
+SEED_RESPONSE_RANGE = 2.0
 
 _IDLE: RotorForces = (0.0, 0.0, 0.0, 0.0)
 
@@ -87,11 +94,37 @@ def _check_layout(vehicle: VehicleParams) -> None:
             )
 
 
+def seed_responses(vehicle: VehicleParams) -> tuple[float, float]:
+    """The vehicle's roll and yaw response to its hover thrust (as SEED_ROLL_RESPONSE)."""
+    hover = vehicle.hover_thrust_per_rotor_n
+    arm = min(abs(r.position_m[1]) for r in vehicle.rotors)
+    return (
+        hover * arm / vehicle.inertia_kgm2[0][0],
+        hover * vehicle.yaw_torque_per_thrust_m / vehicle.inertia_kgm2[2][2],
+    )
+
+
+def _check_response(vehicle: VehicleParams) -> None:
+    roll, yaw = seed_responses(vehicle)
+    off = [
+        f"{name} {value / reference:.2g}x"
+        for name, value, reference in (("roll", roll, SEED_ROLL_RESPONSE), ("yaw", yaw, SEED_YAW_RESPONSE))
+        if not 1.0 / SEED_RESPONSE_RANGE <= value / reference <= SEED_RESPONSE_RANGE
+    ]
+    if off:
+        raise ConfigError(
+            f"{vehicle.urdf_path.name}: the seed controller's constants (the original script's, "
+            f"unchanged) fly only a vehicle that turns about as the original quad does; this one turns "
+            f"{' and '.join(off)} as fast for its hover thrust: use the cascade controller"
+        )
+
+
 class SeedController:
     kind = ControllerKind.SEED
 
     def __init__(self, vehicle: VehicleParams, gains: SeedGains | None = None) -> None:
         _check_layout(vehicle)
+        _check_response(vehicle)
         if gains is None:
             gains = load_gains(vehicle, ControllerKind.SEED.value, SeedGains)
         self.vehicle = vehicle

@@ -130,7 +130,12 @@ def _report(args: argparse.Namespace, spec: SweepSpec, result: SweepResult, out:
     if not args.no_plot and result.rows:
         try:
             png = plot(result.rows, spec.varied, out / "plot.png", f"sweep '{spec.name}'")
-            print(f"plot            {png}")
+            if png is not None:
+                print(f"plot            {png}")
+            elif all(r["status"] == "error" for r in result.rows):
+                print("plot            none: no run flew")
+            else:
+                print("plot            none: every metric is 0 in every run")
         except ImportError:
             print("plot            skipped: matplotlib is not installed: pip install 'quadsim[plot]'")
     stop = SignalStop.current()

@@ -59,9 +59,10 @@ def _numeric(value: str) -> float | None:
         return None
 
 
-def plot(rows: Sequence[dict[str, Any]], varied: Sequence[str], path: Path, title: str) -> Path:
+def plot(rows: Sequence[dict[str, Any]], varied: Sequence[str], path: Path, title: str) -> Path | None:
     """Each shown metric against the first swept axis (numbers on a numeric axis), one line per
-    combination of the other swept values, the band between the best and worst seed."""
+    combination of the other swept values, the band between the best and worst seed. None: no
+    metric to draw (no run flew, or every metric is zero in every run)."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -73,6 +74,8 @@ def plot(rows: Sequence[dict[str, Any]], varied: Sequence[str], path: Path, titl
     others = [a for a in varied if a != x_axis]
     # a metric that is zero everywhere (no crash in any run) says so in the summary, not as a plot
     shown = [m for m in SHOWN if any(v != 0.0 for v in _finite([r[m] for r in rows]))]
+    if not shown:
+        return None
     fig, axes = plt.subplots(len(shown), 1, figsize=(7.5, 2.2 * len(shown) + 0.8), sharex=True, squeeze=False)
     xs_all = sorted({str(r[x_axis]) for r in rows}, key=lambda v: (_numeric(v) is None, _numeric(v) or 0.0, v))
     numeric = all(_numeric(v) is not None for v in xs_all)
