@@ -118,6 +118,36 @@ def test_a_quadsim_recordings_commands_fly_the_same_flight_in_its_z_mode(tmp_pat
         original, flown = list(a.poses()), list(b.poses())
     assert len(flown) > len(original)  # 2 s more
     assert flown[: len(original)] == original
+    # its commands mean height z-mode: flying them in velocity z-mode is refused (it was done,
+    # silently, and the vehicle never left the ground)
+    code, _, err = run_cli(capsys, "run", "--commands-from", str(first), "--z-mode", "velocity", "--no-record")
+    assert_one_line_error(code, err, "--z-mode velocity: first.mcap was flown in height z-mode")
+
+
+def test_a_recording_that_switches_z_mode_is_flown_in_its_first_with_a_warning(capsys):
+    recording = ROOT / "tests" / "recordings" / "keyboard_session_cascade.mcap"  # Tab at 6 s
+    code, out, err = run_cli(capsys, "run", "--commands-from", str(recording), "--cameras", "none", "--no-record")
+    assert code == 0 and "z-mode velocity" in out
+    assert "switches z-mode during its flight (first at 6.00 s)" in err and "--resim flies it as recorded" in err
+
+
+def test_a_bags_folder_flies_its_one_mcap_file(tmp_path, capsys):
+    """`ros2 bag record -s mcap` writes a folder: given the folder, its .mcap file is flown."""
+    bag = _bag(
+        tmp_path / "session",
+        "/quad_cmd_twist",
+        "geometry_msgs/msg/Twist",
+        [(BAG_START_NS + i * PERIOD_NS, _twist(z=0.5)) for i in range(40)],
+    )
+    code, out, err = run_cli(capsys, "run", "--commands-from", str(bag.parent), "--cameras", "none", "--no-record")
+    assert code == 0, err
+    assert f"flying the 40 commands of {bag.name}" in out
+    (tmp_path / "empty").mkdir()
+    code, _, err = run_cli(capsys, "run", "--commands-from", str(tmp_path / "empty"), "--no-record")
+    assert_one_line_error(code, err, "a folder with no .mcap file in it")
+    (bag.parent / "session_1.mcap").write_bytes(bag.read_bytes())
+    code, _, err = run_cli(capsys, "run", "--commands-from", str(bag.parent), "--no-record")
+    assert_one_line_error(code, err, "a folder of 2 .mcap files", "give the one to fly")
 
 
 # --- hostile bags ---------------------------------------------------------------------------------

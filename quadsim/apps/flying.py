@@ -86,7 +86,19 @@ def fly_bag(args: argparse.Namespace, realtime: bool) -> int:
             f"{bag.path}: its commands span {bag.span_ns / 1e9 / 86400:.4g} days, more than a run may fly "
             f"({MAX_DURATION_S / 86400:.0f} days): fly part of it with --duration SECONDS"
         )
+    if bag.z_mode is not None and args.z_mode is not None and ZMode(args.z_mode) is not bag.z_mode:
+        raise QuadsimError(
+            f"--z-mode {args.z_mode}: {bag.path.name} was flown in {bag.z_mode.value} z-mode, which its "
+            f"commands' linear.z means (drop --z-mode to fly them as recorded)"
+        )
     config = sim_config(args, bag.z_mode)
+    if bag.z_switch_steps:
+        print(
+            f"quadsim: warning: {bag.path.name} switches z-mode during its flight (first at "
+            f"{bag.z_switch_steps[0] / config.rates.physics_hz:.2f} s); --commands-from flies all of it in "
+            f"{config.z_mode.value} z-mode, its first: replay {bag.path.name} --resim flies it as recorded",
+            file=sys.stderr,
+        )
     driver = ReplayDriver(command_steps(bag.commands(), config.rates.physics_hz), str(bag.path), bag.count)
     run_info = {"command": "run", "commands_from": str(bag.path), "duration_s": duration, "realtime": realtime}
     what = f"the {bag.count} commands of {bag.path.name} for {duration:.1f} s"

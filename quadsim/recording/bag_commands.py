@@ -32,6 +32,9 @@ class BagCommands:
     #: the z-mode a quadsim recording was flown in (None for other programs' files)
     z_mode: ZMode | None
     channel_keys: frozenset[int]
+    #: a quadsim recording's z-mode switches (the steps of its z_mode events), which a run from
+    #: its commands does not make (replay --resim does)
+    z_switch_steps: tuple[int, ...] = ()
 
     @property
     def span_ns(self) -> int:
@@ -46,10 +49,25 @@ class BagCommands:
                 yield m.log_time - self.first_ns, Twist(lx, ly, lz, ax, ay, az)
 
 
+def bag_file(path: Path) -> Path:
+    """The MCAP file of `path`: the file itself, or the one .mcap file of a folder (`ros2 bag record
+    -s mcap` writes a folder holding metadata.yaml and NAME_0.mcap)."""
+    if not path.is_dir():
+        return path
+    files = sorted(p for p in path.glob("*.mcap") if p.is_file())
+    if len(files) == 1:
+        return files[0]
+    if not files:
+        raise QuadsimError(f"{path}: a folder with no .mcap file in it (a ros2 bag recorded with -s mcap has one)")
+    names = ", ".join(p.name for p in files[:4]) + (", ..." if len(files) > 4 else "")
+    raise QuadsimError(f"{path}: a folder of {len(files)} .mcap files ({names}): give the one to fly")
+
+
 def read_bag_commands(path: Path) -> BagCommands:
-    """Check that `path` has /quad_cmd_twist commands to fly, all of them decodable (one pass
-    over that channel, in constant memory), and say how many there are and when (the counts and
-    times the file's opening pass found)."""
+    """Check that `path` (a file, or a bag's folder holding one) has /quad_cmd_twist commands to
+    fly, all of them decodable (one pass over that channel, in constant memory), and say how many
+    there are and when (the counts and times the file's opening pass found)."""
+    path = bag_file(path)
     with RecordingReader(path, require_topics=False) as reader:
         channels = [ch for ch in reader.file.channels if ch.topic == TWIST.name]
         if not channels:
@@ -85,7 +103,8 @@ def read_bag_commands(path: Path) -> BagCommands:
         first_ns = min(f.first_ns[k] for k in keys if k in f.first_ns)
         last_ns = max(f.last_ns[k] for k in keys if k in f.last_ns)
         z_mode = reader.description.z_mode if reader.description is not None else None
-    return BagCommands(path, count, first_ns, last_ns, z_mode, keys)
+        switches = tuple(step for step, kind, _ in reader.events if kind == "z_mode")
+    return BagCommands(path, count, first_ns, last_ns, z_mode, keys, switches)
 
 
 def command_steps(commands: Iterator[tuple[int, Twist]], physics_hz: int) -> Iterator[tuple[int, Twist]]:

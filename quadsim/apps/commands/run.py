@@ -30,10 +30,10 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     what.add_argument(
         "--commands-from",
         type=Path,
-        metavar="FILE.mcap",
+        metavar="FILE.mcap|BAG",
         help="fly the geometry_msgs/msg/Twist messages on /quad_cmd_twist of any MCAP (a ros2 bag in MCAP "
-        "storage, a quadsim recording) at their log times, counted from the first of them; z-mode: a quadsim "
-        "recording's, else --z-mode (default velocity)",
+        "storage, its folder or its .mcap file, or a quadsim recording) at their log times, counted from the "
+        "first of them; z-mode: a quadsim recording's, else --z-mode (default velocity)",
     )
     what.add_argument(
         "--fleet",
@@ -42,7 +42,8 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         help="fly a fleet: the vehicles of a fleet file in one world, each with its airframe, start, controller "
         "and input (script:NAME_OR_FILE, ros2, foxglove or idle; ros2 and foxglove take Twists on "
         "/NAME/quad_cmd_twist); every vehicle's topics are recorded under its name (/NAME/quad/odom). Default "
-        "duration: the longest script; with a live input, until Ctrl-C. No cameras yet",
+        "duration: the longest script; with a live input, until Ctrl-C. Cameras: each vehicle's own (cameras = "
+        "[...] in the file)",
     )
     p.add_argument(
         "--input",
