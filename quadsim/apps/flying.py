@@ -96,7 +96,7 @@ def fly_bag(args: argparse.Namespace, realtime: bool) -> int:
         print(
             f"quadsim: warning: {bag.path.name} switches z-mode during its flight (first at "
             f"{bag.z_switch_steps[0] / config.rates.physics_hz:.2f} s); --commands-from flies all of it in "
-            f"{config.z_mode.value} z-mode, its first: replay {bag.path.name} --resim flies it as recorded",
+            f"{(config.z_mode or ZMode.VELOCITY).value} z-mode, its first: replay {bag.path.name} --resim flies it as recorded",
             file=sys.stderr,
         )
     driver = ReplayDriver(command_steps(bag.commands(), config.rates.physics_hz), str(bag.path), bag.count)
