@@ -33,6 +33,20 @@ def test_errors_name_the_line(text, line, words):
     assert f"my.qscript, line {line}" in str(err.value) and words in str(err.value)
 
 
+def test_a_script_longer_than_a_run_may_fly_is_refused(tmp_path, capsys):
+    """1e9 s flew (no progress for hours: a crafted or mistyped file); 7 days, as --duration."""
+    assert parse_script("604800 linear.z=0\n", "week").duration_s == 604800.0
+    with pytest.raises(ScriptError, match=r"huge: its lines last 1e\+09 s, more than a run may fly \(7 days"):
+        parse_script("1e9 linear.z=0\n", "huge")
+    with pytest.raises(ScriptError, match="more than a run may fly"):
+        parse_script("400000\n400000 linear.x=1\n", "two")
+    from tests.test_cli_errors import assert_one_line_error, run_cli
+
+    (tmp_path / "huge.qscript").write_text("1e9 linear.z=0\n")
+    code, _, err = run_cli(capsys, "run", "--script", str(tmp_path / "huge.qscript"), "--no-record")
+    assert_one_line_error(code, err, "huge.qscript: its lines last 1e+09 s")
+
+
 def test_empty_script_is_refused():
     with pytest.raises(ScriptError, match="no command lines"):
         parse_script("# nothing\n", "x")

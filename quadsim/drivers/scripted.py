@@ -28,6 +28,8 @@ from quadsim.errors import ScriptError
 
 #: the largest script file read (a scenario is a few hundred bytes; a day of 0.05 s segments fits)
 MAX_SCRIPT_BYTES = 4 * 1024 * 1024
+#: the longest a script may last: what a run may fly (run --duration's limit, 7 days)
+MAX_SCRIPT_S = 7 * 24 * 3600.0
 
 _FIELDS = ("linear.x", "linear.y", "linear.z", "angular.x", "angular.y", "angular.z")
 
@@ -86,6 +88,12 @@ def parse_script(text: str, name: str = "<script>") -> Script:
         )
     if not segments:
         raise ScriptError(f"{name}: the script has no command lines")
+    total = sum(seg.duration_s for seg in segments)
+    if total > MAX_SCRIPT_S:
+        raise ScriptError(
+            f"{name}: its lines last {total:.6g} s, more than a run may fly ({MAX_SCRIPT_S / 86400:.0f} days, "
+            "as --duration)"
+        )
     return Script(name, tuple(segments), z_mode, text)
 
 
