@@ -301,3 +301,13 @@ def test_sweep_help_names_its_default_folder_plainly(capsys):
         main(["sweep", "--help"])
     text = " ".join(capsys.readouterr().out.split())
     assert "/sweeps/NAME; set QUADSIM_RECORDINGS to change it)" in text
+
+
+def test_an_unknown_option_points_to_its_commands_help(capsys):
+    code, _, err = run_cli(capsys, "run", "--nope")
+    assert_one_line_error(code, err, "unrecognized arguments: --nope", "run --help)")
+    code, _, err = run_cli(capsys, "--nope")
+    assert_one_line_error(code, err, "unrecognized arguments: --nope")
+    assert "run --help" not in err
+    code, _, err = run_cli(capsys, "run", "--physics-hz", "100000")
+    assert_one_line_error(code, err, "within 1..10000")  # the limit the simulator has (it said 100000)

@@ -21,7 +21,7 @@ from quadsim.physics.wind import Turbulence, wind_from_text
 from quadsim.recording.paths import ENV_VAR as RECORDINGS_ENV_VAR
 from quadsim.recording.paths import default_recordings_dir
 from quadsim.sensors.camera import RendererKind
-from quadsim.sim.config import MAX_SEED, Rates
+from quadsim.sim.config import MAX_PHYSICS_HZ, MAX_SEED, Rates
 from quadsim.vehicle.params import DEFAULT_VEHICLE, SHIPPED_VEHICLES
 
 if TYPE_CHECKING:
@@ -160,7 +160,7 @@ def _add_vehicle_options(g: argparse._ArgumentGroup) -> None:
 
 
 def _add_rate_options(g: argparse._ArgumentGroup) -> None:
-    rate = whole(1, 100_000)
+    rate = whole(1, MAX_PHYSICS_HZ)
     g.add_argument("--physics-hz", type=rate, default=240, help="physics rate (default 240)")
     g.add_argument(
         "--control-hz", type=rate, default=240, help="controller rate; must divide the physics rate (default 240)"

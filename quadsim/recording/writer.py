@@ -36,7 +36,7 @@ if TYPE_CHECKING:
 log = logging.getLogger(__name__)
 
 #: refuse to start recording with less free space than this
-MIN_FREE_BYTES = 200 * 1024 * 1024
+MIN_FREE_BYTES = 200_000_000
 METADATA_NAME = "quadsim"
 EVENT_METADATA_NAME = "quadsim_event"  # one record per event, written when it happens
 
