@@ -117,3 +117,17 @@ def test_each_consumer_gets_the_urls_it_can_read(tmp_path: Path) -> None:
     fanout.add_consumer(Consumer("recorder", False))
     fanout.add_consumer(Consumer("rviz", True))
     assert got["recorder"].startswith("data:model/stl;base64,") and got["rviz"].startswith("file:///")
+
+
+def test_the_floor_mesh_cache_makes_no_home_folder(tmp_path, monkeypatch):
+    """The floor's OBJ goes to the user's cache; with no home folder none is made (it made
+    /nonexistent/.cache as root) and the floor is built in memory."""
+    from quadsim.physics import scene
+
+    monkeypatch.delenv("XDG_CACHE_HOME", raising=False)
+    monkeypatch.setenv("HOME", str(tmp_path / "gone"))
+    assert scene._floor_obj(*scene._floor_mesh(8.0, 1.0)) is None
+    assert not (tmp_path / "gone").exists()
+    monkeypatch.setenv("HOME", str(tmp_path))
+    made = scene._floor_obj(*scene._floor_mesh(8.0, 1.0))
+    assert made is not None and made.parent == tmp_path / ".cache" / "quadsim" and made.stat().st_size > 100

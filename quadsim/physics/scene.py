@@ -60,6 +60,8 @@ def _floor_obj(vertices: list, uvs: list, indices: list) -> Path | None:
     path = folder / f"floor-{hashlib.sha256(text.encode()).hexdigest()[:16]}.obj"
     if path.is_file():
         return path
+    if not folder.parent.parent.is_dir():  # no home (HOME=/nonexistent): none is made for it
+        return None
     try:
         folder.mkdir(parents=True, exist_ok=True)
         fd, tmp = tempfile.mkstemp(prefix=".floor-", suffix=".tmp", dir=folder)
