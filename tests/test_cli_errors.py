@@ -311,3 +311,17 @@ def test_an_unknown_option_points_to_its_commands_help(capsys):
     assert "run --help" not in err
     code, _, err = run_cli(capsys, "run", "--physics-hz", "100000")
     assert_one_line_error(code, err, "within 1..10000")  # the limit the simulator has (it said 100000)
+
+
+@pytest.mark.parametrize(
+    "options,said",
+    [
+        (["--camera-hz", "7"], "--camera-hz 7: does not divide the physics rate 240 Hz"),
+        (["--cameras", "front,front"], "--cameras: front is named twice"),
+        (["--cameras", ""], "--cameras: say which"),  # it flew both cameras
+    ],
+)
+def test_camera_options_are_refused_before_the_flight_says_anything(capsys, tmp_path, options, said):
+    code, out, err = run_cli(capsys, "run", "--script", "hover", "--out", str(tmp_path / "r"), *options)
+    assert_one_line_error(code, err, said)
+    assert "flying" not in out and not (tmp_path / "r").exists()

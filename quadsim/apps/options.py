@@ -373,13 +373,26 @@ def output_options(args: argparse.Namespace) -> OutputOptions:
     """The recording and camera options as OutputOptions, each checked."""
     from quadsim.session.outputs import OutputOptions
 
-    wanted = [c.strip() for c in (args.cameras or DEFAULT_CAMERAS).split(",") if c.strip()]
+    wanted = [c.strip() for c in (DEFAULT_CAMERAS if args.cameras is None else args.cameras).split(",") if c.strip()]
     available = camera_specs(args)
+    if args.cameras is not None and not wanted:
+        raise QuadsimError("--cameras: say which: front, floor, front,floor or none")
     if wanted == ["none"]:
         wanted = []
     unknown = [c for c in wanted if c not in available]
     if unknown:
         raise QuadsimError(f"--cameras: unknown camera {unknown[0]!r}; choose from front, floor or none")
+    twice = [c for i, c in enumerate(wanted) if c in wanted[:i]]
+    if twice:
+        raise QuadsimError(f"--cameras: {twice[0]} is named twice")
+    physics_hz = getattr(args, "physics_hz", None)
+    hz = available[wanted[0]].rate_hz if wanted else None
+    if hz is not None and physics_hz and physics_hz % hz:  # said before the flight starts
+        rates = [str(r) for r in range(min(physics_hz, 60), 0, -1) if physics_hz % r == 0][:4]
+        raise QuadsimError(
+            f"--camera-hz {hz}: does not divide the physics rate {physics_hz} Hz; choose a rate that does "
+            f"({', '.join(rates)}, ...)"
+        )
     if args.render_workers < 0:
         raise QuadsimError("--render-workers must be 0 or more")
     cameras: tuple[CameraSpec, ...] = tuple(available[c] for c in wanted)
