@@ -52,3 +52,28 @@ def test_creating_simulators_in_a_loop_keeps_memory_flat():
     gc.collect()
     growth_kb = resident_kb() - before
     assert growth_kb < 2000, f"memory grew {growth_kb:.0f} kB over 50 simulators"
+
+
+def test_step_and_run_for_refuse_what_is_not_a_time_ahead():
+    """Negative or non-finite times were taken silently (or failed deep in the loop with NaN)."""
+    import numpy as np
+
+    from quadsim import Fleet, FleetVehicle, StartPose
+
+    with Simulator(SimConfig()) as sim:
+        sim.step(np.int64(3))
+        sim.run_for(np.float32(0.1))
+        assert sim.step_count == 3 + 24
+        for bad in (-5, 1.5, True):
+            with pytest.raises(ValueError, match="steps must be a whole number of physics steps, 0 or more"):
+                sim.step(bad)
+        for bad_s in (-1.0, float("nan"), float("inf")):
+            with pytest.raises(ValueError, match="seconds must be a finite number, 0 or more"):
+                sim.run_for(bad_s)
+        assert sim.step_count == 27
+    with Fleet([FleetVehicle("a"), FleetVehicle("b", start=StartPose(x_m=3.0))]) as fleet:
+        with pytest.raises(ValueError, match="seconds must be"):
+            fleet.run_for(float("nan"))
+        with pytest.raises(ValueError, match="steps must be"):
+            fleet.step(-1)
+        assert fleet.step_count == 0

@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 import math
+import numbers
+import operator
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any
@@ -119,3 +121,22 @@ class SimConfig:
             "sensor_noise": self.sensor_noise,
             "seed": self.seed,
         }
+
+
+def whole_steps(steps: int) -> int:
+    """`steps` as a count of physics steps to advance: a whole number (numpy's too), 0 or more."""
+    try:
+        count = operator.index(steps) if not isinstance(steps, bool) else -1
+    except TypeError:
+        count = -1
+    if count < 0:
+        raise ValueError(f"steps must be a whole number of physics steps, 0 or more, got {steps!r}")
+    return count
+
+
+def steps_of(seconds: float, physics_hz: int) -> int:
+    """`seconds` of simulation time as whole physics steps (rounded), for run_for."""
+    value = float(seconds) if isinstance(seconds, numbers.Real) and not isinstance(seconds, bool) else math.nan
+    if not math.isfinite(value) or value < 0:
+        raise ValueError(f"seconds must be a finite number, 0 or more, got {seconds!r}")
+    return round(value * physics_hz)

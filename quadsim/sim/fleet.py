@@ -30,7 +30,7 @@ from quadsim.drivers import InputDriver
 from quadsim.errors import ConfigError
 from quadsim.physics.client import WorldClient
 from quadsim.physics.world_spec import load_world
-from quadsim.sim.config import MAX_SEED, SimConfig
+from quadsim.sim.config import MAX_SEED, SimConfig, steps_of, whole_steps
 from quadsim.sim.description import MAX_FLEET, VEHICLE_NAME, RunDescription
 from quadsim.sim.simulator import FleetPlace, Simulator
 from quadsim.vehicle.params import VehicleParams
@@ -114,6 +114,7 @@ class Fleet:
     def step(self, steps: int = 1) -> None:
         """Advance every vehicle `steps` physics steps together: each one's input and control,
         each one's forces, one world step, then each one's contacts, publishing and taps."""
+        steps = whole_steps(steps)
         loops = [m.loop for m in self._members]
         bodies = [m.physics for m in self._members]
         world_step, states = self.client.step, self._states
@@ -129,7 +130,7 @@ class Fleet:
 
     def run_for(self, seconds: float) -> None:
         """Advance by `seconds` of simulation time (rounded to whole physics steps)."""
-        self.step(round(seconds * self.config.rates.physics_hz))
+        self.step(steps_of(seconds, self.config.rates.physics_hz))
 
     @property
     def step_count(self) -> int:

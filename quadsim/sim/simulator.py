@@ -28,7 +28,7 @@ from quadsim.physics.client import WorldClient
 from quadsim.physics.pybullet_world import PhysicsWorld
 from quadsim.physics.world_spec import load_world
 from quadsim.sensors.imu import ImuNoise
-from quadsim.sim.config import SimConfig
+from quadsim.sim.config import SimConfig, steps_of, whole_steps
 from quadsim.sim.description import ControllerDescription, RunDescription, VehicleDescription
 from quadsim.sim.flight_events import FlightEvent
 from quadsim.sim.loop import SimLoop, Sink
@@ -116,12 +116,12 @@ class Simulator:
         """Advance `steps` physics steps through the loop (input, control, physics, outputs); the new state."""
         if self.fleet is not None:
             raise QuadsimError(f"{self.fleet.name} flies in a fleet, which steps every vehicle at once: step the fleet")
-        self.loop.run(steps)
+        self.loop.run(whole_steps(steps))
         return self.state
 
     def run_for(self, seconds: float) -> VehicleState:
         """Advance by `seconds` of simulation time (rounded to whole physics steps)."""
-        return self.step(round(seconds * self.config.rates.physics_hz))
+        return self.step(steps_of(seconds, self.config.rates.physics_hz))
 
     # --- where outputs attach (the OutputPort protocol) --------------------------------------
 
