@@ -36,22 +36,24 @@ def test_send_refused_when_a_script_drives():
 
 def test_creating_simulators_in_a_loop_keeps_memory_flat():
     """PyBullet keeps a mesh given as arrays for the life of the process: 165 kB a simulator
-    once. Measured as resident memory between the 10th and the 60th simulator."""
+    once. Measured as resident memory over the 10th to 40th simulator and the 40th to 70th."""
     import gc
 
     def resident_kb() -> float:
         with open("/proc/self/statm") as fh:
             return int(fh.read().split()[1]) * 4096 / 1024
 
-    for i in range(60):
-        if i == 10:
-            gc.collect()
-            before = resident_kb()
+    marks = []
+    for i in range(70):
         with Simulator(SimConfig()) as sim:
             sim.step(1)
-    gc.collect()
-    growth_kb = resident_kb() - before
-    assert growth_kb < 2000, f"memory grew {growth_kb:.0f} kB over 50 simulators"
+        if i in (9, 39, 69):
+            gc.collect()
+            marks.append(resident_kb())
+    # a leak grows in both stretches of 30 simulators; the C allocator's heap grows by some 32 MB
+    # once, somewhere (as it may in any process), which only one of them sees
+    growth_kb = min(marks[1] - marks[0], marks[2] - marks[1])
+    assert growth_kb < 1000, f"memory grew {growth_kb:.0f} kB over 30 simulators, twice: {marks}"
 
 
 def test_step_and_run_for_refuse_what_is_not_a_time_ahead():
