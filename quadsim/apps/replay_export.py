@@ -36,7 +36,7 @@ def summary_lines(f: RecordedFlight) -> list[str]:
         last = f.states[-1]
         out += [
             f"flown       {dist:.2f} m, max altitude {max(s.position_m[2] for s in f.states):.2f} m, "
-            f"top speed {top:.2f} m/s",
+            f"top horizontal speed {top:.2f} m/s",
             "final pose  x={:+.2f} y={:+.2f} z={:+.2f} m, yaw {:+.1f} deg".format(
                 *last.position_m, math.degrees(last.yaw_rad())
             ),

@@ -14,7 +14,10 @@ from quadsim.errors import QuadsimError
 try:
     import gymnasium
 except ImportError:  # pragma: no cover - depends on what is installed
-    raise QuadsimError("the Gymnasium environments need gymnasium: pip install 'quadsim[gym]'") from None
+    raise QuadsimError(
+        "the Gymnasium environments need gymnasium: pip install 'quadsim[gym]' ('quadsim[marl]' for the PettingZoo "
+        "fleet env)"
+    ) from None
 
 from quadsim.envs.quad import AGENT_HZ, HOVER_EPISODE_S, TOWER_EPISODE_S
 

@@ -131,11 +131,12 @@ def read_info(path: Path) -> RecordingInfo:
         topics = []
         for ch in f.channels:
             count = f.counts.get(ch.key, 0)
-            topics.append(
-                TopicInfo(
-                    ch.topic, ch.schema.name if ch.schema else "?", count, (count - 1) / duration if count > 1 else 0.0
-                )
-            )
+            # a topic's rate over its own first and last message (over the file's span, a 60 Hz
+            # topic of a 1 s file read 59 Hz)
+            first, last = f.first_ns.get(ch.key), f.last_ns.get(ch.key)
+            span = (last - first) / 1e9 if first is not None and last is not None and last > first else duration
+            rate = (count - 1) / span if count > 1 else 0.0
+            topics.append(TopicInfo(ch.topic, ch.schema.name if ch.schema else "?", count, rate))
         return RecordingInfo(
             path,
             f.size,

@@ -378,7 +378,8 @@ class McapFile:
             action = f" Run 'quadsim recover {self.path}' to save them to an indexed file."
         else:
             action = f" Nothing is lost: 'quadsim recover {self.path}' rewrites it as a sound file."
-        return f"{self.path}: {kind}: {first}{more}. {readable}{action}"
+        said = "" if kind == "cut short" else f"{kind}: "  # its first problem says 'cut short' itself
+        return f"{self.path}: {said}{first}{more}. {readable}{action}"
 
     def close(self) -> None:
         self._buf = b""

@@ -40,7 +40,7 @@ def main(args: argparse.Namespace) -> int:
         f"{result.attachments} attachments"
     )
     lost = [d for d in result.damage if d.loses != "nothing"]
-    print("what was lost: " + ("nothing (only indexes or fields around the data were damaged)" if not lost else ""))
+    print("what was lost:" + (" nothing (only indexes or fields around the data were damaged)" if not lost else ""))
     for d in result.damage:
         print(f"  {d.describe()}")
     print(f"written to {result.path}")
