@@ -1,5 +1,6 @@
 """Controller gains as data: each airframe's NAME.gains.toml beside its URDF, one table per
-controller ([cascade], [seed]), read and checked against the controller's gain fields."""
+controller ([cascade], [seed]), read and checked against the controller's gain fields: a table
+or a gain the controllers do not know is refused, naming the file and the table."""
 
 from __future__ import annotations
 
@@ -8,7 +9,9 @@ import math
 from pathlib import Path
 from typing import Any, TypeVar
 
-from quadsim.core.toml_files import read_toml
+from quadsim.control import ControllerKind
+from quadsim.control import gains_type as gains_of
+from quadsim.core.toml_files import near_miss, read_toml, refuse_unknown_keys
 from quadsim.errors import ConfigError
 from quadsim.vehicle.params import DEFAULT_URDF, VehicleParams
 
@@ -36,9 +39,11 @@ def load_gains(vehicle: VehicleParams, section: str, gains_type: type[G], overri
     """The `[section]` gains of the vehicle's gains file, `overrides` (as a recording holds them)
     replacing any of them. Raises ConfigError naming the file and the gain at fault."""
     path = gains_path(vehicle)
-    table = read_toml(path, "controller gains file").get(section)
+    file = read_toml(path, "controller gains file")
+    table = file.get(section)
     if not isinstance(table, dict):
         raise ConfigError(f"{path}: missing the [{section}] table of controller gains")
+    _refuse_unknown(path, file, section)
     names = {f.name for f in dataclasses.fields(gains_type)}  # type: ignore[arg-type]
     unknown = sorted(set(overrides or {}) - names)
     if unknown:
@@ -48,11 +53,11 @@ def load_gains(vehicle: VehicleParams, section: str, gains_type: type[G], overri
     missing = sorted(names - set(values))
     if extra or missing:
         raise ConfigError(
-            f"{path}: [{section}] "
+            f"{path}: [{section}]: "
             + "; ".join(
                 part
                 for part in (
-                    f"unknown gains {', '.join(extra)}" if extra else "",
+                    _unknown_gains(extra, names) if extra else "",
                     f"missing gains {', '.join(missing)}" if missing else "",
                 )
                 if part
@@ -64,3 +69,35 @@ def load_gains(vehicle: VehicleParams, section: str, gains_type: type[G], overri
             source = "the gains given" if key in (overrides or {}) else f"{path}: [{section}]"
             raise ConfigError(f"{source}: {key} = {value!r:.40}: {problem}")
     return gains_type(**{k: float(v) for k, v in values.items()})
+
+
+def _unknown_gains(extra: list[str], names: set[str]) -> str:
+    """ "unknown gains a, b", each with the gain it is likely a typo of."""
+    said = []
+    for key in extra:
+        shown = key if key.isidentifier() and len(key) <= 60 else repr(key[:60])  # one line, whatever the key
+        near = near_miss(key, sorted(names))
+        said.append(f"{shown} (did you mean {near!r}?)" if near is not None else shown)
+    return f"unknown gains {', '.join(said)}"
+
+
+def _refuse_unknown(path: Path, file: dict[str, Any], section: str) -> None:
+    """ConfigError for a table of the gains file no controller has, or a gain in another
+    controller's table than `section` (checked in full when that controller flies) it has no use for."""
+    kinds = tuple(k.value for k in ControllerKind)
+    refuse_unknown_keys(
+        file,
+        kinds,
+        str(path),
+        top_level=True,
+        otherwise=f"a gains file has one table per controller: {', '.join(f'[{k}]' for k in kinds)}",
+    )
+    for name, table in file.items():
+        if name == section:
+            continue
+        if not isinstance(table, dict):
+            raise ConfigError(f"{path}: {name} must be a table of controller gains ([{name}]), got {table!r:.40}")
+        names = {f.name for f in dataclasses.fields(gains_of(ControllerKind(name)))}
+        extra = [k for k in table if k not in names]
+        if extra:
+            raise ConfigError(f"{path}: [{name}]: {_unknown_gains(extra, names)}")

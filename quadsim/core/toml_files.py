@@ -2,12 +2,17 @@
 
 World, vehicle parameter, gains, joystick mapping and sweep files are input a user may have been
 handed: a file of a million nested arrays must give one line, not a RecursionError or a minute
-of parsing. `tomllib` is the standard library's from Python 3.11, tomli before.
+of parsing. `tomllib` is the standard library's from Python 3.11, tomli before. A key a table
+does not know is refused too (`refuse_unknown_keys`), the nearest known one suggested: a typo
+must not be silently ignored.
 """
 
 from __future__ import annotations
 
+import difflib
+import re
 import sys
+from collections.abc import Iterable, Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -18,7 +23,7 @@ if sys.version_info >= (3, 11):
 else:  # pragma: no cover - exercised only on Python 3.10
     import tomli as tomllib
 
-__all__ = ["MAX_TOML_BYTES", "MAX_TOML_DEPTH", "read_toml", "tomllib"]
+__all__ = ["MAX_TOML_BYTES", "MAX_TOML_DEPTH", "near_miss", "read_toml", "refuse_unknown_keys", "tomllib"]
 
 #: the largest TOML file quadsim reads (its own are a few kB)
 MAX_TOML_BYTES = 1024 * 1024
@@ -67,3 +72,48 @@ def _too_deep(table: dict[str, Any]) -> str | None:
         elif isinstance(value, list):
             stack += [(f"{key}[{i}]", v, depth + 1) for i, v in enumerate(value)]
     return None
+
+
+#: a key TOML writes without quotes
+_BARE_KEY = re.compile(r"[A-Za-z0-9_-]{1,60}")
+
+
+def near_miss(key: str, known: Iterable[str]) -> str | None:
+    """The known key `key` is most likely a typo of (difflib's closest, if close enough), or None."""
+    matches = difflib.get_close_matches(key, list(known), n=1, cutoff=0.6)
+    return matches[0] if matches else None
+
+
+def refuse_unknown_keys(
+    table: Mapping[str, Any],
+    known: Sequence[str],
+    where: str,
+    *,
+    top_level: bool = False,
+    otherwise: str | None = None,
+) -> None:
+    """ConfigError for the first key of `table` (in the file's order) not among `known`:
+    "{where}: unknown key 'fricton' (did you mean 'friction'?)", `where` naming the file and the
+    table. With no known key near it, `otherwise` (else the known keys) is said in the brackets.
+
+    `top_level`: `table` is a whole file, whose tables are spelled as TOML writes them
+    ("unknown table [[landmarks]] (did you mean [[landmark]]?)")."""
+    unknown = [key for key in table if key not in known]
+    if not unknown:
+        return
+    key = unknown[0]
+    value = table[key]
+    bare = top_level and _BARE_KEY.fullmatch(key) is not None  # else quoted, as a key: one line
+    if bare and isinstance(value, dict):
+        noun, spell = "table", "[{}]"
+    elif bare and isinstance(value, list) and value and all(isinstance(v, dict) for v in value):
+        noun, spell = "table", "[[{}]]"
+    else:
+        noun, spell = "key", "{!r}"
+    shown = key if len(key) <= 60 else key[:57] + "..."
+    near = near_miss(key, known)
+    if near is not None:
+        tail = f"did you mean {spell.format(near)}?"
+    else:
+        tail = otherwise if otherwise is not None else f"known: {', '.join(known)}"
+    raise ConfigError(f"{where}: unknown {noun} {spell.format(shown)} ({tail})")

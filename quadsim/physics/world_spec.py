@@ -1,4 +1,7 @@
-"""The world as data: floor and landmarks, read from a TOML file (see assets/worlds/)."""
+"""The world as data: floor and landmarks, read from a TOML file (see assets/worlds/).
+
+Every table refuses a key it does not know, naming the file, the table and the key (a typo such
+as [[landmarks]] or `fricton` must not leave a world silently empty or plain)."""
 
 from __future__ import annotations
 
@@ -9,12 +12,18 @@ from pathlib import Path
 from typing import Any
 
 from quadsim.assets import asset_path
-from quadsim.core.toml_files import read_toml
+from quadsim.core.toml_files import read_toml, refuse_unknown_keys
 from quadsim.errors import ConfigError
 
 DEFAULT_WORLD = asset_path("worlds", "default.toml")
 #: the largest world accepted: 10 km (a floor of 1e30 m is a typo, and hangs the renderer)
 MAX_FLOOR_SIZE_M = 10_000.0
+#: the tables of a world file
+WORLD_KEYS = ("floor", "landmark")
+#: the keys of its [floor]
+FLOOR_KEYS = ("size_m", "texture", "texture_tile_m", "friction")
+#: the keys of each of its [[landmark]] tables
+LANDMARK_KEYS = ("name", "shape", "position_m", "size_m", "color_rgba", "collision")
 
 
 class Shape(enum.Enum):
@@ -83,53 +92,67 @@ def load_world(path: Path | str | None = None, texture_required: bool = True) ->
     if not world_path.is_file():
         raise ConfigError(f"world file not found: {world_path}")
     table = read_toml(world_path, "world file")
-    floor_t = _table(table.get("floor", {}), f"{world_path}: [floor]")
+    refuse_unknown_keys(
+        table,
+        WORLD_KEYS,
+        str(world_path),
+        top_level=True,
+        otherwise="a world file has [floor] and [[landmark]] tables"
+        + (f"; is it a fleet file? give it with --fleet {world_path}" if "vehicle" in table else ""),
+    )
+    floor = _floor(world_path, table.get("floor", {}), texture_required)
+    entries = table.get("landmark", [])
+    if not isinstance(entries, list):
+        raise ConfigError(f"{world_path}: landmark must be an array of tables ([[landmark]]), got {entries!r}")
+    landmarks = tuple(_landmark(world_path, i, raw) for i, raw in enumerate(entries))
+    return WorldSpec(world_path, floor, landmarks)
+
+
+def _floor(world_path: Path, value: Any, texture_required: bool) -> FloorSpec:
+    where = f"{world_path}: [floor]"
+    floor_t = _table(value, where)
+    refuse_unknown_keys(floor_t, FLOOR_KEYS, where)
     texture = floor_t.get("texture")
     if texture is not None and (not isinstance(texture, str) or not texture or "\0" in texture):
-        raise ConfigError(f"{world_path}: [floor] texture must be a file name, got {texture!r}")
+        raise ConfigError(f"{where} texture must be a file name, got {texture!r}")
     texture_path = (world_path.parent / texture).resolve() if texture else None
     if texture_path is not None and not texture_path.is_file():
         if texture_required:
-            raise ConfigError(f"{world_path}: [floor] texture not found: {texture_path}")
+            raise ConfigError(f"{where} texture not found: {texture_path}")
         texture_path = None
-    where = f"{world_path}: [floor]"
-    floor = FloorSpec(
+    return FloorSpec(
         size_m=_scalar(floor_t, "size_m", 80.0, 1.0, MAX_FLOOR_SIZE_M, where),
         texture_path=texture_path,
         texture_tile_m=_scalar(floor_t, "texture_tile_m", 4.0, 0.01, MAX_FLOOR_SIZE_M, where),
         friction=_scalar(floor_t, "friction", 0.9, 0.0, 10.0, where),
     )
-    landmarks = []
-    entries = table.get("landmark", [])
-    if not isinstance(entries, list):
-        raise ConfigError(f"{world_path}: landmark must be an array of tables ([[landmark]]), got {entries!r}")
-    for i, raw in enumerate(entries):
-        entry = _table(raw, f"{world_path}: landmark {i + 1}")
-        where = f"{world_path}: landmark {i + 1} ({entry.get('name', '?')})"
-        try:
-            shape = Shape(entry.get("shape"))
-        except (ValueError, TypeError):
-            raise ConfigError(f"{where}: shape must be one of {[s.value for s in Shape]}") from None
-        size = _vector(entry, "size_m", 3, where)
-        if min(size) <= 0 or max(size) > MAX_FLOOR_SIZE_M:
-            raise ConfigError(f"{where}: size_m must be > 0 and at most {MAX_FLOOR_SIZE_M:g} m")
-        position = _vector(entry, "position_m", 3, where)
-        if max(abs(v) for v in position) > MAX_FLOOR_SIZE_M:
-            raise ConfigError(f"{where}: position_m must be within {MAX_FLOOR_SIZE_M:g} m of the origin")
-        color = _vector(entry, "color_rgba", 4, where)
-        if not all(0.0 <= c <= 1.0 for c in color):
-            raise ConfigError(f"{where}: color_rgba values must be within 0..1")
-        collision = entry.get("collision", True)
-        if not isinstance(collision, bool):
-            raise ConfigError(f"{where}: collision must be true or false, got {collision!r}")
-        landmarks.append(
-            Landmark(
-                name=str(entry.get("name", f"landmark_{i + 1}")),
-                shape=shape,
-                position_m=position,  # type: ignore[arg-type]
-                size_m=size,  # type: ignore[arg-type]
-                color_rgba=color,  # type: ignore[arg-type]
-                collision=collision,
-            )
-        )
-    return WorldSpec(world_path, floor, tuple(landmarks))
+
+
+def _landmark(world_path: Path, i: int, raw: Any) -> Landmark:
+    entry = _table(raw, f"{world_path}: landmark {i + 1}")
+    where = f"{world_path}: landmark {i + 1} ({entry.get('name', '?')})"
+    refuse_unknown_keys(entry, LANDMARK_KEYS, where)
+    try:
+        shape = Shape(entry.get("shape"))
+    except (ValueError, TypeError):
+        raise ConfigError(f"{where}: shape must be one of {[s.value for s in Shape]}") from None
+    size = _vector(entry, "size_m", 3, where)
+    if min(size) <= 0 or max(size) > MAX_FLOOR_SIZE_M:
+        raise ConfigError(f"{where}: size_m must be > 0 and at most {MAX_FLOOR_SIZE_M:g} m")
+    position = _vector(entry, "position_m", 3, where)
+    if max(abs(v) for v in position) > MAX_FLOOR_SIZE_M:
+        raise ConfigError(f"{where}: position_m must be within {MAX_FLOOR_SIZE_M:g} m of the origin")
+    color = _vector(entry, "color_rgba", 4, where)
+    if not all(0.0 <= c <= 1.0 for c in color):
+        raise ConfigError(f"{where}: color_rgba values must be within 0..1")
+    collision = entry.get("collision", True)
+    if not isinstance(collision, bool):
+        raise ConfigError(f"{where}: collision must be true or false, got {collision!r}")
+    return Landmark(
+        name=str(entry.get("name", f"landmark_{i + 1}")),
+        shape=shape,
+        position_m=position,  # type: ignore[arg-type]
+        size_m=size,  # type: ignore[arg-type]
+        color_rgba=color,  # type: ignore[arg-type]
+        collision=collision,
+    )

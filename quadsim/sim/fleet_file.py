@@ -26,7 +26,7 @@ from typing import Any
 
 from quadsim.control import ControllerKind, gains_type
 from quadsim.control.gains import gain_problem
-from quadsim.core.toml_files import read_toml
+from quadsim.core.toml_files import read_toml, refuse_unknown_keys
 from quadsim.core.types import StartPose, ZMode
 from quadsim.drivers import InputDriver
 from quadsim.drivers.scripted import Script, load_script
@@ -107,9 +107,9 @@ class FleetFile:
 def load_fleet_file(path: Path) -> FleetFile:
     """Read and check a fleet file; ConfigError naming the file, vehicle and key."""
     table = read_toml(path, "fleet file")
-    unknown = sorted(set(table) - {"vehicle"})
-    if unknown:
-        raise ConfigError(f"{path}: unknown key {unknown[0]!r} (a fleet file lists [[vehicle]] tables)")
+    refuse_unknown_keys(
+        table, ("vehicle",), str(path), top_level=True, otherwise="a fleet file lists [[vehicle]] tables"
+    )
     raw = table.get("vehicle")
     if isinstance(raw, dict):  # [vehicle], one table, where [[vehicle]] makes a list of them
         raise ConfigError(f"{path}: [vehicle] is one table: write [[vehicle]] (double brackets) before each vehicle")
@@ -146,9 +146,7 @@ def _entry(path: Path, index: int, data: dict[str, Any]) -> FleetEntry:
             "lowercase letters, digits or _; at most 63)"
         )
     where = f"{path}: vehicle {name!r}"
-    unknown = sorted(set(data) - set(VEHICLE_KEYS))
-    if unknown:
-        raise ConfigError(f"{where}: unknown key {unknown[0]!r} (known: {', '.join(VEHICLE_KEYS)})")
+    refuse_unknown_keys(data, VEHICLE_KEYS, where)
     input_name, script = _input(path, where, data.get("input", "idle"))
     controller = _choice(where, "controller", data.get("controller", "cascade"), ControllerKind)
     z_mode = _choice(where, "z_mode", data["z_mode"], ZMode) if "z_mode" in data else None

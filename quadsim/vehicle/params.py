@@ -1,5 +1,6 @@
 """Vehicle parameters: read once from the URDF (mass, inertia, rotor and camera links) and the
-parameter file beside it (rotor coefficients, limits, aerodynamics, IMU noise), validated, frozen."""
+parameter file beside it (rotor coefficients, limits, aerodynamics, IMU noise), validated, frozen.
+Every table of the parameter file refuses a key it does not know."""
 
 from __future__ import annotations
 
@@ -7,13 +8,13 @@ import enum
 import math
 import re
 import xml.etree.ElementTree as ET
-from dataclasses import dataclass
+from dataclasses import dataclass, fields
 from pathlib import Path
 from typing import Any
 
 from quadsim.assets import asset_path
 from quadsim.core.kinematics import IDENTITY, Mat3, Vec3, mat_mul, matrix_from_rpy, rotate, transpose
-from quadsim.core.toml_files import read_toml
+from quadsim.core.toml_files import read_toml, refuse_unknown_keys
 from quadsim.errors import ConfigError
 from quadsim.vehicle.aero import AeroParams
 
@@ -186,6 +187,7 @@ def load_vehicle(urdf_path: Path | str | None = None, params_path: Path | str | 
         raise ConfigError(f"vehicle parameter file not found: {params} (expected beside {urdf.name})")
     links = _read_urdf(urdf)
     table = _read_toml(params)
+    _refuse_unknown_keys(table, params)
     return _build(urdf, params, links, table)
 
 
@@ -338,6 +340,37 @@ def _composite_inertia(links: dict[str, _Link]) -> tuple[float, Vec3, Mat3]:
 
 def _read_toml(path: Path) -> dict[str, Any]:
     return read_toml(path, "vehicle parameter file")
+
+
+#: The tables of a vehicle parameter file and the keys of each ([rotors] spin holds one entry
+#: per rotor link, checked against the URDF).
+PARAM_KEYS: dict[str, tuple[str, ...]] = {
+    "rotors": (
+        "spin",
+        "thrust_coefficient_n_per_rad2s2",
+        "torque_coefficient_nm_per_rad2s2",
+        "max_thrust_n",
+        "motor_time_constant_s",
+    ),
+    "aero": tuple(f.name for f in fields(AeroParams)),
+    "imu": tuple(f.name for f in fields(ImuNoiseParams)),
+    "limits": tuple(f.name for f in fields(CommandLimits)),
+}
+
+
+def _refuse_unknown_keys(table: dict[str, Any], path: Path) -> None:
+    """ConfigError naming the file, the table and the first key the parameter file has no use for."""
+    refuse_unknown_keys(
+        table,
+        tuple(PARAM_KEYS),
+        str(path),
+        top_level=True,
+        otherwise=f"a vehicle parameter file has the tables {', '.join(f'[{t}]' for t in PARAM_KEYS)}",
+    )
+    for section, keys in PARAM_KEYS.items():
+        value = table.get(section)
+        if isinstance(value, dict):
+            refuse_unknown_keys(value, keys, f"{path}: [{section}]")
 
 
 def _number(table: dict[str, Any], section: str, key: str, path: Path, *, low: float, high: float) -> float:
