@@ -77,7 +77,7 @@ def _write(case: Case, folder: Path) -> Path:
     folder.mkdir()
     path = folder / "input.toml"
     path.write_bytes(case.text.encode("utf-8", "surrogateescape"))
-    (folder / "endless.qscript").write_text("1e300 linear.z=0.5\n")
+    (folder / "endless.qscript").write_text("7200 linear.z=0.5\n")
     return path
 
 

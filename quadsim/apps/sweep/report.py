@@ -59,6 +59,21 @@ def _numeric(value: str) -> float | None:
         return None
 
 
+def _series(
+    group: Sequence[dict[str, Any]], metric: str, x_axis: str, position: dict[str, Any]
+) -> tuple[list[Any], list[float], list[float], list[float]]:
+    """One plotted line: at each x the group's runs have, the mean, least and most of `metric`."""
+    xs, means, lows, highs = [], [], [], []
+    for v, x in position.items():
+        values = _finite([r[metric] for r in group if str(r[x_axis]) == v])
+        if values:
+            xs.append(x)
+            means.append(sum(values) / len(values))
+            lows.append(min(values))
+            highs.append(max(values))
+    return xs, means, lows, highs
+
+
 def plot(rows: Sequence[dict[str, Any]], varied: Sequence[str], path: Path, title: str) -> Path | None:
     """Each shown metric against the first swept axis (numbers on a numeric axis), one line per
     combination of the other swept values, the band between the best and worst seed. None: no
@@ -85,14 +100,7 @@ def plot(rows: Sequence[dict[str, Any]], varied: Sequence[str], path: Path, titl
         lines.setdefault(tuple(str(r[a]) for a in others), []).append(r)
     for ax, metric in zip(axes[:, 0], shown):
         for label, group in sorted(lines.items()):
-            xs, means, lows, highs = [], [], [], []
-            for v in xs_all:
-                values = _finite([r[metric] for r in group if str(r[x_axis]) == v])
-                if values:
-                    xs.append(position[v])
-                    means.append(sum(values) / len(values))
-                    lows.append(min(values))
-                    highs.append(max(values))
+            xs, means, lows, highs = _series(group, metric, x_axis, position)
             name = ", ".join(f"{a}={v}" for a, v in zip(others, label)) or "all runs"
             # categories are not a scale: no line between them
             (line,) = ax.plot(xs, means, marker="o", linestyle="-" if numeric else "none", label=name)
