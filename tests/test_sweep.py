@@ -241,6 +241,7 @@ def test_existing_table_needs_resume(tmp_path: Path) -> None:
     assert _sweep(tmp_path, text, "--jobs", "1", "--out", out, "--format", "csv", "--no-plot").returncode == 0
     again = _sweep(tmp_path, text, "--jobs", "1", "--out", out, "--no-plot")
     assert again.returncode == 2 and "--resume" in again.stderr
+    assert not again.stdout  # refused before the sweep says anything
     resumed = _sweep(tmp_path, text, "--jobs", "1", "--out", out, "--resume", "--no-plot")
     assert resumed.returncode == 0 and "(3 already in the table)" in resumed.stdout
     assert "--overwrite" in again.stderr

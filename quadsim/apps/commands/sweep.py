@@ -70,7 +70,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
 
 def main(args: argparse.Namespace) -> int:
     from quadsim.apps.sweep.backends import default_jobs
-    from quadsim.apps.sweep.execute import run_sweep
+    from quadsim.apps.sweep.execute import check_table_free, run_sweep
     from quadsim.apps.sweep.spec import load_sweep
     from quadsim.recording.paths import default_recordings_dir
 
@@ -89,6 +89,7 @@ def main(args: argparse.Namespace) -> int:
         if use_ray
         else (f"{jobs} worker process{'es' if jobs > 1 else ''}")
     )
+    check_table_free(out, args.resume, args.overwrite)  # said before the sweep's first line
     print(f"sweep '{spec.name}': {len(spec.runs)} runs on {where}; results in {out}", flush=True)
     result = run_sweep(
         spec,

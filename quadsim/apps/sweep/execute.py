@@ -42,6 +42,7 @@ def _table(
 ) -> tuple[Path, dict[int, dict[str, Any]]]:
     """The table's path in `out`, and the rows of an earlier table kept for --resume (by index);
     an existing table is replaced only with --overwrite."""
+    check_table_free(out, resume, overwrite)
     try:
         out.mkdir(parents=True, exist_ok=True)
     except OSError as exc:
@@ -54,10 +55,7 @@ def _table(
     if previous is None:
         return table_path(out, table_format), rows
     if not resume:
-        raise QuadsimError(
-            f"{previous} already exists: add --resume to fly only the runs missing from it, "
-            f"--overwrite to fly them all again, or choose another --out (nothing is overwritten unasked)"
-        )
+        raise _taken(previous)
     keys = {run.key: run.index for run in spec.runs}
     for row in read_table(previous):
         if row.get("key") in keys and row.get("status") in ("ok", "fail"):
@@ -116,3 +114,17 @@ def run_sweep(
         stop_requested() and len(rows) < len(spec.runs),
         time.monotonic() - t0,
     )
+
+
+def _taken(previous: Path) -> QuadsimError:
+    return QuadsimError(
+        f"{previous} already exists: add --resume to fly only the runs missing from it, "
+        f"--overwrite to fly them all again, or choose another --out (nothing is overwritten unasked)"
+    )
+
+
+def check_table_free(out: Path, resume: bool, overwrite: bool) -> None:
+    """Refuse, before anything is said or flown, a folder whose table would be overwritten unasked."""
+    previous = existing_table(out) if out.is_dir() else None
+    if previous is not None and not resume and not overwrite:
+        raise _taken(previous)
