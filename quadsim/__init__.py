@@ -9,10 +9,10 @@ The public API, loaded on first use so that `import quadsim` stays light (no pyb
         print(sim.state.position_m)
 """
 
-from __future__ import annotations
-
-import importlib
-from typing import TYPE_CHECKING, Any
+# typing.TYPE_CHECKING without importing typing (nor __future__): `import quadsim` runs first of
+# all in the `quadsim` command, before quadsim.apps.launch takes SIGINT and SIGTERM, and typing
+# would add some 10 ms in which a Ctrl-C meets Python's default handler (a traceback)
+TYPE_CHECKING = False
 
 __version__ = "0.2.0"
 
@@ -71,11 +71,13 @@ __all__ = [
 ]
 
 
-def __getattr__(name: str) -> Any:
+def __getattr__(name: str) -> "Any":
     module = _PUBLIC.get(name)
     if module is None:
         raise AttributeError(f"module 'quadsim' has no attribute {name!r}")
-    value = getattr(importlib.import_module(module), name)
+    from importlib import import_module
+
+    value = getattr(import_module(module), name)
     globals()[name] = value  # later lookups skip this function
     return value
 
@@ -85,6 +87,8 @@ def __dir__() -> list[str]:
 
 
 if TYPE_CHECKING:  # for type checkers and IDEs: the same names, eagerly
+    from typing import Any
+
     from quadsim.control import ControllerKind
     from quadsim.core.types import ActiveCommand, StartPose, Twist, VehicleState, ZMode
     from quadsim.errors import ConfigError, QuadsimError, ScriptError

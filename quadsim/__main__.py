@@ -2,6 +2,7 @@
 
 import sys
 
+# first of all: quadsim.apps.launch takes SIGINT and SIGTERM before it imports anything else
 from quadsim.apps.launch import main
 
 if __name__ == "__main__":

@@ -10,6 +10,7 @@ any quadsim code runs, is left out: a signal there meets Python's defaults, not 
 
 from __future__ import annotations
 
+import json
 import os
 import random
 import signal
@@ -229,15 +230,16 @@ def test_a_fleet_run_stopped_at_any_moment_ends_cleanly_with_every_vehicle_recor
 # --- the first second, under load ---------------------------------------------------------------
 
 FIRST_SECOND_TRIALS = 40
-SIGTERM_CAUGHT = 1 << (signal.SIGTERM - 1)  # its bit in /proc/PID/status's SigCgt: quadsim's handler is in
+SIGTERM_BIT = 1 << (signal.SIGTERM - 1)  # its bit in /proc/PID/status's SigBlk and SigCgt
 
 
 def _handlers_in(pid: int) -> bool:
-    """Has the process installed its SIGTERM handler (main.py's first lines)? Python alone never does."""
+    """Has quadsim taken the signals: holding them back (SigBlk, the first statement of main.py and
+    of quadsim.apps.launch) or handling them (SigCgt, SignalStop)? Python alone does neither for SIGTERM."""
     try:
         for line in Path(f"/proc/{pid}/status").read_text().splitlines():
-            if line.startswith("SigCgt:"):
-                return bool(int(line.split()[1], 16) & SIGTERM_CAUGHT)
+            if line.startswith(("SigBlk:", "SigCgt:")) and int(line.split()[1], 16) & SIGTERM_BIT:
+                return True
     except OSError:
         pass
     return False
@@ -289,6 +291,138 @@ def test_a_signal_in_the_first_second_under_load(tmp_path):
         assert said in stderr, f"{where}:\n{stderr}"  # said why it stopped, whatever stage it was at
     print(f"\nfirst second: {judged} of {len(results)} signals came after quadsim's handlers were in")
     assert judged >= len(results) * 3 // 4
+
+
+# --- the three ways of starting, from quadsim's first statement on -------------------------------
+
+
+def _pip_script(folder: Path) -> Path:
+    """The `quadsim` command as pip writes it for [project.scripts] (its template, word for word:
+    `import re` and `import sys` come first, then the entry point's module is imported)."""
+    try:
+        import tomllib
+    except ModuleNotFoundError:  # Python 3.10
+        import tomli as tomllib
+    target = tomllib.loads((ROOT / "pyproject.toml").read_text())["project"]["scripts"]["quadsim"]
+    module, function = target.split(":")
+    script = folder / "quadsim"
+    script.write_text(
+        f"#!{sys.executable}\n"
+        "# -*- coding: utf-8 -*-\n"
+        "import re\n"
+        "import sys\n"
+        f"from {module} import {function}\n"
+        "if __name__ == '__main__':\n"
+        "    sys.argv[0] = re.sub(r'(-script\\.pyw|\\.exe)?$', '', sys.argv[0])\n"
+        f"    sys.exit({function}())\n"
+    )
+    script.chmod(0o755)
+    return script
+
+
+ENTRIES = {
+    "quadsim": lambda folder: [str(_pip_script(folder))],
+    "python -m quadsim": lambda folder: [sys.executable, "-m", "quadsim"],
+    "python main.py": lambda folder: [sys.executable, str(ROOT / "main.py")],
+}
+# after quadsim's first act on the signals: while they are held back (0), while quadsim.apps.launch
+# imports the rest, as SignalStop goes in, during the heavy imports, once the run has begun
+MOMENTS_AFTER_FIRST_ACT = [
+    (signal.SIGINT, 0.0),
+    (signal.SIGTERM, 0.002),
+    (signal.SIGINT, 0.01),
+    (signal.SIGTERM, 0.05),
+    (signal.SIGINT, 0.3),
+]
+
+
+def _signalled_after_first_act(folder: Path, entry: str, signum: int, delay_s: float) -> tuple[int, str]:
+    folder.mkdir(parents=True)
+    command = [*ENTRIES[entry](folder), "run", "--script", "square", "--cameras", "none", "--out", "run.mcap"]
+    proc = subprocess.Popen(
+        command, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True, cwd=folder, env=_env(folder)
+    )
+    deadline = time.monotonic() + 30.0
+    while not _handlers_in(proc.pid):  # Python's own start-up, and the lines of pip's script before ours
+        assert proc.poll() is None and time.monotonic() < deadline, f"{entry}: quadsim never took the signals"
+    time.sleep(delay_s)
+    proc.send_signal(signum)
+    _, stderr = proc.communicate(timeout=120)
+    return proc.returncode, stderr
+
+
+@pytest.mark.parametrize("entry", list(ENTRIES))
+def test_every_entry_takes_the_signals_first(entry, tmp_path):
+    """The `quadsim` command (the script pip writes: it imports the package `quadsim` first),
+    `python -m quadsim` and main.py: a signal at any moment from quadsim's first statement on,
+    even before quadsim's handlers exist, ends the program with 130 / 143 and a line, no traceback."""
+    with ThreadPoolExecutor(max_workers=2) as pool:
+        results = list(
+            pool.map(
+                lambda c: (c[1], _signalled_after_first_act(tmp_path / f"t{c[0]}", entry, *c[1])),
+                enumerate(MOMENTS_AFTER_FIRST_ACT),
+            )
+        )
+    for (signum, delay), (code, stderr) in results:
+        where = f"{entry}: {signal.Signals(signum).name} {delay * 1000:.0f} ms after quadsim took the signals"
+        assert "Traceback" not in stderr and code == EXPECTED[signum], f"{where}: exit {code}\n{stderr}"
+        said = "interrupted" if signum == signal.SIGINT else "terminated"
+        assert said in stderr, f"{where}:\n{stderr}"
+
+
+# run by each entry's interpreter: what it has imported (beyond Python's start-up and the lines of
+# pip's script before its import of quadsim) when quadsim first acts on SIGINT / SIGTERM
+FIRST_ACT_PROBE = """
+import json, os, sys, _signal
+ENTRY, MAIN_PY, SCRIPT = sys.argv[1:4]
+del sys.argv[1:4]
+if ENTRY == "quadsim":
+    import re  # the script's own first lines
+elif ENTRY == "python -m quadsim":
+    import runpy  # Python's, for -m
+before = set(sys.modules)
+
+def first_act(real, acts):
+    def wrapper(*args):
+        if acts(*args):
+            print(json.dumps(sorted(set(sys.modules) - before)), flush=True)
+            os._exit(0)
+        return real(*args)
+    return wrapper
+
+_signal.pthread_sigmask = first_act(_signal.pthread_sigmask, lambda how, mask: how == _signal.SIG_BLOCK)
+_signal.signal = first_act(_signal.signal, lambda signum, handler: signum in (_signal.SIGINT, _signal.SIGTERM))
+if ENTRY == "quadsim":
+    exec(compile(open(SCRIPT).read(), SCRIPT, "exec"), {"__name__": "__main__"})
+elif ENTRY == "python -m quadsim":
+    runpy._run_module_as_main("quadsim")
+else:
+    sys.path[0] = os.path.dirname(MAIN_PY)
+    exec(compile(open(MAIN_PY).read(), MAIN_PY, "exec"), {"__name__": "__main__", "__file__": MAIN_PY})
+print("null")
+"""
+FIRST_ACT_AFTER = {  # what each entry imports before quadsim's first act: nothing but the way to it
+    "quadsim": ["quadsim", "quadsim.apps", "quadsim.apps.launch"],
+    "python -m quadsim": ["quadsim", "quadsim.apps", "quadsim.apps.launch"],
+    "python main.py": [],
+}
+
+
+@pytest.mark.parametrize("entry", list(ENTRIES))
+def test_quadsim_takes_the_signals_before_it_imports_anything_else(entry, tmp_path):
+    """The window in which a signal still meets Python's default handler (a traceback) ends with
+    quadsim's first statement: nothing is imported before it (typing in quadsim/__init__.py took
+    10 ms, signal's enum in main.py a few) but the package on the way to quadsim.apps.launch."""
+    done = subprocess.run(
+        [sys.executable, "-c", FIRST_ACT_PROBE, entry, str(ROOT / "main.py"), str(_pip_script(tmp_path)), "--version"],
+        capture_output=True,
+        text=True,
+        cwd=tmp_path,
+        env=_env(tmp_path),
+        timeout=60,
+    )
+    assert done.returncode == 0, done.stderr
+    assert json.loads(done.stdout.splitlines()[-1]) == FIRST_ACT_AFTER[entry], done.stdout
 
 
 def test_a_signal_once_the_command_has_finished_says_nothing_was_cut_short(capsys, monkeypatch):
