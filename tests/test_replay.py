@@ -406,3 +406,13 @@ def test_replay_refuses_options_it_would_ignore(tmp_path):
     fleet = ROOT / "tests" / "recordings" / "fleet_trio_wind.mcap"
     out = cli("replay", fleet, "--headless", "--vehicle", "bravo", "--mp4", tmp_path / "v")
     assert out.returncode == 2 and "vehicle bravo recorded no camera images" in out.stderr, out.stderr
+
+
+def test_replay_ros2_without_cyclone_says_so_before_the_summary(monkeypatch, capsys):
+    from tests.test_cli_errors import assert_one_line_error, run_cli
+
+    monkeypatch.setitem(sys.modules, "cyclonedds.domain", None)  # as if the ros2 extra were missing
+    recording = ROOT / "tests" / "recordings" / "climb_cascade.mcap"
+    code, out, err = run_cli(capsys, "replay", str(recording), "--headless", "--ros2")
+    assert_one_line_error(code, err, "ros2")
+    assert "duration" not in out  # said first, not after the summary

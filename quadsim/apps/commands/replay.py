@@ -128,6 +128,10 @@ def main(args: argparse.Namespace) -> int:
         raise
     if args.resim:
         return _resim(args, flight)
+    if args.ros2:  # the missing extra said before the summary, not after it
+        from quadsim.live.ros2 import cyclonedds
+
+        cyclonedds()
     warn(flight.warnings(), args.file)
     headless = args.headless or args.mp4 is not None or args.plot is not None
     if not headless and not has_display():
