@@ -4,8 +4,10 @@ same order, and the same exit codes as one after another."""
 from __future__ import annotations
 
 import shutil
+import signal
 import subprocess
 import sys
+import time
 from pathlib import Path
 
 import pytest
@@ -49,3 +51,22 @@ def test_ray_gives_the_serial_report(folder: Path) -> None:
     on_ray = _check(*good, "--ray", "--jobs", "2")
     assert serial.returncode == on_ray.returncode == 0, on_ray.stderr[-2000:]
     assert on_ray.stdout == serial.stdout
+
+
+def test_check_stopped_part_way_says_so_and_exits_130(tmp_path):
+    """Ctrl-C part-way through: the files not reached are counted, and the exit code is 130 (it
+    was 0, with a line saying the signal came once the command had finished)."""
+    for i in range(4):
+        for src in sorted((ROOT / "tests" / "recordings").glob("*.mcap")):
+            shutil.copy(src, tmp_path / f"{i}_{src.name}")
+    proc = subprocess.Popen(
+        [sys.executable, str(ROOT / "main.py"), "check", str(tmp_path), "--jobs", "1"],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+    time.sleep(3.0)
+    proc.send_signal(signal.SIGINT)
+    out, err = proc.communicate(timeout=120)
+    assert proc.returncode == 130, (out, err)
+    assert "not checked (stopped)" in out and "nothing was cut short" not in err and "Traceback" not in err

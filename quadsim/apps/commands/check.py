@@ -10,6 +10,8 @@ from pathlib import Path
 from quadsim.apps.options import add_parallel_options, number
 from quadsim.apps.regression import DEFAULT_TOLERANCE_M, DEFAULT_TOLERANCE_RAD
 from quadsim.errors import QuadsimError
+from quadsim.session.stopping import SignalStop
+from quadsim.session.stopping import exit_code as stop_exit_code
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
@@ -73,4 +75,9 @@ def main(args: argparse.Namespace) -> int:
         + (f"; {unusable} unusable" if unusable else "")
         + (f"; {not_checked} not checked (stopped)" if not_checked else "")
     )
-    return 2 if unusable else (1 if failed else 0)
+    if unusable or failed:
+        return 2 if unusable else 1
+    stop = SignalStop.current()
+    if not_checked and stop is not None and stop.signum is not None:
+        return stop_exit_code(stop.signum)  # stopped before the end: 130/143, as the line above says
+    return 0
