@@ -227,3 +227,15 @@ def test_input_foxglove_flies_the_delivered_twists_and_ignores_the_keyboard(tmp_
         assert "foxglove" in app._model().input_status
     finally:
         app.close()
+
+
+def test_slow_is_said_only_while_the_flight_is_behind_real_time(tmp_path, monkeypatch):
+    """The pacer holds its 'behind' flag a while after a hiccup; the HUD said SLOW beside 1.00x."""
+    app = make_app(tmp_path)
+    run_with(app, 2)
+    app.pacer.lagging = True
+    monkeypatch.setattr(app, "_rates", lambda: (60.0, 1.0))
+    assert not app._model().lagging
+    monkeypatch.setattr(app, "_rates", lambda: (60.0, 0.6))
+    assert app._model().lagging
+    app.close()

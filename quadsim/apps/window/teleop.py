@@ -58,6 +58,8 @@ from quadsim.sim.simulator import Simulator
 RATE_WINDOW_S = 1.0
 #: wall time over which each camera's delivered frame rate is counted
 CAMERA_RATE_WINDOW_S = 2.0
+#: the HUD says the machine cannot keep real time only while the measured factor is below this
+SLOW_BELOW = 0.97
 CAMERA_RATE_MIN_WINDOW_S = 0.5  # a camera's rate is not shown until it has been counted this long
 
 APP_KEYS = [
@@ -609,7 +611,9 @@ class TeleopApp:
             recording_path=str(self.session.path) if self.session.recording else None,
             recording_error=rec.error if rec is not None else None,
             paused=self.paused,
-            lagging=self.pacer.lagging and not self.paused,
+            # behind real time just now, and still behind over the last second (a hiccup the pacer
+            # holds its flag for, once caught up, said SLOW beside 1.00x real time)
+            lagging=self.pacer.lagging and not self.paused and rtf < SLOW_BELOW,
             fps=fps,
             real_time_factor=rtf,
             sim_time_s=self.sim.time_s,
