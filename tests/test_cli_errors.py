@@ -325,3 +325,30 @@ def test_camera_options_are_refused_before_the_flight_says_anything(capsys, tmp_
     code, out, err = run_cli(capsys, "run", "--script", "hover", "--out", str(tmp_path / "r"), *options)
     assert_one_line_error(code, err, said)
     assert "flying" not in out and not (tmp_path / "r").exists()
+
+
+def test_what_a_user_trial_found_last_is_refused_in_one_line(capsys, tmp_path):
+    """A ROS 2 option with no ROS 2 bridge, a non-image floor texture, a script field given twice,
+    --mp4 to another video type (it made a folder vid.avi/), --plot over a file (it overwrote)."""
+    code, _, err = run_cli(
+        capsys, "run", "--script", "hover", "--ros-namespace", "x", "--no-record", "--cameras", "none"
+    )
+    assert_one_line_error(code, err, "--ros-namespace is for the ROS 2 bridge")
+    world = tmp_path / "w.toml"
+    (tmp_path / "tile.png").write_text("not an image\n")
+    world.write_text('[floor]\ntexture = "tile.png"\n')
+    code, _, err = run_cli(
+        capsys, "run", "--world", str(world), "--script", "hover", "--no-record", "--cameras", "none"
+    )
+    assert_one_line_error(code, err, "texture", "is not a PNG, JPEG or BMP image")
+    (tmp_path / "twice.qscript").write_text("2 linear.z=1 linear.z=-1\n")
+    code, _, err = run_cli(capsys, "run", "--script", str(tmp_path / "twice.qscript"), "--no-record")
+    assert_one_line_error(code, err, "twice.qscript, line 1: linear.z is given twice")
+    recording = str(Path(__file__).parent / "recordings" / "climb_cascade.mcap")
+    code, _, err = run_cli(capsys, "replay", recording, "--headless", "--mp4", str(tmp_path / "vid.avi"))
+    assert_one_line_error(code, err, "give a folder or NAME.mp4")
+    assert not (tmp_path / "vid.avi").exists()
+    (tmp_path / "p.png").write_bytes(b"keep")
+    code, _, err = run_cli(capsys, "replay", recording, "--headless", "--plot", str(tmp_path / "p.png"))
+    assert_one_line_error(code, err, "p.png already exists; choose another --plot")
+    assert (tmp_path / "p.png").read_bytes() == b"keep"

@@ -414,6 +414,8 @@ def check_output_file(option: str, path: Path, suffixes: tuple[str, ...]) -> Non
             f"{option} {path}: unknown image type {path.suffix or '(none)'!r}; use {', '.join(suffixes)}"
         )
     check_output_dir(option, path.parent, create=False)
+    if path.exists():
+        raise QuadsimError(f"{path} already exists; choose another {option} (nothing is overwritten)")
     if len(path.name.encode()) > 255:
         raise QuadsimError(f"{option}: the file name is too long ({len(path.name.encode())} bytes; at most 255)")
 

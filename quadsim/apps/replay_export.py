@@ -72,6 +72,8 @@ def mp4_target(where: Path, recording: Path) -> tuple[Path, str]:
     (WHERE a folder: RECORDING_front.mp4 in it; WHERE NAME.mp4: NAME_front.mp4 beside it)."""
     if where.suffix.lower() == ".mp4":
         return where.parent, where.stem
+    if where.suffix and not where.is_dir():  # vid.avi: not a folder to make, nor an MP4 name
+        raise QuadsimError(f"--mp4 {where}: give a folder or NAME.mp4 (the videos are MP4, VP9)")
     return where, recording.stem
 
 

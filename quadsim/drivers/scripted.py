@@ -78,10 +78,14 @@ def parse_script(text: str, name: str = "<script>") -> Script:
         if duration <= 0:
             raise ScriptError(f"{where}: duration must be > 0 s, got {words[0]}")
         values = dict.fromkeys(_FIELDS, 0.0)
+        given: set[str] = set()
         for word in words[1:]:
             key, sep, value = word.partition("=")
             if not sep or key not in values:
                 raise ScriptError(f"{where}: expected FIELD=VALUE with FIELD one of {', '.join(_FIELDS)}, got {word!r}")
+            if key in given:
+                raise ScriptError(f"{where}: {key} is given twice")
+            given.add(key)
             values[key] = _number(value, where, key)
         segments.append(
             Segment(duration, None if silence else Twist(**{f.replace(".", "_"): v for f, v in values.items()}))

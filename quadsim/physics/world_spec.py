@@ -15,6 +15,21 @@ from quadsim.assets import asset_path
 from quadsim.core.toml_files import read_toml, refuse_unknown_keys
 from quadsim.errors import ConfigError
 
+#: the first bytes of the image files a floor texture may be (what PyBullet's loader reads)
+_IMAGE_MAGIC = (b"\x89PNG\r\n\x1a\n", b"\xff\xd8\xff", b"BM")
+
+
+def _is_image(path: Path) -> bool:
+    """True when the file starts as a PNG, JPEG or BMP image does (PyBullet only warns, three
+    times, on anything else, and flies with an untextured floor)."""
+    try:
+        with path.open("rb") as fh:
+            head = fh.read(8)
+    except OSError:
+        return False
+    return head.startswith(_IMAGE_MAGIC)
+
+
 DEFAULT_WORLD = asset_path("worlds", "default.toml")
 #: the largest world accepted: 10 km (a floor of 1e30 m is a typo, and hangs the renderer)
 MAX_FLOOR_SIZE_M = 10_000.0
@@ -120,6 +135,8 @@ def _floor(world_path: Path, value: Any, texture_required: bool) -> FloorSpec:
         if texture_required:
             raise ConfigError(f"{where} texture not found: {texture_path}")
         texture_path = None
+    if texture_path is not None and not _is_image(texture_path):
+        raise ConfigError(f"{where} texture {texture_path} is not a PNG, JPEG or BMP image")
     return FloorSpec(
         size_m=_scalar(floor_t, "size_m", 80.0, 1.0, MAX_FLOOR_SIZE_M, where),
         texture_path=texture_path,

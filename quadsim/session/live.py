@@ -12,6 +12,7 @@ import sys
 from collections.abc import Sequence
 from typing import TYPE_CHECKING
 
+from quadsim.errors import QuadsimError
 from quadsim.live import FOXGLOVE_DEFAULT_ENDPOINT
 
 if TYPE_CHECKING:
@@ -37,6 +38,9 @@ def open_live_outputs(
     drivers = [] if commands is None else [commands] if not isinstance(commands, Sequence) else list(commands)
     from_foxglove = [d for d in drivers if d.name == "foxglove"]
     from_ros2 = [d for d in drivers if d.name == "ros2"]
+    if (ros_namespace or ros_remaps) and not (ros2 or from_ros2):  # nothing would take them
+        option = "--ros-namespace" if ros_namespace else "--ros-remap"
+        raise QuadsimError(f"{option} is for the ROS 2 bridge: add --ros2 (or fly with --input ros2)")
     try:
         if foxglove is not None or from_foxglove:
             from quadsim.live.foxglove import FoxgloveBridge, parse_endpoint
