@@ -110,7 +110,7 @@ def export_mp4(
         if first is None:
             raise QuadsimError(f"{f.path}: {cam} camera images are not decodable JPEG")
         streams.append((path, frames, first.shape))
-    mp4_target(where, f.path)[0].mkdir(parents=True, exist_ok=True)
+    next(iter(paths.values())).parent.mkdir(parents=True, exist_ok=True)
     total, done, lock, ended = sum(len(frames) for _, frames, _ in streams), 0, threading.Lock(), threading.Event()
 
     def next_frame() -> bool:

@@ -20,7 +20,7 @@ from quadsim.physics.pybullet_quiet import pb
 from quadsim.physics.scene import inertial_offset, load_vehicle_body
 from quadsim.physics.wind import WindField, WindSettings
 from quadsim.physics.world_spec import WorldSpec
-from quadsim.vehicle.aero import drag_force_body_n
+from quadsim.vehicle.aero import drag_force_body_n, ground_effect_ratio
 from quadsim.vehicle.motors import MotorBank
 from quadsim.vehicle.params import VehicleParams
 
@@ -332,13 +332,10 @@ class PhysicsWorld:
         # is summed here, in base_link about its origin, and applied once, turned into the world
         # frame with this step's attitude: a force in a child link's frame is turned with that
         # link's pose of the previous step, so rotor thrust lagged the attitude by one step.
-        # (the ground effect's ratio is aero.ground_effect_ratio, written out: a call per rotor
-        # costs more than its arithmetic)
         body, cid = self.body_id, self._cid
         (m00, m01, m02), (m10, m11, m12), (m20, m21, m22) = self._rotation
         aero = self._aero
         ground = aero.ground_effect
-        radius, most = aero.rotor_radius_m, aero.ground_effect_max_ratio
         pz = self._position[2]
         yaw = thrust_sum = roll = pitch = omega_sum = 0.0
         inv_kf, sqrt = self._inv_kf, math.sqrt
@@ -348,13 +345,7 @@ class PhysicsWorld:
                 omega_sum += sqrt(thrust * inv_kf)
                 if ground:
                     height = pz + m20 * hx + m21 * hy + m22 * hz
-                    if height <= 0.0:
-                        thrust *= most
-                    else:
-                        k = radius / (4.0 * height)
-                        k2 = k * k
-                        ratio = most if k2 >= 1.0 else 1.0 / (1.0 - k2)
-                        thrust *= ratio if ratio < most else most
+                    thrust *= ground_effect_ratio(height, aero.rotor_radius_m, aero.ground_effect_max_ratio)
                 thrust_sum += thrust
                 roll += hy * thrust  # hub x (0, 0, thrust)
                 pitch -= hx * thrust

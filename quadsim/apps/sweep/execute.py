@@ -54,8 +54,6 @@ def _table(
     rows: dict[int, dict[str, Any]] = {}
     if previous is None:
         return table_path(out, table_format), rows
-    if not resume:
-        raise _taken(previous)
     keys = {run.key: run.index for run in spec.runs}
     for row in read_table(previous):
         if row.get("key") in keys and row.get("status") in ("ok", "fail"):
@@ -116,15 +114,11 @@ def run_sweep(
     )
 
 
-def _taken(previous: Path) -> QuadsimError:
-    return QuadsimError(
-        f"{previous} already exists: add --resume to fly only the runs missing from it, "
-        f"--overwrite to fly them all again, or choose another --out (nothing is overwritten unasked)"
-    )
-
-
 def check_table_free(out: Path, resume: bool, overwrite: bool) -> None:
     """Refuse, before anything is said or flown, a folder whose table would be overwritten unasked."""
     previous = existing_table(out) if out.is_dir() else None
     if previous is not None and not resume and not overwrite:
-        raise _taken(previous)
+        raise QuadsimError(
+            f"{previous} already exists: add --resume to fly only the runs missing from it, "
+            f"--overwrite to fly them all again, or choose another --out (nothing is overwritten unasked)"
+        )
