@@ -147,7 +147,28 @@ def test_a_bags_folder_flies_its_one_mcap_file(tmp_path, capsys):
     assert_one_line_error(code, err, "a folder with no .mcap file in it")
     (bag.parent / "session_1.mcap").write_bytes(bag.read_bytes())
     code, _, err = run_cli(capsys, "run", "--commands-from", str(bag.parent), "--no-record")
-    assert_one_line_error(code, err, "a folder of 2 .mcap files", "give the one to fly")
+    assert_one_line_error(code, err, "a folder of 2 .mcap files", "give the one you mean")
+
+
+def test_every_command_that_reads_a_recording_takes_a_bags_folder(tmp_path, capsys):
+    """info, replay and recover take a `ros2 bag record -s mcap` folder as run --commands-from does
+    (they said "not a file")."""
+    folder = tmp_path / "session"
+    folder.mkdir()
+    (folder / "metadata.yaml").write_text("rosbag2_bagfile_information: {}\n")
+    recording = folder / "session_0.mcap"
+    recording.write_bytes((ROOT / "tests" / "recordings" / "square_cascade.mcap").read_bytes())
+    code, out, err = run_cli(capsys, "info", str(folder))
+    assert code == 0, err
+    assert out.startswith(f"file        {recording}") and "/quad/pose" in out
+    code, out, err = run_cli(capsys, "replay", "--headless", "--speed", "16", str(folder))
+    assert code == 0, err
+    assert f"recording   {recording}" in out and "540 on /quad_cmd_twist" in out
+    code, out, err = run_cli(capsys, "recover", str(folder))
+    assert code == 0, err
+    assert f"{recording} was complete" in out and (folder / "session_0.recovered.mcap").is_file()
+    code, _, err = run_cli(capsys, "info", str(folder))  # two .mcap files now: which one is meant?
+    assert_one_line_error(code, err, "a folder of 2 .mcap files", "give the one you mean")
 
 
 # --- hostile bags ---------------------------------------------------------------------------------

@@ -16,7 +16,7 @@ from quadsim.core.types import Twist, ZMode
 from quadsim.errors import QuadsimError
 from quadsim.recording import cdr
 from quadsim.recording.contract import TWIST
-from quadsim.recording.mcap_scan import McapFile
+from quadsim.recording.mcap_scan import McapFile, bag_file
 from quadsim.recording.reader import RecordingReader
 
 NS_PER_S = 1_000_000_000
@@ -47,20 +47,6 @@ class BagCommands:
             for m in f.messages(set(self.channel_keys)):
                 lx, ly, lz, ax, ay, az = cdr.twist_fields(m.data)
                 yield m.log_time - self.first_ns, Twist(lx, ly, lz, ax, ay, az)
-
-
-def bag_file(path: Path) -> Path:
-    """The MCAP file of `path`: the file itself, or the one .mcap file of a folder (`ros2 bag record
-    -s mcap` writes a folder holding metadata.yaml and NAME_0.mcap)."""
-    if not path.is_dir():
-        return path
-    files = sorted(p for p in path.glob("*.mcap") if p.is_file())
-    if len(files) == 1:
-        return files[0]
-    if not files:
-        raise QuadsimError(f"{path}: a folder with no .mcap file in it (a ros2 bag recorded with -s mcap has one)")
-    names = ", ".join(p.name for p in files[:4]) + (", ..." if len(files) > 4 else "")
-    raise QuadsimError(f"{path}: a folder of {len(files)} .mcap files ({names}): give the one to fly")
 
 
 def read_bag_commands(path: Path) -> BagCommands:

@@ -237,6 +237,21 @@ class _Summary:
     metadata_offsets: list[int] = field(default_factory=list)
 
 
+def bag_file(path: Path) -> Path:
+    """The MCAP file of `path`: the file itself, or the one .mcap file of a folder (`ros2 bag record
+    -s mcap` writes a folder holding metadata.yaml and NAME_0.mcap). Every command that reads a
+    recording takes either."""
+    if not path.is_dir():
+        return path
+    files = sorted(p for p in path.glob("*.mcap") if p.is_file())
+    if len(files) == 1:
+        return files[0]
+    if not files:
+        raise QuadsimError(f"{path}: a folder with no .mcap file in it (a ros2 bag recorded with -s mcap has one)")
+    names = ", ".join(p.name for p in files[:4]) + (", ..." if len(files) > 4 else "")
+    raise QuadsimError(f"{path}: a folder of {len(files)} .mcap files ({names}): give the one you mean")
+
+
 def check_is_mcap(path: Path, damaged_magic: bool = False) -> None:
     """Raise QuadsimError unless `path` is a readable file starting with the MCAP magic (or,
     with `damaged_magic`, at least 8 bytes long: the caller looks further)."""

@@ -15,13 +15,15 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         description="Describe an MCAP recording (quadsim's, or another program's: a note says what it "
         "lacks). On a damaged file, say what is wrong and how much is readable (exit code 2).",
     )
-    p.add_argument("file", type=Path, metavar="FILE.mcap")
+    p.add_argument("file", type=Path, metavar="FILE.mcap", help="the recording, or a ros2 bag's folder holding one")
     p.set_defaults(func=main)
 
 
 def main(args: argparse.Namespace) -> int:
     from quadsim.recording.info import read_info
+    from quadsim.recording.mcap_scan import bag_file
 
+    args.file = bag_file(args.file)
     info = read_info(args.file)
     for line in info.lines():
         print(line)

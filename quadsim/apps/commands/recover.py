@@ -13,7 +13,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         description="Read every complete chunk of a damaged or cut-short MCAP file and write its "
         "messages, schemas, metadata and attachments to a new, valid, indexed MCAP.",
     )
-    p.add_argument("file", type=Path, metavar="DAMAGED.mcap")
+    p.add_argument("file", type=Path, metavar="DAMAGED.mcap", help="the recording, or a ros2 bag's folder holding one")
     p.add_argument(
         "-o",
         "--output",
@@ -27,8 +27,10 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
 
 def main(args: argparse.Namespace) -> int:
     from quadsim.recording.contract import CORE_TOPICS
+    from quadsim.recording.mcap_scan import bag_file
     from quadsim.recording.salvage import recover
 
+    args.file = bag_file(args.file)
     result = recover(args.file, args.output, CORE_TOPICS)
     t0, t1 = result.span_s
     if result.was_complete:

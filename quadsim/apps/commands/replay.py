@@ -43,7 +43,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         "the vehicle, controller and settings from the recording, flies its commands again, "
         "records the new flight and reports how far it is from the recorded one.",
     )
-    p.add_argument("file", type=Path, metavar="FILE.mcap")
+    p.add_argument("file", type=Path, metavar="FILE.mcap", help="the recording, or a ros2 bag's folder holding one")
     p.add_argument("--headless", action="store_true", help="no window: print a summary")
     p.add_argument(
         "--mp4",
@@ -89,7 +89,9 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
 
 def main(args: argparse.Namespace) -> int:
     from quadsim.recording.flight import load_flight
+    from quadsim.recording.mcap_scan import bag_file
 
+    args.file = bag_file(args.file)
     size = window_size(args.window)
     if args.plot is not None:
         from quadsim.apps.flight_plot import require_matplotlib
