@@ -25,6 +25,9 @@ def test_parse_segments_and_z_mode():
         ("z_mode sideways\n", 1, "z_mode"),
         ("-1.0\n", 1, "> 0"),
         ("1.0 linear.x=nan\n", 1, "finite"),
+        # a later z_mode line applied to the whole script, the commands before it included
+        ("2.0 linear.z=1\nz_mode height\n2.0 linear.z=2\n", 2, "one z_mode line before its first command"),
+        ("z_mode height\nz_mode velocity\n1.0\n", 2, "a z_mode line came before"),
     ],
 )
 def test_errors_name_the_line(text, line, words):

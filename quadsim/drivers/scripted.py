@@ -9,7 +9,9 @@ Script format (one statement per line; `#` starts a comment):
     silence 2.0              # publish nothing for 2 s (the dead-man timeout then holds)
 
 Fields are `linear.x linear.y linear.z angular.x angular.y angular.z` (units of DESIGN.md:
-m/s, m/s or m, rad/s); unnamed fields are zero. Segments follow one another; the script lasts
+m/s, m/s or m, rad/s); unnamed fields are zero; `angular.x` and `angular.y` are Twist fields the
+vehicle ignores, as from every input. The z_mode line comes before the first command: a script
+flies in one z-mode. Segments follow one another; the script lasts
 the sum of their durations. Commands are published at the input rate (20 Hz by default),
 each segment from the first poll at or after its start time.
 """
@@ -67,6 +69,11 @@ def parse_script(text: str, name: str = "<script>") -> Script:
         if head == "z_mode":
             if len(words) != 2 or words[1].lower() not in ("velocity", "height"):
                 raise ScriptError(f"{where}: expected 'z_mode velocity' or 'z_mode height', got {line!r}")
+            if z_mode is not None or segments:  # it would have applied to the whole script
+                raise ScriptError(
+                    f"{where}: a script flies in one z-mode, set by one z_mode line before its first command "
+                    f"({'a z_mode line came before' if z_mode is not None else 'commands came before'})"
+                )
             z_mode = ZMode(words[1].lower())
             continue
         silence = head == "silence"
