@@ -41,6 +41,13 @@ def test_wind_blows_from_the_meteorological_direction(from_deg, expected):
         WindSettings(-1.0, 0.0)
 
 
+def test_the_wind_is_described_from_a_bearing_between_0_and_360():
+    """--wind 3,400 blows from 40 deg and was shown as 'from 400 deg'."""
+    for given, shown in ((400.0, "40"), (-90.0, "270"), (360.0, "0"), (-0.0, "0"), (90.0, "90")):
+        assert WindSettings(3.0, given).describe() == f"wind 3 m/s from {shown} deg"
+    assert WindSettings(3.0, 400.0).mean_mps == pytest.approx(WindSettings(3.0, 40.0).mean_mps, abs=1e-12)
+
+
 def test_dryden_intensities_and_lengths_are_the_military_specifications():
     # MIL-F-8785C low altitude at 10 ft: sigma_w = 0.1 W20; W20 = 15/30/45 knots
     for turbulence, knots in ((Turbulence.LIGHT, 15), (Turbulence.MODERATE, 30), (Turbulence.SEVERE, 45)):

@@ -107,7 +107,8 @@ class WindSettings:
         """One line for people: 'wind 5 m/s from 90 deg, moderate turbulence', or 'no wind'."""
         if not self.enabled:
             return "no wind"
-        parts = [f"wind {self.speed_mps:g} m/s from {self.from_deg:g} deg"] if self.speed_mps > 0.0 else []
+        bearing = self.from_deg % 360.0 + 0.0  # 400 is from 40 deg, -90 from 270 (and -0.0 is 0)
+        parts = [f"wind {self.speed_mps:g} m/s from {bearing:g} deg"] if self.speed_mps > 0.0 else []
         if self.turbulence is not None:
             parts.append(f"{self.turbulence.value} turbulence")
         return ", ".join(parts) if self.speed_mps > 0.0 else "no mean wind, " + parts[0]
