@@ -64,6 +64,9 @@ def world_file(tmp_path):
         (["run", "--script", "hover", "--timeout", "0.01", *QUICK], "shorter than the input period"),
         (["run", "--script", "hover", "--physics-hz", "99999999"], "--physics-hz"),
         (["run", "--script", "hover", "--physics-hz", "9973", *QUICK], "does not divide"),
+        # the rate at fault is a default the user never typed: it says so (it blamed control_hz=240)
+        (["run", "--script", "hover", "--physics-hz", "241", *QUICK], "--control-hz 240 (its default) does not divide"),
+        (["run", "--script", "hover", "--physics-hz", "480", "--state-hz", "7", *QUICK], "--state-hz 7 does not"),
         (["run", "--script", "hover", "--render-workers", "-1"], "--render-workers"),
         (["bench", "--steps", "0"], "--steps"),
         (["bench", "--steps", "-5"], "--steps"),

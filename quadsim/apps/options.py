@@ -315,11 +315,32 @@ def live_outputs(
     )
 
 
+def _check_rates_divide(args: argparse.Namespace) -> None:
+    """Each rate must divide the physics rate: said with the options' names, and, when the rate at
+    fault is a default the user never typed, that it is one (--physics-hz 241 alone blamed
+    control_hz=240)."""
+    defaults = Rates()
+    physics = args.physics_hz
+    for name in ("control_hz", "state_hz", "input_hz"):
+        value = getattr(args, name)
+        if value <= 0 or physics <= 0 or physics % value == 0:
+            continue
+        divisors = [d for d in range(1, min(physics, MAX_PHYSICS_HZ) + 1) if physics % d == 0]
+        shown = ", ".join(map(str, divisors[:12])) + (", ..." if len(divisors) > 12 else "")
+        option = "--" + name.replace("_", "-")
+        default = " (its default)" if value == getattr(defaults, name) else ""
+        raise QuadsimError(
+            f"{option} {value}{default} does not divide --physics-hz {physics}: give {option} as a divisor of "
+            f"{physics} ({shown})"
+        )
+
+
 def sim_config(args: argparse.Namespace, script_z_mode: ZMode | None) -> SimConfig:
     """The simulation options as a SimConfig; a script's own z-mode unless --z-mode says otherwise."""
     from quadsim.sim.config import SimConfig
 
     z_mode = ZMode(args.z_mode) if args.z_mode else (script_z_mode or ZMode.VELOCITY)
+    _check_rates_divide(args)
     rates = Rates(
         physics_hz=args.physics_hz, control_hz=args.control_hz, state_hz=args.state_hz, input_hz=args.input_hz
     )
