@@ -4,6 +4,7 @@ the flight, and refuses what it cannot fly with one line."""
 
 from __future__ import annotations
 
+import datetime
 import math
 import os
 import struct
@@ -142,6 +143,10 @@ def test_a_bags_folder_flies_its_one_mcap_file(tmp_path, capsys):
     code, out, err = run_cli(capsys, "run", "--commands-from", str(bag.parent), "--cameras", "none", "--no-record")
     assert code == 0, err
     assert f"flying the 40 commands of {bag.name}" in out
+    code, out, err = run_cli(capsys, "info", str(bag.parent))  # its log time is the wall clock, not ours
+    assert code == 0, err
+    start = datetime.datetime.fromtimestamp(BAG_START_NS // 10**9, datetime.timezone.utc)
+    assert f"duration    1.95 s of log time (from {start:%Y-%m-%d %H:%M:%S} UTC)" in out
     (tmp_path / "empty").mkdir()
     code, _, err = run_cli(capsys, "run", "--commands-from", str(tmp_path / "empty"), "--no-record")
     assert_one_line_error(code, err, "a folder with no .mcap file in it")

@@ -3,6 +3,7 @@ for a damaged file, what is wrong and how much of it is readable."""
 
 from __future__ import annotations
 
+import datetime
 import math
 from dataclasses import dataclass
 from pathlib import Path
@@ -11,6 +12,10 @@ from quadsim.recording.contract import CORE_TOPICS
 from quadsim.recording.mcap_scan import Damage
 from quadsim.recording.reader import RecordingReader
 from quadsim.sim.description import RunDescription
+
+#: log times between these read as a wall clock (another program's bag), shown as a date
+_EPOCH_2000_S = 946_684_800.0
+_EPOCH_2200_S = 7_258_118_400.0
 
 
 @dataclass(frozen=True)
@@ -49,6 +54,16 @@ class RecordingInfo:
         have = {t.name for t in self.topics}
         return [t for t in CORE_TOPICS if t not in have]
 
+    def _span(self) -> str:
+        """quadsim's clock is simulation time from 0; another program's log time is its own
+        (`ros2 bag record`'s is the wall clock: shown as a UTC date when it reads as one)."""
+        if "quadsim_version" in self.metadata:
+            return f"simulation time ({self.start_s:.2f} .. {self.end_s:.2f} s)"
+        if _EPOCH_2000_S <= self.start_s < _EPOCH_2200_S:
+            start = datetime.datetime.fromtimestamp(self.start_s, datetime.timezone.utc)
+            return f"log time (from {start:%Y-%m-%d %H:%M:%S} UTC)"
+        return f"log time ({self.start_s:.2f} .. {self.end_s:.2f} s)"
+
     def lines(self) -> list[str]:
         writer = self.library or "?"
         if "quadsim_version" in self.metadata and not writer.startswith("quadsim"):  # through foxglove-sdk
@@ -56,7 +71,7 @@ class RecordingInfo:
         out = [
             f"file        {self.path} ({self.size_bytes / 1e6:.2f} MB)",
             f"written by  {writer} (profile {self.profile or 'none'})",
-            f"duration    {self.duration_s:.2f} s of simulation time ({self.start_s:.2f} .. {self.end_s:.2f} s)",
+            f"duration    {self.duration_s:.2f} s of {self._span()}",
         ]
         if "wall_clock_start_utc" in self.metadata:
             out.append(f"recorded    {self.metadata['wall_clock_start_utc']} (wall clock)")
