@@ -557,7 +557,7 @@ def test_an_empty_mapping_file_is_the_default_mapping(tmp_path):
 @pytest.mark.parametrize(
     ("text", "named"),
     [
-        ("dead_zone = 0.2\n", "unknown key(s) dead_zone"),
+        ("dead_zone = 0.2\n", "unknown key 'dead_zone' (did you mean 'deadzone'?)"),
         ("forward = { index = 1, scale = -1.0 }\n", "forward belong to the old mapping format"),
         ('deadzone = "big"\n', "deadzone must be a finite number, got 'big'"),
         ("deadzone = nan\n", "deadzone must be a finite number"),

@@ -27,7 +27,7 @@ from typing import Any
 os.environ.setdefault("PYGAME_HIDE_SUPPORT_PROMPT", "1")
 import pygame
 
-from quadsim.core.toml_files import read_toml
+from quadsim.core.toml_files import read_toml, refuse_unknown_keys
 from quadsim.core.types import HEIGHT_MODE_BASE_M, Twist, ZMode
 from quadsim.drivers import ASAP, NEVER
 from quadsim.drivers.gamepad import Pad, PadKind, is_game_controller, open_pad
@@ -112,9 +112,7 @@ def load_mapping(path: Path) -> JoystickMapping:
             "left positive), e.g. axis_linear.x = 3 and scale_linear.x = 1.5: see the teleop page of the docs"
         )
     known = [*_TABLES, *_SCALARS]
-    unknown = sorted(set(table) - set(known))
-    if unknown:
-        raise ConfigError(f"{path}: unknown key(s) {', '.join(unknown)}; known: {', '.join(known)}")
+    refuse_unknown_keys(table, known, str(path), top_level=True)
     defaults = JoystickMapping()
     index: dict[str, int | None] = {f: (a.index if (a := getattr(defaults, f)) else None) for f in TWIST_FIELDS}
     scale: dict[str, float] = {f: (a.scale if (a := getattr(defaults, f)) else 0.0) for f in TWIST_FIELDS}

@@ -90,7 +90,10 @@ def main(args: argparse.Namespace) -> int:
         else (f"{jobs} worker process{'es' if jobs > 1 else ''}")
     )
     check_table_free(out, args.resume, args.overwrite)  # said before the sweep's first line
-    print(f"sweep '{spec.name}': {len(spec.runs)} runs on {where}; results in {out}", flush=True)
+    print(
+        f"sweep '{spec.name}': {len(spec.runs)} run{'s' * (len(spec.runs) != 1)} on {where}; results in {out}",
+        flush=True,
+    )
     result = run_sweep(
         spec,
         out,
@@ -142,7 +145,7 @@ def _report(args: argparse.Namespace, spec: SweepSpec, result: SweepResult, out:
     stop = SignalStop.current()
     if result.stopped and stop is not None and stop.signum is not None:
         print(
-            f"{describe_stop(stop.signum)} after {result.flown} runs; --resume flies the "
+            f"{describe_stop(stop.signum)} after {result.flown} run{'s' * (result.flown != 1)}; --resume flies the "
             f"{len(spec.runs) - len(result.rows)} left",
             file=sys.stderr,
         )

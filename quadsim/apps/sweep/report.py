@@ -42,7 +42,7 @@ def summary_lines(rows: Sequence[dict[str, Any]], varied: Sequence[str]) -> list
     lines = ["  ".join(c.ljust(w) for c, w in zip(row, widths)).rstrip() for row in table]
     counts = {s: sum(r["status"] == s for r in rows) for s in ("ok", "fail", "error")}
     lines.append(
-        f"{len(rows)} runs: {counts['ok']} ok, {counts['fail']} beyond limits, {counts['error']} could not fly"
+        f"{len(rows)} run{'s' * (len(rows) != 1)}: {counts['ok']} ok, {counts['fail']} beyond limits, {counts['error']} could not fly"
     )
     for r in rows:
         if r["status"] == "error":

@@ -40,7 +40,7 @@ from typing import Any
 
 from quadsim.control import ControllerKind, gains_type
 from quadsim.control.gains import gain_problem
-from quadsim.core.toml_files import read_toml
+from quadsim.core.toml_files import near_miss, read_toml, refuse_unknown_keys
 from quadsim.errors import ConfigError
 from quadsim.physics.wind import Turbulence, wind_from_text
 
@@ -153,9 +153,7 @@ def _controllers(data: Any, where: str) -> list[ControllerChoice]:
     for name, table in data.items():
         if not isinstance(table, dict):
             raise ConfigError(f"{where}: controllers.{name} must be a table (kind = ..., gains = {{...}})")
-        unknown = set(table) - {"kind", "gains"}
-        if unknown:
-            raise ConfigError(f"{where}: controllers.{name}: unknown key {sorted(unknown)[0]!r} (kind, gains)")
+        refuse_unknown_keys(table, ["kind", "gains"], f"{where}: controllers.{name}")
         kind = table.get("kind", name)
         if kind not in kinds:
             raise ConfigError(f"{where}: controllers.{name}: kind must be one of {', '.join(kinds)}, got {kind!r}")
@@ -178,7 +176,9 @@ def _check_gains(kind: ControllerKind, gains: dict[str, Any], where: str) -> Non
     known = [f.name for f in dataclasses.fields(gains_type(kind))]
     for g in gains:
         if g not in known:
-            raise ConfigError(f"{where}: unknown {kind.value} gain {g!r}; its gains are {', '.join(known)}")
+            near = near_miss(g, known)
+            hint = f"did you mean {near!r}?" if near else f"its gains are {', '.join(known)}"
+            raise ConfigError(f"{where}: unknown {kind.value} gain {g!r} ({hint})")
 
 
 def load_sweep(path: Path) -> SweepSpec:
@@ -187,9 +187,9 @@ def load_sweep(path: Path) -> SweepSpec:
 
     where = str(path)
     data = read_toml(path, "sweep file")
-    unknown = sorted(set(data) - KNOWN_KEYS)
-    if unknown:
-        raise ConfigError(f"{where}: unknown key {unknown[0]!r}; a sweep file has {', '.join(sorted(KNOWN_KEYS))}")
+    refuse_unknown_keys(
+        data, sorted(KNOWN_KEYS), where, top_level=True, otherwise=f"a sweep file has {', '.join(sorted(KNOWN_KEYS))}"
+    )
     name = data.get("name", path.stem)
     if not isinstance(name, str) or not NAME_PATTERN.fullmatch(name.strip()):
         raise ConfigError(
