@@ -1,12 +1,13 @@
 """Helpers for recording tests: fly a short scripted flight with recording on."""
 
-from collections.abc import Callable
+import math
+from collections.abc import Callable, Sequence
 from pathlib import Path
 
 from mcap.reader import make_reader
 from mcap.writer import Writer
 
-from quadsim import SimConfig, Simulator, StateLog, ZMode
+from quadsim import SimConfig, Simulator, StateLog, Twist, ZMode
 from quadsim.drivers.scripted import ScriptedDriver, parse_script
 from quadsim.sensors.camera import default_cameras
 from quadsim.session.outputs import OutputOptions, RecordedRun
@@ -53,3 +54,26 @@ def copy_recording(
                 w.add_message(cids[channel.id], message.log_time, message.data, message.publish_time, message.sequence)
             w.finish()
     return dst
+
+
+#: quadsim's default dead-man timeout: a command holds this long when no newer one comes
+COMMAND_TIMEOUT_NS = 500_000_000
+
+
+def commanded_motion(commands: Sequence[tuple[int, Twist]]) -> tuple[float, float, float, float]:
+    """Where velocity-mode commands, as a recording received them, ask the vehicle to go from where
+    it started (x, y, z in m, the heading turned in rad): each command holds from its log time
+    until the next, or the dead-man timeout, its linear.x/y along the heading of the moment.
+    Measured against what was received, in simulation time, an outcome does not depend on how a
+    loaded machine kept a peer's wall-clock pace (the climb a ROS 2 node sent for 2.5 s of wall
+    time once reached quadsim as 1.8 s of simulation time)."""
+    x = y = z = yaw = 0.0
+    ends = [ns for ns, _ in commands[1:]] + [commands[-1][0] + COMMAND_TIMEOUT_NS]
+    for (ns, t), end in zip(commands, ends, strict=True):
+        held_s = min(end - ns, COMMAND_TIMEOUT_NS) / 1e9
+        c, s = math.cos(yaw), math.sin(yaw)
+        x += (c * t.linear_x - s * t.linear_y) * held_s
+        y += (s * t.linear_x + c * t.linear_y) * held_s
+        z += t.linear_z * held_s
+        yaw += t.angular_z * held_s
+    return x, y, z, yaw

@@ -19,8 +19,8 @@ import cv2
 import numpy as np
 import pytest
 
-from quadsim.core.types import Twist
 from quadsim.recording.reader import RecordingReader
+from tests.recording_helpers import commanded_motion
 from tests.ros2_env import DISTRIBUTIONS, PEER, free_domain, local_env, ros2_python
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -93,23 +93,6 @@ def ros2_flight(
     return recording, sim.stdout, sim.stderr, report
 
 
-#: quadsim's default dead-man timeout: a command holds this long when no newer one comes
-COMMAND_TIMEOUT_NS = 500_000_000
-
-
-def _commanded_travel(commands: list[tuple[int, Twist]]) -> tuple[float, float, float]:
-    """How far the recorded commands ask the vehicle to go (x, y, z), heading unturned: each holds
-    from its log time until the next, or the dead-man timeout. Measured against what was received
-    in simulation time, the outcome does not depend on how the machine kept the peer's wall-clock
-    pace (on a loaded machine the climb's 2.5 s of wall time was 1.8 s of simulation time)."""
-    x = y = z = 0.0
-    ends = [ns for ns, _ in commands[1:]] + [commands[-1][0] + COMMAND_TIMEOUT_NS]
-    for (ns, twist), end in zip(commands, ends, strict=True):
-        held_s = min(end - ns, COMMAND_TIMEOUT_NS) / 1e9
-        x, y, z = x + twist.linear_x * held_s, y + twist.linear_y * held_s, z + twist.linear_z * held_s
-    return x, y, z
-
-
 def _odometry_as_recorded(report: dict, recording: Path) -> None:
     with RecordingReader(recording) as reader:
         odoms = {ns: msg for ns, msg in reader.messages("/quad/odom")}
@@ -146,7 +129,8 @@ def test_a_ros2_node_flies_quadsim_and_reads_what_it_publishes(ros2_flight: tupl
         assert all(getattr(c, other) == 0.0 for c in alone for other in others), field
     x, y, z = poses[-1][1]
     assert x > 1.0 and y > 0.5 and z > 1.0, poses[-1]  # about 1.5 m forward, 1.5 m left, 2.5 m up
-    assert math.dist((x, y, z), _commanded_travel(received)) < 0.4, (poses[-1], _commanded_travel(received))
+    asked = commanded_motion(received)[:3]  # the turn comes last: the travel is in the start's frame
+    assert math.dist((x, y, z), asked) < 0.4, (poses[-1], asked)
 
     # the node got odometry equal to quadsim's, stamped as recorded, and every other topic it can read
     assert report["odom_count"] > 100
@@ -322,10 +306,11 @@ def test_a_ros2_node_flies_one_vehicle_of_a_fleet_by_its_name_while_a_script_fli
     top = max(p[2] for p in poses["alpha"])
     x_end, y_end, _ = poses["alpha"][-1]
     assert top > 1.0 and x_end > 0.8 and y_end > 0.8, (top, x_end, y_end)  # about 2.5 m up, 1.5 forward and left
-    x_go, y_go, z_go = _commanded_travel(received)
-    assert math.dist((x_end, y_end, top), (x_go, y_go, z_go)) < 0.4, ((x_end, y_end, top), (x_go, y_go, z_go))
+    *asked, turn = commanded_motion(received)
+    assert math.dist((x_end, y_end, top), asked) < 0.4, ((x_end, y_end, top), asked)
     x, y, z, w = quats[-1]
-    assert 0.6 < math.atan2(2 * (w * z + x * y), 1 - 2 * (y * y + z * z)) < 1.4  # about 1 rad turned
+    turned = math.atan2(2 * (w * z + x * y), 1 - 2 * (y * y + z * z))
+    assert turned > 0.3 and abs(turned - turn) < 0.25, (turned, turn)  # about 1 rad
     assert report["others_last"]["bravo"]["x"] == pytest.approx(poses["bravo"][-1][0], abs=0.5)
     bravo_x = [p[0] for p in poses["bravo"]]
     assert max(bravo_x) > 2.5 and abs(poses["bravo"][-1][2] - 2.0) < 0.2  # its square's first leg, at 2 m
