@@ -79,3 +79,25 @@ def test_step_and_run_for_refuse_what_is_not_a_time_ahead():
         with pytest.raises(ValueError, match="steps must be"):
             fleet.step(-1)
         assert fleet.step_count == 0
+
+
+def test_a_config_takes_the_names_the_command_line_takes_and_refuses_the_rest(tmp_path):
+    """SimConfig(z_mode="height") flew in velocity mode (climbing at 1 m/s instead of holding 3 m),
+    and recording it ended in AttributeError; controller="seed" did too."""
+    from quadsim import ControllerKind, record
+
+    config = SimConfig(z_mode="height", controller="Seed")
+    assert config.z_mode is ZMode.HEIGHT and config.controller is ControllerKind.SEED
+    with Simulator(SimConfig(z_mode="height")) as sim, record(sim, tmp_path / "h.mcap"):
+        sim.send(Twist(linear_z=1.0))  # height mode: hold 2 m + 1 m
+        sim.run_for(5.0)
+        assert sim.state.position_m[2] == pytest.approx(3.0, abs=0.05)
+    for bad, said in (
+        ({"z_mode": "bogus"}, "z_mode must be one of 'velocity', 'height'"),
+        ({"controller": 3}, "controller must be one of 'cascade', 'seed'"),
+        ({"gui": 1}, "gui must be True or False"),
+        ({"rates": None}, "rates must be a Rates"),
+        ({"command_timeout_s": None, "start": (0, 0, 0)}, "start must be a StartPose"),  # None skipped the check
+    ):
+        with pytest.raises(QuadsimError, match=said):
+            SimConfig(**bad)

@@ -6,8 +6,9 @@ import math
 import numbers
 import operator
 from dataclasses import asdict, dataclass, field
+from enum import Enum
 from pathlib import Path
-from typing import Any
+from typing import Any, TypeVar
 
 from quadsim.control import ControllerKind
 from quadsim.core.types import StartPose, ZMode
@@ -22,6 +23,8 @@ MAX_START_OFFSET_M = 10_000.0
 MAX_COMMAND_TIMEOUT_S = 3600.0
 #: seeds are whole numbers in [0, MAX_SEED]
 MAX_SEED = 2**63 - 1
+
+E = TypeVar("E", bound=Enum)
 
 
 @dataclass(frozen=True)
@@ -77,11 +80,25 @@ class SimConfig:
     seed: int = 0
 
     def __post_init__(self) -> None:
+        # the names the command line takes are accepted for the enumerations ("height", "seed")
+        object.__setattr__(self, "controller", _choice(ControllerKind, self.controller, "controller"))
+        if self.z_mode is not None:
+            object.__setattr__(self, "z_mode", _choice(ZMode, self.z_mode, "z_mode"))
         seed = self.seed
         if isinstance(seed, bool) or not isinstance(seed, int) or not 0 <= seed <= MAX_SEED:
             raise ConfigError(f"seed must be a whole number in [0, 2^63 - 1], got {seed!r}")
-        if not isinstance(self.wind, WindSettings):
-            raise ConfigError(f"wind must be a WindSettings, got {type(self.wind).__name__}")
+        for name, kind in (("wind", WindSettings), ("rates", Rates), ("start", StartPose)):
+            if not isinstance(getattr(self, name), kind):
+                raise ConfigError(f"{name} must be a {kind.__name__}, got {type(getattr(self, name)).__name__}")
+        for name in ("gui", "sensor_noise"):
+            if not isinstance(getattr(self, name), bool):
+                raise ConfigError(f"{name} must be True or False, got {getattr(self, name)!r}")
+        for name in ("x_m", "y_m", "yaw_rad"):
+            value = getattr(self.start, name)
+            if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+                raise ConfigError(f"start pose {name} must be a finite number, got {value!r}")
+            if abs(value) > MAX_START_OFFSET_M:
+                raise ConfigError(f"start pose {name} = {value:g} is beyond {MAX_START_OFFSET_M:g} from the origin")
         timeout = self.command_timeout_s
         if timeout is None:
             return
@@ -99,12 +116,6 @@ class SimConfig:
             raise ConfigError(
                 f"command timeout {timeout:g} s is beyond {MAX_COMMAND_TIMEOUT_S:g} s; use None to disable the dead-man switch"
             )
-        for name in ("x_m", "y_m", "yaw_rad"):
-            value = getattr(self.start, name)
-            if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
-                raise ConfigError(f"start pose {name} must be a finite number, got {value!r}")
-            if abs(value) > MAX_START_OFFSET_M:
-                raise ConfigError(f"start pose {name} = {value:g} is beyond {MAX_START_OFFSET_M:g} from the origin")
 
     def to_dict(self) -> dict[str, Any]:
         """Plain JSON-able data (RunDescription reads it back with validation)."""
@@ -121,6 +132,18 @@ class SimConfig:
             "sensor_noise": self.sensor_noise,
             "seed": self.seed,
         }
+
+
+def _choice(kind: type[E], value: object, what: str) -> E:
+    """`value` as a member of the enumeration `kind`: a member, or its name as the command line
+    spells it ("height"); anything else is a ConfigError naming the choices."""
+    if isinstance(value, kind):
+        return value
+    try:
+        return kind(value.lower() if isinstance(value, str) else value)
+    except ValueError:
+        choices = ", ".join(repr(m.value) for m in kind)
+        raise ConfigError(f"{what} must be one of {choices} (or {kind.__name__}.X), got {value!r:.60}") from None
 
 
 def whole_steps(steps: int) -> int:
