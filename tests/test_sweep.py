@@ -252,11 +252,47 @@ def test_existing_table_needs_resume(tmp_path: Path) -> None:
     assert again.returncode == 2 and "--resume" in again.stderr
     assert not again.stdout  # refused before the sweep says anything
     resumed = _sweep(tmp_path, text, "--jobs", "1", "--out", out, "--resume", "--no-plot")
-    assert resumed.returncode == 0 and "(3 already in the table)" in resumed.stdout
+    assert resumed.returncode == 0 and "(3 of 3 runs; 3 already in the table)" in resumed.stdout
     assert "--overwrite" in again.stderr
     replaced = _sweep(tmp_path, text, "--jobs", "1", "--out", out, "--overwrite", "--no-plot")
     assert replaced.returncode == 0 and "already in the table" not in replaced.stdout
     assert "(3 of 3 runs)" in replaced.stdout and len(read_table(existing_table(tmp_path / "o"))) == 3
+
+
+def test_resume_flies_again_what_the_sweep_file_changed_and_judges_by_todays_limits(tmp_path: Path) -> None:
+    """--resume kept a 2 s run's row after duration_s became 30, and kept its verdict after the
+    limits tightened (exit 0 where the table said 'beyond limits'): a row is kept only when its
+    scenario, gains and duration are the same, and is judged by the limits of the file as it is."""
+    (tmp_path / "up.qscript").write_text("z_mode velocity\n3.0 linear.z=0.5\n")
+    text = SMALL.replace('["hover", "step_forward"]', '["up.qscript"]').replace("duration_s = 6.0", "duration_s = 2.0")
+    out = tmp_path / "o"
+    args = ("--jobs", "1", "--out", str(out), "--format", "csv", "--no-plot")
+    assert _sweep(tmp_path, text, *args).returncode == 0
+    first = {r["key"]: r for r in read_table(out / "results.csv")}
+
+    def resumed(new_text: str) -> tuple[subprocess.CompletedProcess, dict[str, dict]]:
+        done = _sweep(tmp_path, new_text, *args, "--resume")
+        return done, {r["key"]: r for r in read_table(out / "results.csv")}
+
+    done, rows = resumed(text)  # nothing changed: every row kept as it was
+    assert done.returncode == 0 and "; 3 already in the table)" in done.stdout
+    assert [repr(rows[k]) for k in sorted(rows)] == [repr(first[k]) for k in sorted(first)]  # nan == nan
+    longer = text.replace("duration_s = 2.0", "duration_s = 3.0")
+    done, rows = resumed(longer)
+    assert "(3 of 3 runs; 3 flown again: their scenario, gains or duration changed since)" in done.stdout
+    assert all(rows[k]["max_altitude_m"] > first[k]["max_altitude_m"] + 0.3 for k in rows)  # 1 s more climbing
+    slower = longer.replace("velocity_p_xy_per_s = 0.8", "velocity_p_xy_per_s = 0.7")
+    done, rows = resumed(slower)  # one controller's gains: its row alone
+    assert "; 2 already in the table; 1 flown again" in done.stdout, done.stdout
+    (tmp_path / "up.qscript").write_text("z_mode velocity\n3.0 linear.z=0.4\n")
+    done, rows = resumed(slower)  # the script's text: every row
+    assert "; 3 flown again" in done.stdout, done.stdout
+    tight = slower.replace("max_tilt_deg = 45", "max_altitude_m = 1.0")
+    done, rows = resumed(tight)  # the limits: judged again, nothing flown
+    assert done.returncode == 1 and "; 3 already in the table)" in done.stdout, done.stdout
+    assert {r["status"] for r in rows.values()} == {"fail"} and {r["failed_limits"] for r in rows.values()} == {
+        "max_altitude_m"
+    }
 
 
 def test_ctrl_c_at_random_moments_keeps_finished_runs_and_resume_completes(tmp_path: Path) -> None:

@@ -129,7 +129,10 @@ def _report(args: argparse.Namespace, spec: SweepSpec, result: SweepResult, out:
 
     for line in summary_lines(result.rows, [a for a in spec.varied]):
         print(line)
-    skipped = f" ({result.skipped} already in the table)" if result.skipped else ""
+    kept = [f"{result.skipped} already in the table"] if result.skipped else []
+    if result.changed:
+        kept.append(f"{result.changed} flown again: their scenario, gains or duration changed since")
+    skipped = "".join(f"; {k}" for k in kept)
     print(f"table           {result.table} ({len(result.rows)} of {len(spec.runs)} runs{skipped})")
     if not args.no_plot and result.rows:
         try:

@@ -9,7 +9,7 @@ from pathlib import Path
 from typing import Any
 
 from quadsim.apps.sweep.backends import Eta, run_tasks
-from quadsim.apps.sweep.run import RunTask, fly_run, forget_simulators
+from quadsim.apps.sweep.run import RunTask, fly_run, forget_simulators, judge
 from quadsim.apps.sweep.spec import SweepSpec
 from quadsim.apps.sweep.table import existing_table, read_table, table_path, write_table
 from quadsim.errors import QuadsimError
@@ -25,6 +25,8 @@ class SweepResult:
     rows: list[dict[str, Any]]
     flown: int  # runs flown now (not taken from an earlier table)
     skipped: int  # runs already in the table (--resume)
+    #: runs in the table flown with other settings under the same key (--resume flew them again)
+    changed: int
     stopped: bool  # a signal ended it before every run was flown
     wall_s: float
 
@@ -39,9 +41,11 @@ def hand_out_order(task: RunTask) -> tuple[Any, ...]:
 
 def _table(
     spec: SweepSpec, out: Path, resume: bool, overwrite: bool, table_format: str | None
-) -> tuple[Path, dict[int, dict[str, Any]]]:
-    """The table's path in `out`, and the rows of an earlier table kept for --resume (by index);
-    an existing table is replaced only with --overwrite."""
+) -> tuple[Path, dict[int, dict[str, Any]], int]:
+    """The table's path in `out`, the rows of an earlier table kept for --resume (by index), each
+    judged against the sweep file's limits as they are now, and how many rows under the same key
+    were flown with other settings (flown again); an existing table is replaced only with
+    --overwrite."""
     check_table_free(out, resume, overwrite)
     try:
         out.mkdir(parents=True, exist_ok=True)
@@ -53,12 +57,19 @@ def _table(
         previous = None
     rows: dict[int, dict[str, Any]] = {}
     if previous is None:
-        return table_path(out, table_format), rows
-    keys = {run.key: run.index for run in spec.runs}
+        return table_path(out, table_format), rows, 0
+    runs = {run.key: run for run in spec.runs}
+    limits = tuple(sorted(spec.limits.items()))
+    changed = 0
     for row in read_table(previous):
-        if row.get("key") in keys and row.get("status") in ("ok", "fail"):
-            rows[keys[row["key"]]] = {**row, "index": keys[row["key"]]}  # a run that could not fly is retried
-    return previous, rows
+        run = runs.get(row.get("key"))  # type: ignore[arg-type]
+        if run is None or row.get("status") not in ("ok", "fail"):  # a run that could not fly is retried
+            continue
+        if row.get("settings") != run.settings:  # the scenario, gains or duration changed since
+            changed += 1
+            continue
+        rows[run.index] = judge({**row, "index": run.index}, limits)
+    return previous, rows, changed
 
 
 def run_sweep(
@@ -75,7 +86,7 @@ def run_sweep(
 ) -> SweepResult:
     """Fly the runs of `spec` not yet in the table in `out` (every run, unless --resume), saving
     the table as runs come in and once more on any exit, so that nothing flown is lost."""
-    path, rows = _table(spec, out, resume, overwrite, table_format)
+    path, rows, changed = _table(spec, out, resume, overwrite, table_format)
     todo = [
         RunTask(run, tuple(sorted(spec.limits.items())), record, str(out / "recordings") if record else None)
         for run in spec.runs
@@ -109,6 +120,7 @@ def run_sweep(
         sorted(rows.values(), key=lambda r: r["index"]),
         flown,
         skipped,
+        changed,
         stop_requested() and len(rows) < len(spec.runs),
         time.monotonic() - t0,
     )

@@ -19,7 +19,7 @@ if TYPE_CHECKING:
     from quadsim.sim.simulator import Simulator
 
 #: what a run reports besides its axes and metrics
-STATUS_COLUMNS = ("index", "key", "status", "failed_limits", "error", "recording")
+STATUS_COLUMNS = ("index", "key", "settings", "status", "failed_limits", "error", "recording")
 #: "ok": within limits; "fail": a metric beyond its limit; "error": the run could not fly
 STATUSES = ("ok", "fail", "error")
 
@@ -82,7 +82,7 @@ def fly_run(task: RunTask) -> dict[str, Any]:
     """Fly one run headless and return its table row (never raises for a run that cannot fly:
     the row says why)."""
     run = task.run
-    row: dict[str, Any] = {"index": run.index, "key": run.key, **run.axes()}
+    row: dict[str, Any] = {"index": run.index, "key": run.key, "settings": run.settings, **run.axes()}
     row.update(dict.fromkeys(METRICS, math.nan))
     row.update(status="error", failed_limits="", error="", recording="")
     try:
@@ -104,6 +104,15 @@ def fly_run(task: RunTask) -> dict[str, Any]:
 
 def _beyond(limits: tuple[tuple[str, float], ...], metrics: dict[str, float]) -> list[str]:
     return [name for name, limit in limits if not math.isnan(metrics.get(name, math.nan)) and metrics[name] > limit]
+
+
+def judge(row: dict[str, Any], limits: tuple[tuple[str, float], ...]) -> dict[str, Any]:
+    """A row flown earlier, judged against today's limits (`--resume` after the sweep file's
+    [limits] changed kept yesterday's verdicts); a fleet's limit keeps the vehicle that broke it."""
+    metrics = {name: row[name] for name in METRICS if isinstance(row.get(name), float)}
+    named = {entry.split(" (")[0]: entry for entry in str(row.get("failed_limits") or "").split(",") if entry}
+    failed = [named.get(name, name) for name in _beyond(limits, metrics)]
+    return {**row, "status": "fail" if failed else "ok", "failed_limits": ",".join(failed)}
 
 
 def _fly_script(task: RunTask) -> tuple[dict[str, float], list[str], Any]:

@@ -31,10 +31,12 @@ metric's largest over the vehicles (no vehicle beyond a limit, or the run fails,
 from __future__ import annotations
 
 import collections
+import hashlib
 import itertools
+import json
 import math
 import re
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
@@ -85,6 +87,8 @@ class RunSpec:
     #: the simulated time it flies, s (its duration, else its scenario's length): the largest runs
     #: are handed out first, so that no worker is left with a long run at the end
     sim_s: float = 0.0
+    #: a digest of what the scenario flies (a script's text; a fleet file's, with its scripts')
+    scenario_digest: str = ""
 
     @property
     def is_fleet(self) -> bool:
@@ -93,8 +97,25 @@ class RunSpec:
 
     @property
     def key(self) -> str:
-        """The run's values, named: equal keys are the same run."""
+        """The run's values, named, as people read them (one row of the table each)."""
         return " ".join(f"{k}={v}" for k, v in self.axes().items())
+
+    @property
+    def settings(self) -> str:
+        """A digest of everything the run flies beyond its key: what its scenario says, its
+        controller's gains, its duration. `--resume` keeps a row only when both are the same (a
+        30 s run kept the 2 s result of an earlier file under the same key)."""
+        flown = [
+            self.scenario_digest,
+            self.airframe,
+            self.controller.kind.value,
+            self.controller.gains,
+            self.wind,
+            self.turbulence,
+            self.seed,
+            self.duration_s,
+        ]
+        return hashlib.sha256(json.dumps(flown).encode()).hexdigest()[:16]
 
     def axes(self) -> dict[str, Any]:
         """The swept values of this run, as table columns."""
@@ -196,7 +217,7 @@ def load_sweep(path: Path) -> SweepSpec:
             f"{where}: 'name' must be a plain folder name (letters, digits, space, . _ + -; at most 100; "
             f"no path), got {_short(name)}"
         )
-    scenarios, lengths_s = _scenarios(data, path, where)
+    scenarios, lengths_s, digests = _scenarios(data, path, where)
     if any(is_fleet_scenario(s) for s in scenarios):
         given = [key for key in ("airframes", "controllers") if key in data]
         if given:
@@ -227,23 +248,25 @@ def load_sweep(path: Path) -> SweepSpec:
     }
     limits = _limits(data, where)
     runs, sim_s = _runs(axes, seeds, duration, lengths_s, where)
+    runs = tuple(replace(run, scenario_digest=digests[run.scenario]) for run in runs)
     _check_limit_names(limits, where)
     varied = tuple(k for k, values in axes.items() if len(values) > 1)
     return SweepSpec(name.strip(), path, runs, limits, varied, sim_s)
 
 
-def _scenarios(data: dict[str, Any], path: Path, where: str) -> tuple[list[str], dict[str, float]]:
+def _scenarios(data: dict[str, Any], path: Path, where: str) -> tuple[list[str], dict[str, float], dict[str, str]]:
     """The scenarios (built-in names, or script files beside the sweep file), each loaded now so
-    that a missing one is found before run 37, and their lengths."""
+    that a missing one is found before run 37, their lengths and digests of what they fly."""
     from quadsim.drivers.scripted import load_script
 
     scenarios = []
     lengths_s: dict[str, float] = {}
+    digests: dict[str, str] = {}
     for s in _list_of_str(data, "scenarios", [], where):
         candidate = (path.parent / s).resolve()
         if is_fleet_scenario(s):
             scenarios.append(str(candidate))
-            lengths_s[str(candidate)] = _fleet_length_s(candidate, data, where)
+            lengths_s[str(candidate)], digests[str(candidate)] = _fleet_length_s(candidate, data, where)
             continue
         ref = str(candidate) if (s.endswith(".qscript") or "/" in s) else s
         try:
@@ -254,12 +277,18 @@ def _scenarios(data: dict[str, Any], path: Path, where: str) -> tuple[list[str],
             raise ConfigError(f"{where}: scenarios: {exc}") from None
         scenarios.append(ref)
         lengths_s[ref] = script.duration_s
-    return scenarios, lengths_s
+        digests[ref] = _digest(script.source)
+    return scenarios, lengths_s, digests
 
 
-def _fleet_length_s(path: Path, data: dict[str, Any], where: str) -> float:
+def _digest(*texts: str) -> str:
+    return hashlib.sha256("\0".join(texts).encode()).hexdigest()[:16]
+
+
+def _fleet_length_s(path: Path, data: dict[str, Any], where: str) -> tuple[float, str]:
     """A fleet file as a scenario, checked now: its vehicles fly scripts or sit idle (a sweep has
-    no window and no live input); how long it flies: its longest script."""
+    no window and no live input); how long it flies (its longest script), and a digest of the
+    file and its scripts."""
     from quadsim.sim.fleet_file import load_fleet_file
 
     try:
@@ -274,7 +303,8 @@ def _fleet_length_s(path: Path, data: dict[str, Any], where: str) -> float:
         )
     if fleet.longest_script_s is None and "duration_s" not in data:
         raise ConfigError(f"{where}: scenarios: {path.name}: no vehicle flies a script: give duration_s")
-    return fleet.longest_script_s or 0.0
+    scripts = [v.script.source for v in fleet.vehicles if v.script is not None]
+    return fleet.longest_script_s or 0.0, _digest(path.read_text(encoding="utf-8"), *scripts)
 
 
 def _duration(data: dict[str, Any], lengths_s: dict[str, float], where: str) -> float | None:

@@ -18,7 +18,7 @@ from quadsim.apps.sweep.metrics import METRICS
 from quadsim.errors import QuadsimError
 
 AXES = ("scenario", "airframe", "controller", "wind", "turbulence", "seed")
-COLUMNS = ("index", "key", *AXES, *METRICS, "status", "failed_limits", "error", "recording")
+COLUMNS = ("index", "key", "settings", *AXES, *METRICS, "status", "failed_limits", "error", "recording")
 _INTS = {"index", "seed"}
 _FLOATS = set(METRICS)
 
