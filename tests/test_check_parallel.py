@@ -70,3 +70,50 @@ def test_check_stopped_part_way_says_so_and_exits_130(tmp_path):
     out, err = proc.communicate(timeout=120)
     assert proc.returncode == 130, (out, err)
     assert "not checked (stopped)" in out and "nothing was cut short" not in err and "Traceback" not in err
+
+
+def test_check_says_when_the_gains_or_parameter_files_changed_since_the_recording(tmp_path: Path) -> None:
+    """A recording keeps the gains and parameters it flew with and re-flies with them, so a tuned
+    gains file passed check unnoticed (velocity_p_xy_per_s 4.5 -> 0.5 flew the square 4.3 m off).
+    check still passes it, and says the files differ and what it does not test."""
+    shipped = ROOT / "quadsim" / "assets" / "urdf"
+    for f in shipped.glob("quadsim_x.*"):
+        shutil.copy(f, tmp_path / f.name)
+    recording = tmp_path / "mine.mcap"
+    flown = subprocess.run(
+        [
+            sys.executable,
+            str(ROOT / "main.py"),
+            "run",
+            "--script",
+            "hover",
+            "--duration",
+            "2",
+            "--cameras",
+            "none",
+            "--urdf",
+            str(tmp_path / "quadsim_x.urdf"),
+            "--out",
+            str(recording),
+        ],
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
+    assert flown.returncode == 0, flown.stderr
+    same = _check(str(recording))
+    assert same.returncode == 0 and "note:" not in same.stdout, same.stdout
+    gains = tmp_path / "quadsim_x.gains.toml"
+    gains.write_text(gains.read_text().replace("velocity_p_xy_per_s = 4.5", "velocity_p_xy_per_s = 0.5"))
+    params = tmp_path / "quadsim_x.params.toml"
+    params.write_text(params.read_text().replace("rotor_drag_ns_per_m_rad = 1.7e-4", "rotor_drag_ns_per_m_rad = 2e-4"))
+    tuned = _check(str(recording))
+    assert tuned.returncode == 0, tuned.stdout  # it re-flies what was recorded, as it should
+    notes = [line.strip() for line in tuned.stdout.splitlines() if "note:" in line]
+    assert notes == [
+        "note: quadsim_x.params.toml (or the URDF) now differs from what this recording flew with, in aero: the "
+        "recording re-flies with its own, so this check does not test the change (record the flight again to test it)",
+        "note: the cascade gains in quadsim_x.gains.toml now differ from those this recording flew with "
+        "(velocity_p_xy_per_s 4.5 -> 0.5): the recording re-flies with its own, so this check does not test them "
+        "(record the flight again to test them)",
+    ], tuned.stdout

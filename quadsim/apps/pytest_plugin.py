@@ -35,6 +35,22 @@ def pytest_addoption(parser: pytest.Parser) -> None:
     group.addoption("--quadsim-tolerance-rad", type=float, default=None, help="attitude tolerance for recordings, rad")
 
 
+def pytest_configure(config: pytest.Config) -> None:
+    """Settings are checked once, before anything is collected: a bad tolerance or a configured
+    folder that is not there is one usage error (a tolerance was checked in each item, failing
+    every test with pytest's internals; a misspelt folder collected nothing, silently)."""
+    config.stash[_TOLERANCES] = (
+        _tolerance(config, "tolerance_m", DEFAULT_TOLERANCE_M),
+        _tolerance(config, "tolerance_rad", DEFAULT_TOLERANCE_RAD),
+    )
+    for folder in config.getini("quadsim_recordings"):
+        if not Path(folder).exists():
+            raise pytest.UsageError(f"quadsim_recordings names {folder}, which does not exist")
+
+
+_TOLERANCES = pytest.StashKey[tuple[float, float]]()
+
+
 def _tolerance(config: pytest.Config, name: str, default: float) -> float:
     given = config.getoption(f"--quadsim-{name.replace('_', '-')}")
     if given is None:
@@ -44,7 +60,7 @@ def _tolerance(config: pytest.Config, name: str, default: float) -> float:
         except ValueError:
             raise pytest.UsageError(f"quadsim_{name} must be a number, got {text!r}") from None
     if not given >= 0:
-        raise pytest.UsageError(f"the {name.replace('_', ' ')} must be 0 or more, got {given}")
+        raise pytest.UsageError(f"quadsim_{name} (--quadsim-{name.replace('_', '-')}) must be 0 or more, got {given}")
     return float(given)
 
 
@@ -81,20 +97,18 @@ class Diverged(Exception):
 
 class RecordingItem(pytest.Item):
     def runtest(self) -> None:
-        config = self.config
-        task = CheckTask(
-            self.path,
-            _tolerance(config, "tolerance_m", DEFAULT_TOLERANCE_M),
-            _tolerance(config, "tolerance_rad", DEFAULT_TOLERANCE_RAD),
-        )
-        outcome = check_one(task)
+        outcome = check_one(CheckTask(self.path, *self.config.stash[_TOLERANCES]))
         if outcome.status != "ok":
             raise Diverged(outcome)
 
     def repr_failure(self, excinfo: pytest.ExceptionInfo[BaseException], style: Any = None) -> str:
-        if isinstance(excinfo.value, Diverged):
-            verdict = "no longer re-flies" if excinfo.value.outcome.status == "changed" else "cannot be re-flown"
-            return f"{self.path.name} {verdict}:\n" + "\n".join(excinfo.value.outcome.lines)
+        if isinstance(excinfo.value, Diverged):  # its first line whole: pytest's short summary shows it
+            first, *rest = excinfo.value.outcome.lines
+            what = first.split(f"{self.path}: ", 1)[-1]
+            if excinfo.value.outcome.status == "changed":
+                m, rad = self.config.stash[_TOLERANCES]
+                return f"{self.path.name} no longer re-flies within {m:g} m and {rad:g} rad: {what}\n" + "\n".join(rest)
+            return f"{self.path.name} cannot be re-flown: {what}\n" + "\n".join(rest)
         return str(super().repr_failure(excinfo))
 
     def reportinfo(self) -> tuple[Path, int | None, str]:

@@ -12,6 +12,7 @@ from quadsim.errors import QuadsimError
 
 if TYPE_CHECKING:
     from quadsim.session.fleet_resim import FleetResimReport
+    from quadsim.sim.description import RunDescription
 
 #: how far a re-flight may stray from its recording, by default (`check`, the pytest plugin)
 DEFAULT_TOLERANCE_M = 1e-3
@@ -81,4 +82,49 @@ def check_one(task: CheckTask) -> CheckOutcome:
     if not ok:
         lines += ["     " + line for line in report.lines()[1:]]
     lines += [f"      note: {line}" for line in flight.warnings()]
+    for name, each in flights.items():
+        if each.description is not None:
+            changed = files_changed_since(each.description)
+            lines += [f"      note: {name + ': ' if name else ''}{line}" for line in changed]
     return CheckOutcome(path, "ok" if ok else "changed", tuple(lines))
+
+
+def files_changed_since(description: RunDescription) -> list[str]:
+    """What differs between the vehicle parameter and gains files a recording flew with (it keeps
+    them, and re-flies with them) and the same files today: a re-flight within tolerance does not
+    test a change to them, so it is said (nothing when the files are gone or are another vehicle's)."""
+    import json
+    from dataclasses import asdict
+
+    from quadsim.control import gains_type
+    from quadsim.control.gains import gains_path, load_gains
+    from quadsim.vehicle.params import load_vehicle
+
+    cfg = description.config
+    try:
+        vehicle = load_vehicle(cfg.urdf, cfg.vehicle_params)
+        kind = description.controller.kind
+        gains = asdict(load_gains(vehicle, kind.value, gains_type(kind)))
+    except QuadsimError:
+        return []
+    if vehicle.name != description.vehicle.name:
+        return []
+    now = json.loads(json.dumps(vehicle.to_dict()))  # as a recording holds it (lists, not tuples)
+    recorded = description.vehicle.details
+    notes = []
+    params = sorted(k for k in (now.keys() | recorded.keys()) - {"urdf", "params"} if now.get(k) != recorded.get(k))
+    if params:
+        notes.append(
+            f"{vehicle.params_path.name} (or the URDF) now differs from what this recording flew with, in "
+            f"{', '.join(params[:4])}{', ...' if len(params) > 4 else ''}: the recording re-flies with its own, "
+            "so this check does not test the change (record the flight again to test it)"
+        )
+    changed = [g for g in sorted(gains) if gains[g] != description.controller.gains.get(g)]
+    if changed:
+        shown = ", ".join(f"{g} {description.controller.gains.get(g)!r:.12} -> {gains[g]!r:.12}" for g in changed[:3])
+        notes.append(
+            f"the {kind.value} gains in {gains_path(vehicle).name} now differ from those this recording flew with "
+            f"({shown}{', ...' if len(changed) > 3 else ''}): the recording re-flies with its own, so this check "
+            "does not test them (record the flight again to test them)"
+        )
+    return notes

@@ -151,10 +151,13 @@ def _angle_between(q1: tuple[float, ...], q2: tuple[float, ...]) -> float:
     return 2.0 * math.atan2(math.sqrt(x * x + y * y + z * z), abs(w))
 
 
-def _deviation(topic: str, quantity: str, unit: str, errors: list[tuple[float, float]], tolerance: float) -> Deviation:
+def _deviation(
+    topic: str, quantity: str, unit: str, errors: list[tuple[float, float]], tolerance: float | None
+) -> Deviation:
+    """`tolerance` None: a quantity reported, not judged (the velocity: no tolerance is in m/s)."""
     worst_t, worst = max(errors, key=lambda e: e[1])
     rms = math.sqrt(sum(e * e for _, e in errors) / len(errors))
-    beyond = next((t for t, e in errors if e > tolerance), None)
+    beyond = None if tolerance is None else next((t for t, e in errors if e > tolerance), None)
     return Deviation(topic, quantity, unit, worst, rms, worst_t, beyond)
 
 
@@ -258,7 +261,7 @@ def compare_states(
         len(pos),
         _deviation(names.topic(POSE).name, "position", "m", pos, position_tolerance_m),
         _deviation(names.topic(POSE).name, "attitude", "rad", att, attitude_tolerance_rad),
-        _deviation(names.topic(ODOM).name, "velocity", "m/s", vel, position_tolerance_m),
+        _deviation(names.topic(ODOM).name, "velocity", "m/s", vel, None),
         new_path,
         flight.states[-1].step / physics_hz,
         stepping_wall_s,

@@ -20,7 +20,9 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         help="re-fly recordings as regression tests (exit 1 when one changed)",
         description="Fly each recording's commands again and compare with what it recorded. Exit code "
         "0 when every recording re-flies within the tolerances, 1 when one no longer does "
-        "(with a report: which topic, when, how far), 2 when a file cannot be used.",
+        "(with a report: which topic, when, how far), 2 when a file cannot be used. A recording re-flies "
+        "with the vehicle, world and gains it recorded: it tests a change to the code, and a note says when "
+        "the vehicle's parameter or gains file has changed since (record the flight again to test that).",
     )
     p.add_argument("paths", type=Path, nargs="+", metavar="DIR|FILE", help="recordings, or folders of them")
     p.add_argument(
