@@ -199,6 +199,33 @@ def test_actions_are_fractions_of_the_command_limits():
         env.close()
 
 
+def test_a_wrong_action_is_one_clear_error_and_a_closed_env_says_so():
+    """np.zeros(3) raised numpy's broadcasting error, np.zeros((2, 4)) an IndexError, the scalar 1
+    flew full forward, left, climb and yaw, inf was clipped while NaN raised about linear_x, and a
+    step after close() raised PyBullet's 'Not connected to physics server'."""
+    env = gym.make("quadsim/Hover-v0")
+    env.reset(seed=0)
+    for bad, said in (
+        (np.zeros(3), r"shape \(4,\); got array\(\[0., 0., 0.\]\) of shape \(3,\)"),
+        (np.zeros((2, 4)), r"of shape \(2, 4\)"),
+        (1, r"shape \(4,\); got 1$"),
+        (None, r"shape \(4,\); got None$"),
+        ("up", r"shape \(4,\); got 'up'$"),
+        ([math.inf, 0, 0, 0], r"must be finite numbers in \[-1, 1\], got \[inf, 0, 0, 0\]"),
+        ([0, math.nan, 0, 0], r"must be finite numbers"),
+    ):
+        with pytest.raises(ValueError, match=said):
+            env.step(bad)
+    step = env.unwrapped.sim.step_count
+    env.step([0.0, 0.0, 2.0, 0.0])  # beyond the box is clipped to its edge, as before
+    assert env.unwrapped.sim.gate.last_command.linear_z == env.unwrapped.sim.vehicle.limits.max_climb_rate_mps
+    assert env.unwrapped.sim.step_count == step + env.unwrapped.steps_per_action  # the refused ones never flew
+    env.close()
+    for again in (lambda: env.step(np.zeros(4)), lambda: env.reset(seed=1)):
+        with pytest.raises(gym.error.ClosedEnvironmentError, match="this environment is closed"):
+            again()
+
+
 def test_make_finds_the_environments_without_an_import():
     """Gymnasium's "module:id" form imports quadsim.envs itself (Gymnasium 1.x dropped plugin
     entry points), in a fresh interpreter that never imported quadsim."""

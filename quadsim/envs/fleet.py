@@ -14,8 +14,8 @@ is Hover-v0's, Box(15) (position, velocity, attitude, body rates, its own target
 minus its distance to its target and a little of its speed. An agent is terminated (-10) when it
 crashes (into the ground, a landmark or another vehicle: both are), leaves the arena or tips over,
 and truncated after `episode_s`. A finished agent leaves `agents`; its vehicle holds its last
-command. Starts are on a line `spacing_m` apart, each within 0.5 m of its slot; each target is
-within 1 m of its start horizontally, 1 to 2.5 m high.
+command. Starts are on a line `spacing_m` apart, x and y each within 0.5 m of its slot; each
+target's x and y are each within 1 m of its start's, its height 1 to 2.5 m.
 """
 
 from __future__ import annotations

@@ -82,6 +82,7 @@ class QuadEnv(gym.Env):
 
     def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None) -> tuple[Any, dict[str, Any]]:
         super().reset(seed=seed)
+        self._check_open()
         self.sim.physics.start = self._start(self.np_random, options or {})
         self.sim.reset(seed=int(self.np_random.integers(_SIM_SEEDS)))  # gusts and sensor noise
         self.sim.send(Twist())
@@ -103,6 +104,7 @@ class QuadEnv(gym.Env):
         return self._scale.action_of(forward_mps, left_mps, climb_mps, yaw_rate_radps)
 
     def step(self, action: Any) -> tuple[Any, float, bool, bool, dict[str, Any]]:
+        self._check_open()
         self.sim.send(self._scale.command(action))
         events_before = len(self.sim.events)
         state = self.sim.step(self.steps_per_action)
@@ -112,6 +114,10 @@ class QuadEnv(gym.Env):
         if failed:
             reward -= 10.0
         return self._observe(state), reward, done or failed, False, self._info(state)
+
+    def _check_open(self) -> None:
+        if self.sim.closed:
+            raise gym.error.ClosedEnvironmentError("this environment is closed: make a new one with gymnasium.make")
 
     def render(self) -> np.ndarray | None:
         if self.render_mode != "rgb_array":
@@ -151,8 +157,9 @@ class HoverEnv(QuadEnv):
     limits (QuadEnv.twist_of, action_of). Observation, Box(15) float32, bounded (clipped to the
     bounds): position (3, m, world), velocity (3, m/s, world), roll, pitch,
     yaw (rad), body rates (3, rad/s), target position (3, m, world). Reward per step: minus the
-    distance to the target (m) and a little of the speed. Starts on the ground within 1 m of the
-    origin, any heading; the target is within 2 m horizontally, 1 to 2.5 m high."""
+    distance to the target (m) and a little of the speed. Starts on the ground at x and y each
+    uniform in [-1, 1] m, any heading; the target's x and y are each uniform in [-2, 2] m, its
+    height in [1, 2.5] m."""
 
     def __init__(self, render_mode: str | None = None, wind: WindSettings | None = None) -> None:
         super().__init__(render_mode, wind)
@@ -181,7 +188,18 @@ class ActionScale:
         self._down = np.array([v, v, limits.max_descent_rate_mps, yaw])
 
     def twist_of(self, action: Any) -> np.ndarray:
-        a = np.clip(np.asarray(action, np.float64), -1.0, 1.0)
+        try:
+            a = np.asarray(action, np.float64)
+        except (TypeError, ValueError):
+            a = np.array(math.nan)  # None, a string: said below as what it is
+        if a.shape != (4,):
+            raise ValueError(
+                f"an action is 4 numbers in [-1, 1] (forward, left, climb, yaw rate), shape (4,); got {action!r:.60}"
+                + (f" of shape {a.shape}" if a.ndim else "")
+            )
+        if not np.isfinite(a).all():
+            raise ValueError(f"an action must be finite numbers in [-1, 1], got {action!r:.80}")
+        a = np.clip(a, -1.0, 1.0)
         return np.where(a >= 0, a * self._up, a * self._down)
 
     def command(self, action: Any) -> Twist:

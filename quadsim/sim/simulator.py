@@ -116,6 +116,7 @@ class Simulator:
         """Advance `steps` physics steps through the loop (input, control, physics, outputs); the new state."""
         if self.fleet is not None:
             raise QuadsimError(f"{self.fleet.name} flies in a fleet, which steps every vehicle at once: step the fleet")
+        self._check_open()
         self.loop.run(whole_steps(steps))
         return self.state
 
@@ -173,6 +174,7 @@ class Simulator:
         """Back to step 0: the vehicle at its start pose, rotors idle, controller and gate cleared.
         With `seed`, the run's random streams (turbulence, sensor noise) start again from that
         seed instead of the run's own (a Gymnasium env's seeded reset); the description says so."""
+        self._check_open()
         if seed is not None:
             self.config = replace(self.config, seed=seed)  # validated like any SimConfig
             wind_seed, imu_seed = _streams(seed)
@@ -236,6 +238,15 @@ class Simulator:
     def close(self) -> None:
         """Disconnect PyBullet. The simulator cannot step afterwards; `with Simulator(...)` calls this."""
         self.physics.close()
+
+    @property
+    def closed(self) -> bool:
+        """Whether `close()` was called (stepping or resetting then raises QuadsimError)."""
+        return self.physics.client_id < 0
+
+    def _check_open(self) -> None:
+        if self.closed:
+            raise QuadsimError("this Simulator is closed (close() or the end of its with-block): make a new one")
 
     def __enter__(self) -> Simulator:
         return self
