@@ -44,6 +44,15 @@ def test_jobs_gives_the_serial_report(folder: Path) -> None:
     assert lines[-1] == f"{count} of {count + 1} recordings re-fly within 0.001 m and 0.001 rad; 1 unusable"
 
 
+def test_a_recording_named_twice_is_checked_once(folder: Path) -> None:
+    """A folder and a file in it: the file was reported twice and the summary said '1 not checked
+    (stopped)' though nothing had stopped."""
+    square = folder / "square_cascade.mcap"
+    done = _check(str(square), str(folder / ".." / folder.name / "square_cascade.mcap"), str(square))
+    assert done.returncode == 0 and done.stdout.count("square_cascade.mcap") == 1, done.stdout
+    assert done.stdout.splitlines()[-1] == "1 of 1 recordings re-fly within 0.001 m and 0.001 rad"
+
+
 def test_ray_gives_the_serial_report(folder: Path) -> None:
     pytest.importorskip("ray", reason="Ray (the ray extra) is not installed")
     good = [str(p) for p in sorted(folder.glob("*_cascade.mcap"))]

@@ -34,15 +34,13 @@ class CheckOutcome:
 
 
 def recordings_in(paths: list[Path]) -> list[Path]:
-    """The files named, and the .mcap files under the folders named (an empty folder stays, to be
-    reported as unusable)."""
-    files: list[Path] = []
+    """The files named, and the .mcap files under the folders named, each once, in the order
+    named (an empty folder stays, to be reported as unusable)."""
+    files: dict[Path, Path] = {}  # by where it is: a file named twice (a folder and a file in it) once
     for path in paths:
-        if path.is_dir():
-            files += sorted(path.rglob("*.mcap")) or [path]
-        else:
-            files.append(path)
-    return files
+        for f in (sorted(path.rglob("*.mcap")) or [path]) if path.is_dir() else [path]:
+            files.setdefault(f.resolve(), f)
+    return list(files.values())
 
 
 def check_one(task: CheckTask) -> CheckOutcome:
