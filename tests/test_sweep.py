@@ -97,6 +97,7 @@ def test_the_runs_are_the_product_of_the_axes_in_order(tmp_path: Path) -> None:
     [
         ('scenarios = ["hover"]\nwhat = 1', "unknown key 'what' (a sweep file has "),
         ('scenario = ["hover"]', "unknown key 'scenario' (did you mean 'scenarios'?)"),
+        ('[[vehicle]]\nname = "a"\n', "a fleet file, not a sweep file: fly it with 'run --fleet bad.toml'"),
         (
             'scenarios = ["hover"]\n[controllers.c]\nkynd = "seed"',
             "controllers.c: unknown key 'kynd' (did you mean 'kind'?)",

@@ -101,7 +101,7 @@ def fly_bag(args: argparse.Namespace, realtime: bool) -> int:
         )
     driver = ReplayDriver(command_steps(bag.commands(), config.rates.physics_hz), str(bag.path), bag.count)
     run_info = {"command": "run", "commands_from": str(bag.path), "duration_s": duration, "realtime": realtime}
-    what = f"the {bag.count} commands of {bag.path.name} for {duration:.1f} s"
+    what = f"the {bag.count} commands of {bag.path.name} for {duration:g} s"
     flight = HeadlessFlight(args, config, driver, run_info)
     return flight.fly(what, duration, realtime, f"{bag.path.stem}_{config.controller.value}")
 

@@ -248,8 +248,10 @@ def _add_recording_options(o: argparse._ArgumentGroup) -> None:
     )
 
 
-def add_live_options(p: argparse.ArgumentParser, what: str = "the run") -> None:
-    """--foxglove, --ros2 and the ROS 2 naming options (`run`, `fly`, `replay`)."""
+def add_live_options(p: argparse.ArgumentParser, what: str = "the run", flown: bool = True) -> None:
+    """--foxglove, --ros2 and the ROS 2 naming options (`run`, `fly`; `replay`, which flies
+    nothing: `flown` False)."""
+    when = "with --ros2 (or --input ros2, or a ros2 vehicle of a fleet)" if flown else "with --ros2"
     g = p.add_argument_group("live")
     g.add_argument(
         "--foxglove",
@@ -272,7 +274,7 @@ def add_live_options(p: argparse.ArgumentParser, what: str = "the run") -> None:
         "--ros-namespace",
         default="",
         metavar="NS",
-        help="with --ros2 (or --input ros2, or a ros2 vehicle of a fleet): the ROS 2 node quadsim is (/quadsim) lives in namespace NS and its topics "
+        help=f"{when}: the ROS 2 node quadsim is (/quadsim) lives in namespace NS and its topics "
         "too (/NS/quad/odom; /clock, /tf, /tf_static and /rosout stay global, as ROS 2 nodes name them), like "
         "--ros-args -r __ns:=NS",
     )
@@ -281,8 +283,12 @@ def add_live_options(p: argparse.ArgumentParser, what: str = "the run") -> None:
         action="append",
         default=[],
         metavar="FROM:=TO",
-        help="with --ros2 (or --input ros2, or a ros2 vehicle of a fleet): rename a topic, like --ros-args -r FROM:=TO; e.g. "
-        "/quad_cmd_twist:=/cmd_vel lets teleop_twist_keyboard fly it unchanged (repeatable)",
+        help=f"{when}: rename a topic, like --ros-args -r FROM:=TO; e.g. "
+        + (
+            "/quad_cmd_twist:=/cmd_vel lets teleop_twist_keyboard fly it unchanged (repeatable)"
+            if flown
+            else "/quad/odom:=/odom (repeatable)"
+        ),
     )
 
 

@@ -41,7 +41,10 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         "cameras, a map and a HUD; the flight is recorded. With no display, record the "
         "scripted demo flight headless instead, and say so.",
     )
-    add_duration_option(p, "seconds of sim time for the demo flown when there is no display")
+    add_duration_option(
+        p,
+        f"seconds of sim time for the demo flown when there is no display (default: the {DEMO_SCENARIO} script's length)",
+    )
     t = p.add_argument_group("teleop window")
     t.add_argument(
         "--input",

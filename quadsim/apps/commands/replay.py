@@ -58,7 +58,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         type=Path,
         default=None,
         metavar="FILE.png",
-        help="draw the track and the commands against the state to a PNG",
+        help="draw the track and the commands against the state to a PNG (or .svg, .pdf)",
     )
     p.add_argument("--resim", action="store_true", help="fly the recorded commands again and compare")
     p.add_argument(
@@ -82,8 +82,8 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         help="in a fleet's recording, the vehicle whose summary, plot and videos are shown (default: the first; "
         "--plot draws the others' tracks too, --resim re-flies them all)",
     )
-    p.add_argument("--window", default="1280x720", metavar="WxH", help="initial window size")
-    add_live_options(p, "the recorded messages, as they are played (put FILE first),")
+    p.add_argument("--window", default="1280x720", metavar="WxH", help="initial window size (default 1280x720)")
+    add_live_options(p, "the recorded messages, as they are played (put FILE first),", flown=False)
     p.set_defaults(func=main)
 
 

@@ -6,7 +6,12 @@ import argparse
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
-    p = sub.add_parser("scenarios", help="list the built-in scripted scenarios")
+    p = sub.add_parser(
+        "scenarios",
+        help="list the built-in scripted scenarios",
+        description="List the built-in scripted scenarios, each with its length and what it flies. "
+        "Fly one with 'run --script NAME'; a script file of your own is 'run --script FILE.qscript'.",
+    )
     p.set_defaults(func=main)
 
 

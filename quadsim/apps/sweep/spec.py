@@ -208,6 +208,11 @@ def load_sweep(path: Path) -> SweepSpec:
 
     where = str(path)
     data = read_toml(path, "sweep file")
+    if isinstance(data.get("vehicle"), list) and not KNOWN_KEYS & data.keys():
+        raise ConfigError(
+            f"{where}: a fleet file, not a sweep file: fly it with 'run --fleet {path.name}', or sweep it from a "
+            f'sweep file\'s scenarios = ["{path.name}"]'
+        )
     refuse_unknown_keys(
         data, sorted(KNOWN_KEYS), where, top_level=True, otherwise=f"a sweep file has {', '.join(sorted(KNOWN_KEYS))}"
     )
