@@ -1,6 +1,7 @@
 """Replay: playback (window and headless), re-simulation, and recordings as regression tests."""
 
 import dataclasses
+import math
 import re
 import signal
 import subprocess
@@ -353,6 +354,21 @@ def test_the_plot_shades_the_stretch_flown_in_height_mode():
     flight.events = [(1441, "z_mode", "height"), (2001, "z_mode", "velocity")]
     ((start, end),) = _height_spans(flight)
     assert abs(start - 1441 / 240) < 1e-9 and abs(end - 2001 / 240) < 1e-9
+
+
+def test_the_plot_draws_no_command_once_the_dead_man_timeout_fired(tmp_path):
+    """A script ending in silence: the commanded line stayed at 0.5 m/s to the end while the
+    vehicle (rightly) braked to a hold; it now breaks where the timeout fired."""
+    from quadsim.apps.flight_plot import _steps, export_plot
+
+    path = tmp_path / "silent.mcap"
+    record_flight(path, cameras=False, script="z_mode velocity\n1.0 linear.x=0.5\nsilence 2.0\n")
+    flight = load_flight(path)
+    ts, vs = _steps(flight, lambda tw: tw.linear_x)
+    drawn = [t for t, v in zip(ts, vs) if v == 0.5]
+    assert max(drawn) == pytest.approx(0.95 + 0.5, abs=0.01)  # the last command, held 0.5 s
+    assert math.isnan(vs[-1]) and max(ts) == max(drawn)  # nothing drawn from there to the end (3 s)
+    assert export_plot(flight, tmp_path / "silent.png").stat().st_size > 10_000
 
 
 def test_the_replay_hud_shows_the_z_mode_in_effect():

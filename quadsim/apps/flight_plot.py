@@ -47,14 +47,21 @@ def _heading_velocity(s: VehicleState) -> tuple[float, float]:
 
 
 def _steps(f: RecordedFlight, value, mode: ZMode | None = None) -> tuple[list[float], list[float]]:
-    """Commands as a step line (each held until the next); NaN breaks the line where the
-    z-mode in effect is not `mode`."""
+    """Commands as a step line, each held until the next or until the dead-man timeout fired (the
+    line breaks there: no command, the vehicle holds); NaN breaks it too where the z-mode in effect
+    is not `mode`."""
+    timeout_s = f.description.config.command_timeout_s if f.description else None
+    timeout_ns = math.inf if timeout_s is None else timeout_s * NS
     ts: list[float] = []
     vs: list[float] = []
     for (ns, twist), nxt in zip(f.commands, [*f.commands[1:], (f.end_ns, None)]):
         v = value(twist) if mode is None or f.z_mode_at(ns) is mode else math.nan
-        ts += [ns / NS, nxt[0] / NS]
+        end = min(nxt[0], ns + timeout_ns)
+        ts += [ns / NS, end / NS]
         vs += [v, v]
+        if end < nxt[0]:  # silence: nothing commanded until the next
+            ts.append(end / NS)
+            vs.append(math.nan)
     return ts, vs
 
 
