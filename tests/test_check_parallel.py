@@ -119,10 +119,9 @@ def test_check_says_when_the_gains_or_parameter_files_changed_since_the_recordin
     tuned = _check(str(recording))
     assert tuned.returncode == 0, tuned.stdout  # it re-flies what was recorded, as it should
     notes = [line.strip() for line in tuned.stdout.splitlines() if "note:" in line]
+    tail = "it re-flies with its own, so this check does not test the file's (a flight recorded again does)"
     assert notes == [
-        "note: quadsim_x.params.toml (or the URDF) now differs from what this recording flew with, in aero: the "
-        "recording re-flies with its own, so this check does not test the change (record the flight again to test it)",
-        "note: the cascade gains in quadsim_x.gains.toml now differ from those this recording flew with "
-        "(velocity_p_xy_per_s 4.5 -> 0.5): the recording re-flies with its own, so this check does not test them "
-        "(record the flight again to test them)",
+        f"note: this recording's vehicle differs from quadsim_x.params.toml (or its URDF) as it is now, in aero: {tail}",
+        "note: this recording's cascade gains differ from quadsim_x.gains.toml as it is now (velocity_p_xy_per_s "
+        f"4.5 recorded, 0.5 in the file): {tail}",
     ], tuned.stdout

@@ -111,18 +111,20 @@ def files_changed_since(description: RunDescription) -> list[str]:
     recorded = description.vehicle.details
     notes = []
     params = sorted(k for k in (now.keys() | recorded.keys()) - {"urdf", "params"} if now.get(k) != recorded.get(k))
+    tail = "it re-flies with its own, so this check does not test the file's (a flight recorded again does)"
     if params:
         notes.append(
-            f"{vehicle.params_path.name} (or the URDF) now differs from what this recording flew with, in "
-            f"{', '.join(params[:4])}{', ...' if len(params) > 4 else ''}: the recording re-flies with its own, "
-            "so this check does not test the change (record the flight again to test it)"
+            f"this recording's vehicle differs from {vehicle.params_path.name} (or its URDF) as it is now, in "
+            f"{', '.join(params[:4])}{', ...' if len(params) > 4 else ''}: {tail}"
         )
     changed = [g for g in sorted(gains) if gains[g] != description.controller.gains.get(g)]
     if changed:
-        shown = ", ".join(f"{g} {description.controller.gains.get(g)!r:.12} -> {gains[g]!r:.12}" for g in changed[:3])
+        shown = ", ".join(
+            f"{g} {description.controller.gains.get(g)!r:.12} recorded, {gains[g]!r:.12} in the file"
+            for g in changed[:3]
+        )
         notes.append(
-            f"the {kind.value} gains in {gains_path(vehicle).name} now differ from those this recording flew with "
-            f"({shown}{', ...' if len(changed) > 3 else ''}): the recording re-flies with its own, so this check "
-            "does not test them (record the flight again to test them)"
+            f"this recording's {kind.value} gains differ from {gains_path(vehicle).name} as it is now "
+            f"({shown}{', ...' if len(changed) > 3 else ''}): {tail}"
         )
     return notes
