@@ -19,6 +19,7 @@ from quadsim.apps.sweep.metrics import METRICS
 from quadsim.apps.sweep.spec import load_sweep
 from quadsim.apps.sweep.table import existing_table, read_table
 from quadsim.errors import ConfigError
+from quadsim.recording.flight import load_flight
 
 ROOT = Path(__file__).resolve().parent.parent
 
@@ -294,6 +295,25 @@ def test_resume_flies_again_what_the_sweep_file_changed_and_judges_by_todays_lim
     assert {r["status"] for r in rows.values()} == {"fail"} and {r["failed_limits"] for r in rows.values()} == {
         "max_altitude_m"
     }
+
+
+def test_runs_flown_again_replace_their_recordings(tmp_path: Path) -> None:
+    """With --record, a run flown again by --resume or --overwrite found its old recording in the
+    way: every such run 'could not fly' and its good row became an error."""
+    text = 'name = "r"\nscenarios = ["takeoff"]\nduration_s = 2.0\n[controllers.seed]\nkind = "seed"\n'
+    out = tmp_path / "o"
+    args = ("--jobs", "1", "--out", str(out), "--format", "csv", "--no-plot", "--record")
+    assert _sweep(tmp_path, text, *args).returncode == 0
+    (recording,) = (out / "recordings").glob("*.mcap")
+    longer = text.replace("duration_s = 2.0", "duration_s = 3.0")
+    for extra in ("--resume", "--overwrite"):
+        done = _sweep(tmp_path, longer, *args, extra)
+        assert done.returncode == 0 and "1 run: 1 ok" in done.stdout, done.stdout + done.stderr
+        assert "1 flown again" in done.stdout or extra == "--overwrite"
+    assert [p.name for p in (out / "recordings").glob("*.mcap")] == [recording.name]
+    assert load_flight(recording).duration_s == pytest.approx(3.0, abs=0.05)  # the newest flight's, not 2 s
+    checked = subprocess.run([sys.executable, str(ROOT / "main.py"), "check", str(recording)], capture_output=True)
+    assert checked.returncode == 0
 
 
 def test_ctrl_c_at_random_moments_keeps_finished_runs_and_resume_completes(tmp_path: Path) -> None:

@@ -9,7 +9,7 @@ from pathlib import Path
 from typing import Any
 
 from quadsim.apps.sweep.backends import Eta, run_tasks
-from quadsim.apps.sweep.run import RunTask, fly_run, forget_simulators, judge
+from quadsim.apps.sweep.run import RunTask, fly_run, forget_simulators, judge, recording_path
 from quadsim.apps.sweep.spec import SweepSpec
 from quadsim.apps.sweep.table import existing_table, read_table, table_path, write_table
 from quadsim.errors import QuadsimError
@@ -93,6 +93,8 @@ def run_sweep(
         if run.index not in rows
     ]
     todo.sort(key=hand_out_order)
+    for task in todo:  # a run flown again replaces its own recording, or leaves none to mislead check
+        recording_path(out / "recordings", task.run).unlink(missing_ok=True)
     skipped = len(rows)
     bar = ProgressBar(len(spec.runs), "sweep", unit="runs") if progress else None
     eta = Eta(len(todo))

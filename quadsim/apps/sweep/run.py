@@ -176,12 +176,16 @@ def _fly_fleet(task: RunTask) -> tuple[dict[str, float], list[str], Any]:
     return metrics, [f"{name} ({worst[name]})" for name in _beyond(task.limits, metrics)], recorded
 
 
+def recording_path(folder: Path, run: RunSpec) -> Path:
+    """Where a run's recording goes in the sweep's recordings folder (its index and values)."""
+    name = f"{run.index:05d}_" + "_".join(str(v) for v in run.axes().values())
+    return folder / f"{_safe(name)}.mcap"
+
+
 def _recording_options(task: RunTask) -> Any:
     from quadsim.session.outputs import OutputOptions
 
-    run = task.run
-    name = f"{run.index:05d}_" + "_".join(str(v) for v in run.axes().values())
-    return OutputOptions(record=True, out=Path(task.record_dir or ".") / f"{_safe(name)}.mcap", cameras=())
+    return OutputOptions(record=True, out=recording_path(Path(task.record_dir or "."), task.run), cameras=())
 
 
 def _start_recording(task: RunTask, sim: Any, script_name: str):
