@@ -92,6 +92,14 @@ def test_a_config_takes_the_names_the_command_line_takes_and_refuses_the_rest(tm
         sim.send(Twist(linear_z=1.0))  # height mode: hold 2 m + 1 m
         sim.run_for(5.0)
         assert sim.state.position_m[2] == pytest.approx(3.0, abs=0.05)
+    with Simulator(SimConfig()) as sim:  # and so does set_z_mode (a string was ignored: it flew on climbing)
+        sim.set_z_mode("height")
+        sim.send(Twist(linear_z=1.0))
+        sim.run_for(5.0)
+        assert sim.state.position_m[2] == pytest.approx(3.0, abs=0.05)
+        for bad in ("bogus", 3, None):
+            with pytest.raises(QuadsimError, match="z_mode must be one of"):
+                sim.set_z_mode(bad)
     for bad, said in (
         ({"z_mode": "bogus"}, "z_mode must be one of 'velocity', 'height'"),
         ({"controller": 3}, "controller must be one of 'cascade', 'seed'"),

@@ -81,9 +81,9 @@ class SimConfig:
 
     def __post_init__(self) -> None:
         # the names the command line takes are accepted for the enumerations ("height", "seed")
-        object.__setattr__(self, "controller", _choice(ControllerKind, self.controller, "controller"))
+        object.__setattr__(self, "controller", enum_choice(ControllerKind, self.controller, "controller"))
         if self.z_mode is not None:
-            object.__setattr__(self, "z_mode", _choice(ZMode, self.z_mode, "z_mode"))
+            object.__setattr__(self, "z_mode", enum_choice(ZMode, self.z_mode, "z_mode"))
         seed = self.seed
         if isinstance(seed, bool) or not isinstance(seed, int) or not 0 <= seed <= MAX_SEED:
             raise ConfigError(f"seed must be a whole number in [0, 2^63 - 1], got {seed!r}")
@@ -134,7 +134,7 @@ class SimConfig:
         }
 
 
-def _choice(kind: type[E], value: object, what: str) -> E:
+def enum_choice(kind: type[E], value: object, what: str) -> E:
     """`value` as a member of the enumeration `kind`: a member, or its name as the command line
     spells it ("height"); anything else is a ConfigError naming the choices."""
     if isinstance(value, kind):

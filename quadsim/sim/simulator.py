@@ -28,7 +28,7 @@ from quadsim.physics.client import WorldClient
 from quadsim.physics.pybullet_world import PhysicsWorld
 from quadsim.physics.world_spec import load_world
 from quadsim.sensors.imu import ImuNoise
-from quadsim.sim.config import SimConfig, steps_of, whole_steps
+from quadsim.sim.config import SimConfig, enum_choice, steps_of, whole_steps
 from quadsim.sim.description import ControllerDescription, RunDescription, VehicleDescription
 from quadsim.sim.flight_events import FlightEvent
 from quadsim.sim.loop import SimLoop, Sink
@@ -106,9 +106,10 @@ class Simulator:
             raise QuadsimError(f"send() needs the programmatic driver; this simulator is driven by {self.driver.name}")
         self.driver.send(twist)
 
-    def set_z_mode(self, z_mode: ZMode) -> None:
-        """How linear.z is read from now on (the standing command is re-clamped under the new mode)."""
-        self.gate.set_z_mode(z_mode)
+    def set_z_mode(self, z_mode: ZMode | str) -> None:
+        """How linear.z is read from now on (the standing command is re-clamped under the new mode):
+        a ZMode or its name ("height"); anything else is a ConfigError."""
+        self.gate.set_z_mode(enum_choice(ZMode, z_mode, "z_mode"))
 
     # --- stepping ---------------------------------------------------------------------------
 
