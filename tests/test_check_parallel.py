@@ -125,3 +125,8 @@ def test_check_says_when_the_gains_or_parameter_files_changed_since_the_recordin
         "note: this recording's cascade gains differ from quadsim_x.gains.toml as it is now (velocity_p_xy_per_s "
         f"4.5 recorded, 0.5 in the file): {tail}",
     ], tuned.stdout
+    gains.write_text(gains.read_text() + "bogus_gain = 1.0\n")  # run refuses it: check says so, and still passes
+    broken = _check(str(recording))
+    (note,) = [line.strip() for line in broken.stdout.splitlines() if "note:" in line]
+    assert broken.returncode == 0 and note.startswith("note: the vehicle's files as they are now cannot be flown (")
+    assert "bogus_gain" in note and note.endswith(tail), note

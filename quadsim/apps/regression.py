@@ -99,19 +99,21 @@ def files_changed_since(description: RunDescription) -> list[str]:
     from quadsim.vehicle.params import load_vehicle
 
     cfg = description.config
+    tail = "it re-flies with its own, so this check does not test the file's (a flight recorded again does)"
+    if any(p is not None and not Path(p).is_file() for p in (cfg.urdf, cfg.vehicle_params)):
+        return []  # flown on another machine, or the files were moved: nothing to compare with
     try:
         vehicle = load_vehicle(cfg.urdf, cfg.vehicle_params)
         kind = description.controller.kind
         gains = asdict(load_gains(vehicle, kind.value, gains_type(kind)))
-    except QuadsimError:
-        return []
+    except QuadsimError as exc:
+        return [f"the vehicle's files as they are now cannot be flown ({exc}): {tail}"]
     if vehicle.name != description.vehicle.name:
         return []
     now = json.loads(json.dumps(vehicle.to_dict()))  # as a recording holds it (lists, not tuples)
     recorded = description.vehicle.details
     notes = []
     params = sorted(k for k in (now.keys() | recorded.keys()) - {"urdf", "params"} if now.get(k) != recorded.get(k))
-    tail = "it re-flies with its own, so this check does not test the file's (a flight recorded again does)"
     if params:
         notes.append(
             f"this recording's vehicle differs from {vehicle.params_path.name} (or its URDF) as it is now, in "
