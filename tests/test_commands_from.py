@@ -170,9 +170,11 @@ def test_every_command_that_reads_a_recording_takes_a_bags_folder(tmp_path, caps
     assert code == 0, err
     assert f"recording   {recording}" in out and "540 on /quad_cmd_twist" in out
     code, out, err = run_cli(capsys, "recover", str(folder))
-    assert code == 0, err
-    assert f"{recording} was complete" in out and (folder / "session_0.recovered.mcap").is_file()
-    code, _, err = run_cli(capsys, "info", str(folder))  # two .mcap files now: which one is meant?
+    assert code == 0, err  # beside the folder: a second .mcap in it would make the folder ambiguous
+    assert f"{recording} was complete" in out and (tmp_path / "session.recovered.mcap").is_file()
+    assert sorted(p.name for p in folder.iterdir()) == ["metadata.yaml", "session_0.mcap"]
+    (folder / "session_1.mcap").write_bytes(recording.read_bytes())
+    code, _, err = run_cli(capsys, "info", str(folder))  # two .mcap files: which one is meant?
     assert_one_line_error(code, err, "a folder of 2 .mcap files", "give the one you mean")
 
 

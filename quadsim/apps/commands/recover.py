@@ -20,7 +20,8 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         type=Path,
         default=None,
         metavar="OUT.mcap",
-        help="where to write (default: DAMAGED.recovered.mcap beside the input)",
+        help="where to write (default: DAMAGED.recovered.mcap beside the input; for a bag's folder, "
+        "FOLDER.recovered.mcap beside the folder)",
     )
     p.set_defaults(func=main)
 
@@ -30,6 +31,8 @@ def main(args: argparse.Namespace) -> int:
     from quadsim.recording.mcap_scan import bag_file
     from quadsim.recording.salvage import recover
 
+    if args.output is None and args.file.is_dir():  # beside the bag's folder: a second .mcap in it would
+        args.output = args.file.with_name(args.file.name + ".recovered.mcap")  # leave the folder ambiguous
     args.file = bag_file(args.file)
     result = recover(args.file, args.output, CORE_TOPICS)
     t0, t1 = result.span_s
