@@ -207,7 +207,10 @@ def test_a_wrong_action_is_one_clear_error_and_a_closed_env_says_so():
     env.reset(seed=0)
     for bad, said in (
         (np.zeros(3), r"shape \(4,\); got array\(\[0., 0., 0.\]\) of shape \(3,\)"),
-        (np.zeros((2, 4)), r"of shape \(2, 4\)"),
+        (np.zeros((2, 4)), r"got array\(\[\[0., 0., 0., 0.\], \[0., 0., 0., 0.\]\]\) of shape \(2, 4\)"),
+        (np.array([1j, 0, 0, 0]), r"4 real numbers"),
+        ([True, False, False, False], r"4 real numbers"),
+        ([[0, 0], [0]], r"4 real numbers"),
         (1, r"shape \(4,\); got 1$"),
         (None, r"shape \(4,\); got None$"),
         ("up", r"shape \(4,\); got 'up'$"),

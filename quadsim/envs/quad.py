@@ -189,16 +189,18 @@ class ActionScale:
 
     def twist_of(self, action: Any) -> np.ndarray:
         try:
-            a = np.asarray(action, np.float64)
-        except (TypeError, ValueError):
-            a = np.array(math.nan)  # None, a string: said below as what it is
-        if a.shape != (4,):
+            given = np.asarray(action)
+        except (TypeError, ValueError):  # a ragged list
+            given = np.array(None)
+        shown = " ".join(repr(action).split())[:60]  # an array's repr spans lines
+        if given.shape != (4,) or given.dtype.kind not in "iuf":  # not None, text, complex or True
             raise ValueError(
-                f"an action is 4 numbers in [-1, 1] (forward, left, climb, yaw rate), shape (4,); got {action!r:.60}"
-                + (f" of shape {a.shape}" if a.ndim else "")
+                f"an action is 4 real numbers in [-1, 1] (forward, left, climb, yaw rate), shape (4,); got {shown}"
+                + (f" of shape {given.shape}" if given.ndim else "")
             )
+        a = given.astype(np.float64)
         if not np.isfinite(a).all():
-            raise ValueError(f"an action must be finite numbers in [-1, 1], got {action!r:.80}")
+            raise ValueError(f"an action must be finite numbers in [-1, 1], got {shown}")
         a = np.clip(a, -1.0, 1.0)
         return np.where(a >= 0, a * self._up, a * self._down)
 
