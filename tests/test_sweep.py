@@ -286,8 +286,11 @@ def test_resume_flies_again_what_the_sweep_file_changed_and_judges_by_todays_lim
     slower = longer.replace("velocity_p_xy_per_s = 0.8", "velocity_p_xy_per_s = 0.7")
     done, rows = resumed(slower)  # one controller's gains: its row alone
     assert "; 2 already in the table; 1 flown again" in done.stdout, done.stdout
+    (tmp_path / "up.qscript").write_text("# climb\nz_mode velocity\n\n3.0 linear.z=0.5  # slowly\n")
+    done, rows = resumed(slower)  # a comment changes nothing flown: nothing flies again
+    assert "; 3 already in the table)" in done.stdout, done.stdout
     (tmp_path / "up.qscript").write_text("z_mode velocity\n3.0 linear.z=0.4\n")
-    done, rows = resumed(slower)  # the script's text: every row
+    done, rows = resumed(slower)  # what the script flies: every row
     assert "; 3 flown again" in done.stdout, done.stdout
     tight = slower.replace("max_tilt_deg = 45", "max_altitude_m = 1.0")
     done, rows = resumed(tight)  # the limits: judged again, nothing flown

@@ -38,13 +38,16 @@ import math
 import re
 from dataclasses import dataclass, field, replace
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from quadsim.control import ControllerKind, gains_type
 from quadsim.control.gains import gain_problem
 from quadsim.core.toml_files import near_miss, read_toml, refuse_unknown_keys
 from quadsim.errors import ConfigError
 from quadsim.physics.wind import Turbulence, wind_from_text
+
+if TYPE_CHECKING:
+    from quadsim.drivers.scripted import Script
 
 #: the keys a sweep file may have at its top level
 KNOWN_KEYS = {"name", "scenarios", "airframes", "seeds", "duration_s", "wind", "turbulence", "controllers", "limits"}
@@ -282,8 +285,14 @@ def _scenarios(data: dict[str, Any], path: Path, where: str) -> tuple[list[str],
             raise ConfigError(f"{where}: scenarios: {exc}") from None
         scenarios.append(ref)
         lengths_s[ref] = script.duration_s
-        digests[ref] = _digest(script.source)
+        digests[ref] = _digest(_flown(script))
     return scenarios, lengths_s, digests
+
+
+def _flown(script: Script) -> str:
+    """What a script flies, as text: its z-mode and segments (a comment or a blank line changes
+    nothing, so it re-flies nothing)."""
+    return repr((script.z_mode, script.segments))
 
 
 def _digest(*texts: str) -> str:
@@ -308,7 +317,7 @@ def _fleet_length_s(path: Path, data: dict[str, Any], where: str) -> tuple[float
         )
     if fleet.longest_script_s is None and "duration_s" not in data:
         raise ConfigError(f"{where}: scenarios: {path.name}: no vehicle flies a script: give duration_s")
-    scripts = [v.script.source for v in fleet.vehicles if v.script is not None]
+    scripts = [_flown(v.script) for v in fleet.vehicles if v.script is not None]
     return fleet.longest_script_s or 0.0, _digest(path.read_text(encoding="utf-8"), *scripts)
 
 
