@@ -130,7 +130,7 @@ def test_resim_refuses_clearly(tmp_path):
     # a flight without a command (a window closed at once) is a vehicle at rest: it re-flies
     path = tmp_path / "no_commands.mcap"
     record_flight(path, cameras=False, script="silence 1.0\n")
-    silent = resimulate(load_flight(path))
+    silent = resimulate(load_flight(path), record=False)  # not into the checkout's recordings/
     assert silent.position.max_error == 0.0 and silent.attitude.max_error == 0.0
     assert silent.states_compared >= 60
     # a window closed (or signalled) before its first step: nothing flown, nothing to re-fly
