@@ -51,6 +51,14 @@ def test_a_recording_named_twice_is_checked_once(folder: Path) -> None:
     done = _check(str(square), str(folder / ".." / folder.name / "square_cascade.mcap"), str(square))
     assert done.returncode == 0 and done.stdout.count("square_cascade.mcap") == 1, done.stdout
     assert done.stdout.splitlines()[-1] == "1 of 1 recordings re-fly within 0.001 m and 0.001 rad"
+    empty = square.parent / "empty"  # a folder with no recording is named as one (it counted as a recording)
+    empty.mkdir()
+    done = _check(str(empty), str(square))
+    assert done.returncode == 2 and f"ERROR {empty}: no .mcap recordings in this folder" in done.stdout
+    assert done.stdout.splitlines()[-1] == (
+        "1 of 1 recordings re-fly within 0.001 m and 0.001 rad; 1 folder with no recording"
+    )
+    empty.rmdir()
 
 
 def test_ray_gives_the_serial_report(folder: Path) -> None:

@@ -67,16 +67,19 @@ def main(args: argparse.Namespace) -> int:
                 print(line, flush=True)
             shown += 1
     failed = sum(o.status == "changed" for o in outcomes.values())
-    unusable = sum(o.status == "unusable" for o in outcomes.values())
-    total = len(files)
-    not_checked = total - len(outcomes)
+    empty = sum(o.status == "unusable" and o.path.is_dir() for o in outcomes.values())  # a folder with none
+    unusable = sum(o.status == "unusable" for o in outcomes.values()) - empty
+    total = len(files) - sum(f.is_dir() for f in files)
+    not_checked = len(files) - len(outcomes)
     print(
         f"{total - failed - unusable - not_checked} of {total} recordings re-fly within {args.tolerance_m:g} m and "
         f"{args.tolerance_rad:g} rad"
         + (f"; {failed} changed" if failed else "")
         + (f"; {unusable} unusable" if unusable else "")
         + (f"; {not_checked} not checked (stopped)" if not_checked else "")
+        + (f"; {empty} folder{'s' * (empty != 1)} with no recording" if empty else "")
     )
+    unusable += empty  # a folder named that holds nothing is a mistake: exit 2, as for an unusable file
     if unusable or failed:
         return 2 if unusable else 1
     stop = SignalStop.current()
