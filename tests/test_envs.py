@@ -224,7 +224,11 @@ def test_a_wrong_action_is_one_clear_error_and_a_closed_env_says_so():
     assert env.unwrapped.sim.gate.last_command.linear_z == env.unwrapped.sim.vehicle.limits.max_climb_rate_mps
     assert env.unwrapped.sim.step_count == step + env.unwrapped.steps_per_action  # the refused ones never flew
     env.close()
-    for again in (lambda: env.step(np.zeros(4)), lambda: env.reset(seed=1)):
+    drawn = gym.make("quadsim/Hover-v0", render_mode="rgb_array")
+    drawn.reset(seed=0)
+    assert drawn.render().shape[2] == 3
+    drawn.close()
+    for again in (lambda: env.step(np.zeros(4)), lambda: env.reset(seed=1), drawn.render):
         with pytest.raises(gym.error.ClosedEnvironmentError, match="this environment is closed"):
             again()
 

@@ -122,6 +122,7 @@ class QuadEnv(gym.Env):
     def render(self) -> np.ndarray | None:
         if self.render_mode != "rgb_array":
             return None
+        self._check_open()
         if self._view is None:
             self._view = Cameras(self.sim, (VIEW,))
         image = self._view.latest("front")
