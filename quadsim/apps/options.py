@@ -21,7 +21,7 @@ from quadsim.physics.wind import Turbulence, wind_from_text
 from quadsim.recording.paths import ENV_VAR as RECORDINGS_ENV_VAR
 from quadsim.recording.paths import default_recordings_dir
 from quadsim.sensors.camera import RendererKind
-from quadsim.sim.config import MAX_PHYSICS_HZ, MAX_SEED, Rates
+from quadsim.sim.config import MAX_PHYSICS_HZ, MAX_SEED, Rates, divisors_shown
 from quadsim.vehicle.params import DEFAULT_VEHICLE, SHIPPED_VEHICLES
 
 if TYPE_CHECKING:
@@ -326,18 +326,16 @@ def _check_rates_divide(args: argparse.Namespace) -> None:
     fault is a default the user never typed, that it is one (--physics-hz 241 alone blamed
     control_hz=240)."""
     defaults = Rates()
-    physics = args.physics_hz
+    physics = args.physics_hz  # each rate option is a whole number from 1 to MAX_PHYSICS_HZ
     for name in ("control_hz", "state_hz", "input_hz"):
         value = getattr(args, name)
-        if value <= 0 or physics <= 0 or physics % value == 0:
+        if physics % value == 0:
             continue
-        divisors = [d for d in range(1, min(physics, MAX_PHYSICS_HZ) + 1) if physics % d == 0]
-        shown = ", ".join(map(str, divisors[:12])) + (", ..." if len(divisors) > 12 else "")
         option = "--" + name.replace("_", "-")
         default = " (its default)" if value == getattr(defaults, name) else ""
         raise QuadsimError(
             f"{option} {value}{default} does not divide --physics-hz {physics}: give {option} as a divisor of "
-            f"{physics} ({shown})"
+            f"{physics} ({divisors_shown(physics)})"
         )
 
 

@@ -44,11 +44,9 @@ class Rates:
             raise ConfigError(f"physics rate {self.physics_hz} Hz is beyond {MAX_PHYSICS_HZ} Hz; 240 Hz is the default")
         for name, value in asdict(self).items():
             if self.physics_hz % value:
-                divisors = [d for d in range(1, self.physics_hz + 1) if self.physics_hz % d == 0]
-                shown = ", ".join(map(str, divisors[:12])) + (", ..." if len(divisors) > 12 else "")
                 raise ConfigError(
                     f"rate {name}={value} Hz does not divide the physics rate {self.physics_hz} Hz; "
-                    f"choose a divisor of it ({shown})"
+                    f"choose a divisor of it ({divisors_shown(self.physics_hz)})"
                 )
 
     def every(self, hz: int) -> int:
@@ -132,6 +130,12 @@ class SimConfig:
             "sensor_noise": self.sensor_noise,
             "seed": self.seed,
         }
+
+
+def divisors_shown(hz: int) -> str:
+    """The rates that divide `hz`, as an error message lists them ("1, 2, 3, ..., 12, ...")."""
+    divisors = [d for d in range(1, hz + 1) if hz % d == 0]
+    return ", ".join(map(str, divisors[:12])) + (", ..." if len(divisors) > 12 else "")
 
 
 def enum_choice(kind: type[E], value: object, what: str) -> E:
