@@ -67,9 +67,10 @@ def main(args: argparse.Namespace) -> int:
                 print(line, flush=True)
             shown += 1
     failed = sum(o.status == "changed" for o in outcomes.values())
-    empty = sum(o.status == "unusable" and o.path.is_dir() for o in outcomes.values())  # a folder with none
+    folders = {f for f in files if f.is_dir()}  # named, with no recording in them
+    empty = sum(o.status == "unusable" and o.path in folders for o in outcomes.values())
     unusable = sum(o.status == "unusable" for o in outcomes.values()) - empty
-    total = len(files) - sum(f.is_dir() for f in files)
+    total = len(files) - len(folders)
     not_checked = len(files) - len(outcomes)
     print(
         f"{total - failed - unusable - not_checked} of {total} recordings re-fly within {args.tolerance_m:g} m and "
