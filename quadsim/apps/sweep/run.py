@@ -18,8 +18,6 @@ if TYPE_CHECKING:
     from quadsim.sim.config import SimConfig
     from quadsim.sim.simulator import Simulator
 
-#: what a run reports besides its axes and metrics
-STATUS_COLUMNS = ("index", "key", "settings", "status", "failed_limits", "error", "recording")
 #: "ok": within limits; "fail": a metric beyond its limit; "error": the run could not fly
 STATUSES = ("ok", "fail", "error")
 
