@@ -179,6 +179,12 @@ class HoverEnv(QuadEnv):
         return hover_reward(state, self.target_m), False
 
 
+def _shown(action: Any) -> str:
+    """An action as an error shows it: on one line (an array's repr spans lines), short. Made
+    only for an error: an array's repr costs about a fifth of the env's whole step."""
+    return " ".join(repr(action).split())[:60]
+
+
 class ActionScale:
     """Actions in [-1, 1] (what learning libraries expect), scaled to the command limits; climb
     and descent have limits of their own, so 1 and -1 are each one's full rate."""
@@ -193,15 +199,14 @@ class ActionScale:
             given = np.asarray(action)
         except (TypeError, ValueError):  # a ragged list
             given = np.array(None)
-        shown = " ".join(repr(action).split())[:60]  # an array's repr spans lines
         if given.shape != (4,) or given.dtype.kind not in "iuf":  # not None, text, complex or True
             raise ValueError(
-                f"an action is 4 real numbers in [-1, 1] (forward, left, climb, yaw rate), shape (4,); got {shown}"
+                f"an action is 4 real numbers in [-1, 1] (forward, left, climb, yaw rate), shape (4,); got {_shown(action)}"
                 + (f" of shape {given.shape}" if given.ndim else "")
             )
         a = given.astype(np.float64)
         if not np.isfinite(a).all():
-            raise ValueError(f"an action must be finite numbers in [-1, 1], got {shown}")
+            raise ValueError(f"an action must be finite numbers in [-1, 1], got {_shown(action)}")
         a = np.clip(a, -1.0, 1.0)
         return np.where(a >= 0, a * self._up, a * self._down)
 
