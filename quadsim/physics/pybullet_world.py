@@ -12,6 +12,7 @@ from typing import NamedTuple
 
 import numpy as np
 
+from quadsim.core.compiled import floats, specialize, table
 from quadsim.core.kinematics import Vec3, matrix_from_quaternion
 from quadsim.core.types import RotorForces, StartPose, VehicleState
 from quadsim.errors import ConfigError
@@ -20,9 +21,9 @@ from quadsim.physics.pybullet_quiet import pb
 from quadsim.physics.scene import inertial_offset, load_vehicle_body
 from quadsim.physics.wind import WindField, WindSettings
 from quadsim.physics.world_spec import WorldSpec
-from quadsim.vehicle.aero import drag_force_body_n, ground_effect_ratio
 from quadsim.vehicle.motors import MotorBank
 from quadsim.vehicle.params import VehicleParams
+from quadsim.vehicle.wrench import airframe_constants, airframe_wrench, hub_table
 
 #: Clearance above the ground the vehicle is placed at, so it starts just resting on the floor.
 _SPAWN_CLEARANCE_M = 0.001
@@ -103,21 +104,33 @@ class PhysicsWorld:
         self._scenery: tuple[tuple[float, ...], tuple[tuple[Vec3, Vec3], ...]] | bool | None = False
         self._clear_from: Vec3 = (math.inf, math.inf, math.inf)
         self._clear_slack_m = 0.0
-        # reaction torque per newton on each rotor, about body z (CCW rotor -> negative yaw)
-        c = vehicle.yaw_torque_per_thrust_m
-        self._yaw_per_n = tuple(-r.spin.sign * c for r in vehicle.rotors)
-        self._aero = vehicle.aero
-        self._com: Vec3 = vehicle.com_m
-        # rotor hubs relative to the base_link origin, for their height above the floor
-        self._hubs = vehicle.rotor_hubs_m
-        self._inv_kf = 1.0 / vehicle.thrust_coefficient_n_per_rad2s2
         self.wind_settings = wind
         self._wind_seed = wind_seed if wind_seed is not None else np.random.SeedSequence(0)
         self._wind: WindField | None = None
         self._reset_wind()
         self.motors = MotorBank(len(vehicle.rotors), vehicle.motor_time_constant_s, vehicle.max_thrust_n, self.dt_s)
+        self._prepare_wrench()
         self._read_kinematics()
         self._previous_velocity = self._linear_velocity
+
+    def _prepare_wrench(self) -> None:
+        """The constants, rotor table and output `airframe_wrench` takes each step, and the
+        function itself made for them (without numba's type dispatch: quadsim.core.compiled)."""
+        vehicle, xyz = self.vehicle, (0.0, 0.0, 0.0)
+        self._airframe = floats(airframe_constants(vehicle, self.motors.alpha))
+        self._hub_table = table(hub_table(vehicle))
+        self._wrench = floats([0.0] * 6)
+        self._airframe_wrench = specialize(
+            airframe_wrench,
+            self._airframe,
+            self._hub_table,
+            self.motors.thrusts,
+            (0.0,) * len(vehicle.rotors),
+            (xyz, xyz, xyz),
+            0.0,
+            xyz,
+            self._wrench,
+        )
 
     def reseed(self, wind_seed: np.random.SeedSequence) -> None:
         """The turbulence's random stream from `wind_seed` from the next reset on."""
@@ -327,54 +340,34 @@ class PhysicsWorld:
 
     def _apply(self, command_n: RotorForces) -> None:
         """The motors move toward `command_n`; this step's force and torque are applied."""
-        # the hot path: PyBullet's calls get positional arguments (parsing the keyword
-        # physicsClientId costs about a quarter of a microsecond a call). Every force and torque
-        # is summed here, in base_link about its origin, and applied once, turned into the world
-        # frame with this step's attitude: a force in a child link's frame is turned with that
-        # link's pose of the previous step, so rotor thrust lagged the attitude by one step.
-        body, cid = self.body_id, self._cid
-        (m00, m01, m02), (m10, m11, m12), (m20, m21, m22) = self._rotation
-        aero = self._aero
-        ground = aero.ground_effect
-        pz = self._position[2]
-        yaw = thrust_sum = roll = pitch = omega_sum = 0.0
-        inv_kf, sqrt = self._inv_kf, math.sqrt
-        for thrust, yaw_per_n, (hx, hy, hz) in zip(self.motors.advance(command_n), self._yaw_per_n, self._hubs):
-            yaw += yaw_per_n * thrust
-            if thrust > 0.0:
-                omega_sum += sqrt(thrust * inv_kf)
-                if ground:
-                    height = pz + m20 * hx + m21 * hy + m22 * hz
-                    thrust *= ground_effect_ratio(height, aero.rotor_radius_m, aero.ground_effect_max_ratio)
-                thrust_sum += thrust
-                roll += hy * thrust  # hub x (0, 0, thrust)
-                pitch -= hx * thrust
-        # drag through the airspeed (velocity minus wind) in base_link, at the centre of mass
-        vx, vy, vz = self._linear_velocity
-        if self._wind is not None:
-            wx, wy, wz = self._wind.advance()
-            vx, vy, vz = vx - wx, vy - wy, vz - wz
-        air = (m00 * vx + m10 * vy + m20 * vz, m01 * vx + m11 * vy + m21 * vz, m02 * vx + m12 * vy + m22 * vz)
-        dx, dy, dz = drag_force_body_n(aero, air, omega_sum)
-        cx, cy, cz = self._com
-        fx, fy, fz = dx, dy, dz + thrust_sum
-        tx, ty, tz = roll + cy * dz - cz * dy, pitch + cz * dx - cx * dz, yaw + cx * dy - cy * dx
-        world = pb.WORLD_FRAME
-        pb.applyExternalForce(
-            body,
-            -1,
-            (m00 * fx + m01 * fy + m02 * fz, m10 * fx + m11 * fy + m12 * fz, m20 * fx + m21 * fy + m22 * fz),
-            self._position,
-            world,
-            cid,
+        # the hot path: the arithmetic is one function (quadsim.vehicle.wrench), and PyBullet's
+        # calls get positional arguments (parsing the keyword physicsClientId costs about a
+        # quarter of a microsecond a call). The force and torque are turned into the world frame
+        # with this step's attitude: a force in a child link's frame is turned with that link's
+        # pose of the previous step, so rotor thrust would lag the attitude by one step.
+        motors = self.motors
+        if len(command_n) != motors.motor_count:
+            motors.check_count(command_n)
+        air = self._linear_velocity
+        if self._wind is not None:  # drag acts through the airspeed: velocity minus wind
+            (vx, vy, vz), (wx, wy, wz) = air, self._wind.advance()
+            air = (vx - wx, vy - wy, vz - wz)
+        out = self._wrench
+        constants, hubs, thrusts, rotation, z = (
+            self._airframe,
+            self._hub_table,
+            motors.thrusts,
+            self._rotation,
+            self._position[2],
         )
-        pb.applyExternalTorque(
-            body,
-            -1,
-            (m00 * tx + m01 * ty + m02 * tz, m10 * tx + m11 * ty + m12 * tz, m20 * tx + m21 * ty + m22 * tz),
-            world,
-            cid,
-        )
+        try:
+            self._airframe_wrench(constants, hubs, thrusts, command_n, rotation, z, air, out)
+        except (TypeError, ValueError):  # forces that are not a tuple of floats (a list, ints)
+            airframe_wrench(constants, hubs, thrusts, command_n, rotation, z, air, out)
+        fx, fy, fz, tx, ty, tz = out
+        world, body, cid = pb.WORLD_FRAME, self.body_id, self._cid
+        pb.applyExternalForce(body, -1, (fx, fy, fz), self._position, world, cid)
+        pb.applyExternalTorque(body, -1, (tx, ty, tz), world, cid)
 
     def _finish_step(self) -> None:
         """After the world stepped: the vehicle's new pose and velocities."""

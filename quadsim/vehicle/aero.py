@@ -17,33 +17,13 @@ pybullet. Every force acts through the airspeed, the vehicle's velocity relative
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
 
+from quadsim.core.compiled import jit
 from quadsim.core.kinematics import Vec3
+from quadsim.vehicle.params import AeroParams
 
 
-@dataclass(frozen=True)
-class AeroParams:
-    """The [aero] section of a vehicle's parameter file (units in the names)."""
-
-    body_drag_linear_ns_per_m: Vec3  # per base_link axis (x forward, y left, z up)
-    body_drag_quadratic_ns2_per_m2: Vec3  # per base_link axis: 1/2 rho C_d A
-    rotor_drag_ns_per_m_rad: float  # per rotor, per rad/s of rotor speed, per m/s of in-plane airspeed
-    rotor_radius_m: float
-    ground_effect: bool
-    ground_effect_max_ratio: float  # cap on T_ige / T_oge (Cheeseman-Bennett diverges at z = R/4)
-
-    def to_dict(self) -> dict[str, object]:
-        return {
-            "body_drag_linear_ns_per_m": list(self.body_drag_linear_ns_per_m),
-            "body_drag_quadratic_ns2_per_m2": list(self.body_drag_quadratic_ns2_per_m2),
-            "rotor_drag_ns_per_m_rad": self.rotor_drag_ns_per_m_rad,
-            "rotor_radius_m": self.rotor_radius_m,
-            "ground_effect": self.ground_effect,
-            "ground_effect_max_ratio": self.ground_effect_max_ratio,
-        }
-
-
+@jit
 def ground_effect_ratio(height_m: float, rotor_radius_m: float, max_ratio: float) -> float:
     """Cheeseman-Bennett thrust ratio T_ige / T_oge of a rotor `height_m` above the ground
     (1 far away, capped at `max_ratio` close to it or below it)."""
@@ -64,6 +44,15 @@ def drag_force_body_n(params: AeroParams, air_body_mps: Vec3, rotor_speed_sum_ra
     lx, ly, lz = params.body_drag_linear_ns_per_m
     qx, qy, qz = params.body_drag_quadratic_ns2_per_m2
     rotor = params.rotor_drag_ns_per_m_rad * rotor_speed_sum_radps
+    return drag_body(lx, ly, lz, qx, qy, qz, rotor, vx, vy, vz)
+
+
+@jit
+def drag_body(
+    lx: float, ly: float, lz: float, qx: float, qy: float, qz: float, rotor: float, vx: float, vy: float, vz: float
+) -> Vec3:
+    """`drag_force_body_n` from its numbers: linear and quadratic body drag per axis, the rotor
+    drag coefficient times the rotors' summed speed (`rotor`), the airspeed in base_link."""
     return (
         -(lx + qx * abs(vx) + rotor) * vx,
         -(ly + qy * abs(vy) + rotor) * vy,

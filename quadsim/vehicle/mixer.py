@@ -2,9 +2,11 @@
 
 from __future__ import annotations
 
+from collections.abc import Sequence
+
 import numpy as np
 
-from quadsim.core.kinematics import clamp
+from quadsim.core.compiled import COMPILED, Floats, MutableFloats, floats, jit, table
 from quadsim.core.types import RotorForces
 from quadsim.errors import ConfigError
 from quadsim.vehicle.params import VehicleParams
@@ -39,8 +41,8 @@ class Mixer:
         # bit as the quad has always used it (pinv goes through an SVD and rounds differently)
         square = allocation.shape[0] == allocation.shape[1]
         inverse = np.linalg.inv(allocation) if square else np.linalg.pinv(allocation)
-        # plain tuples: the hot path below is scalar Python, faster than numpy for a few rotors
-        self._rows = tuple((float(a), float(b), float(c), float(d)) for a, b, c, d in inverse)
+        #: the inverse's rows (one per rotor: thrust, roll, pitch, yaw), as `mix` takes them
+        self.rows = table(inverse)
         self.rotor_count = allocation.shape[1]
         self.max_thrust_n = vehicle.max_thrust_n
 
@@ -57,20 +59,37 @@ class Mixer:
         When the wanted wrench does not fit, yaw torque is given up first (scaled down until
         the forces fit), as roll and pitch keep the vehicle upright and yaw does not.
         """
-        rows, top = self._rows, self.max_thrust_n
-        wanted = [a * thrust_n + b * roll_nm + c * pitch_nm + d * yaw_nm for a, b, c, d in rows]
-        for g in wanted:
-            if not 0.0 <= g <= top:
-                break
-        else:
-            return tuple(wanted)  # it fits as it is (the usual case)
-        forces = [a * thrust_n + b * roll_nm + c * pitch_nm for a, b, c, _ in rows]
-        yaws = [d * yaw_nm for *_, d in rows]
-        scale = 1.0
-        for f, y in zip(forces, yaws):
-            g = f + y
-            if g > top and y > 0.0:
-                scale = min(scale, max(0.0, (top - f) / y))
-            elif g < 0.0 and y < 0.0:
-                scale = min(scale, max(0.0, -f / y))
-        return tuple([clamp(f + scale * y, 0.0, top) for f, y in zip(forces, yaws)])
+        out = floats([0.0] * self.rotor_count)
+        mix(self.rows, self.max_thrust_n, thrust_n, roll_nm, pitch_nm, yaw_nm, out)
+        return tuple(out.tolist()) if COMPILED else tuple(out)
+
+
+@jit
+def mix(rows: Sequence[Floats], top: float, thrust: float, tx: float, ty: float, tz: float, out: MutableFloats) -> None:
+    """The rotor forces for a wanted wrench (thrust, body torques tx, ty, tz) into `out`, each
+    clipped to [0, top], from the allocation's inverse `rows`; when the wrench does not fit, yaw
+    torque is scaled down until it does (see `Mixer.to_rotor_forces`)."""
+    n = len(out)
+    fits = True
+    for i in range(n):
+        row = rows[i]
+        g = row[0] * thrust + row[1] * tx + row[2] * ty + row[3] * tz
+        out[i] = g
+        if not 0.0 <= g <= top:
+            fits = False
+    if fits:  # the usual case
+        return
+    scale = 1.0
+    for i in range(n):
+        row = rows[i]
+        f = row[0] * thrust + row[1] * tx + row[2] * ty
+        y = row[3] * tz
+        g = f + y
+        if g > top and y > 0.0:
+            scale = min(scale, max(0.0, (top - f) / y))
+        elif g < 0.0 and y < 0.0:
+            scale = min(scale, max(0.0, -f / y))
+    for i in range(n):
+        row = rows[i]
+        f = row[0] * thrust + row[1] * tx + row[2] * ty + scale * (row[3] * tz)
+        out[i] = 0.0 if f < 0.0 else (top if f > top else f)

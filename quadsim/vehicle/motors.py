@@ -4,7 +4,18 @@ from __future__ import annotations
 
 import math
 
+from quadsim.core.compiled import COMPILED, Floats, MutableFloats, floats, jit
 from quadsim.core.types import RotorForces
+
+
+@jit
+def advance_motors(thrusts: MutableFloats, command: Floats, alpha: float, top: float) -> None:
+    """Move the produced `thrusts` (in place) one step toward `command`, clipped to [0, top]
+    first: a motor cannot be asked for more than it has."""
+    for i in range(len(thrusts)):
+        u = command[i]
+        f = thrusts[i]
+        thrusts[i] = f + alpha * ((0.0 if u < 0.0 else (top if u > top else u)) - f)
 
 
 class MotorBank:
@@ -18,28 +29,31 @@ class MotorBank:
         if motor_count < 1:
             raise ValueError(f"a motor bank needs at least one motor, got {motor_count}")
         self.motor_count = motor_count
-        self._alpha = 1.0 if time_constant_s <= 0.0 else 1.0 - math.exp(-dt_s / time_constant_s)
-        self._max = max_thrust_n
-        self.thrusts_n: RotorForces = (0.0,) * motor_count
+        self.alpha = 1.0 if time_constant_s <= 0.0 else 1.0 - math.exp(-dt_s / time_constant_s)
+        self.max_thrust_n = max_thrust_n
+        #: the produced thrusts, as `advance_motors` moves them (quadsim.core.compiled.floats)
+        self.thrusts = floats([0.0] * motor_count)
 
-    def _wrong_count(self, forces: RotorForces) -> ValueError:
-        return ValueError(f"expected {self.motor_count} rotor forces, got {len(forces)}")
+    @property
+    def thrusts_n(self) -> RotorForces:
+        """The thrusts the motors produce now (N)."""
+        return tuple(self.thrusts.tolist()) if COMPILED else tuple(self.thrusts)
+
+    def check_count(self, forces: RotorForces) -> None:
+        """Refuse a tuple of forces that is not one per motor."""
+        if len(forces) != self.motor_count:
+            raise ValueError(f"expected {self.motor_count} rotor forces, got {len(forces)}")
 
     def reset(self, thrusts_n: RotorForces | None = None) -> None:
         """Set the produced thrusts (default: all stopped)."""
         if thrusts_n is None:
             thrusts_n = (0.0,) * self.motor_count
-        if len(thrusts_n) != self.motor_count:
-            raise self._wrong_count(thrusts_n)
-        self.thrusts_n = tuple(thrusts_n)
+        self.check_count(thrusts_n)
+        for i, f in enumerate(thrusts_n):
+            self.thrusts[i] = float(f)
 
     def advance(self, command_n: RotorForces) -> RotorForces:
         """Move the produced thrusts one step toward the command and return them."""
-        if len(command_n) != self.motor_count:
-            raise self._wrong_count(command_n)
-        a, top = self._alpha, self._max
-        # clip the command first: a motor cannot be asked for more than it has
-        self.thrusts_n = tuple(
-            [f + a * ((0.0 if u < 0.0 else (top if u > top else u)) - f) for f, u in zip(self.thrusts_n, command_n)]
-        )
+        self.check_count(command_n)
+        advance_motors(self.thrusts, tuple(float(u) for u in command_n), self.alpha, self.max_thrust_n)
         return self.thrusts_n

@@ -16,7 +16,6 @@ from quadsim.assets import asset_path
 from quadsim.core.kinematics import IDENTITY, Mat3, Vec3, mat_mul, matrix_from_rpy, rotate, transpose
 from quadsim.core.toml_files import read_toml, refuse_unknown_keys
 from quadsim.errors import ConfigError
-from quadsim.vehicle.aero import AeroParams
 
 #: The airframes the project ships, by the names `--vehicle` takes (each URDF has its
 #: NAME.params.toml beside it).
@@ -39,6 +38,28 @@ class Spin(enum.Enum):
     @property
     def sign(self) -> int:
         return 1 if self is Spin.CCW else -1
+
+
+@dataclass(frozen=True)
+class AeroParams:
+    """The [aero] section of a vehicle's parameter file (units in the names)."""
+
+    body_drag_linear_ns_per_m: Vec3  # per base_link axis (x forward, y left, z up)
+    body_drag_quadratic_ns2_per_m2: Vec3  # per base_link axis: 1/2 rho C_d A
+    rotor_drag_ns_per_m_rad: float  # per rotor, per rad/s of rotor speed, per m/s of in-plane airspeed
+    rotor_radius_m: float
+    ground_effect: bool
+    ground_effect_max_ratio: float  # cap on T_ige / T_oge (Cheeseman-Bennett diverges at z = R/4)
+
+    def to_dict(self) -> dict[str, object]:
+        return {
+            "body_drag_linear_ns_per_m": list(self.body_drag_linear_ns_per_m),
+            "body_drag_quadratic_ns2_per_m2": list(self.body_drag_quadratic_ns2_per_m2),
+            "rotor_drag_ns_per_m_rad": self.rotor_drag_ns_per_m_rad,
+            "rotor_radius_m": self.rotor_radius_m,
+            "ground_effect": self.ground_effect,
+            "ground_effect_max_ratio": self.ground_effect_max_ratio,
+        }
 
 
 @dataclass(frozen=True)

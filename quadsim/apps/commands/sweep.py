@@ -94,6 +94,10 @@ def main(args: argparse.Namespace) -> int:
         f"sweep '{spec.name}': {len(spec.runs)} run{'s' * (len(spec.runs) != 1)} on {where}; results in {out}",
         flush=True,
     )
+    from quadsim.core import compiled  # here: numba's import is not every command's
+
+    if compiled.NUMBA_VERSION is None:  # the runs fly as plain Python: say how to have them faster
+        print(f"note: {compiled.MISSING}", flush=True)
     result = run_sweep(
         spec,
         out,
