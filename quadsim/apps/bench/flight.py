@@ -13,10 +13,12 @@ Each figure is the best of several repeats (the least disturbed by other work on
 
 from __future__ import annotations
 
+import math
+import time
 from collections.abc import Callable
 from typing import Any
 
-from quadsim.apps.bench.figures import Figure, best_of
+from quadsim.apps.bench.figures import Figure, best_of, compiled_status
 from quadsim.control import ControllerKind
 from quadsim.core.types import ActiveCommand, RotorForces, Twist, VehicleState, ZMode
 from quadsim.physics.client import WorldClient
@@ -29,7 +31,38 @@ from quadsim.sim.simulator import Simulator
 from quadsim.vehicle.params import load_vehicle
 
 
-def bare_pybullet_loop(steps: int, repeats: int, merged: bool = False, physics_hz: int = 240) -> Figure:
+class Timed:
+    """Something to time step by step: `run(n)` steps it n times; `close()` frees it."""
+
+    def __init__(self, name: str, run: Callable[[int], object], close: Callable[[], object]) -> None:
+        self.name, self.run, self.close = name, run, close
+
+    def figure(self, steps: int, repeats: int) -> Figure:
+        """Timed alone, then closed: the best of `repeats` runs of `steps` steps."""
+        try:
+            return Figure(self.name, best_of(repeats, steps, self.run), 240)
+        finally:
+            self.close()
+
+
+def interleaved(timed: list[Timed], steps: int, rounds: int) -> list[Figure]:
+    """Each of `timed` run `steps` steps in turn, for `rounds` rounds; the best run of each. Taken
+    in turn, a burst of other work on the machine slows a round of all of them, not every run of
+    one of them, so the ratios between them hold. Closes them all."""
+    best = [math.inf] * len(timed)
+    try:
+        for _ in range(rounds):
+            for i, item in enumerate(timed):
+                t0 = time.perf_counter()
+                item.run(steps)
+                best[i] = min(best[i], (time.perf_counter() - t0) / steps)
+    finally:
+        for item in timed:
+            item.close()
+    return [Figure(item.name, seconds, 240) for item, seconds in zip(timed, best)]
+
+
+def bare_pybullet_loop(merged: bool = False, physics_hz: int = 240) -> Timed:
     """A bare loop: this URDF and world in PyBullet, a force at each rotor and one step, nothing
     else. The baseline loads the URDF as PyBullet does by default (a tree of fixed joints, as
     a user or a peer loads it, and as quadsim did up to 0.3); `merged`: as the simulator loads
@@ -61,10 +94,7 @@ def bare_pybullet_loop(steps: int, repeats: int, merged: bool = False, physics_h
             pb.stepSimulation(physicsClientId=cid)
 
     name = "bare PyBullet loop, fixed links merged" if merged else "bare PyBullet loop (baseline)"
-    try:
-        return Figure(name, best_of(repeats, steps, run), physics_hz)
-    finally:
-        client.close()
+    return Timed(name, run, client.close)
 
 
 def hovering_sim(controller: ControllerKind, rates: Rates) -> Simulator:
@@ -94,7 +124,7 @@ class _ConstantForces:
         return {"name": "constant", "forces_n": list(self.forces)}
 
 
-def physics_only(steps: int, repeats: int) -> Figure:
+def physics_only() -> Timed:
     """The loop stepping the physics world with constant rotor forces: no controller, driver or sinks."""
     sim = hovering_sim(ControllerKind.CASCADE, Rates())
     phys = sim.physics
@@ -108,13 +138,10 @@ def physics_only(steps: int, repeats: int) -> Figure:
             phys.place((0.0, 0.0, 2.0), (0.0, 0.0, 0.0, 1.0))
             loop.run(min(240, n - done))
 
-    try:
-        return Figure("physics stepped by the loop, constant forces", best_of(repeats, steps, run), 240)
-    finally:
-        sim.close()
+    return Timed("physics stepped by the loop, constant forces", run, sim.close)
 
 
-def controller_only(steps: int, repeats: int, controller: ControllerKind) -> Figure:
+def controller_only(controller: ControllerKind) -> Timed:
     """One controller update per step on a recorded hover state (no physics at all)."""
     sim = hovering_sim(controller, Rates())
     state, active, ctrl = sim.state, sim.gate.active(sim.step_count), sim.controller
@@ -124,33 +151,32 @@ def controller_only(steps: int, repeats: int, controller: ControllerKind) -> Fig
         for _ in range(n):
             update(state, active, 1.0 / 240.0)
 
-    try:
-        return Figure(f"{controller.value} controller update alone", best_of(repeats, steps, run), 240)
-    finally:
-        sim.close()
+    return Timed(f"{controller.value} controller update alone", run, sim.close)
 
 
-def full_loop(steps: int, repeats: int, controller: ControllerKind = ControllerKind.CASCADE) -> Figure:
+def full_loop(controller: ControllerKind = ControllerKind.CASCADE) -> Timed:
+    """The whole loop at 240 Hz physics and control, hovering at 2 m."""
     sim = hovering_sim(controller, Rates(physics_hz=240, control_hz=240, state_hz=60, input_hz=20))
-    try:
-        return Figure(f"full loop, {controller.value} controller @240 Hz", best_of(repeats, steps, sim.step), 240)
-    finally:
-        sim.close()
+    return Timed(f"full loop, {controller.value} controller @240 Hz", sim.step, sim.close)
 
 
-def run_flight_core_bench(
-    steps: int = 24000, repeats: int = 3, out: Callable[[str], None] = print
-) -> dict[str, Figure]:
-    out(f"quadsim bench: flight core ({steps} steps per run, best of {repeats}; 240 Hz physics)")
-    base = bare_pybullet_loop(steps, repeats)
-    figures = {
-        "bare": base,
-        "bare_merged": bare_pybullet_loop(steps, repeats, merged=True),
-        "physics": physics_only(steps, repeats),
-        "cascade_update": controller_only(steps, repeats, ControllerKind.CASCADE),
-        "cascade": full_loop(steps, repeats, ControllerKind.CASCADE),
-        "seed": full_loop(steps, repeats, ControllerKind.SEED),
-    }
+def run_flight_core_bench(steps: int = 6000, repeats: int = 8, out: Callable[[str], None] = print) -> dict[str, Figure]:
+    out(
+        f"quadsim bench: flight core ({steps} steps per run, each figure in turn for {repeats} rounds, "
+        "the best run of each; 240 Hz physics)"
+    )
+    out(f"  {compiled_status()}")
+    keys = ("bare", "bare_merged", "physics", "cascade_update", "cascade", "seed")
+    timed = [
+        bare_pybullet_loop(),
+        bare_pybullet_loop(merged=True),
+        physics_only(),
+        controller_only(ControllerKind.CASCADE),
+        full_loop(ControllerKind.CASCADE),
+        full_loop(ControllerKind.SEED),
+    ]
+    figures = dict(zip(keys, interleaved(timed, steps, repeats)))
+    base = figures["bare"]
     out(f"  {'':46s} {'us/step':>8s} {'steps/s':>9s} {'x real time':>11s} {'x baseline':>10s}")
     for fig in figures.values():
         ratio = fig.seconds_per_step / base.seconds_per_step

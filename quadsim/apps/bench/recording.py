@@ -180,7 +180,7 @@ def message_costs(states: int = 6000, repeats: int = 5) -> dict[str, float]:
 def run_recording_bench(out: Callable[[str], None] = print, flight_s: float = 20.0) -> None:
     out("quadsim bench: cameras and recording")
     camera_costs(frames=30, repeats=3, out=out)
-    core = full_loop(12000, 3)
+    core = full_loop().figure(12000, 3)
     with_cams = recorded_flight(flight_s, cameras=True, workers=2)
     rtf_cam, size_cam = with_cams.real_time_factor, with_cams.size_bytes
     rtf_cam1 = recorded_flight(flight_s, cameras=True, workers=0).real_time_factor

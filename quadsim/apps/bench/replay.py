@@ -44,7 +44,7 @@ def run_replay_bench(out: Callable[[str], None] = print, flight_s: float = 20.0)
             f"  headless playback of {flight_s:.0f} s with both cameras ({size:.1f} MB, "
             f"{sum(flight.topics.values())} messages): {best:.2f} s, {flight_s / best:.0f}x real time (target >= 50x)"
         )
-        core = full_loop(12000, 3)
+        core = full_loop().figure(12000, 3)
         flight = load_flight(paths["nocams"])
         best, best_stepping = float("inf"), float("inf")
         for _ in range(3):

@@ -15,16 +15,21 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         "bench",
         help="measure speed against a bare-PyBullet baseline run in the same process",
         description="Benchmark. Every figure is given as steps/s, real-time factor and a ratio to a "
-        "baseline measured in the same run; best of --repeats.",
+        "baseline measured in the same run, the best of several runs. The first lines say the machine's load and "
+        "whether the flight core is compiled (the fast extra: numba).",
     )
     p.add_argument(
         "--steps",
         type=whole(1, 10_000_000),
-        default=24000,
-        help="physics steps per timed run (default 24000 = 100 s sim)",
+        default=6000,
+        help="flight section: physics steps per timed run (default 6000 = 25 s of simulation)",
     )
     p.add_argument(
-        "--repeats", type=whole(1, 100), default=3, help="timed runs per figure; the best is kept (default 3)"
+        "--repeats",
+        type=whole(1, 100),
+        default=8,
+        help="flight section: timed runs per figure, taken in turn with the other figures' runs; "
+        "the best of each is kept (default 8)",
     )
     p.add_argument(
         "--section",
