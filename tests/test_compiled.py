@@ -205,3 +205,42 @@ def test_an_edit_to_a_compiled_function_another_one_calls_is_not_hidden_by_the_c
     mixer.write_text(text.replace("        out[i] = g\n", "        out[i] = 2.0 * g\n"))
     assert forces() == tuple(2.0 * f for f in before)
     assert len(list((package / "control" / "__pycache__").glob("cascade_step.cascade_update*.nbi"))) == 2
+
+
+def test_with_nowhere_to_write_its_cache_the_flight_core_is_still_compiled(monkeypatch):
+    """numba refuses `cache=True` when neither the package's folder nor the user's cache folder
+    can be written (a read-only install run by a user without a home); quadsim then compiles
+    each run instead of failing to import."""
+
+    real = compiled.numba.njit
+
+    def no_cache(*args, **kwargs):
+        if kwargs.get("cache"):
+            raise RuntimeError("cannot cache function 'f': no locator available for file 'f.py'")
+        return real(*args, **kwargs)
+
+    monkeypatch.setattr(compiled.numba, "njit", no_cache)
+
+    def twice(x: float) -> float:
+        return 2.0 * x
+
+    made = compiled.jit(twice)
+    assert made(1.5) == 3.0
+    assert made.overloads  # compiled, not the Python function
+
+
+def test_rotor_forces_given_as_a_list_of_integers_fly_as_a_tuple_of_floats():
+    vehicle = load_vehicle()
+    poses = []
+    for forces in ([3, 3, 3, 3], (3.0, 3.0, 3.0, 3.0)):
+        with PhysicsWorld(vehicle, load_world(), 240) as physics:
+            physics.place((0.0, 0.0, 2.0))
+            for _ in range(24):
+                physics._step(forces)
+            poses.append(physics.pose)
+    assert poses[0] == poses[1] and poses[0][0][2] != 2.0
+    with (
+        PhysicsWorld(vehicle, load_world(), 240) as physics,
+        pytest.raises(ValueError, match="expected 4 rotor forces"),
+    ):
+        physics._step([3.0, 3.0])

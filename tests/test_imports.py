@@ -11,7 +11,7 @@ from typing import Any
 
 import pytest
 
-HEAVY = ("pybullet", "pygame", "rosbags", "mcap", "cv2")
+HEAVY = ("pybullet", "pygame", "rosbags", "mcap", "cv2", "numba")
 
 #: modules that must stay pure numeric / data code, with what they may not load
 LIGHT_MODULES = [
@@ -61,6 +61,12 @@ def test_import_quadsim_loads_no_heavy_library():
 def test_data_and_control_modules_load_neither_pybullet_nor_pygame(module):
     loaded = loaded_after(f"import {module}")
     assert "pybullet" not in loaded and "pygame" not in loaded, f"{module} loads {loaded}"
+
+
+def test_the_command_line_loads_numba_only_for_what_flies():
+    """numba (the fast extra) takes a fifth of a second to import: the command line's help and the
+    commands that read recordings do without it."""
+    assert loaded_after("import quadsim.apps.cli") == []
 
 
 def test_the_public_api_is_there_on_first_use():

@@ -13,6 +13,7 @@ numba is installed: at 240 Hz it is the hot path.
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import asdict, dataclass
 from typing import Any, ClassVar
 
@@ -56,6 +57,13 @@ class CascadeGains:
 
 
 _HEIGHT = ZMode.HEIGHT
+
+
+def _float_tuple(values: Sequence[float]) -> Any:
+    """`values` as a tuple of floats, whatever sequence of numbers they came as (of their length)."""
+    return tuple(float(v) for v in values)
+
+
 #: the command while the dead-man holds: nothing wanted, every hold keeps its place
 _NO_COMMAND = (0.0, 0.0, 0.0, 0.0)
 
@@ -164,6 +172,9 @@ class CascadeController:
         height, hold = command.z_mode is _HEIGHT, command.hold
         try:
             self._update(self._k, self._rows, s, position, r, velocity, rates, wanted, height, hold, dt_s, out)
-        except (TypeError, ValueError):  # a state not of tuples of floats (built by hand)
-            cascade_update(self._k, self._rows, s, position, r, velocity, rates, wanted, height, hold, dt_s, out)
+        except (TypeError, ValueError):  # a state built by hand, with lists or integers: as the loop builds it
+            position, velocity, rates = _float_tuple(position), _float_tuple(velocity), _float_tuple(rates)
+            r = matrix_from_quaternion(_float_tuple(state.orientation_xyzw))
+            wanted = _float_tuple(wanted)
+            self._update(self._k, self._rows, s, position, r, velocity, rates, wanted, height, hold, float(dt_s), out)
         return tuple(out.tolist()) if COMPILED else tuple(out)

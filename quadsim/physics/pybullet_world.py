@@ -362,8 +362,9 @@ class PhysicsWorld:
         )
         try:
             self._airframe_wrench(constants, hubs, thrusts, command_n, rotation, z, air, out)
-        except (TypeError, ValueError):  # forces that are not a tuple of floats (a list, ints)
-            airframe_wrench(constants, hubs, thrusts, command_n, rotation, z, air, out)
+        except (TypeError, ValueError):  # forces given as a list, or as integers: as a tuple of floats
+            forces = tuple(float(f) for f in command_n)
+            self._airframe_wrench(constants, hubs, thrusts, forces, rotation, z, air, out)
         fx, fy, fz, tx, ty, tz = out
         world, body, cid = pb.WORLD_FRAME, self.body_id, self._cid
         pb.applyExternalForce(body, -1, (fx, fy, fz), self._position, world, cid)
