@@ -251,3 +251,80 @@ def test_rotor_forces_given_as_a_list_of_integers_fly_as_a_tuple_of_floats():
         pytest.raises(ValueError, match="expected 4 rotor forces"),
     ):
         physics._step([3.0, 3.0])
+
+
+def test_every_module_with_compiled_functions_is_in_the_cache_digest():
+    package = ROOT / "quadsim"
+    with_jit = sorted(
+        str(path.relative_to(package))
+        for path in package.rglob("*.py")
+        if "@jit\n" in path.read_text(encoding="utf-8") and path.name != "compiled.py"
+    )
+    assert with_jit == sorted(compiled.FLIGHT_CORE)
+
+
+ORDER = r"""
+import sys
+exec(sys.argv[1])
+from quadsim.control.cascade_step import cascade_update
+from quadsim.vehicle.mixer import mix
+from quadsim.vehicle.wrench import airframe_wrench
+print(cascade_update.py_func.__qualname__, mix.py_func.__qualname__, airframe_wrench.py_func.__qualname__)
+"""
+
+
+def test_the_cache_names_do_not_depend_on_what_was_imported_first():
+    """A cache named after what had been imported so far made a user's script that imported the
+    mixer first compile everything again (3 s) and keep a second copy of the cache."""
+    names = set()
+    for first in (
+        "",
+        "import quadsim.vehicle.mixer",
+        "from quadsim.vehicle.aero import drag_body",
+        "import quadsim.control.cascade",
+    ):
+        done = subprocess.run(
+            [sys.executable, "-c", ORDER, first], capture_output=True, text=True, cwd=ROOT, timeout=120
+        )
+        assert done.returncode == 0, done.stderr[-2000:]
+        names.add(done.stdout.strip())
+    assert len(names) == 1, names
+    assert compiled.flight_core_digest() in names.pop()
+
+
+STATUS = r"""
+import sys
+mode = sys.argv[1]
+if mode == "missing":
+    sys.modules["numba"] = None  # as if the fast extra were not installed
+from quadsim.core import compiled
+from quadsim.sim.config import SimConfig
+from quadsim.sim.simulator import Simulator
+with Simulator(SimConfig()) as sim:
+    sim.run_for(0.5)
+print(compiled.COMPILED, compiled.status())
+"""
+
+
+@pytest.mark.parametrize(
+    ("mode", "said"),
+    [
+        ("missing", "flight core as plain Python: pip install 'quadsim[fast]' (numba) to compile it"),
+        (
+            "broken",
+            "flight core as plain Python: numba is installed but did not import "
+            "(ImportError: Numba needs NumPy 2.3 or less)",
+        ),
+    ],
+)
+def test_without_a_working_numba_it_flies_as_python_and_says_why(tmp_path, mode, said):
+    """A numba that is installed but fails to import (a NumPy it does not support) was reported as
+    not installed, with advice to install it."""
+    (tmp_path / "numba").mkdir()
+    (tmp_path / "numba" / "__init__.py").write_text('raise ImportError("Numba needs NumPy 2.3 or less")\n')
+    env = {**os.environ, "PYTHONPATH": str(tmp_path) if mode == "broken" else ""}
+    done = subprocess.run(
+        [sys.executable, "-c", STATUS, mode], capture_output=True, text=True, env=env, cwd=ROOT, timeout=120
+    )
+    assert done.returncode == 0, done.stderr[-2000:]
+    assert done.stdout.strip().splitlines()[-1] == f"False {said}"

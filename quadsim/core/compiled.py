@@ -28,22 +28,54 @@ Floats = Sequence[float]
 MutableFloats = MutableSequence[float]
 
 numba: Any
+#: why numba, though installed, did not import (None: it imported, or it is not installed)
+NUMBA_PROBLEM: str | None = None
 try:
     import numba
-except ImportError:  # the `fast` extra is not installed: everything runs as Python
+except Exception as exc:  # the `fast` extra is not installed, or numba is broken: everything runs as Python
     numba = None
+    if not (isinstance(exc, ImportError) and exc.name == "numba"):
+        NUMBA_PROBLEM = f"{type(exc).__name__}: {exc}"
 
 #: numba's version when it is installed, else None
 NUMBA_VERSION: str | None = None if numba is None else str(numba.__version__)
 #: True when `jit` compiles (numba is installed and NUMBA_DISABLE_JIT is not set)
 COMPILED: bool = numba is not None and not numba.config.DISABLE_JIT
 
-#: what `quadsim bench` says when numba is not installed
-MISSING = "the flight core runs as plain Python: pip install 'quadsim[fast]' (numba) to compile it"
+
+def status() -> str:
+    """Whether the flight core's arithmetic is compiled in this process, or why not (one line)."""
+    if COMPILED:
+        return f"flight core compiled by numba {NUMBA_VERSION}"
+    if NUMBA_VERSION is not None:
+        return "flight core as plain Python: NUMBA_DISABLE_JIT is set"
+    if NUMBA_PROBLEM is not None:
+        return f"flight core as plain Python: numba is installed but did not import ({NUMBA_PROBLEM})"
+    return "flight core as plain Python: pip install 'quadsim[fast]' (numba) to compile it"
 
 
-#: the source files of every function `jit` has compiled so far, in order
-_sources: list[str] = []
+#: every module of the package with compiled functions (tests/test_compiled.py checks the list)
+FLIGHT_CORE = (
+    "vehicle/aero.py",
+    "vehicle/motors.py",
+    "vehicle/mixer.py",
+    "vehicle/wrench.py",
+    "control/cascade_step.py",
+)
+_PACKAGE = Path(__file__).resolve().parent.parent
+_digest: str | None = None
+
+
+def flight_core_digest() -> str:
+    """A digest of the source of every module in FLIGHT_CORE, the same whatever was imported first."""
+    global _digest
+    if _digest is None:
+        digest = hashlib.sha256()
+        for name in FLIGHT_CORE:
+            with contextlib.suppress(OSError):  # installed without its sources: nothing to edit
+                digest.update((_PACKAGE / name).read_bytes())
+        _digest = digest.hexdigest()[:12]
+    return _digest
 
 
 def jit(function: F) -> F:
@@ -51,22 +83,19 @@ def jit(function: F) -> F:
 
     numba's cache checks only the compiled function's own file, yet the code it keeps has the
     compiled functions it calls built in: after an edit to one of those, it would run the old
-    code. So the cache's name carries a digest of the source of every compiled function seen so
-    far (those it can call are imported, so compiled, before it): an edit anywhere in them
-    compiles again."""
+    code. So the cache's name carries a digest of every module of the flight core (and of the
+    function's own file, if it is elsewhere): an edit to any of them compiles again."""
     if not COMPILED:
         return function
-    source = inspect.getsourcefile(function) or "?"
-    if source not in _sources:
-        _sources.append(source)
-    digest = hashlib.sha256()
-    for path in _sources:
+    digest = flight_core_digest()
+    source = Path(inspect.getsourcefile(function) or "?").resolve()
+    if source not in {_PACKAGE / name for name in FLIGHT_CORE}:
         with contextlib.suppress(OSError):
-            digest.update(Path(path).read_bytes())
+            digest = hashlib.sha256(digest.encode() + source.read_bytes()).hexdigest()[:12]
     named = types.FunctionType(
         function.__code__, function.__globals__, function.__name__, function.__defaults__, function.__closure__
     )
-    named.__qualname__ = f"{function.__qualname__}_{digest.hexdigest()[:12]}"
+    named.__qualname__ = f"{function.__qualname__}_{digest}"
     named.__doc__, named.__module__ = function.__doc__, function.__module__
     try:
         compiled: F = numba.njit(cache=True, error_model="python")(named)
