@@ -536,3 +536,30 @@ def test_a_sweep_where_no_run_can_fly_says_so_and_draws_no_plot(tmp_path):
     assert done.returncode == 1 and "Traceback" not in done.stderr, done.stderr
     assert "1 run: 0 ok, 0 beyond limits, 1 could not fly" in done.stdout and "1 run on" in done.stdout
     assert "plot            none: no run flew" in done.stdout and (tmp_path / "out" / "results.parquet").exists()
+
+
+NO_NUMBA = (
+    "import runpy, sys; sys.modules['numba'] = None; "  # as if the fast extra were not installed
+    "sys.argv = ['main.py', *sys.argv[1:]]; runpy.run_path(sys.argv[0], run_name='__main__')"
+)
+
+
+def test_without_numba_a_long_sweep_says_how_to_fly_it_faster_and_a_short_one_does_not(tmp_path: Path) -> None:
+    """The compiled core costs each worker about half a second to load: it pays on long sweeps,
+    not on short ones (where the note would be bad advice)."""
+    said = {}
+    for seconds in (30, 700):
+        spec = _write(
+            tmp_path, f'name = "s{seconds}"\nscenarios = ["hover"]\nduration_s = {seconds}\n', f"s{seconds}.toml"
+        )
+        done = subprocess.run(
+            [sys.executable, "-c", NO_NUMBA, "sweep", str(spec), "--jobs", "1", "--out", str(tmp_path / f"o{seconds}")],
+            capture_output=True,
+            text=True,
+            timeout=300,
+            cwd=ROOT,
+        )
+        assert done.returncode == 0, done.stderr[-2000:]
+        said[seconds] = done.stdout.splitlines()[1]
+    assert not said[30].startswith("note:")
+    assert said[700] == "note: flight core as plain Python: pip install 'quadsim[fast]' (numba) to compile it"

@@ -33,14 +33,3 @@ def best_of(repeats: int, steps: int, run: Callable[[int], object]) -> float:
         run(steps)
         best = min(best, (time.perf_counter() - t0) / steps)
     return best
-
-
-def compiled_status() -> str:
-    """Whether the flight core's arithmetic is compiled (numba) in this run, or why not."""
-    from quadsim.core import compiled
-
-    if compiled.COMPILED:
-        return f"flight core compiled by numba {compiled.NUMBA_VERSION}"
-    if compiled.NUMBA_VERSION is not None:
-        return "flight core as plain Python: NUMBA_DISABLE_JIT is set"
-    return compiled.MISSING

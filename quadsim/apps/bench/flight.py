@@ -18,7 +18,7 @@ import time
 from collections.abc import Callable
 from typing import Any
 
-from quadsim.apps.bench.figures import Figure, best_of, compiled_status
+from quadsim.apps.bench.figures import Figure, best_of
 from quadsim.control import ControllerKind
 from quadsim.core.types import ActiveCommand, RotorForces, Twist, VehicleState, ZMode
 from quadsim.physics.client import WorldClient
@@ -162,10 +162,9 @@ def full_loop(controller: ControllerKind = ControllerKind.CASCADE) -> Timed:
 
 def run_flight_core_bench(steps: int = 6000, repeats: int = 8, out: Callable[[str], None] = print) -> dict[str, Figure]:
     out(
-        f"quadsim bench: flight core ({steps} steps per run, each figure in turn for {repeats} rounds, "
+        f"quadsim bench: flight core ({steps} steps per run, each figure in turn for {repeats} round{'s' * (repeats != 1)}, "
         "the best run of each; 240 Hz physics)"
     )
-    out(f"  {compiled_status()}")
     keys = ("bare", "bare_merged", "physics", "cascade_update", "cascade", "seed")
     timed = [
         bare_pybullet_loop(),

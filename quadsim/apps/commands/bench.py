@@ -15,7 +15,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         "bench",
         help="measure speed against a bare-PyBullet baseline run in the same process",
         description="Benchmark. Every figure is given as steps/s, real-time factor and a ratio to a "
-        "baseline measured in the same run, the best of several runs. The first lines say the machine's load and "
+        "baseline measured in the same run, the best of several runs. The first two lines say the machine's load and "
         "whether the flight core is compiled (the fast extra: numba).",
     )
     p.add_argument(
@@ -41,7 +41,10 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
 
 
 def main(args: argparse.Namespace) -> int:
+    from quadsim.core import compiled  # here: numba's import is not every command's
+
     print(_load("before"))
+    print(compiled.status())
     for name, (module, function, _) in SECTIONS.items():
         if args.section in ("all", name):
             run = getattr(importlib.import_module(module), function)

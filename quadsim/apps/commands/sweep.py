@@ -96,8 +96,11 @@ def main(args: argparse.Namespace) -> int:
     )
     from quadsim.core import compiled  # here: numba's import is not every command's
 
-    if compiled.NUMBA_VERSION is None:  # the runs fly as plain Python: say how to have them faster
-        print(f"note: {compiled.MISSING}", flush=True)
+    # the runs fly as plain Python: say how to have them faster when that clearly pays for the
+    # half second the compiled core costs each worker to load (it breaks even at about 6 minutes
+    # of flight a worker)
+    if not compiled.COMPILED and spec.sim_s > 600.0 * jobs:
+        print(f"note: {compiled.status()}", flush=True)
     result = run_sweep(
         spec,
         out,
