@@ -214,7 +214,7 @@ def test_a_wrong_action_is_one_clear_error_and_a_closed_env_says_so():
         (1, r"shape \(4,\); got 1$"),
         (None, r"shape \(4,\); got None$"),
         ("up", r"shape \(4,\); got 'up'$"),
-        ([math.inf, 0, 0, 0], r"must be finite numbers in \[-1, 1\], got \[inf, 0, 0, 0\]"),
+        ([math.inf, 0, 0, 0], r"must be finite numbers \(each is clipped to \[-1, 1\]\), got \[inf, 0, 0, 0\]"),
         ([0, math.nan, 0, 0], r"must be finite numbers"),
     ):
         with pytest.raises(ValueError, match=said):

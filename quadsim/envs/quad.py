@@ -206,7 +206,7 @@ class ActionScale:
             )
         a = given.astype(np.float64)
         if not np.isfinite(a).all():
-            raise ValueError(f"an action must be finite numbers in [-1, 1], got {_shown(action)}")
+            raise ValueError(f"an action must be finite numbers (each is clipped to [-1, 1]), got {_shown(action)}")
         a = np.clip(a, -1.0, 1.0)
         return np.where(a >= 0, a * self._up, a * self._down)
 
