@@ -32,15 +32,18 @@ from quadsim.vehicle.params import load_vehicle
 
 
 class Timed:
-    """Something to time step by step: `run(n)` steps it n times; `close()` frees it."""
+    """Something to time step by step: `run(n)` steps it n times, at `physics_hz` steps a
+    simulated second; `close()` frees it."""
 
-    def __init__(self, name: str, run: Callable[[int], object], close: Callable[[], object]) -> None:
-        self.name, self.run, self.close = name, run, close
+    def __init__(
+        self, name: str, run: Callable[[int], object], close: Callable[[], object], physics_hz: int = 240
+    ) -> None:
+        self.name, self.run, self.close, self.physics_hz = name, run, close, physics_hz
 
     def figure(self, steps: int, repeats: int) -> Figure:
         """Timed alone, then closed: the best of `repeats` runs of `steps` steps."""
         try:
-            return Figure(self.name, best_of(repeats, steps, self.run), 240)
+            return Figure(self.name, best_of(repeats, steps, self.run), self.physics_hz)
         finally:
             self.close()
 
@@ -59,7 +62,7 @@ def interleaved(timed: list[Timed], steps: int, rounds: int) -> list[Figure]:
     finally:
         for item in timed:
             item.close()
-    return [Figure(item.name, seconds, 240) for item, seconds in zip(timed, best)]
+    return [Figure(item.name, seconds, item.physics_hz) for item, seconds in zip(timed, best)]
 
 
 def bare_pybullet_loop(merged: bool = False, physics_hz: int = 240) -> Timed:
@@ -94,7 +97,7 @@ def bare_pybullet_loop(merged: bool = False, physics_hz: int = 240) -> Timed:
             pb.stepSimulation(physicsClientId=cid)
 
     name = "bare PyBullet loop, fixed links merged" if merged else "bare PyBullet loop (baseline)"
-    return Timed(name, run, client.close)
+    return Timed(name, run, client.close, physics_hz)
 
 
 def hovering_sim(controller: ControllerKind, rates: Rates) -> Simulator:
