@@ -13,14 +13,13 @@ numba is installed: at 240 Hz it is the hot path.
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
 from dataclasses import asdict, dataclass
 from typing import Any, ClassVar
 
 from quadsim.control import ControllerKind
 from quadsim.control.cascade_step import K_FIELDS, S_FIELDS, cascade_update
 from quadsim.control.gains import load_gains
-from quadsim.core.compiled import COMPILED, floats, specialize
+from quadsim.core.compiled import COMPILED, float_tuple, floats, specialize
 from quadsim.core.kinematics import matrix_from_quaternion
 from quadsim.core.types import HEIGHT_MODE_BASE_M, ActiveCommand, RotorForces, VehicleState, ZMode
 from quadsim.vehicle.aero import rotor_speed_radps
@@ -57,11 +56,6 @@ class CascadeGains:
 
 
 _HEIGHT = ZMode.HEIGHT
-
-
-def _float_tuple(values: Sequence[float]) -> Any:
-    """`values` as a tuple of floats, whatever sequence of numbers they came as (of their length)."""
-    return tuple(float(v) for v in values)
 
 
 #: the command while the dead-man holds: nothing wanted, every hold keeps its place
@@ -173,8 +167,8 @@ class CascadeController:
         try:
             self._update(self._k, self._rows, s, position, r, velocity, rates, wanted, height, hold, dt_s, out)
         except (TypeError, ValueError):  # a state built by hand, with lists or integers: as the loop builds it
-            position, velocity, rates = _float_tuple(position), _float_tuple(velocity), _float_tuple(rates)
-            r = matrix_from_quaternion(_float_tuple(state.orientation_xyzw))
-            wanted = _float_tuple(wanted)
+            position, velocity, rates = float_tuple(position), float_tuple(velocity), float_tuple(rates)
+            r = matrix_from_quaternion(float_tuple(state.orientation_xyzw))
+            wanted = float_tuple(wanted)
             self._update(self._k, self._rows, s, position, r, velocity, rates, wanted, height, hold, float(dt_s), out)
         return tuple(out.tolist()) if COMPILED else tuple(out)

@@ -126,6 +126,12 @@ def floats(values: Iterable[float]) -> Any:
     return [float(v) for v in values]
 
 
+def float_tuple(values: Iterable[float]) -> Any:
+    """`values` as a tuple of floats, as compiled functions take them, whatever sequence of numbers
+    they came as (a list, integers)."""
+    return tuple(float(v) for v in values)
+
+
 def table(rows: Iterable[Iterable[float]]) -> Any:
     """Rows of floats as the flight core's functions index them (`rows[i][j]`): a 2-D float64
     array when they are compiled, a list of lists when they are Python."""

@@ -12,7 +12,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from quadsim.core.compiled import floats, specialize, table
+from quadsim.core.compiled import float_tuple, floats, specialize, table
 from quadsim.core.kinematics import Vec3, matrix_from_quaternion
 from quadsim.core.types import RotorForces, StartPose, VehicleState
 from quadsim.errors import ConfigError
@@ -363,7 +363,7 @@ class PhysicsWorld:
         try:
             self._airframe_wrench(constants, hubs, thrusts, command_n, rotation, z, air, out)
         except (TypeError, ValueError):  # forces given as a list, or as integers: as a tuple of floats
-            forces = tuple(float(f) for f in command_n)
+            forces = float_tuple(command_n)
             self._airframe_wrench(constants, hubs, thrusts, forces, rotation, z, air, out)
         fx, fy, fz, tx, ty, tz = out
         world, body, cid = pb.WORLD_FRAME, self.body_id, self._cid

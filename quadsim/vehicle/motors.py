@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import math
 
-from quadsim.core.compiled import COMPILED, Floats, MutableFloats, floats, jit
+from quadsim.core.compiled import COMPILED, Floats, MutableFloats, float_tuple, floats, jit
 from quadsim.core.types import RotorForces
 
 
@@ -55,5 +55,5 @@ class MotorBank:
     def advance(self, command_n: RotorForces) -> RotorForces:
         """Move the produced thrusts one step toward the command and return them."""
         self.check_count(command_n)
-        advance_motors(self.thrusts, tuple(float(u) for u in command_n), self.alpha, self.max_thrust_n)
+        advance_motors(self.thrusts, float_tuple(command_n), self.alpha, self.max_thrust_n)
         return self.thrusts_n
