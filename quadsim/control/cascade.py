@@ -17,7 +17,7 @@ from dataclasses import asdict, dataclass
 from typing import Any, ClassVar
 
 from quadsim.control import ControllerKind
-from quadsim.control.cascade_step import K_FIELDS, S_FIELDS, cascade_update
+from quadsim.control.cascade_step import IX, K_FIELDS, S_FIELDS, X_HOLD, Y_HOLD, Z_HOLD, cascade_update
 from quadsim.control.gains import load_gains
 from quadsim.core.compiled import COMPILED, float_tuple, floats, specialize
 from quadsim.core.kinematics import matrix_from_quaternion
@@ -142,7 +142,7 @@ class CascadeController:
         self._armed = False
         s = self._s
         for i in range(len(s)):
-            s[i] = math.nan if i < 5 else 0.0
+            s[i] = math.nan if i < IX else 0.0  # the holds, not latched; the integrators
 
     def update(self, state: VehicleState, command: ActiveCommand, dt_s: float) -> RotorForces:
         """Rotor forces for this control step: the set-points of the command (or the holds), then
@@ -154,7 +154,7 @@ class CascadeController:
         if not self._armed:  # hold where it stands, heading latched once it stops turning
             self.reset()
             self._armed = True
-            s[0], s[1], s[2] = state.position_m
+            s[X_HOLD], s[Y_HOLD], s[Z_HOLD] = state.position_m
         if command.hold:
             wanted = _NO_COMMAND
         else:

@@ -60,6 +60,50 @@ K_FIELDS = (
 #: the holds and integrators `s` holds, in order (NaN: that hold is not latched)
 S_FIELDS = ("x_hold", "y_hold", "z_hold", "z_target", "yaw_hold", "ix", "iy", "iz")
 
+# where each of those is in `k` and `s` (constants in the compiled code)
+(
+    POSITION_P,
+    ALTITUDE_P,
+    HEADING_P,
+    VELOCITY_P_XY,
+    VELOCITY_I_XY,
+    VELOCITY_P_Z,
+    VELOCITY_I_Z,
+    I_LIMIT,
+    I_BAND,
+    ATTITUDE_P,
+    RATE_P_RP,
+    RATE_P_YAW,
+    MAX_RATE_RP,
+    MAX_UP_ACCEL,
+    MAX_DOWN_ACCEL,
+    LATCH_SPEED,
+    LATCH_YAW_RATE,
+    MAX_SPEED,
+    MAX_CLIMB,
+    MAX_DESCENT,
+    MAX_YAW_RATE,
+    MASS,
+    GRAVITY,
+    JXX,
+    JYY,
+    JZZ,
+    DRAG_XY,
+    DRAG_Z,
+    DRAG_Q_XY,
+    DRAG_Q_Z,
+    TAN_MAX_TILT,
+    HUB_X,
+    HUB_Y,
+    HUB_Z,
+    GROUND_EFFECT,
+    ROTOR_RADIUS,
+    GROUND_EFFECT_MAX,
+    HEIGHT_MODE_BASE,
+    MAX_THRUST,
+) = range(len(K_FIELDS))
+(X_HOLD, Y_HOLD, Z_HOLD, Z_TARGET, YAW_HOLD, IX, IY, IZ) = range(len(S_FIELDS))
+
 
 @jit
 def _clamp(value: float, low: float, high: float) -> float:
@@ -100,7 +144,7 @@ def cascade_update(
     ax, ay, az = _velocity_loop(k, s, vsx, vsy, vsz, vx, vy, vz, turn_ax, turn_ay, dt_s)
     thrust, ps, qs = _attitude_loop(k, ax, ay, az, r, pz)
     tx, ty, tz = _rate_loop(k, ps, qs, hs, r20, r21, r22, wp, wq, wr)
-    mix(rows, k[38], thrust, tx, ty, tz, out)
+    mix(rows, k[MAX_THRUST], thrust, tx, ty, tz, out)
 
 
 @jit
@@ -119,21 +163,21 @@ def _horizontal_setpoint(
     """The wanted world velocity: the commanded one (heading frame -> world) with the turn's
     feed-forward acceleration, or back to the held position once slowed down."""
     if ux != 0.0 or uy != 0.0:
-        s[0] = s[1] = math.nan
+        s[X_HOLD] = s[Y_HOLD] = math.nan
         c, sn = math.cos(yaw), math.sin(yaw)
         vsx, vsy = c * ux - sn * uy, sn * ux + c * uy
         # while turning, that set-point rotates with the heading: feed its rate of change
         # (heading rate x velocity) forward, or the loop lags it and the vehicle slips sideways
         return vsx, vsy, -heading_rate * vsy, heading_rate * vsx
-    if math.isnan(s[0]) and vx * vx + vy * vy < k[15] * k[15]:
-        s[0], s[1] = px, py
-    if math.isnan(s[0]):
+    if math.isnan(s[X_HOLD]) and vx * vx + vy * vy < k[LATCH_SPEED] * k[LATCH_SPEED]:
+        s[X_HOLD], s[Y_HOLD] = px, py
+    if math.isnan(s[X_HOLD]):
         return 0.0, 0.0, 0.0, 0.0
-    vsx = k[0] * (s[0] - px)
-    vsy = k[0] * (s[1] - py)
+    vsx = k[POSITION_P] * (s[X_HOLD] - px)
+    vsy = k[POSITION_P] * (s[Y_HOLD] - py)
     sp = math.sqrt(vsx * vsx + vsy * vsy)
-    if sp > k[17]:
-        scale = k[17] / sp
+    if sp > k[MAX_SPEED]:
+        scale = k[MAX_SPEED] / sp
         vsx, vsy = vsx * scale, vsy * scale
     return vsx, vsy, 0.0, 0.0
 
@@ -145,23 +189,23 @@ def _vertical_setpoint(
     """The wanted climb rate: commanded, back to the held altitude, or to the height mode's
     altitude; within the vehicle's climb and descent limits."""
     if height_mode:
-        s[2] = math.nan
-        if not hold or math.isnan(s[3]):
-            s[3] = k[37] + uz if not hold else pz
-        vsz = k[1] * (s[3] - pz)
+        s[Z_HOLD] = math.nan
+        if not hold or math.isnan(s[Z_TARGET]):
+            s[Z_TARGET] = k[HEIGHT_MODE_BASE] + uz if not hold else pz
+        vsz = k[ALTITUDE_P] * (s[Z_TARGET] - pz)
     else:
-        s[3] = math.nan
+        s[Z_TARGET] = math.nan
         if uz != 0.0:
-            s[2] = math.nan
+            s[Z_HOLD] = math.nan
             vsz = uz
         else:
-            if math.isnan(s[2]) and vz * vz < k[15] * k[15]:
-                s[2] = pz
-            vsz = 0.0 if math.isnan(s[2]) else k[1] * (s[2] - pz)
-    if vsz > k[18]:
-        vsz = k[18]
-    elif vsz < -k[19]:
-        vsz = -k[19]
+            if math.isnan(s[Z_HOLD]) and vz * vz < k[LATCH_SPEED] * k[LATCH_SPEED]:
+                s[Z_HOLD] = pz
+            vsz = 0.0 if math.isnan(s[Z_HOLD]) else k[ALTITUDE_P] * (s[Z_HOLD] - pz)
+    if vsz > k[MAX_CLIMB]:
+        vsz = k[MAX_CLIMB]
+    elif vsz < -k[MAX_DESCENT]:
+        vsz = -k[MAX_DESCENT]
     return vsz
 
 
@@ -169,13 +213,13 @@ def _vertical_setpoint(
 def _heading_setpoint(k: Floats, s: MutableFloats, ur: float, yaw: float, heading_rate: float) -> float:
     """The wanted heading rate (about world z): commanded, or back to the held heading."""
     if ur != 0.0:
-        s[4] = math.nan
+        s[YAW_HOLD] = math.nan
         return ur
-    if math.isnan(s[4]) and -k[16] < heading_rate < k[16]:
-        s[4] = yaw
-    if math.isnan(s[4]):
+    if math.isnan(s[YAW_HOLD]) and -k[LATCH_YAW_RATE] < heading_rate < k[LATCH_YAW_RATE]:
+        s[YAW_HOLD] = yaw
+    if math.isnan(s[YAW_HOLD]):
         return 0.0
-    return k[2] * ((s[4] - yaw + math.pi) % (2.0 * math.pi) - math.pi)
+    return k[HEADING_P] * ((s[YAW_HOLD] - yaw + math.pi) % (2.0 * math.pi) - math.pi)
 
 
 @jit
@@ -195,16 +239,16 @@ def _velocity_loop(
     """Velocity loop (world frame) -> wanted acceleration, with drag feed-forward, within the
     vertical acceleration and tilt limits; the integrators run only while unsaturated."""
     ex, ey, ez = vsx - vx, vsy - vy, vsz - vz
-    drag_xy = k[26] + k[28] * math.sqrt(vsx * vsx + vsy * vsy)
-    ax = k[3] * ex + s[5] + drag_xy * vsx + turn_ax
-    ay = k[3] * ey + s[6] + drag_xy * vsy + turn_ay
-    az = k[5] * ez + s[7] + (k[27] + k[29] * abs(vsz)) * vsz
+    drag_xy = k[DRAG_XY] + k[DRAG_Q_XY] * math.sqrt(vsx * vsx + vsy * vsy)
+    ax = k[VELOCITY_P_XY] * ex + s[IX] + drag_xy * vsx + turn_ax
+    ay = k[VELOCITY_P_XY] * ey + s[IY] + drag_xy * vsy + turn_ay
+    az = k[VELOCITY_P_Z] * ez + s[IZ] + (k[DRAG_Z] + k[DRAG_Q_Z] * abs(vsz)) * vsz
     sat_z = False
-    if az > k[13]:
-        az, sat_z = k[13], True
-    elif az < -k[14]:
-        az, sat_z = -k[14], True
-    a_max = (az + k[22]) * k[30]  # the tilt limit, as a horizontal acceleration
+    if az > k[MAX_UP_ACCEL]:
+        az, sat_z = k[MAX_UP_ACCEL], True
+    elif az < -k[MAX_DOWN_ACCEL]:
+        az, sat_z = -k[MAX_DOWN_ACCEL], True
+    a_max = (az + k[GRAVITY]) * k[TAN_MAX_TILT]  # the tilt limit, as a horizontal acceleration
     ah = math.sqrt(ax * ax + ay * ay)
     sat_xy = ah > a_max
     if sat_xy:
@@ -212,12 +256,12 @@ def _velocity_loop(
         ax, ay = ax * scale, ay * scale
     # anti-windup: integrate only while the output is not saturated and the error is small
     # (a transient's large error would otherwise wind the integrator up and overshoot)
-    ilim, band = k[7], k[8]
+    ilim, band = k[I_LIMIT], k[I_BAND]
     if not sat_xy and -band < ex < band and -band < ey < band:
-        s[5] = _clamp(s[5] + k[4] * ex * dt_s, -ilim, ilim)
-        s[6] = _clamp(s[6] + k[4] * ey * dt_s, -ilim, ilim)
+        s[IX] = _clamp(s[IX] + k[VELOCITY_I_XY] * ex * dt_s, -ilim, ilim)
+        s[IY] = _clamp(s[IY] + k[VELOCITY_I_XY] * ey * dt_s, -ilim, ilim)
     if not sat_z and -band < ez < band:
-        s[7] = _clamp(s[7] + k[6] * ez * dt_s, -ilim, ilim)
+        s[IZ] = _clamp(s[IZ] + k[VELOCITY_I_Z] * ez * dt_s, -ilim, ilim)
     return ax, ay, az
 
 
@@ -227,13 +271,15 @@ def _attitude_loop(k: Floats, ax: float, ay: float, az: float, r: Mat3, pz: floa
     ground by the ground-effect ratio) and the roll and pitch rates that tilt the body z
     toward it."""
     (r00, r01, r02), (r10, r11, r12), (r20, r21, r22) = r
-    m = k[21]
-    fx, fy, fz = m * ax, m * ay, m * (az + k[22])
+    m = k[MASS]
+    fx, fy, fz = m * ax, m * ay, m * (az + k[GRAVITY])
     thrust = fx * r02 + fy * r12 + fz * r22
     if thrust < 0.0:
         thrust = 0.0
-    if k[34] != 0.0:
-        thrust /= ground_effect_ratio(pz + r20 * k[31] + r21 * k[32] + r22 * k[33], k[35], k[36])
+    if k[GROUND_EFFECT] != 0.0:
+        thrust /= ground_effect_ratio(
+            pz + r20 * k[HUB_X] + r21 * k[HUB_Y] + r22 * k[HUB_Z], k[ROTOR_RADIUS], k[GROUND_EFFECT_MAX]
+        )
     norm = math.sqrt(fx * fx + fy * fy + fz * fz)
     bx, by, bz = fx / norm, fy / norm, fz / norm
     # wanted body z expressed in the body frame; tilt error about e3 x d
@@ -241,8 +287,8 @@ def _attitude_loop(k: Floats, ax: float, ay: float, az: float, r: Mat3, pz: floa
     dy = r01 * bx + r11 * by + r21 * bz
     dz = r02 * bx + r12 * by + r22 * bz
     sin_t = math.sqrt(dx * dx + dy * dy)
-    k_att = k[9] * (math.atan2(sin_t, dz) / sin_t if sin_t > 1e-9 else 1.0)
-    mr = k[12]
+    k_att = k[ATTITUDE_P] * (math.atan2(sin_t, dz) / sin_t if sin_t > 1e-9 else 1.0)
+    mr = k[MAX_RATE_RP]
     return thrust, _clamp(-k_att * dy, -mr, mr), _clamp(k_att * dx, -mr, mr)
 
 
@@ -252,15 +298,15 @@ def _rate_loop(
 ) -> tuple[float, float, float]:
     """The body yaw rate that gives the wanted heading rate in a bank, then the rate loop ->
     body torques (with the gyroscopic term)."""
-    mr, my = k[12], k[20]
+    mr, my = k[MAX_RATE_RP], k[MAX_YAW_RATE]
     # the heading rate is the body rates' world-z component (r20 p + r21 q + r22 r): in a bank,
     # the body z rate that gives the wanted heading rate, with the roll/pitch rates wanted
     hs = _clamp(hs, -my, my)
     rs = _clamp((hs - r20 * ps - r21 * qs) / max(r22, 0.5), -mr, mr)
-    ap = k[10] * (ps - wp)
-    aq = k[10] * (qs - wq)
-    ar = k[11] * (rs - wr)
-    jxx, jyy, jzz = k[23], k[24], k[25]
+    ap = k[RATE_P_RP] * (ps - wp)
+    aq = k[RATE_P_RP] * (qs - wq)
+    ar = k[RATE_P_YAW] * (rs - wr)
+    jxx, jyy, jzz = k[JXX], k[JYY], k[JZZ]
     tx = jxx * ap + (jzz - jyy) * wq * wr
     ty = jyy * aq + (jxx - jzz) * wp * wr
     tz = jzz * ar + (jyy - jxx) * wp * wq

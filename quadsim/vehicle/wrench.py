@@ -35,6 +35,25 @@ C_FIELDS = (
     "com_y_m",
     "com_z_m",
 )
+# where each of those is in `c` (constants in the compiled code)
+(
+    MOTOR_ALPHA,
+    MAX_THRUST,
+    INVERSE_KF,
+    GROUND_EFFECT,
+    ROTOR_RADIUS,
+    GROUND_EFFECT_MAX,
+    LINEAR_X,
+    LINEAR_Y,
+    LINEAR_Z,
+    QUADRATIC_X,
+    QUADRATIC_Y,
+    QUADRATIC_Z,
+    ROTOR_DRAG,
+    COM_X,
+    COM_Y,
+    COM_Z,
+) = range(len(C_FIELDS))
 
 
 def airframe_constants(vehicle: VehicleParams, motor_alpha: float) -> list[float]:
@@ -48,10 +67,10 @@ def airframe_constants(vehicle: VehicleParams, motor_alpha: float) -> list[float
         "ground_effect": 1.0 if aero.ground_effect else 0.0,
         "rotor_radius_m": aero.rotor_radius_m,
         "ground_effect_max_ratio": aero.ground_effect_max_ratio,
-        **dict(zip(C_FIELDS[6:9], aero.body_drag_linear_ns_per_m)),
-        **dict(zip(C_FIELDS[9:12], aero.body_drag_quadratic_ns2_per_m2)),
+        **dict(zip(C_FIELDS[LINEAR_X : LINEAR_Z + 1], aero.body_drag_linear_ns_per_m)),
+        **dict(zip(C_FIELDS[QUADRATIC_X : QUADRATIC_Z + 1], aero.body_drag_quadratic_ns2_per_m2)),
         "rotor_drag_ns_per_m_rad": aero.rotor_drag_ns_per_m_rad,
-        **dict(zip(C_FIELDS[13:16], vehicle.com_m)),
+        **dict(zip(C_FIELDS[COM_X : COM_Z + 1], vehicle.com_m)),
     }
     return [values[name] for name in C_FIELDS]
 
@@ -78,9 +97,9 @@ def airframe_wrench(
     and torque, world frame, about base_link's origin, into `out` (fx, fy, fz, tx, ty, tz).
     `hubs`: per rotor (x, y, z of its hub from base_link's origin, yaw torque per newton);
     `rotation`: world <- body; `pz`: base_link's height; `air`: the airspeed, world frame."""
-    advance_motors(thrusts, command, c[0], c[1])
+    advance_motors(thrusts, command, c[MOTOR_ALPHA], c[MAX_THRUST])
     (m00, m01, m02), (m10, m11, m12), (m20, m21, m22) = rotation
-    inv_kf, ground = c[2], c[3] != 0.0
+    inv_kf, ground = c[INVERSE_KF], c[GROUND_EFFECT] != 0.0
     yaw = thrust_sum = roll = pitch = omega_sum = 0.0
     for i in range(len(thrusts)):
         thrust = thrusts[i]
@@ -90,24 +109,26 @@ def airframe_wrench(
         if thrust > 0.0:
             omega_sum += math.sqrt(thrust * inv_kf)
             if ground:
-                thrust *= ground_effect_ratio(pz + m20 * hx + m21 * hy + m22 * hub[2], c[4], c[5])
+                thrust *= ground_effect_ratio(
+                    pz + m20 * hx + m21 * hy + m22 * hub[2], c[ROTOR_RADIUS], c[GROUND_EFFECT_MAX]
+                )
             thrust_sum += thrust
             roll += hy * thrust  # hub x (0, 0, thrust)
             pitch -= hx * thrust
     vx, vy, vz = air
     dx, dy, dz = drag_body(
-        c[6],
-        c[7],
-        c[8],
-        c[9],
-        c[10],
-        c[11],
-        c[12] * omega_sum,
+        c[LINEAR_X],
+        c[LINEAR_Y],
+        c[LINEAR_Z],
+        c[QUADRATIC_X],
+        c[QUADRATIC_Y],
+        c[QUADRATIC_Z],
+        c[ROTOR_DRAG] * omega_sum,
         m00 * vx + m10 * vy + m20 * vz,
         m01 * vx + m11 * vy + m21 * vz,
         m02 * vx + m12 * vy + m22 * vz,
     )
-    cx, cy, cz = c[13], c[14], c[15]
+    cx, cy, cz = c[COM_X], c[COM_Y], c[COM_Z]
     fx, fy, fz = dx, dy, dz + thrust_sum
     tx, ty, tz = roll + cy * dz - cz * dy, pitch + cz * dx - cx * dz, yaw + cx * dy - cy * dx
     out[0] = m00 * fx + m01 * fy + m02 * fz
