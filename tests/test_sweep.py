@@ -545,7 +545,7 @@ NO_NUMBA = (
 
 
 def test_without_numba_a_long_sweep_says_how_to_fly_it_faster_and_a_short_one_does_not(tmp_path: Path) -> None:
-    """The compiled core costs each worker about half a second to load: it pays on long sweeps,
+    """The compiled core costs each worker a quarter to half a second to load: it pays on long sweeps,
     not on short ones (where the note would be bad advice)."""
     said = {}
     for seconds in (30, 700):
@@ -563,3 +563,37 @@ def test_without_numba_a_long_sweep_says_how_to_fly_it_faster_and_a_short_one_do
         said[seconds] = done.stdout.splitlines()[1]
     assert not said[30].startswith("note:")
     assert said[700] == "note: flight core as plain Python: pip install 'quadsim[fast]' (numba) to compile it"
+
+
+POOL_SCRIPT = """
+import sys, threading, time
+from quadsim.apps.sweep.backends import run_pool, start_method
+
+LOADED_HERE = []  # filled after the imports: a spawned worker, importing this file afresh, has it empty
+
+def task(i):
+    return i * i, len(LOADED_HERE)
+
+if __name__ == "__main__":
+    LOADED_HERE.append("set in the parent")
+    if sys.argv[1] == "thread":  # another thread, as a live bridge or a user's program may run
+        stop = threading.Event()
+        threading.Thread(target=stop.wait, daemon=True).start()
+    print(start_method(), "written before the pool", end=" ")  # left in the buffer: stdout is a pipe
+    print(sorted(run_pool(task, list(range(6)), 2)))
+"""
+
+
+@pytest.mark.parametrize(("threads", "method", "inherited"), [("none", "fork", 1), ("thread", "spawn", 0)])
+def test_pool_workers_fork_from_a_single_threaded_process_and_spawn_beside_threads(
+    tmp_path: Path, threads: str, method: str, inherited: int
+) -> None:
+    """Forked workers start with what the sweep's process loaded (no half second of imports each);
+    beside a thread they are spawned. Either way the results are the same, and what the process
+    had not yet written out is written once (a forked worker must not flush a copy of it)."""
+    script = tmp_path / "pool.py"
+    script.write_text(POOL_SCRIPT)
+    done = subprocess.run([sys.executable, str(script), threads], capture_output=True, text=True, timeout=120, cwd=ROOT)
+    assert done.returncode == 0, done.stderr
+    squares = [(i * i, inherited) for i in range(6)]
+    assert done.stdout == f"{method} written before the pool {squares}\n"

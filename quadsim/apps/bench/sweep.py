@@ -8,7 +8,7 @@ import time
 from collections.abc import Callable
 from pathlib import Path
 
-from quadsim.apps.sweep.backends import default_jobs, ray_available, run_tasks
+from quadsim.apps.sweep.backends import default_jobs, ray_available, run_tasks, start_method
 from quadsim.apps.sweep.execute import hand_out_order
 from quadsim.apps.sweep.run import RunTask, fly_run, forget_simulators
 from quadsim.apps.sweep.spec import RunSpec, SweepSpec, load_sweep
@@ -71,15 +71,16 @@ def run_sweep_bench(out: Callable[[str], None] = print) -> None:
     out(f"sweep: {len(runs)} runs of 20 s flights, no cameras, on {cores} cores")
     serial_s, reference = _timed(tasks, 1)
     out(f"  1 worker (this process)   {serial_s:6.2f} s   {len(runs) / serial_s:6.1f} runs/s   1.00x")
+    method = start_method()  # what the pool below does
     pool_s, rows = _timed(tasks, cores)
     same = _same(rows, reference)
     speedup = serial_s / pool_s
-    startup = _startup_s(cores)  # a fresh pool's workers importing the flight stack
+    startup = _startup_s(cores)  # a fresh pool's workers importing the flight stack (forked: already loaded)
     warm = serial_s / max(pool_s - startup, 1e-9)
     out(
         f"  {cores} worker processes      {pool_s:6.2f} s   {len(runs) / pool_s:6.1f} runs/s   {speedup:.2f}x "
         f"({speedup / cores:.2f} of the core count with the workers' {startup:.1f} s start-up, "
-        f"{warm / cores:.2f} without; target 0.85) [{same}]"
+        f"{warm / cores:.2f} without; target 0.85; workers {method}ed) [{same}]"
     )
     if not ray_available():
         out("  Ray                       not installed (pip install 'quadsim[ray]')")

@@ -97,8 +97,8 @@ def main(args: argparse.Namespace) -> int:
     from quadsim.core import compiled  # here: numba's import is not every command's
 
     # the runs fly as plain Python: say how to have them faster when that clearly pays for the
-    # half second the compiled core costs each worker to load (it breaks even at about 6 minutes
-    # of flight a worker)
+    # time the compiled core costs each worker to load (about a quarter of a second a forked
+    # worker, half a second a spawned one: it breaks even at about 3 or 6 minutes of flight a worker)
     if not compiled.COMPILED and spec.sim_s > 600.0 * jobs:
         print(f"note: {compiled.status()}", flush=True)
     result = run_sweep(

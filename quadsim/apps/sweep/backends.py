@@ -11,6 +11,8 @@ from __future__ import annotations
 
 import os
 import signal
+import sys
+import threading
 import time
 from collections.abc import Callable, Iterator, Sequence
 from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
@@ -63,16 +65,30 @@ def run_serial(fn: Callable[[T], R], tasks: Sequence[T]) -> Iterator[R]:
         yield fn(task)
 
 
+def start_method() -> str:
+    """How the pool's workers start. Forked on Linux while this process runs no other thread: a
+    worker then starts with everything this process has loaded (the flight stack, the compiled
+    flight core), where a spawned one spends about half a second importing and loading them, a
+    tenth of a short sweep on two cores. Spawned otherwise: forking a process with threads can
+    leave a lock held forever in the worker, and macOS's system libraries do not survive a fork.
+    (A forked worker never uses a PyBullet client this process may hold: every run builds its own.)"""
+    import multiprocessing
+
+    if sys.platform == "linux" and threading.active_count() == 1 and "fork" in multiprocessing.get_all_start_methods():
+        return "fork"
+    return "spawn"
+
+
 def run_pool(fn: Callable[[T], R], tasks: Sequence[T], jobs: int) -> Iterator[R]:
-    """Results in completion order from `jobs` worker processes (spawned: a clean interpreter,
-    no PyBullet state inherited). At most 2 x jobs tasks are queued at a time, so a stop
-    leaves little behind."""
+    """Results in completion order from `jobs` worker processes (see `start_method`). At most
+    2 x jobs tasks are queued at a time, so a stop leaves little behind."""
     import multiprocessing
 
     if jobs <= 1:
         yield from run_serial(fn, tasks)
         return
-    executor = ProcessPoolExecutor(jobs, mp_context=multiprocessing.get_context("spawn"), initializer=_ignore_signals)
+    context = multiprocessing.get_context(start_method())  # a fork flushes stdout and stderr first
+    executor = ProcessPoolExecutor(jobs, mp_context=context, initializer=_ignore_signals)
     pending: set[Future[R]] = set()
     todo = iter(tasks)
     abandoned = False
