@@ -597,3 +597,32 @@ def test_pool_workers_fork_from_a_single_threaded_process_and_spawn_beside_threa
     assert done.returncode == 0, done.stderr
     squares = [(i * i, inherited) for i in range(6)]
     assert done.stdout == f"{method} written before the pool {squares}\n"
+
+
+def test_resume_flies_a_fleet_again_when_its_own_airframe_files_change(tmp_path: Path) -> None:
+    """A fleet vehicle on an airframe of the user's own: an edit to its URDF's parameter or gains
+    file (beside the URDF) flies the fleet's runs again on --resume; the plain runs stay kept."""
+    import shutil
+
+    shipped = ROOT / "quadsim" / "assets" / "urdf"
+    for suffix in (".urdf", ".params.toml"):
+        shutil.copy(shipped / f"quadsim_x{suffix}", tmp_path / f"mine{suffix}")
+    (tmp_path / "duo.toml").write_text(
+        '[[vehicle]]\nname = "own"\nairframe = "mine.urdf"\ninput = "script:hover"\n\n'
+        '[[vehicle]]\nname = "stock"\nstart = [0.0, -4.0, 0.0, 0.0]\ninput = "idle"\n'
+    )
+    text = 'scenarios = ["hover", "duo.toml"]\nduration_s = 2.0\n'
+    args = ("--jobs", "1", "--out", str(tmp_path / "o"), "--format", "csv", "--no-plot")
+    assert _sweep(tmp_path, text, *args).returncode == 0
+    done = _sweep(tmp_path, text, *args, "--resume")
+    assert "; 2 already in the table)" in done.stdout, done.stdout
+    params = tmp_path / "mine.params.toml"
+    params.write_text(params.read_text().replace("max_climb_rate_mps = 2.5", "max_climb_rate_mps = 2.0"))
+    done = _sweep(tmp_path, text, *args, "--resume")
+    assert "; 1 already in the table; 1 flown again" in done.stdout, done.stdout
+    gains = (shipped / "quadsim_x.gains.toml").read_text()  # a gains file of its own, where it flew the defaults
+    (tmp_path / "mine.gains.toml").write_text(gains.replace("position_p_per_s = 2.0", "position_p_per_s = 1.5"))
+    done = _sweep(tmp_path, text, *args, "--resume")
+    assert "; 1 already in the table; 1 flown again" in done.stdout, done.stdout
+    done = _sweep(tmp_path, text, *args, "--resume")
+    assert "; 2 already in the table)" in done.stdout, done.stdout

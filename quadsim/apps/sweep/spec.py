@@ -302,8 +302,9 @@ def _digest(*texts: str) -> str:
 def _fleet_length_s(path: Path, data: dict[str, Any], where: str) -> tuple[float, str]:
     """A fleet file as a scenario, checked now: its vehicles fly scripts or sit idle (a sweep has
     no window and no live input); how long it flies (its longest script), and a digest of the
-    file and its scripts."""
+    file, its scripts and its vehicles' own airframe files."""
     from quadsim.sim.fleet_file import load_fleet_file
+    from quadsim.vehicle.params import SHIPPED_VEHICLES
 
     try:
         fleet = load_fleet_file(path)
@@ -318,7 +319,25 @@ def _fleet_length_s(path: Path, data: dict[str, Any], where: str) -> tuple[float
     if fleet.longest_script_s is None and "duration_s" not in data:
         raise ConfigError(f"{where}: scenarios: {path.name}: no vehicle flies a script: give duration_s")
     scripts = [_flown(v.script) for v in fleet.vehicles if v.script is not None]
-    return fleet.longest_script_s or 0.0, _digest(path.read_text(encoding="utf-8"), *scripts)
+    airframes = [_airframe_text(v.urdf) for v in fleet.vehicles if v.airframe not in SHIPPED_VEHICLES]
+    return fleet.longest_script_s or 0.0, _digest(path.read_text(encoding="utf-8"), *scripts, *airframes)
+
+
+def _airframe_text(urdf: Path) -> str:
+    """What a vehicle of the user's own flies with: its URDF, and the parameter and gains files
+    beside it (NAME.params.toml, NAME.gains.toml), as digests of their bytes (read in pieces:
+    however large), so that an edit to any of them flies its runs again on --resume."""
+    texts = []
+    for file in (urdf, urdf.with_suffix(".params.toml"), urdf.with_suffix(".gains.toml")):
+        try:
+            digest = hashlib.sha256()
+            with file.open("rb") as f:
+                for piece in iter(lambda: f.read(1 << 20), b""):
+                    digest.update(piece)
+            texts.append(f"{file.name} {digest.hexdigest()}")
+        except OSError:  # no gains file: the vehicle flies the default gains, which ship with quadsim
+            texts.append(f"{file.name} (none)")
+    return " ".join(texts)
 
 
 def _duration(data: dict[str, Any], lengths_s: dict[str, float], where: str) -> float | None:
