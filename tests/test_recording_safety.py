@@ -87,6 +87,42 @@ def test_refuses_to_start_where_it_cannot_write(tmp_path):
     assert existing.read_bytes() == b"keep me"
 
 
+def test_a_recording_that_cannot_start_says_what_to_do_in_the_callers_terms(tmp_path):
+    """From Python, the advice names record()'s out=; from the command line, its flags (a
+    Python caller has no --out to choose)."""
+    from quadsim import record
+
+    existing = tmp_path / "exists.mcap"
+    existing.write_bytes(b"keep me")
+    with Simulator(SimConfig()) as sim, pytest.raises(QuadsimError) as raised:
+        record(sim, existing)
+    assert "already exists; record to another file or folder (out=" in str(raised.value)
+    assert "--" not in str(raised.value)
+    assert raised.value.cli_message == f"{existing} already exists; choose another --out (nothing is overwritten)"
+    assert existing.read_bytes() == b"keep me"
+    out = subprocess.run(
+        [
+            sys.executable,
+            str(ROOT / "main.py"),
+            "run",
+            "--script",
+            "hover",
+            "--cameras",
+            "none",
+            "--out",
+            str(existing),
+        ],
+        capture_output=True,
+        text=True,
+        cwd=ROOT,
+    )
+    assert out.returncode == 2 and out.stderr == f"quadsim: error: {raised.value.cli_message}\n"
+    with pytest.raises(QuadsimError) as raised:
+        check_writable(tmp_path / "run.mcap", min_free_bytes=1 << 62)
+    assert str(raised.value).endswith("(free some space, or record elsewhere: out=DIR)")
+    assert raised.value.cli_message.endswith("(free some space, use --out elsewhere, or --no-record)")
+
+
 def test_cli_refuses_unwritable_out_with_exit_2(tmp_path):
     blocker = tmp_path / "a_file"
     blocker.write_text("x")

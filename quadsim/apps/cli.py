@@ -110,7 +110,7 @@ def _main(argv: list[str] | None) -> int:
         sys.stdout.flush()  # inside the try: a closed pipe shows here, not at interpreter exit
         return code
     except QuadsimError as exc:
-        print(f"quadsim: error: {exc}", file=sys.stderr)
+        print(f"quadsim: error: {exc.cli_message}", file=sys.stderr)
         return 2
     except BrokenPipeError:
         # the reader went away (`quadsim info X | head`): stop quietly, as Unix tools do

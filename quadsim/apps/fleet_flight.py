@@ -166,7 +166,7 @@ class FleetFlight:
         try:
             return Fleet(self.vehicles(), config, **flight_settings(self.args))
         except ConfigError as exc:  # vehicles too close, a start on a landmark: said with the file
-            raise ConfigError(f"{self.args.fleet}: {exc}") from None
+            raise ConfigError(f"{self.args.fleet}: {exc}", f"{self.args.fleet}: {exc.cli_message}") from None
 
     def _fly(self, fleet: Fleet, live: list, duration: float, realtime: bool, bar: object) -> None:
         from quadsim.apps.options import output_options

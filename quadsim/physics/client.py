@@ -18,7 +18,10 @@ class WorldClient:
 
     def __init__(self, world: WorldSpec, physics_hz: int, gravity_mps2: float, gui: bool = False) -> None:
         if gui and not os.environ.get("DISPLAY") and os.name != "nt":
-            raise QuadsimError("--gui needs a display (DISPLAY is not set); run without --gui")
+            raise QuadsimError(
+                "PyBullet's window (gui=True) needs a display (DISPLAY is not set); run without it",
+                "--gui needs a display (DISPLAY is not set); run without --gui",
+            )
         self.world = world
         self.dt_s = 1.0 / physics_hz
         self.gravity_mps2 = gravity_mps2

@@ -69,14 +69,21 @@ def check_writable(path: Path, min_free_bytes: int = MIN_FREE_BYTES) -> None:
     if not folder.is_dir():
         raise QuadsimError(f"cannot write recordings to {folder}: not a folder")
     if path.exists():
-        raise QuadsimError(f"{path} already exists; choose another --out (nothing is overwritten)")
+        raise QuadsimError(
+            f"{path} already exists; record to another file or folder (out=...; nothing is overwritten)",
+            f"{path} already exists; choose another --out (nothing is overwritten)",
+        )
     if not os.access(folder, os.W_OK):
-        raise QuadsimError(f"cannot write recordings to {folder}: permission denied (use --out DIR or --no-record)")
+        problem = f"cannot write recordings to {folder}: permission denied"
+        raise QuadsimError(
+            f"{problem} (record to another folder: out=DIR)", f"{problem} (use --out DIR or --no-record)"
+        )
     free = shutil.disk_usage(folder).free
     if free < min_free_bytes:
+        problem = f"only {free / 1e6:.0f} MB free in {folder}; recording needs at least {min_free_bytes / 1e6:.0f} MB"
         raise QuadsimError(
-            f"only {free / 1e6:.0f} MB free in {folder}; recording needs at least "
-            f"{min_free_bytes / 1e6:.0f} MB (free some space, use --out elsewhere, or --no-record)"
+            f"{problem} (free some space, or record elsewhere: out=DIR)",
+            f"{problem} (free some space, use --out elsewhere, or --no-record)",
         )
 
 

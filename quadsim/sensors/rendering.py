@@ -163,10 +163,14 @@ def enable_egl(cid: int) -> None:
     """Load PyBullet's EGL renderer plugin into client `cid`, or raise ConfigError saying why not."""
     spec = importlib.util.find_spec("eglRenderer")
     if spec is None or spec.origin is None:
-        raise ConfigError("--renderer egl: this pybullet build has no eglRenderer plugin; use --renderer tiny")
+        raise ConfigError(
+            "the EGL renderer: this pybullet build has no eglRenderer plugin; use the tiny renderer",
+            "--renderer egl: this pybullet build has no eglRenderer plugin; use --renderer tiny",
+        )
     with c_output_silenced():  # the plugin prints its GL vendor and version strings
         plugin = pb.loadPlugin(spec.origin, "_eglRendererPlugin", physicsClientId=cid)
     if plugin < 0:
         raise ConfigError(
-            "--renderer egl: the EGL plugin did not load (no EGL driver on this machine?); use --renderer tiny"
+            "the EGL renderer: its plugin did not load (no EGL driver on this machine?); use the tiny renderer",
+            "--renderer egl: the EGL plugin did not load (no EGL driver on this machine?); use --renderer tiny",
         )

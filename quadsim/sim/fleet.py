@@ -192,7 +192,10 @@ def _check(vehicles: Sequence[FleetVehicle], config: SimConfig) -> None:
             raise ConfigError(f"two vehicles are named {v.name!r}: each name must be unique")
         seen.add(v.name)
     if config.gui and len(vehicles) > 1:
-        raise ConfigError("PyBullet's own window (--gui) shows one vehicle's run; leave it out for a fleet")
+        raise ConfigError(
+            "PyBullet's own window (gui=True) shows one vehicle's run; leave it out for a fleet",
+            "PyBullet's own window (--gui) shows one vehicle's run; leave it out for a fleet",
+        )
 
 
 def _check_apart(vehicles: dict[str, Simulator]) -> None:

@@ -480,7 +480,7 @@ class TeleopApp:
             try:
                 path = self.session.start_recording()
             except QuadsimError as exc:
-                self._say(f"cannot record: {exc}", 6.0)
+                self._say(f"cannot record: {exc.cli_message}", 6.0)
                 return
             self.recordings.append(path)
             self._hook_joy()
