@@ -10,6 +10,7 @@ from dataclasses import dataclass
 
 from quadsim.core.types import VehicleState
 from quadsim.drivers.subscribed import SubscribedDriver
+from quadsim.session.real_time import collect_start_up_garbage
 from quadsim.session.stopping import stop_requested
 from quadsim.sim.fleet import Fleet
 from quadsim.sim.flight_events import EventKind, FlightEvent
@@ -153,6 +154,8 @@ def _advance(
     two chunks), paced to the wall clock with `realtime`: (steps done, steps asked, wall time)."""
     total_steps = round(duration_s * hz)
     chunk = max(1, round((1.0 / 60.0 if realtime else _CHUNK_S) * hz))
+    if realtime:
+        collect_start_up_garbage()
     t0 = time.perf_counter()
     done = 0
     while done < total_steps and not stop_requested():

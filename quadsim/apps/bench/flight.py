@@ -68,7 +68,7 @@ def interleaved(timed: list[Timed], steps: int, rounds: int) -> list[Figure]:
 def bare_pybullet_loop(merged: bool = False, physics_hz: int = 240) -> Timed:
     """A bare loop: this URDF and world in PyBullet, a force at each rotor and one step, nothing
     else. The baseline loads the URDF as PyBullet does by default (a tree of fixed joints, as
-    a user or a peer loads it, and as quadsim did up to 0.3); `merged`: as the simulator loads
+    a user or a peer loads it, and as quadsim did before 0.3); `merged`: as the simulator loads
     it now, its fixed links merged into one body."""
     vehicle = load_vehicle()
     client = WorldClient(load_world(), physics_hz, vehicle.gravity_mps2)

@@ -24,6 +24,7 @@ from quadsim.live.playback import RecordingFeed
 from quadsim.physics.world_spec import FloorSpec, WorldSpec, load_world
 from quadsim.recording.flight import NS, RecordedFlight
 from quadsim.sensors.camera import CameraFrame
+from quadsim.session.real_time import collect_start_up_garbage
 
 SPEEDS = (0.25, 0.5, 1.0, 2.0, 4.0, 8.0, 16.0)
 SEEK_S = 5.0
@@ -88,6 +89,7 @@ class ReplayApp:
         self.frame_count = 0
         self._frame_s = frame_s
         self.feed = feed
+        collect_start_up_garbage()  # the flight just read: a full collection of it now, not while it plays
         self._last_wall = time.perf_counter()
         self._track = [s.position_m[:2] for s in flight.states[::6]]
         self.others = {name: (f, [s.position_m[:2] for s in f.states[::6]]) for name, f in (others or {}).items()}

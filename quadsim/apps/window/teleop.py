@@ -49,6 +49,7 @@ from quadsim.sensors.pipeline import CameraPipeline
 from quadsim.session.fleet_outputs import FleetRecordedRun
 from quadsim.session.headless import final_pose_text
 from quadsim.session.outputs import LiveOutput, OutputOptions, RecordedRun
+from quadsim.session.real_time import collect_start_up_garbage
 from quadsim.sim.config import SimConfig
 from quadsim.sim.fleet_file import FleetFile
 from quadsim.sim.flight_events import EventKind
@@ -220,6 +221,7 @@ class TeleopApp:
         elif self.session.cameras is not None:
             self.session.cameras.sinks.append(self)
         self._hook_joy()
+        collect_start_up_garbage()
         self._init_window_state(pacer or RealTimePacer(config.rates.physics_hz))
         self.recordings: list[Path] = [self.session.path] if self.session.path else []
         # last, so nothing after it can fail with the handlers installed
