@@ -626,3 +626,83 @@ def test_resume_flies_a_fleet_again_when_its_own_airframe_files_change(tmp_path:
     assert "; 1 already in the table; 1 flown again" in done.stdout, done.stdout
     done = _sweep(tmp_path, text, *args, "--resume")
     assert "; 2 already in the table)" in done.stdout, done.stdout
+
+
+def _workers_of(pid: int) -> list[int]:
+    """The pool's worker processes: the children of `pid` running Python (not the resource tracker)."""
+    out = subprocess.run(["ps", "-o", "pid=,args=", "--ppid", str(pid)], capture_output=True, text=True).stdout
+    return [int(line.split()[0]) for line in out.splitlines() if "resource_tracker" not in line]
+
+
+def _long_sweep(tmp_path: Path) -> subprocess.Popen:
+    """Two runs of an hour of flight on two workers (a minute or more each on this machine)."""
+    spec = _write(tmp_path, 'name = "long"\nscenarios = ["hover"]\nduration_s = 3600\nseeds = 2\n', "long.toml")
+    proc = subprocess.Popen(
+        [sys.executable, str(ROOT / "main.py"), "sweep", str(spec), "--jobs", "2", "--out", str(tmp_path / "o")],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+        start_new_session=True,
+    )
+    deadline = time.monotonic() + 60
+    while len(_workers_of(proc.pid)) < 2 and time.monotonic() < deadline:
+        time.sleep(0.1)
+    time.sleep(1.0)  # flying
+    assert len(_workers_of(proc.pid)) == 2, _group_members(proc.pid)
+    return proc
+
+
+@pytest.mark.parametrize("signum", [signal.SIGINT, signal.SIGTERM])
+def test_a_second_signal_abandons_the_runs_in_flight(tmp_path: Path, signum: int) -> None:
+    """The first Ctrl-C waits for the runs in flight, a second one abandons them: the workers are
+    killed (they ignore the signals themselves), the exit is 130 or 143 with one line saying so,
+    and nothing is left running. (The abandon path raised AttributeError and then waited for the
+    runs, an hour of flight each, to end; and a second line said nothing had been cut short.)"""
+    proc = _long_sweep(tmp_path)
+    os.killpg(proc.pid, signum)
+    time.sleep(0.5)
+    os.killpg(proc.pid, signum)
+    second = time.monotonic()
+    _, stderr = proc.communicate(timeout=120)
+    took_s = time.monotonic() - second
+    assert proc.returncode == 128 + signum, stderr
+    assert "Traceback" not in stderr and "Error" not in stderr and "nothing was cut short" not in stderr, stderr
+    assert stderr.strip().endswith(f"quadsim: {'interrupted' if signum == signal.SIGINT else 'terminated'}"), stderr
+    assert _group_gone(proc.pid), _group_members(proc.pid)
+    assert took_s < 20, took_s  # not the minutes the runs in flight had left: they were killed
+
+
+def test_a_worker_killed_from_outside_ends_the_sweep_with_one_line(tmp_path: Path) -> None:
+    """A worker killed by the kernel (out of memory, kill -9): exit 2 and one line naming it,
+    no traceback, no process left."""
+    proc = _long_sweep(tmp_path)
+    os.kill(_workers_of(proc.pid)[0], signal.SIGKILL)
+    _, stderr = proc.communicate(timeout=120)
+    assert proc.returncode == 2, stderr
+    assert stderr.strip().splitlines()[-1].startswith("quadsim: error: a worker process failed: BrokenProcessPool")
+    assert "Traceback" not in stderr, stderr
+    assert _group_gone(proc.pid), _group_members(proc.pid)
+
+
+def test_a_pool_whose_reader_stops_early_kills_its_workers() -> None:
+    """`check ... | head -1`, or a program that takes the first result and stops reading: the pool's
+    workers are killed at once, not waited for, and no error comes out of closing it."""
+    from quadsim.apps.sweep.backends import run_pool
+
+    results = run_pool(time.sleep, [0.0, 0.0, 600.0, 600.0, 600.0], 2)
+    assert next(results) is None
+    children = _workers_of(os.getpid())
+    assert children
+    results.close()  # GeneratorExit inside the pool (it raised AttributeError)
+    for pid in children:
+        deadline = time.monotonic() + 30
+        while Path(f"/proc/{pid}").exists() and "zombie" not in _state(pid) and time.monotonic() < deadline:
+            time.sleep(0.05)
+        assert not Path(f"/proc/{pid}").exists() or "zombie" in _state(pid), pid
+
+
+def _state(pid: int) -> str:
+    try:
+        return next(line for line in Path(f"/proc/{pid}/status").read_text().splitlines() if line.startswith("State:"))
+    except (OSError, StopIteration):
+        return "zombie"  # gone

@@ -53,13 +53,13 @@ def main(argv: list[str] | None = None) -> int:
             code = _main(argv)
         except StopRequested as exc:  # a second signal: stopped at once
             print(f"quadsim: {describe_stop(exc.signum)}", file=sys.stderr)
-            code = 0  # the exit code below says why
+            return stop_exit_code(stop.signum or exc.signum)
         except Exception as exc:
             if stop.signum is None:
                 raise
             # what a forced stop broke on its way out (an import cut short, a closed pipe)
             print(f"quadsim: {describe_stop(stop.signum)} ({type(exc).__name__} on the way out)", file=sys.stderr)
-            code = 0
+            return stop_exit_code(stop.signum)
         if stop.signum is not None and code != stop_exit_code(stop.signum):
             # stopped by a signal, whatever else happened on the way out: the exit code says so
             if code == 0:  # it came after the command had said its last word

@@ -108,14 +108,15 @@ def run_pool(fn: Callable[[T], R], tasks: Sequence[T], jobs: int) -> Iterator[R]
                     yield future.result()
                 except Exception as exc:  # a worker that died (killed, out of memory, a crash in C)
                     raise QuadsimError(f"a worker process failed: {type(exc).__name__}: {exc}") from None
-    except BaseException:  # a second Ctrl-C (StopRequested) or an error: abandon what runs
+    except BaseException:  # a second Ctrl-C (StopRequested), an error, or the caller stopped reading
         abandoned = True
         raise
     finally:
+        if abandoned:  # the workers ignore SIGTERM (the stop is this process's): killed, not waited for
+            # (no public API for the processes before 3.14; shutdown forgets them, so asked first)
+            for process in list((getattr(executor, "_processes", None) or {}).values()):
+                process.kill()
         executor.shutdown(wait=not abandoned, cancel_futures=True)
-        if abandoned:
-            for process in list(getattr(executor, "_processes", {}).values()):  # no public API before 3.14
-                process.terminate()
 
 
 def ray_available() -> bool:
