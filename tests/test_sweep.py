@@ -579,21 +579,31 @@ if __name__ == "__main__":
     if sys.argv[1] == "thread":  # another thread, as a live bridge or a user's program may run
         stop = threading.Event()
         threading.Thread(target=stop.wait, daemon=True).start()
+    elif sys.argv[1] == "numpy":  # OpenBLAS's threads, started by numpy's import (not Python's)
+        import numpy
     print(start_method(), "written before the pool", end=" ")  # left in the buffer: stdout is a pipe
     print(sorted(run_pool(task, list(range(6)), 2)))
 """
 
 
-@pytest.mark.parametrize(("threads", "method", "inherited"), [("none", "fork", 1), ("thread", "spawn", 0)])
+@pytest.mark.parametrize(
+    ("threads", "blas_threads", "method", "inherited"),
+    [("none", "", "fork", 1), ("thread", "", "spawn", 0), ("numpy", "", "spawn", 0), ("numpy", "1", "fork", 1)],
+)
 def test_pool_workers_fork_from_a_single_threaded_process_and_spawn_beside_threads(
-    tmp_path: Path, threads: str, method: str, inherited: int
+    tmp_path: Path, threads: str, blas_threads: str, method: str, inherited: int
 ) -> None:
     """Forked workers start with what the sweep's process loaded (no half second of imports each);
     beside a thread they are spawned. Either way the results are the same, and what the process
     had not yet written out is written once (a forked worker must not flush a copy of it)."""
     script = tmp_path / "pool.py"
     script.write_text(POOL_SCRIPT)
-    done = subprocess.run([sys.executable, str(script), threads], capture_output=True, text=True, timeout=120, cwd=ROOT)
+    env = {k: v for k, v in os.environ.items() if k != "OPENBLAS_NUM_THREADS"}
+    if blas_threads:
+        env["OPENBLAS_NUM_THREADS"] = blas_threads
+    done = subprocess.run(
+        [sys.executable, str(script), threads], capture_output=True, text=True, timeout=120, cwd=ROOT, env=env
+    )
     assert done.returncode == 0, done.stderr
     squares = [(i * i, inherited) for i in range(6)]
     assert done.stdout == f"{method} written before the pool {squares}\n"
@@ -659,6 +669,8 @@ def test_a_second_signal_abandons_the_runs_in_flight(tmp_path: Path, signum: int
     and nothing is left running. (The abandon path raised AttributeError and then waited for the
     runs, an hour of flight each, to end; and a second line said nothing had been cut short.)"""
     proc = _long_sweep(tmp_path)
+    for worker in _workers_of(proc.pid):  # the command line forks them: they run main.py, not a spawn
+        assert b"main.py\0sweep" in Path(f"/proc/{worker}/cmdline").read_bytes()
     os.killpg(proc.pid, signum)
     time.sleep(0.5)
     os.killpg(proc.pid, signum)
@@ -706,3 +718,25 @@ def _state(pid: int) -> str:
         return next(line for line in Path(f"/proc/{pid}/status").read_text().splitlines() if line.startswith("State:"))
     except (OSError, StopIteration):
         return "zombie"  # gone
+
+
+def test_a_broken_pyarrow_keeps_the_table_as_csv_and_says_so(tmp_path: Path) -> None:
+    """pyarrow is found without importing it (its import starts threads, which rule out forking the
+    workers); one that is found but does not import is said when the table is written, and what
+    was flown is kept as CSV."""
+    broken = tmp_path / "site" / "pyarrow"
+    broken.mkdir(parents=True)
+    (broken / "__init__.py").write_text('raise ImportError("libarrow.so.2000: cannot open shared object file")\n')
+    spec = _write(tmp_path, 'name = "b"\nscenarios = ["hover"]\nduration_s = 2\nseeds = 2\n', "b.toml")
+    done = subprocess.run(
+        [sys.executable, str(ROOT / "main.py"), "sweep", str(spec), "--jobs", "2", "--out", str(tmp_path / "o")],
+        capture_output=True,
+        text=True,
+        timeout=300,
+        env={**os.environ, "PYTHONPATH": str(tmp_path / "site")},
+    )
+    assert done.returncode == 2 and "Traceback" not in done.stderr, done.stderr
+    assert "pyarrow is installed but does not import (libarrow.so.2000" in done.stderr, done.stderr
+    rows = read_table(tmp_path / "o" / "results.csv")
+    assert [r["status"] for r in rows] == ["ok", "ok"]
+    assert not (tmp_path / "o" / "results.parquet").exists()

@@ -28,6 +28,13 @@ _CAN_HOLD = hasattr(_early, "pthread_sigmask") and hasattr(_early, "sigpending")
 if _CAN_HOLD:  # (this thread only: no other one exists yet)
     _early.pthread_sigmask(_early.SIG_BLOCK, _HELD)
 
+import os  # noqa: E402  (already loaded by Python's start-up)
+
+# quadsim's arrays are 3-vectors and small images: OpenBLAS's thread pool (numpy starts it on
+# import) serves nothing here and makes the process multi-threaded, which rules out forking the
+# sweep pool's workers (quadsim.apps.sweep.backends.start_method). A value the user set stays.
+os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
+
 from quadsim.session.stopping import SignalStop, StopRequested, describe, exit_code  # noqa: E402
 
 

@@ -70,13 +70,24 @@ def start_method() -> str:
     worker then starts with everything this process has loaded (the flight stack, the compiled
     flight core), where a spawned one spends about half a second importing and loading them, a
     tenth of a short sweep on two cores. Spawned otherwise: forking a process with threads can
-    leave a lock held forever in the worker, and macOS's system libraries do not survive a fork.
-    (A forked worker never uses a PyBullet client this process may hold: every run builds its own.)"""
+    leave a lock held forever in the worker (Python 3.12 warns of it), and macOS's system
+    libraries do not survive a fork. Threads started outside Python count too (OpenBLAS's pool,
+    which numpy starts on import unless OPENBLAS_NUM_THREADS=1, as the command line sets it; a
+    ROS 2 executor; PyBullet's window). (A forked worker never uses a PyBullet client this
+    process may hold: every run builds its own.)"""
     import multiprocessing
 
-    if sys.platform == "linux" and threading.active_count() == 1 and "fork" in multiprocessing.get_all_start_methods():
+    if sys.platform == "linux" and _threads() == 1 and "fork" in multiprocessing.get_all_start_methods():
         return "fork"
     return "spawn"
+
+
+def _threads() -> int:
+    """This process's threads, Python's and others (Linux's count; Python's where it cannot be read)."""
+    try:
+        return len(os.listdir("/proc/self/task"))
+    except OSError:
+        return threading.active_count()
 
 
 def run_pool(fn: Callable[[T], R], tasks: Sequence[T], jobs: int) -> Iterator[R]:

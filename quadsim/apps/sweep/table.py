@@ -24,12 +24,16 @@ _FLOATS = set(METRICS)
 
 
 def parquet_available() -> bool:
+    """Whether pyarrow is installed, found without importing it: its import starts threads
+    (jemalloc's, Arrow's pool), and a process with threads spawns its sweep workers instead of
+    forking them (quadsim.apps.sweep.backends.start_method). An install that is found but does
+    not import is said when the table is written (`write_table`)."""
+    import importlib.util
+
     try:
-        import pyarrow
-        import pyarrow.parquet  # noqa: F401
-    except ImportError:
+        return importlib.util.find_spec("pyarrow") is not None
+    except (ImportError, ValueError):
         return False
-    return True
 
 
 def table_path(folder: Path, fmt: str | None = None) -> Path:
@@ -49,9 +53,16 @@ def write_table(path: Path, rows: Iterable[dict[str, Any]]) -> None:
     ordered = sorted(rows, key=lambda r: r["index"])
     tmp = path.with_name(path.name + ".partial")
     if path.suffix == ".parquet":
-        import pyarrow as pa
-        import pyarrow.parquet as pq
-
+        try:
+            import pyarrow as pa
+            import pyarrow.parquet as pq
+        except ImportError as exc:  # found, but broken: what was flown is kept all the same
+            kept = path.with_suffix(".csv")
+            write_table(kept, ordered)
+            raise QuadsimError(
+                f"pyarrow is installed but does not import ({exc}): the table was written as {kept} instead "
+                "(--format csv chooses that)"
+            ) from None
         columns = {c: [r.get(c) for r in ordered] for c in COLUMNS}
         schema = pa.schema(
             [(c, pa.int64() if c in _INTS else pa.float64() if c in _FLOATS else pa.string()) for c in COLUMNS]
