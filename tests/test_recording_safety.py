@@ -87,6 +87,16 @@ def test_refuses_to_start_where_it_cannot_write(tmp_path):
     assert existing.read_bytes() == b"keep me"
 
 
+def _run_hover(out: Path) -> subprocess.CompletedProcess:
+    """`run --script hover` recorded to `out`, without cameras."""
+    return subprocess.run(
+        [sys.executable, str(ROOT / "main.py"), "run", "--script", "hover", "--cameras", "none", "--out", str(out)],
+        capture_output=True,
+        text=True,
+        cwd=ROOT,
+    )
+
+
 def test_a_recording_that_cannot_start_says_what_to_do_in_the_callers_terms(tmp_path):
     """From Python, the advice names record()'s out=; from the command line, its flags (a
     Python caller has no --out to choose)."""
@@ -100,22 +110,7 @@ def test_a_recording_that_cannot_start_says_what_to_do_in_the_callers_terms(tmp_
     assert "--" not in str(raised.value)
     assert raised.value.cli_message == f"{existing} already exists; choose another --out (nothing is overwritten)"
     assert existing.read_bytes() == b"keep me"
-    out = subprocess.run(
-        [
-            sys.executable,
-            str(ROOT / "main.py"),
-            "run",
-            "--script",
-            "hover",
-            "--cameras",
-            "none",
-            "--out",
-            str(existing),
-        ],
-        capture_output=True,
-        text=True,
-        cwd=ROOT,
-    )
+    out = _run_hover(existing)
     assert out.returncode == 2 and out.stderr == f"quadsim: error: {raised.value.cli_message}\n"
     with pytest.raises(QuadsimError) as raised:
         check_writable(tmp_path / "run.mcap", min_free_bytes=1 << 62)
@@ -126,22 +121,7 @@ def test_a_recording_that_cannot_start_says_what_to_do_in_the_callers_terms(tmp_
 def test_cli_refuses_unwritable_out_with_exit_2(tmp_path):
     blocker = tmp_path / "a_file"
     blocker.write_text("x")
-    out = subprocess.run(
-        [
-            sys.executable,
-            str(ROOT / "main.py"),
-            "run",
-            "--script",
-            "hover",
-            "--cameras",
-            "none",
-            "--out",
-            str(blocker / "dir"),
-        ],
-        capture_output=True,
-        text=True,
-        cwd=ROOT,
-    )
+    out = _run_hover(blocker / "dir")
     assert out.returncode == 2 and "Traceback" not in out.stderr and "recording folder" in out.stderr
 
 
