@@ -19,11 +19,10 @@ from quadsim.control.cascade_step import cascade_update
 from quadsim.core import compiled
 from quadsim.core.kinematics import matrix_from_quaternion
 from quadsim.core.types import ActiveCommand, Twist, VehicleState, ZMode
-from quadsim.physics.pybullet_world import PhysicsWorld
-from quadsim.physics.world_spec import load_world
 from quadsim.vehicle.mixer import Mixer, mix
 from quadsim.vehicle.params import SHIPPED_VEHICLES, load_vehicle
 from quadsim.vehicle.wrench import airframe_wrench
+from tests.sim_helpers import body_alone
 
 ROOT = Path(__file__).resolve().parent.parent
 
@@ -142,7 +141,7 @@ def test_the_mixer_and_the_airframe_forces_are_the_same_to_the_bit_compiled_and_
         mix(mixer.rows, vehicle.max_thrust_n, *wrench.tolist(), a)
         mix.py_func(mixer.rows, vehicle.max_thrust_n, *wrench.tolist(), b)
         assert a.tobytes() == b.tobytes()
-    with PhysicsWorld(vehicle, load_world(), 240) as physics:
+    with body_alone(vehicle) as physics:
         constants, hubs = physics._airframe, physics._hub_table
     for _ in range(2000):
         thrusts = rng.uniform(0.0, vehicle.max_thrust_n, 4)
@@ -240,14 +239,14 @@ def test_rotor_forces_given_as_a_list_of_integers_fly_as_a_tuple_of_floats():
     vehicle = load_vehicle()
     poses = []
     for forces in ([3, 3, 3, 3], (3.0, 3.0, 3.0, 3.0)):
-        with PhysicsWorld(vehicle, load_world(), 240) as physics:
+        with body_alone(vehicle) as physics:
             physics.place((0.0, 0.0, 2.0))
             for _ in range(24):
                 physics._step(forces)
             poses.append(physics.pose)
     assert poses[0] == poses[1] and poses[0][0][2] != 2.0
     with (
-        PhysicsWorld(vehicle, load_world(), 240) as physics,
+        body_alone(vehicle) as physics,
         pytest.raises(ValueError, match="expected 4 rotor forces"),
     ):
         physics._step([3.0, 3.0])
@@ -269,6 +268,7 @@ exec(sys.argv[1])
 from quadsim.control.cascade_step import cascade_update
 from quadsim.vehicle.mixer import mix
 from quadsim.vehicle.wrench import airframe_wrench
+from tests.sim_helpers import body_alone
 print(cascade_update.py_func.__qualname__, mix.py_func.__qualname__, airframe_wrench.py_func.__qualname__)
 """
 

@@ -114,14 +114,13 @@ def test_thrust_follows_the_attitude_of_the_step_it_is_applied_in(airframe):
     at the start of that step. A force in a rotor link's frame was turned with the pose of the
     step before: 2.34 degrees behind."""
     from quadsim.assets import asset_path
-    from quadsim.physics.pybullet_world import PhysicsWorld
-    from quadsim.physics.world_spec import load_world
     from quadsim.vehicle.params import load_vehicle
+    from tests.sim_helpers import body_alone
 
     vehicle = load_vehicle(asset_path("urdf", f"{airframe}.urdf"))
     thrusts = (0.5 * vehicle.max_thrust_n,) * len(vehicle.rotors)
     step_deg = math.degrees(10.0 / 240)
-    with PhysicsWorld(vehicle, load_world(), 240) as world:
+    with body_alone(vehicle) as world:
         world.place((0.0, 0.0, 20.0), thrusts_n=thrusts)
         pb.resetBaseVelocity(world.body_id, (0.0, 0.0, 0.0), (10.0, 0.0, 0.0), physicsClientId=world.client_id)
         world._read_kinematics()
@@ -148,12 +147,11 @@ def test_the_flight_body_turns_with_the_urdf_inertia_and_is_placed_at_base_link(
     roll and pitch inertia 8 % wrong), and the pose placed and read is base_link's origin's, in
     any attitude, not that of the centre of mass (where PyBullet keeps a merged body's pose)."""
     from quadsim.assets import asset_path
-    from quadsim.physics.pybullet_world import PhysicsWorld
-    from quadsim.physics.world_spec import load_world
     from quadsim.vehicle.params import load_vehicle
+    from tests.sim_helpers import body_alone
 
     vehicle = load_vehicle(asset_path("urdf", f"{airframe}.urdf"))
-    with PhysicsWorld(vehicle, load_world(), 240) as world:
+    with body_alone(vehicle) as world:
         cid = world.client_id
         assert pb.getNumJoints(world.body_id, physicsClientId=cid) == 0  # one body
         turned = pb.getQuaternionFromEuler((0.3, -0.2, 1.0))

@@ -7,7 +7,6 @@ the vehicle's state. It is the only flight module that imports pybullet.
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
 from typing import NamedTuple
 
 import numpy as np
@@ -20,7 +19,6 @@ from quadsim.physics.client import WorldClient
 from quadsim.physics.pybullet_quiet import pb
 from quadsim.physics.scene import inertial_offset, load_vehicle_body
 from quadsim.physics.wind import WindField, WindSettings
-from quadsim.physics.world_spec import WorldSpec
 from quadsim.vehicle.motors import MotorBank
 from quadsim.vehicle.params import VehicleParams
 from quadsim.vehicle.wrench import airframe_constants, airframe_wrench, hub_table
@@ -41,8 +39,9 @@ class Contact(NamedTuple):
 
 
 class PhysicsWorld:
-    """A PyBullet client with the world and one vehicle in it. Composition, not inheritance:
-    the client is private, and only what the simulator needs is exposed.
+    """One vehicle's body in a PyBullet world (a WorldClient, shared by every vehicle of the run).
+    Composition, not inheritance: the client is private, and only what the simulator needs is
+    exposed.
 
     Every step: the wind advances; the motors move toward the commanded forces; each rotor's
     force, times its ground-effect ratio, acts at its hub along body z, with its yaw reaction
@@ -65,40 +64,28 @@ class PhysicsWorld:
     def __init__(
         self,
         vehicle: VehicleParams,
-        world: WorldSpec,
-        physics_hz: int,
+        client: WorldClient,
         start: StartPose = StartPose(),
-        gui: bool = False,
         wind: WindSettings = WindSettings(),
         wind_seed: np.random.SeedSequence | None = None,
-        client: WorldClient | None = None,
         name: str = "vehicle",
         far_index: int = 0,
     ) -> None:
-        """`client`: the world to fly in, shared with other vehicles (a fleet; it closes the
-        client), else a world of its own; `name`: what other vehicles' contacts call this one;
-        `far_index`: where `reset` parks the body for a moment, apart from the others'."""
+        """`client`: the world to fly in, which every vehicle of the run shares (its owner
+        closes it); `name`: what other vehicles' contacts call this one; `far_index`: where
+        `reset` parks the body for a moment, apart from the others'."""
         self.vehicle = vehicle
-        self.dt_s = 1.0 / physics_hz
+        self.dt_s = client.dt_s
         self._inv_dt = 1.0 / self.dt_s
-        self._owns_client = client is None
-        if client is None:
-            client = WorldClient(world, physics_hz, vehicle.gravity_mps2, gui)
-        elif abs(client.dt_s - self.dt_s) > 1e-15 or client.gravity_mps2 != vehicle.gravity_mps2:
-            raise ConfigError(f"{name}: a vehicle's physics rate and gravity must be its world's")
+        if client.gravity_mps2 != vehicle.gravity_mps2:
+            raise ConfigError(f"{name}: a vehicle's gravity must be its world's")
         self.client = client
         self._cid = client.cid
-        self._gui = client.gui
         self.landmark_ids = client.landmark_ids
         self._body_names = client.body_names
         self._far = (100.0 * far_index, 0.0, 1e4)
         self.start = start
-        try:
-            self._load_body(name)
-        except BaseException:
-            if self._owns_client:  # a world of its own is not left behind
-                client.close()
-            raise
+        self._load_body(name)
         #: the static scenery's planes and boxes, found at the first contact query (once every
         #: vehicle of a fleet is in the world); None: something else can move, always ask
         self._scenery: tuple[tuple[float, ...], tuple[tuple[Vec3, Vec3], ...]] | bool | None = False
@@ -274,12 +261,7 @@ class PhysicsWorld:
         of all the scenery (the query costs about a tenth of a step)."""
         if self._clear_of_scenery():
             return ()
-        if self._owns_client:
-            points: Sequence[tuple[int, float]] = [
-                (p[2], p[7][2]) for p in pb.getContactPoints(self.body_id, physicsClientId=self._cid)
-            ]
-        else:  # a fleet's world: its contacts are asked once a step for every vehicle
-            points = self.client.touching(self.body_id)
+        points = self.client.touching(self.body_id)  # asked of PyBullet once a step for every vehicle
         if not points:
             return ()
         normal_z: dict[int, float] = {}
@@ -436,13 +418,5 @@ class PhysicsWorld:
         return self._cid
 
     def close(self) -> None:
-        """Disconnect the world if it is this vehicle's own (a fleet closes a shared one)."""
-        if self._owns_client:
-            self.client.close()
+        """Forget the world (its owner, the run's fleet, disconnects it)."""
         self._cid = -1
-
-    def __enter__(self) -> PhysicsWorld:
-        return self
-
-    def __exit__(self, *exc: object) -> None:
-        self.close()

@@ -1,10 +1,12 @@
-"""A fleet: several vehicles in one world, on one clock.
+"""A run's vehicles in one world, on one clock: a fleet (a run of one vehicle is a fleet of one).
 
-Each vehicle is a full Simulator (its own command gate, controller, landing layer, motors, flight
-events, IMU noise and wind streams, sinks and taps) whose body is in the fleet's one PyBullet
-world. The fleet steps them together: every vehicle's input and control, every vehicle's forces,
-one world step, then every vehicle's contacts, publishing and taps. Vehicles collide with each
-other; a collision is a flight event on both, naming the other.
+Each vehicle is a Drone (its own command gate, controller, landing layer, motors, flight events,
+IMU noise and wind streams, sinks and taps) whose body is in the fleet's one PyBullet world. The
+fleet steps them together: every vehicle's input and control, every vehicle's forces, one world
+step, then every vehicle's contacts, publishing and taps. Vehicles collide with each other; a
+collision is a flight event on both, naming the other. A vehicle without a name flies alone: its
+topics are the recording contract's, unprefixed, and its random streams are the run's own
+(quadsim.sim.simulator.Simulator is that fleet of one).
 
     from quadsim import Fleet, FleetVehicle, StartPose, Twist
     with Fleet([FleetVehicle("alpha"), FleetVehicle("bravo", start=StartPose(3.0, 0.0))]) as fleet:
@@ -16,10 +18,10 @@ other; a collision is a flight event on both, naming the other.
 from __future__ import annotations
 
 import math
-from collections.abc import Iterator, Sequence
+from collections.abc import Iterator, Mapping, Sequence
 from dataclasses import dataclass, field, replace
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -27,19 +29,23 @@ from quadsim.control import ControllerKind
 from quadsim.control.landing import LandingSettings
 from quadsim.core.types import StartPose, VehicleState, ZMode
 from quadsim.drivers import InputDriver
-from quadsim.errors import ConfigError
+from quadsim.errors import ConfigError, QuadsimError
 from quadsim.physics.client import WorldClient
-from quadsim.physics.world_spec import load_world
+from quadsim.physics.world_spec import WorldSpec, load_world
 from quadsim.sim.config import MAX_SEED, SimConfig, steps_of, whole_steps
 from quadsim.sim.description import MAX_FLEET, VEHICLE_NAME, RunDescription
-from quadsim.sim.simulator import FleetPlace, Simulator
+from quadsim.sim.drone import Drone
 from quadsim.vehicle.params import VehicleParams
+
+if TYPE_CHECKING:
+    from typing_extensions import Self  # typing's own from Python 3.11
 
 
 @dataclass(frozen=True)
 class FleetVehicle:
     """One vehicle of a fleet: its name, start pose, input and gains, and where it differs from
-    the fleet's config: airframe (URDF and parameter file), controller, z-mode (None: the fleet's)."""
+    the fleet's config: airframe (URDF and parameter file), controller, z-mode (None: the fleet's).
+    The name "" is a vehicle flying alone (a Simulator's): the contract's topics, unprefixed."""
 
     name: str
     start: StartPose = StartPose()
@@ -52,7 +58,7 @@ class FleetVehicle:
 
 
 class Fleet:
-    """Vehicles in one world, stepped together on one clock; `fleet["alpha"]` is one of them."""
+    """Vehicles in one world, stepped together on one clock; `fleet["alpha"]` is one of them (a Drone)."""
 
     def __init__(
         self,
@@ -66,11 +72,10 @@ class Fleet:
         its vehicle, controller, z-mode and start are each vehicle's own. `texture_required`:
         False lets a world whose floor texture is missing load (a re-flight draws nothing)."""
         _check(vehicles, config)
-        self.config = config
         world = load_world(config.world, texture_required)
         gravity = VehicleParams.gravity_mps2  # what every vehicle carries; each is checked against the world's
         self.client = WorldClient(world, config.rates.physics_hz, gravity, config.gui)
-        self.vehicles: dict[str, Simulator] = {}
+        self.vehicles: dict[str, Drone] = {}
         try:
             for index, v in enumerate(vehicles):
                 own = replace(
@@ -80,24 +85,23 @@ class Fleet:
                     controller=v.controller if v.controller is not None else config.controller,
                     z_mode=v.z_mode if v.z_mode is not None else config.z_mode,
                     start=v.start,
-                    seed=_vehicle_seed(config.seed, index),
+                    seed=_vehicle_seed(config.seed, index, v.name),
                 )
-                self.vehicles[v.name] = Simulator(
-                    own,
-                    v.driver,
-                    controller_gains=v.controller_gains,
-                    landing=landing,
-                    reset_on_crash=reset_on_crash,
-                    fleet=FleetPlace(self.client, v.name, index),
+                self.vehicles[v.name] = Drone(
+                    own, self.client, v.driver, v.controller_gains, landing, reset_on_crash, v.name, index
                 )
         except BaseException:
             self.close()
             raise
         _check_apart(self.vehicles)
         self._members = tuple(self.vehicles.values())
+        #: the one vehicle of a run of one, unnamed (its description is the run's), else None
+        self._alone = self._members[0] if not self._members[0].name else None
+        #: the run's settings; a vehicle flying alone's own (its z-mode as its driver asked)
+        self.config = self._alone.config if self._alone is not None else config
         self._states: list[VehicleState | None] = [None] * len(self._members)
 
-    def __getitem__(self, name: str) -> Simulator:
+    def __getitem__(self, name: str) -> Drone:
         try:
             return self.vehicles[name]
         except KeyError:
@@ -109,12 +113,31 @@ class Fleet:
     def __len__(self) -> int:
         return len(self.vehicles)
 
+    @property
+    def members(self) -> tuple[Drone, ...]:
+        """The vehicles, in the fleet's order."""
+        return self._members
+
+    @property
+    def world(self) -> WorldSpec:
+        """The world every vehicle flies in."""
+        return self.client.world
+
+    @property
+    def scene_client(self) -> int | None:
+        """The PyBullet client holding the world, for rendering in-process."""
+        return self.client.cid
+
     # --- stepping ---------------------------------------------------------------------------
 
     def step(self, steps: int = 1) -> None:
         """Advance every vehicle `steps` physics steps together: each one's input and control,
         each one's forces, one world step, then each one's contacts, publishing and taps."""
         steps = whole_steps(steps)
+        self._check_open()
+        if len(self._members) == 1:  # the same order, without the lists of a fleet's step
+            self._members[0].loop.run(steps)
+            return
         loops = [m.loop for m in self._members]
         bodies = [m.physics for m in self._members]
         world_step, states = self.client.step, self._states
@@ -139,40 +162,65 @@ class Fleet:
 
     @property
     def time_s(self) -> float:
+        """Simulation time in seconds (step_count / physics rate)."""
         return self.step_count / self.config.rates.physics_hz
 
     def reset(self, seed: int | None = None) -> None:
         """Every vehicle back at its start at step 0; with `seed`, the run's random streams start
         again from it (each vehicle's derived from it as at the start)."""
+        self._check_open()
         if seed is not None:
             self.config = replace(self.config, seed=seed)  # validated like any SimConfig
         for index, member in enumerate(self._members):
-            member.reset(None if seed is None else _vehicle_seed(seed, index))
+            member.reset(None if seed is None else _vehicle_seed(seed, index, member.name))
         self._states = [None] * len(self._members)
 
+    def restart(self, drivers: Mapping[str, InputDriver], seed: int | None = None) -> None:
+        """Back to step 0 (as `reset`), each vehicle named in `drivers` flown by its driver from
+        now on, in the z-mode the run was made with: the next run of a sweep worker, which loads
+        the world and the vehicles once. It flies bit for bit as a new fleet would."""
+        for name, driver in drivers.items():
+            self[name].drive_with(driver)
+        self.reset(seed)
+
     def description(self) -> RunDescription:
-        """The whole run: the fleet's config (with the run's seed) and each vehicle's own
-        description, in order; its vehicle, controller and driver are the first vehicle's."""
-        members = tuple((name, sim.description()) for name, sim in self.vehicles.items())
+        """The whole run: a vehicle flying alone's own description; for named vehicles, the
+        fleet's config (with the run's seed) and each vehicle's own description, in order (its
+        vehicle, controller and driver are the first vehicle's)."""
+        if self._alone is not None:
+            return self._alone.description()
+        members = tuple((name, drone.description()) for name, drone in self.vehicles.items())
         return replace(members[0][1], config=self.config, fleet=members)
 
     # --- lifetime ---------------------------------------------------------------------------
 
     def close(self) -> None:
-        """Close every vehicle and the world."""
+        """Close every vehicle and the world: nothing steps afterwards (`with` calls this)."""
         for member in self.vehicles.values():
             member.close()
         self.client.close()
 
-    def __enter__(self) -> Fleet:
+    @property
+    def closed(self) -> bool:
+        """Whether `close()` was called (stepping or resetting then raises QuadsimError)."""
+        return self.client.cid < 0
+
+    def _check_open(self) -> None:
+        if self.closed:
+            raise QuadsimError("this Simulator is closed (close() or the end of its with-block): make a new one")
+
+    def __enter__(self) -> Self:
         return self
 
     def __exit__(self, *exc: object) -> None:
         self.close()
 
 
-def _vehicle_seed(seed: int, index: int) -> int:
-    """Vehicle `index`'s seed: its own random streams, all from the run's seed."""
+def _vehicle_seed(seed: int, index: int, name: str) -> int:
+    """Vehicle `index`'s seed: its own random streams, all from the run's seed (a vehicle flying
+    alone, unnamed, has the run's seed itself)."""
+    if not name:
+        return seed
     return int(np.random.SeedSequence([seed, index]).generate_state(1, np.uint64)[0] % (MAX_SEED + 1))
 
 
@@ -183,6 +231,8 @@ def _check(vehicles: Sequence[FleetVehicle], config: SimConfig) -> None:
         raise ConfigError(f"a fleet of {len(vehicles)} vehicles: at most {MAX_FLEET} fly in one world")
     seen: set[str] = set()
     for v in vehicles:
+        if v.name == "" and len(vehicles) == 1:  # flying alone: the contract's names
+            continue
         if not isinstance(v.name, str) or not VEHICLE_NAME.fullmatch(v.name):
             raise ConfigError(
                 f"vehicle name {v.name!r}: a ROS name segment is needed (a lowercase letter, then lowercase "
@@ -198,7 +248,7 @@ def _check(vehicles: Sequence[FleetVehicle], config: SimConfig) -> None:
         )
 
 
-def _check_apart(vehicles: dict[str, Simulator]) -> None:
+def _check_apart(vehicles: dict[str, Drone]) -> None:
     """No two vehicles start inside each other's reach (their rotors would touch)."""
     placed = [(name, sim.physics.state(0).position_m, sim.physics.reach_m) for name, sim in vehicles.items()]
     for i, (a, pa, ra) in enumerate(placed):

@@ -1,4 +1,4 @@
-"""The simulator, assembled: vehicle, world, physics, command gate, controller, driver, loop.
+"""The simulator: one vehicle in its world, the fleet of one every run of one vehicle is.
 
 This is also the API for autonomy code:
 
@@ -12,40 +12,25 @@ This is also the API for autonomy code:
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import asdict, dataclass, replace
 from typing import Any
 
-import numpy as np
-
-from quadsim.control import make_controller
+from quadsim.control import Controller
 from quadsim.control.gate import CommandGate
 from quadsim.control.landing import FlightPhase, LandingSettings
 from quadsim.core.types import Twist, VehicleState, ZMode
 from quadsim.drivers import InputDriver
-from quadsim.drivers.programmatic import ProgrammaticDriver
-from quadsim.errors import QuadsimError
-from quadsim.physics.client import WorldClient
 from quadsim.physics.pybullet_world import PhysicsWorld
-from quadsim.physics.world_spec import load_world
-from quadsim.sensors.imu import ImuNoise
-from quadsim.sim.config import SimConfig, enum_choice, steps_of, whole_steps
-from quadsim.sim.description import ControllerDescription, RunDescription, VehicleDescription
+from quadsim.sim.config import SimConfig
+from quadsim.sim.fleet import Fleet, FleetVehicle
 from quadsim.sim.flight_events import FlightEvent
 from quadsim.sim.loop import SimLoop, Sink
-from quadsim.vehicle.params import load_vehicle
+from quadsim.vehicle.params import VehicleParams
 
 
-@dataclass(frozen=True)
-class FleetPlace:
-    """Where a vehicle flies in a fleet: the world it shares, its name and its index."""
-
-    client: WorldClient
-    name: str
-    index: int
-
-
-class Simulator:
-    """One simulated vehicle in one world, stepped by a SimLoop that owns the clock."""
+class Simulator(Fleet):
+    """One simulated vehicle in one world: a fleet of one whose vehicle has no name (its topics
+    are the recording contract's, unprefixed). Stepping, resetting and closing are the fleet's;
+    commanding, state and events are its vehicle's (`drone`)."""
 
     def __init__(
         self,
@@ -55,209 +40,123 @@ class Simulator:
         texture_required: bool = True,
         landing: LandingSettings = LandingSettings(),
         reset_on_crash: bool = False,
-        fleet: FleetPlace | None = None,
     ) -> None:
-        """`fleet`: where this vehicle flies in a fleet (quadsim.sim.fleet.Fleet builds it with
-        this): the shared world, its name, its index. Then only the fleet steps it."""
-        self.fleet = fleet
-        self.driver: InputDriver = driver if driver is not None else ProgrammaticDriver()
-        if config.z_mode is None:  # the driver's wish (a script's z_mode line), else velocity
-            config = replace(config, z_mode=getattr(self.driver, "preferred_z_mode", None) or ZMode.VELOCITY)
-        self.config = config
-        self.z_mode: ZMode = config.z_mode or ZMode.VELOCITY
-        self.vehicle = load_vehicle(config.urdf, config.vehicle_params)
-        self.world = load_world(config.world, texture_required) if fleet is None else fleet.client.world
-        rates = config.rates
-        timeout = config.command_timeout_s
-        self.controller = make_controller(config.controller, self.vehicle, controller_gains)
-        self.gate = CommandGate(
-            self.vehicle.limits, self.z_mode, None if timeout is None else round(timeout * rates.physics_hz)
-        )
-        wind_seed, imu_seed = _streams(config.seed)
-        self.physics = PhysicsWorld(
-            self.vehicle,
-            self.world,
-            rates.physics_hz,
-            config.start,
-            config.gui,
-            config.wind,
-            wind_seed,
-            client=None if fleet is None else fleet.client,
-            name="vehicle" if fleet is None else fleet.name,
-            far_index=0 if fleet is None else fleet.index,
-        )
-        imu = ImuNoise(self.vehicle.imu_noise, rates.state_hz, imu_seed) if config.sensor_noise else None
-        self.loop = SimLoop(
-            self.physics,
-            self.controller,
-            self.gate,
-            rates,
-            self.driver,
-            landing=landing,
-            reset_on_crash=reset_on_crash,
-            imu=imu,
-        )
+        """`driver`: where commands come from (default: `send`); `controller_gains`: gains that
+        replace those of the vehicle's gains file; `texture_required`: False lets a world whose
+        floor texture is missing load; `landing` and `reset_on_crash`: the landing layer's
+        settings and whether a crash puts the vehicle back at its start."""
+        alone = FleetVehicle("", start=config.start, driver=driver, controller_gains=controller_gains)
+        super().__init__([alone], config, landing, reset_on_crash, texture_required)
+        #: the one vehicle
+        self.drone = self.members[0]
 
-    # --- commanding -------------------------------------------------------------------------
+    # --- stepping: the fleet's, returning the state ------------------------------------------
+
+    def step(self, steps: int = 1) -> VehicleState:  # type: ignore[override]
+        """Advance `steps` physics steps through the loop (input, control, physics, outputs); the new state."""
+        super().step(steps)
+        return self.drone.state
+
+    def run_for(self, seconds: float) -> VehicleState:  # type: ignore[override]
+        """Advance by `seconds` of simulation time (rounded to whole physics steps); the new state."""
+        super().run_for(seconds)
+        return self.drone.state
+
+    def restart(self, driver: InputDriver, seed: int | None = None) -> None:  # type: ignore[override]
+        """Back to step 0 (as `reset`), flown from now on by `driver`, in the z-mode the run was
+        made with: the next run of a sweep worker, which loads the world and the vehicle once.
+        It flies bit for bit as a new Simulator with the same config and this seed would."""
+        super().restart({"": driver}, seed)
+
+    # --- its vehicle --------------------------------------------------------------------------
 
     def send(self, twist: Twist) -> None:
         """Publish `twist` from now on, at the input rate (autonomy code's way in)."""
-        if not isinstance(self.driver, ProgrammaticDriver):
-            raise QuadsimError(f"send() needs the programmatic driver; this simulator is driven by {self.driver.name}")
-        self.driver.send(twist)
+        self.drone.send(twist)
 
     def set_z_mode(self, z_mode: ZMode | str) -> None:
         """How linear.z is read from now on (the standing command is re-clamped under the new mode):
         a ZMode or its name ("height"); anything else is a ConfigError."""
-        self.gate.set_z_mode(enum_choice(ZMode, z_mode, "z_mode"))
+        self.drone.set_z_mode(z_mode)
 
-    # --- stepping ---------------------------------------------------------------------------
-
-    def step(self, steps: int = 1) -> VehicleState:
-        """Advance `steps` physics steps through the loop (input, control, physics, outputs); the new state."""
-        if self.fleet is not None:
-            raise QuadsimError(f"{self.fleet.name} flies in a fleet, which steps every vehicle at once: step the fleet")
-        self._check_open()
-        self.loop.run(whole_steps(steps))
-        return self.state
-
-    def run_for(self, seconds: float) -> VehicleState:
-        """Advance by `seconds` of simulation time (rounded to whole physics steps)."""
-        return self.step(steps_of(seconds, self.config.rates.physics_hz))
-
-    # --- where outputs attach (the OutputPort protocol) --------------------------------------
-
-    def add_sink(self, sink: Sink) -> None:
-        """Receive every command (as the controller got it) and every published state."""
-        self.loop.sinks.append(sink)
-
-    def remove_sink(self, sink: Sink) -> None:
-        """Stop sending commands and states to `sink` (no error if it was not added)."""
-        if sink in self.loop.sinks:
-            self.loop.sinks.remove(sink)
-
-    def add_tap(self, every_steps: int, callback: Callable[[VehicleState], None]) -> None:
-        """Call `callback(state)` after every `every_steps`-th physics step (cameras use this)."""
-        self.loop.add_tap(every_steps, callback)
-
-    def remove_tap(self, callback: Callable[[VehicleState], None]) -> None:
-        """Stop calling `callback` (no error if it was not added)."""
-        self.loop.remove_tap(callback)
-
-    # --- flight events ------------------------------------------------------------------------
+    @property
+    def state(self) -> VehicleState:
+        """The vehicle's state after the last step (ground truth, REP 103 frames, SI units)."""
+        return self.drone.state
 
     @property
     def events(self) -> list[FlightEvent]:
         """Every flight event (take-off, touchdown, landed, crash, reset) since the start or the last
         reset, in order; each has its step, kind, text, impact speed and what was hit."""
-        return self.loop.events
+        return self.drone.events
 
     def add_event_callback(self, callback: Callable[[FlightEvent], None]) -> None:
         """Call `callback(event)` as each flight event happens (a Gymnasium env ends on a crash)."""
-        self.loop.event_callbacks.append(callback)
+        self.drone.add_event_callback(callback)
 
     @property
     def phase(self) -> FlightPhase:
         """Landed (rotors idle) or flying."""
-        return self.loop.landing.phase
+        return self.drone.phase
 
     @property
     def reset_on_crash(self) -> bool:
         """Whether a crash puts the vehicle back at its start pose (the clock and commands go on)."""
-        return self.loop.reset_on_crash
+        return self.drone.reset_on_crash
 
-    @property
-    def scene_client(self) -> int | None:
-        """The physics world's PyBullet client, which holds the scene (in-process rendering)."""
-        return self.physics.client_id
+    def add_sink(self, sink: Sink) -> None:
+        """Receive every command (as the controller got it) and every published state."""
+        self.drone.add_sink(sink)
 
-    def reset(self, seed: int | None = None) -> None:
-        """Back to step 0: the vehicle at its start pose, rotors idle, controller and gate cleared.
-        With `seed`, the run's random streams (turbulence, sensor noise) start again from that
-        seed instead of the run's own (a Gymnasium env's seeded reset); the description says so."""
-        self._check_open()
-        if seed is not None:
-            self.config = replace(self.config, seed=seed)  # validated like any SimConfig
-            wind_seed, imu_seed = _streams(seed)
-            self.physics.reseed(wind_seed)
-            if self.loop.imu is not None:
-                self.loop.imu.reseed(imu_seed)
-        self.loop.reset()
-        rewind = getattr(self.driver, "rewind", None)
-        if rewind is not None:  # a script plays from its start again, as the clock does
-            rewind()
+    def remove_sink(self, sink: Sink) -> None:
+        """Stop sending commands and states to `sink` (no error if it was not added)."""
+        self.drone.remove_sink(sink)
 
-    def restart(self, driver: InputDriver, seed: int | None = None) -> None:
-        """Back to step 0 (as `reset`), flown from now on by `driver`, in the z-mode the run was
-        made with: the next run of a sweep worker, which loads the world and the vehicle once.
-        It flies bit for bit as a new Simulator with the same config and this seed would."""
-        self.driver = driver
-        self.loop.driver = driver
-        if self.gate.z_mode is not self.z_mode:
-            self.gate.set_z_mode(self.z_mode)
-        self.reset(seed)
+    def add_tap(self, every_steps: int, callback: Callable[[VehicleState], None]) -> None:
+        """Call `callback(state)` after every `every_steps`-th physics step (cameras use this)."""
+        self.drone.add_tap(every_steps, callback)
 
-    @property
-    def state(self) -> VehicleState:
-        """The vehicle's state after the last step (ground truth, REP 103 frames, SI units)."""
-        return self.loop.state()
-
-    @property
-    def step_count(self) -> int:
-        """Simulation time in physics steps since the start (or the last reset)."""
-        return self.loop.step_count
-
-    @property
-    def time_s(self) -> float:
-        """Simulation time in seconds (step_count / physics rate)."""
-        return self.loop.time_s
-
-    def description(self) -> RunDescription:
-        """Everything this run is made with, typed (outputs complete it with their own part)."""
-        v, ctrl = self.vehicle, self.controller.describe()
-        return RunDescription(
-            config=self.config,
-            vehicle=VehicleDescription(
-                v.name, v.urdf_path.name, v.params_path.name, v.mass_kg, len(v.rotors), v.to_dict()
-            ),
-            controller=ControllerDescription(
-                self.controller.kind,
-                dict(ctrl.get("gains", {})),
-                {**ctrl, "landing": asdict(self.loop.landing.settings), "reset_on_crash": self.loop.reset_on_crash},
-            ),
-            driver=self.driver.describe(),
-            vehicle_model=v,
-            world_model=self.world,
-        )
+    def remove_tap(self, callback: Callable[[VehicleState], None]) -> None:
+        """Stop calling `callback` (no error if it was not added)."""
+        self.drone.remove_tap(callback)
 
     def describe(self) -> dict[str, Any]:
         """Every parameter of the run as plain data: the layout recordings carry (see description())."""
         return self.description().to_parameters()
 
-    # --- lifetime ---------------------------------------------------------------------------
-
-    def close(self) -> None:
-        """Disconnect PyBullet. The simulator cannot step afterwards; `with Simulator(...)` calls this."""
-        self.physics.close()
+    # --- what it is made of: its vehicle's parts, for tests, tools and autonomy code ------------
 
     @property
-    def closed(self) -> bool:
-        """Whether `close()` was called (stepping or resetting then raises QuadsimError)."""
-        return self.physics.client_id < 0
+    def driver(self) -> InputDriver:
+        """Where the commands come from."""
+        return self.drone.driver
 
-    def _check_open(self) -> None:
-        if self.closed:
-            raise QuadsimError("this Simulator is closed (close() or the end of its with-block): make a new one")
+    @property
+    def vehicle(self) -> VehicleParams:
+        """The airframe's parameters."""
+        return self.drone.vehicle
 
-    def __enter__(self) -> Simulator:
-        return self
+    @property
+    def controller(self) -> Controller:
+        """The controller, under the landing layer."""
+        return self.drone.controller
 
-    def __exit__(self, *exc: object) -> None:
-        self.close()
+    @property
+    def gate(self) -> CommandGate:
+        """The command gate: clamping, NaN rejection, the dead-man timeout."""
+        return self.drone.gate
 
+    @property
+    def physics(self) -> PhysicsWorld:
+        """The vehicle's body in the world."""
+        return self.drone.physics
 
-def _streams(seed: int) -> tuple[np.random.SeedSequence, np.random.SeedSequence]:
-    """One seed per run; each random stream (wind, IMU noise) gets its own child of it, so adding
-    a stream or turning one off leaves the others unchanged."""
-    wind_seed, imu_seed = np.random.SeedSequence(seed).spawn(2)
-    return wind_seed, imu_seed
+    @property
+    def loop(self) -> SimLoop:
+        """The flight loop, which counts the steps."""
+        return self.drone.loop
+
+    @property
+    def z_mode(self) -> ZMode:
+        """How linear.z was read when the run started (`gate.z_mode`: now)."""
+        return self.drone.z_mode

@@ -1,0 +1,236 @@
+"""One vehicle of a run: its driver, command gate, controller, landing layer, flight loop and body,
+in a world it shares with the run's other vehicles.
+
+A run's fleet (quadsim.sim.fleet.Fleet) builds its drones and steps them together; a Simulator is
+the fleet of one. `fleet["alpha"]` is a Drone: send it commands, read its state and events, attach
+outputs to it (the OutputPort protocol's sinks and taps).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import asdict, replace
+from typing import Any
+
+import numpy as np
+
+from quadsim.control import make_controller
+from quadsim.control.gate import CommandGate
+from quadsim.control.landing import FlightPhase, LandingSettings
+from quadsim.core.types import Twist, VehicleState, ZMode
+from quadsim.drivers import InputDriver
+from quadsim.drivers.programmatic import ProgrammaticDriver
+from quadsim.errors import QuadsimError
+from quadsim.physics.client import WorldClient
+from quadsim.physics.pybullet_world import PhysicsWorld
+from quadsim.sensors.imu import ImuNoise
+from quadsim.sim.config import SimConfig, enum_choice
+from quadsim.sim.description import ControllerDescription, RunDescription, VehicleDescription
+from quadsim.sim.flight_events import FlightEvent
+from quadsim.sim.loop import SimLoop, Sink
+from quadsim.vehicle.params import load_vehicle
+
+
+class Drone:
+    """One vehicle in a shared world, stepped by its run's fleet (which owns the clock)."""
+
+    def __init__(
+        self,
+        config: SimConfig,
+        client: WorldClient,
+        driver: InputDriver | None = None,
+        controller_gains: dict[str, Any] | None = None,
+        landing: LandingSettings = LandingSettings(),
+        reset_on_crash: bool = False,
+        name: str = "",
+        index: int = 0,
+    ) -> None:
+        """`config`: this vehicle's (its airframe, controller, z-mode, start, seed; the rates and
+        the world are the run's); `client`: the world it flies in; `name`: what its topics and
+        TF frames are prefixed with ("": a run of one vehicle, the contract's names unchanged);
+        `index`: its place in the fleet."""
+        self.name = name
+        self.driver: InputDriver = driver if driver is not None else ProgrammaticDriver()
+        if config.z_mode is None:  # the driver's wish (a script's z_mode line), else velocity
+            config = replace(config, z_mode=getattr(self.driver, "preferred_z_mode", None) or ZMode.VELOCITY)
+        self.config = config
+        self.z_mode: ZMode = config.z_mode or ZMode.VELOCITY
+        self.vehicle = load_vehicle(config.urdf, config.vehicle_params)
+        self.world = client.world
+        self._client = client
+        rates = config.rates
+        timeout = config.command_timeout_s
+        self.controller = make_controller(config.controller, self.vehicle, controller_gains)
+        self.gate = CommandGate(
+            self.vehicle.limits, self.z_mode, None if timeout is None else round(timeout * rates.physics_hz)
+        )
+        wind_seed, imu_seed = _streams(config.seed)
+        self.physics = PhysicsWorld(
+            self.vehicle, client, config.start, config.wind, wind_seed, name=name or "vehicle", far_index=index
+        )
+        imu = ImuNoise(self.vehicle.imu_noise, rates.state_hz, imu_seed) if config.sensor_noise else None
+        self.loop = SimLoop(
+            self.physics,
+            self.controller,
+            self.gate,
+            rates,
+            self.driver,
+            landing=landing,
+            reset_on_crash=reset_on_crash,
+            imu=imu,
+        )
+
+    # --- commanding -------------------------------------------------------------------------
+
+    def send(self, twist: Twist) -> None:
+        """Publish `twist` from now on, at the input rate (autonomy code's way in)."""
+        if not isinstance(self.driver, ProgrammaticDriver):
+            raise QuadsimError(f"send() needs the programmatic driver; this vehicle is driven by {self.driver.name}")
+        self.driver.send(twist)
+
+    def set_z_mode(self, z_mode: ZMode | str) -> None:
+        """How linear.z is read from now on (the standing command is re-clamped under the new mode):
+        a ZMode or its name ("height"); anything else is a ConfigError."""
+        self.gate.set_z_mode(enum_choice(ZMode, z_mode, "z_mode"))
+
+    def step(self, steps: int = 1) -> None:
+        """Refused: the fleet steps every vehicle at once, on its one clock."""
+        raise QuadsimError(f"{self.name} flies in a fleet, which steps every vehicle at once: step the fleet")
+
+    run_for = step
+
+    # --- where outputs attach (the OutputPort protocol) --------------------------------------
+
+    def add_sink(self, sink: Sink) -> None:
+        """Receive every command (as the controller got it) and every published state."""
+        self.loop.sinks.append(sink)
+
+    def remove_sink(self, sink: Sink) -> None:
+        """Stop sending commands and states to `sink` (no error if it was not added)."""
+        if sink in self.loop.sinks:
+            self.loop.sinks.remove(sink)
+
+    def add_tap(self, every_steps: int, callback: Callable[[VehicleState], None]) -> None:
+        """Call `callback(state)` after every `every_steps`-th physics step (cameras use this)."""
+        self.loop.add_tap(every_steps, callback)
+
+    def remove_tap(self, callback: Callable[[VehicleState], None]) -> None:
+        """Stop calling `callback` (no error if it was not added)."""
+        self.loop.remove_tap(callback)
+
+    @property
+    def scene_client(self) -> int | None:
+        """The PyBullet client holding the world this vehicle flies in (in-process rendering)."""
+        return self.physics.client_id
+
+    # --- flight events ------------------------------------------------------------------------
+
+    @property
+    def events(self) -> list[FlightEvent]:
+        """Every flight event (take-off, touchdown, landed, crash, reset) since the start or the last
+        reset, in order; each has its step, kind, text, impact speed and what was hit."""
+        return self.loop.events
+
+    def add_event_callback(self, callback: Callable[[FlightEvent], None]) -> None:
+        """Call `callback(event)` as each flight event happens (a Gymnasium env ends on a crash)."""
+        self.loop.event_callbacks.append(callback)
+
+    @property
+    def phase(self) -> FlightPhase:
+        """Landed (rotors idle) or flying."""
+        return self.loop.landing.phase
+
+    @property
+    def reset_on_crash(self) -> bool:
+        """Whether a crash puts the vehicle back at its start pose (the clock and commands go on)."""
+        return self.loop.reset_on_crash
+
+    # --- state ----------------------------------------------------------------------------------
+
+    @property
+    def state(self) -> VehicleState:
+        """The vehicle's state after the last step (ground truth, REP 103 frames, SI units)."""
+        return self.loop.state()
+
+    @property
+    def step_count(self) -> int:
+        """Simulation time in physics steps since the start (or the last reset)."""
+        return self.loop.step_count
+
+    @property
+    def time_s(self) -> float:
+        """Simulation time in seconds (step_count / physics rate)."""
+        return self.loop.time_s
+
+    # --- starting again -------------------------------------------------------------------------
+
+    def reset(self, seed: int | None = None) -> None:
+        """Back to step 0: the vehicle at its start pose, rotors idle, controller and gate cleared.
+        With `seed`, its random streams (turbulence, sensor noise) start again from that seed
+        instead of its own (a Gymnasium env's seeded reset); the description says so."""
+        self._check_open()
+        if seed is not None:
+            self.config = replace(self.config, seed=seed)  # validated like any SimConfig
+            wind_seed, imu_seed = _streams(seed)
+            self.physics.reseed(wind_seed)
+            if self.loop.imu is not None:
+                self.loop.imu.reseed(imu_seed)
+        self.loop.reset()
+        rewind = getattr(self.driver, "rewind", None)
+        if rewind is not None:  # a script plays from its start again, as the clock does
+            rewind()
+
+    def drive_with(self, driver: InputDriver) -> None:
+        """Flown from now on by `driver`, in the z-mode the run was made with: with a reset
+        after it (Fleet.restart), the next run of a sweep worker, which loads the world and the
+        vehicle once, and flies bit for bit as a new vehicle with the same config would."""
+        self.driver = driver
+        self.loop.driver = driver
+        if self.gate.z_mode is not self.z_mode:
+            self.gate.set_z_mode(self.z_mode)
+
+    # --- what it is made of -----------------------------------------------------------------------
+
+    def description(self) -> RunDescription:
+        """Everything this vehicle's run is made with, typed (outputs complete it with their own part)."""
+        v, ctrl = self.vehicle, self.controller.describe()
+        return RunDescription(
+            config=self.config,
+            vehicle=VehicleDescription(
+                v.name, v.urdf_path.name, v.params_path.name, v.mass_kg, len(v.rotors), v.to_dict()
+            ),
+            controller=ControllerDescription(
+                self.controller.kind,
+                dict(ctrl.get("gains", {})),
+                {**ctrl, "landing": asdict(self.loop.landing.settings), "reset_on_crash": self.loop.reset_on_crash},
+            ),
+            driver=self.driver.describe(),
+            vehicle_model=v,
+            world_model=self.world,
+        )
+
+    def describe(self) -> dict[str, Any]:
+        """Every parameter of the run as plain data: the layout recordings carry (see description())."""
+        return self.description().to_parameters()
+
+    # --- lifetime ---------------------------------------------------------------------------
+
+    def close(self) -> None:
+        """Let go of the world (the fleet disconnects it): this vehicle cannot step afterwards."""
+        self.physics.close()
+
+    @property
+    def closed(self) -> bool:
+        """Whether the run was closed (stepping or resetting then raises QuadsimError)."""
+        return self._client.cid < 0 or self.physics.client_id < 0
+
+    def _check_open(self) -> None:
+        if self.closed:
+            raise QuadsimError("this Simulator is closed (close() or the end of its with-block): make a new one")
+
+
+def _streams(seed: int) -> tuple[np.random.SeedSequence, np.random.SeedSequence]:
+    """One seed per vehicle; each random stream (wind, IMU noise) gets its own child of it, so
+    adding a stream or turning one off leaves the others unchanged."""
+    wind_seed, imu_seed = np.random.SeedSequence(seed).spawn(2)
+    return wind_seed, imu_seed
