@@ -21,7 +21,7 @@ def record_flight(path: Path, workers: int = 0, size=(160, 120), cameras=True, s
     with Simulator(SimConfig(z_mode=parsed.z_mode or ZMode.VELOCITY), ScriptedDriver(parsed)) as sim:
         sim.add_sink(log)
         options = OutputOptions(out=path, cameras=default_cameras(*size, 30) if cameras else (), render_workers=workers)
-        with RecordedRun(sim, sim.description(), options, "test", {"script": "test"}):
+        with RecordedRun(sim, options, "test", {"script": "test"}):
             sim.run_for(parsed.duration_s)
     return log
 

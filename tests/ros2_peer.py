@@ -73,6 +73,7 @@ def main() -> int:
         cmd_topic = f"{prefix}/quad_cmd_twist"
     rclpy.init()
     node = Node("quadsim_test_peer")
+    print("peer: node up", flush=True)  # what a starter waits for (the benchmark starts its bridge then)
     clock_ns: list[int] = []
     odoms: list[dict[str, float]] = []
     images: list[bytes] = []

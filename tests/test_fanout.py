@@ -130,12 +130,13 @@ def flown():
 def test_states_and_commands_become_the_contracts_bytes(flown):
     log, _ = flown
     fanout, consumer = TopicFanout(240), Consumer()
+    producer = fanout.add_vehicle()
     fanout.add_consumer(consumer)
     consumer.messages.clear()  # the latched /tf_static
     for step, twist in log.commands:
-        fanout.on_command(step, twist)
+        producer.on_command(step, twist)
     for state in log.states:
-        fanout.on_state(state)
+        producer.on_state(state)
     commands = consumer.messages[: len(log.commands)]
     for (step, twist), (topic, ns, data) in zip(log.commands, commands):
         ref = T["geometry_msgs/msg/Twist"](linear=_vec(twist[:3]), angular=_vec(twist[3:]))
@@ -153,15 +154,16 @@ def test_states_and_commands_become_the_contracts_bytes(flown):
 
 def test_every_consumer_gets_the_same_messages_and_latecomers_the_latched_ones(flown):
     log, mounts = flown
-    fanout = TopicFanout(240, mounts)
+    fanout = TopicFanout(240)
+    producer = fanout.add_vehicle(cameras=mounts)
     first, late = Consumer(), Consumer()
     fanout.add_consumer(first)
     for state in log.states[:10]:
-        fanout.on_state(state)
+        producer.on_state(state)
     late_step = log.states[9].step
     fanout.add_consumer(late, late_step)
     for state in log.states[10:20]:
-        fanout.on_state(state)
+        producer.on_state(state)
     assert first.topics == late.topics and "/quad/front_camera/image_raw/compressed" in late.topics
     # /tf_static, latched: the first consumer's at 0, the latecomer's when it joined
     assert first.messages[0][0].name == "/tf_static" and first.messages[0][1] == 0
@@ -179,15 +181,16 @@ def test_every_consumer_gets_the_same_messages_and_latecomers_the_latched_ones(f
 
 def test_frames_joy_and_events(flown):
     _, mounts = flown
-    fanout, consumer = TopicFanout(240, mounts), Consumer()
-    fanout.note_event(3, "z_mode", "height")
+    fanout, consumer = TopicFanout(240), Consumer()
+    producer = fanout.add_vehicle(cameras=mounts)
+    producer.note_event(3, "z_mode", "height")
     fanout.add_consumer(consumer)
     consumer.messages.clear()
     spec = mounts[1][0]
-    fanout.on_camera_frame(CameraFrame(spec.name, 8, b"\xff\xd8jpeg", spec.width_px, spec.height_px))
-    fanout.on_camera_frame(CameraFrame("nobody", 8, b"", 1, 1))  # not one of the run's cameras
-    fanout.on_joy(24, (0.5, -1.0), (1, 0, 0))
-    fanout.note_event(48, "z_mode", "velocity")
+    producer.on_camera_frame(CameraFrame(spec.name, 8, b"\xff\xd8jpeg", spec.width_px, spec.height_px))
+    producer.on_camera_frame(CameraFrame("nobody", 8, b"", 1, 1))  # not one of the run's cameras
+    producer.on_joy(24, (0.5, -1.0), (1, 0, 0))
+    producer.note_event(48, "z_mode", "velocity")
     names = [topic.name for topic, _, _ in consumer.messages]
     assert names == [f"{spec.topic_prefix}/image_raw/compressed", f"{spec.topic_prefix}/camera_info", "/joy", "/rosout"]
     image, info, joy, rosout = (TS.deserialize_cdr(d, t.type_name) for t, _, d in consumer.messages)
@@ -204,12 +207,13 @@ def test_frames_joy_and_events(flown):
 
 def test_the_loop_feeds_the_fanout_only_while_something_records(tmp_path):
     with Simulator(SimConfig()) as sim:
-        with RecordedRun(sim, sim.description(), OutputOptions(record=False, out=tmp_path, cameras=()), "quiet") as run:
-            assert run.fanout not in sim.loop.sinks  # an unrecorded run builds no messages at all
+        with RecordedRun(sim, OutputOptions(record=False, out=tmp_path, cameras=()), "quiet") as run:
+            producer = run.topics[""]
+            assert producer not in sim.loop.sinks  # an unrecorded run builds no messages at all
             run.start_recording()
-            assert run.fanout in sim.loop.sinks and run.fanout.consumers == [run.recorder]
+            assert producer in sim.loop.sinks and run.fanout.consumers == [run.recorder]
             run.stop_recording()
-            assert run.fanout not in sim.loop.sinks and not run.fanout.consumers
+            assert producer not in sim.loop.sinks and not run.fanout.consumers
 
 
 def test_the_scene_is_latched_for_every_consumer_with_its_meshes_inline(tmp_path):
@@ -227,7 +231,8 @@ def test_the_scene_is_latched_for_every_consumer_with_its_meshes_inline(tmp_path
     urdf.write_text(DEFAULT_URDF.read_text().replace("<visual>", mesh_visual, 1))
     default_params_path(urdf).write_bytes(default_params_path(DEFAULT_URDF).read_bytes())
     vehicle, world = load_vehicle(urdf), load_world()
-    fanout, late = TopicFanout(240, (), vehicle, world), Consumer()
+    fanout, late = TopicFanout(240, world), Consumer()
+    fanout.add_vehicle(vehicle=vehicle)
     fanout.add_consumer(late, 480)
     assert late.topics[-2:] == ["/robot_description", "/world/markers"]
     decoded = {t.name: (ns, TS.deserialize_cdr(d, t.type_name)) for t, ns, d in late.messages}

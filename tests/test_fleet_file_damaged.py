@@ -10,7 +10,7 @@ from pathlib import Path
 
 import pytest
 
-from quadsim.apps.fleet_flight import fleet_drivers
+from quadsim.apps.plans import fleet_drivers
 from quadsim.errors import QuadsimError
 from quadsim.sim.config import SimConfig
 from quadsim.sim.fleet import Fleet

@@ -9,12 +9,12 @@ from pathlib import Path
 import pygame
 
 from quadsim import SimConfig
-from quadsim.apps.fleet_flight import fleet_drivers
-from quadsim.apps.window.pacing import FixedStepPacer
+from quadsim.apps.plans import fleet_drivers
 from quadsim.apps.window.teleop import FleetSetup, TeleopApp, TeleopOptions
 from quadsim.recording.flight import load_flights
 from quadsim.sensors.camera import default_cameras
 from quadsim.session.outputs import OutputOptions
+from quadsim.session.pacing import FixedStepPacer
 from quadsim.sim.fleet_file import load_fleet_file
 from tests.test_cli import cli
 from tests.test_teleop import FPS, key, run_with
@@ -69,9 +69,9 @@ def test_the_keyboard_flies_its_vehicle_the_map_shows_the_others_and_c_cycles_th
     )
     alpha = app.sim.state.position_m
     assert 1.3 < alpha[2] < 1.8 and alpha[0] > 1.2, alpha  # the keys flew alpha
-    bravo = app.fleet.fleet["bravo"].state.position_m
+    bravo = app.session.fleet["bravo"].state.position_m
     assert bravo[2] > 1.5 and bravo[0] > 0.5, bravo  # its square, meanwhile (6 s: take-off, then forward)
-    assert app.fleet.fleet["charlie"].state.position_m[2] < 0.1  # idle
+    assert app.session.fleet["charlie"].state.position_m[2] < 0.1  # idle
     model = app._model()
     assert [name for name, *_ in model.others] == ["bravo", "charlie"] and model.cameras_of == "alpha"
     (_, position, _, points) = model.others[0]
@@ -97,11 +97,11 @@ def test_the_keyboard_flies_its_vehicle_the_map_shows_the_others_and_c_cycles_th
 def test_backspace_resets_the_whole_fleet(tmp_path):
     app = fleet_app(tmp_path)
     run_with(app, 90, {0: [lambda: key(pygame.K_w)], 60: [lambda: key(pygame.K_w, False)]})
-    assert app.sim.state.position_m[2] > 1.0 and app.fleet.fleet["bravo"].state.position_m[2] > 0.5
+    assert app.sim.state.position_m[2] > 1.0 and app.session.fleet["bravo"].state.position_m[2] > 0.5
     run_with(app, 1, {0: [lambda: key(pygame.K_BACKSPACE)]})
     for name in ("alpha", "bravo"):
-        assert app.fleet.fleet[name].state.position_m[2] < 0.2, name
-    assert app.fleet.fleet.step_count < 20
+        assert app.session.fleet[name].state.position_m[2] < 0.2, name
+    assert app.session.fleet.step_count < 20
     assert app.flown_s > 1.3  # the clock started again; the time flown did not
     lines = app.final_lines()
     assert [line.split()[0] for line in lines] == ["alpha", "bravo", "charlie"] and "script square" in lines[1]
@@ -155,7 +155,7 @@ def test_backspace_plays_a_finished_script_again_from_its_start(tmp_path):
     and so does the script), and its commands are in the new recording."""
     (tmp_path / "short.qscript").write_text("z_mode height\n1.0 linear.z=0\n")
     app = fleet_app(tmp_path, FLEET.replace('input = "script:square"', 'input = "script:short.qscript"'))
-    bravo = app.fleet.fleet["bravo"]
+    bravo = app.session.fleet["bravo"]
     run_with(app, 3 * FPS)
     assert bravo.driver.finished and bravo.state.position_m[2] > 1.0
     run_with(app, 1, {0: [lambda: key(pygame.K_BACKSPACE)]})

@@ -413,7 +413,7 @@ def test_a_fleet_with_a_keyboard_and_a_gamepad_vehicle_is_flown_by_two_people(tm
     assert app.fleet is not None and (app.fleet.flown, app.fleet.second) == ("alpha", "bravo")
     assert app.driver is app.keyboard and app.second_hand is app.joystick and app.joystick.pad is not None
     assert "the gamepad flies bravo" in app._input_status()
-    bravo = app.fleet.fleet["bravo"]
+    bravo = app.session.fleet["bravo"]
     run_with(app, 5)
     hold(app, pad, {LEFTY: -1.0}, 1.5)  # left stick up: bravo climbs, alpha stays down
     assert bravo.state.position_m[2] > 1.0 and app.sim.state.position_m[2] < 0.1

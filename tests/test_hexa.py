@@ -82,7 +82,7 @@ def test_hexa_flies_the_square_within_the_quads_targets(metric, bound):
 
 def test_hexa_recording_reflies_to_zero(tmp_path):
     with Simulator(SimConfig(urdf=HEXA, z_mode=ZMode.HEIGHT)) as sim:
-        with RecordedRun(sim, sim.description(), OutputOptions(out=tmp_path / "hexa.mcap", cameras=()), "hexa") as run:
+        with RecordedRun(sim, OutputOptions(out=tmp_path / "hexa.mcap", cameras=()), "hexa") as run:
             sim.send(Twist())
             sim.run_for(3.0)
             sim.send(Twist(linear_x=1.0, angular_z=0.5))

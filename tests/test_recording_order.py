@@ -24,7 +24,7 @@ def test_messages_are_written_in_log_time_order_with_render_workers(tmp_path):
     path = tmp_path / "ordered.mcap"
     with Simulator(SimConfig(z_mode=ZMode.HEIGHT)) as sim:
         options = OutputOptions(out=path, cameras=default_cameras(64, 48, 30), render_workers=2)
-        with RecordedRun(sim, sim.description(), options, "ordered"):
+        with RecordedRun(sim, options, "ordered"):
             sim.send(Twist(linear_x=0.5))
             sim.run_for(3.0)
     found = _raw_log_times(path)
@@ -37,7 +37,7 @@ def test_messages_are_written_in_log_time_order_with_render_workers(tmp_path):
 def test_a_recording_started_mid_run_begins_when_it_began(tmp_path):
     with Simulator(SimConfig(z_mode=ZMode.HEIGHT)) as sim:
         options = OutputOptions(record=False, out=tmp_path, cameras=default_cameras(64, 48, 30), render_workers=2)
-        with RecordedRun(sim, sim.description(), options, "late") as run:
+        with RecordedRun(sim, options, "late") as run:
             sim.send(Twist())
             sim.run_for(5.0)  # frames are in flight when recording starts
             path = run.start_recording()

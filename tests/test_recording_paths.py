@@ -108,7 +108,7 @@ def test_out_file_names_the_first_recording_and_numbers_the_later_ones(tmp_path)
 
     (tmp_path / "mine-2.mcap").write_bytes(b"someone else's")
     with Simulator(SimConfig()) as sim:
-        session = RecordedRun(sim, sim.description(), OutputOptions(out=tmp_path / "mine.mcap", cameras=()), "t", {})
+        session = RecordedRun(sim, OutputOptions(out=tmp_path / "mine.mcap", cameras=()), "t", {})
         paths = [session.path]
         for _ in range(2):
             session.stop_recording()

@@ -61,8 +61,8 @@ def test_disk_full_stops_recording_keeps_flying_keeps_data(tmp_path):
     with Simulator(SimConfig(z_mode=ZMode.HEIGHT)) as sim:
         rec = McapRecorder(path, sim.description(), stream=disk)
         fanout = TopicFanout(sim.config.rates.physics_hz)
+        sim.add_sink(fanout.add_vehicle())
         fanout.add_consumer(rec)
-        sim.add_sink(fanout)
         sim.send(Twist(linear_x=-0.5))  # backwards: the way ahead has a tower in it
         sim.run_for(30.0)  # the recording fills up long before the end
         assert rec.error is not None and "No space left" in rec.error and "quadsim recover" in rec.error
@@ -136,7 +136,7 @@ def test_exception_in_the_loop_still_finishes_the_file(tmp_path):
 
     path = tmp_path / "boom.mcap"
     with pytest.raises(RuntimeError, match="a bug"), Simulator(SimConfig()) as sim:
-        with RecordedRun(sim, sim.description(), OutputOptions(out=path, cameras=()), "boom"):
+        with RecordedRun(sim, OutputOptions(out=path, cameras=()), "boom"):
             sim.add_sink(Boom())
             sim.send(Twist(linear_z=0.5))
             sim.run_for(5.0)

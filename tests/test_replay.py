@@ -16,11 +16,11 @@ from mcap.writer import Writer
 
 from quadsim import QuadsimError, SimConfig
 from quadsim.apps.replay_export import export_mp4
-from quadsim.apps.window.pacing import FixedStepPacer
 from quadsim.apps.window.replay import ReplayApp
 from quadsim.apps.window.teleop import TeleopApp, TeleopOptions
 from quadsim.recording.flight import load_flight
 from quadsim.session.outputs import OutputOptions
+from quadsim.session.pacing import FixedStepPacer
 from quadsim.session.resim import resimulate
 from tests.recording_helpers import copy_recording, record_flight
 

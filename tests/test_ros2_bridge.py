@@ -81,10 +81,10 @@ class _Collect:
 
 def test_the_window_flies_the_ros2_input(tmp_path: Path) -> None:
     pygame = pytest.importorskip("pygame")
-    from quadsim.apps.window.pacing import FixedStepPacer
     from quadsim.apps.window.teleop import TeleopApp, TeleopOptions
     from quadsim.drivers.subscribed import SubscribedDriver
     from quadsim.session.outputs import OutputOptions
+    from quadsim.session.pacing import FixedStepPacer
     from quadsim.sim.config import SimConfig
 
     driver = SubscribedDriver("ros2")

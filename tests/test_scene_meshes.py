@@ -96,7 +96,8 @@ def test_each_consumer_gets_the_urls_it_can_read(tmp_path: Path) -> None:
     from quadsim.recording.fanout import TopicFanout
     from quadsim.vehicle.params import load_vehicle
 
-    fanout = TopicFanout(240, vehicle=load_vehicle(_vehicle_with_mesh(tmp_path)))
+    fanout = TopicFanout(240)
+    fanout.add_vehicle(vehicle=load_vehicle(_vehicle_with_mesh(tmp_path)))
     got: dict[str, str] = {}
 
     class Consumer:

@@ -67,7 +67,8 @@ def test_messages_from_another_thread_fly_and_silence_holds() -> None:
 def test_the_run_summary_says_what_arrived_live() -> None:
     """NaN Twists stop at the driver and a 1e308 one is clamped: the summary counts both (it said
     '0 rejected' after NaNs had arrived), and a live line says what the wire brought."""
-    from quadsim.session.headless import run_headless
+    from quadsim.session.plan import RunPlan
+    from quadsim.session.run import Run
 
     d = SubscribedDriver("ros2")
     with Simulator(SimConfig(), driver=d) as sim:
@@ -75,7 +76,8 @@ def test_the_run_summary_says_what_arrived_live() -> None:
             d.deliver(linear, 0.0)
             if linear[0] != 0.5:  # the 0.5 forward is superseded by the 0.5 left before a step takes it
                 sim.step(5)
-        summary = run_headless(sim, 0.5)
+        with Run(RunPlan.alone(sim.config, d, duration_s=0.5), fleet=sim) as run:
+            summary = run.fly()[""]
     lines = "\n".join(summary.lines())
     assert "2 rejected (not finite), 1 clamped to the limits" in lines, lines
     assert "live input      5 arrived on /quad_cmd_twist from ros2: 2 rejected (not finite), 1 superseded" in lines

@@ -378,7 +378,7 @@ def test_a_worker_that_reuses_its_simulators_gives_the_rows_of_new_ones(tmp_path
     world and vehicle are built once per airframe, controller and wind, not once per run."""
     from quadsim.apps.sweep import run as sweep_run
     from quadsim.apps.sweep.execute import hand_out_order
-    from quadsim.sim.simulator import Simulator
+    from quadsim.sim.fleet import Fleet
 
     spec = _write(
         tmp_path,
@@ -389,13 +389,13 @@ def test_a_worker_that_reuses_its_simulators_gives_the_rows_of_new_ones(tmp_path
     )
     tasks = [sweep_run.RunTask(run) for run in load_sweep(spec).runs]
     built = []
-    init = Simulator.__init__
+    init = Fleet.__init__
 
     def counting_init(self, *args, **kwargs):
         built.append(1)
         init(self, *args, **kwargs)
 
-    monkeypatch.setattr(Simulator, "__init__", counting_init)
+    monkeypatch.setattr(Fleet, "__init__", counting_init)
     fresh = []
     for task in tasks:
         sweep_run.forget_simulators()
@@ -462,7 +462,7 @@ def test_a_fleet_file_is_a_scenario_whose_row_is_its_worst_vehicle(tmp_path: Pat
     its row holds each metric's largest over its vehicles (computed again here by flying the same
     fleet), a broken limit names the vehicle, the pool gives the table one process gives, and its
     recording re-flies at zero as a fleet."""
-    from quadsim.apps.fleet_flight import fleet_drivers
+    from quadsim.apps.plans import fleet_drivers
     from quadsim.apps.sweep.metrics import flight_metrics
     from quadsim.physics.wind import wind_from_text
     from quadsim.sim.config import SimConfig

@@ -9,10 +9,10 @@ from mcap_ros2.decoder import DecoderFactory
 
 from quadsim import SimConfig, ZMode
 from quadsim.apps.replay_export import summary_lines
-from quadsim.apps.window.pacing import FixedStepPacer
 from quadsim.apps.window.teleop import TeleopApp, TeleopOptions
 from quadsim.recording.flight import load_flight
 from quadsim.session.outputs import OutputOptions
+from quadsim.session.pacing import FixedStepPacer
 
 FPS = 30  # each frame advances 1/30 s of simulation time
 
@@ -128,10 +128,10 @@ def test_pause_reset_zmode_and_recording_keys(tmp_path):
     assert app.sim.state.position_m[2] == pytest.approx(altitude, abs=0.1)
     stopped_at = app.sim.time_s
     run_with(app, 2, {0: [lambda: key(pygame.K_F5)]})  # stop recording
-    assert not app.session.recording
+    assert not app.session.outputs.recording
     started_at = app.sim.time_s
     run_with(app, 2, {0: [lambda: key(pygame.K_F5)]})  # a new one
-    assert app.session.recording and len(app.recordings) == 2
+    assert app.session.outputs.recording and len(app.recordings) == 2
     reset_at = app.sim.time_s
     run_with(app, 2, {0: [lambda: key(pygame.K_BACKSPACE)]})  # reset: back to start, new file
     assert app.sim.state.position_m[2] < 0.1 and len(app.recordings) == 3

@@ -13,11 +13,11 @@ import pygame
 import pytest
 
 from quadsim import SimConfig, Simulator, Twist, ZMode
-from quadsim.apps.window.pacing import FixedStepPacer, RealTimePacer
 from quadsim.apps.window.teleop import TeleopApp, TeleopOptions
 from quadsim.sensors.camera import default_cameras
 from quadsim.sensors.pipeline import CameraPipeline
 from quadsim.session.outputs import OutputOptions
+from quadsim.session.pacing import FixedStepPacer, RealTimePacer
 
 
 class FakeClock:
@@ -128,7 +128,7 @@ import gc, os, tempfile
 from pathlib import Path
 os.environ["SDL_VIDEODRIVER"] = os.environ["SDL_AUDIODRIVER"] = "dummy"
 from quadsim import SimConfig, ZMode
-from quadsim.apps.window.pacing import FixedStepPacer
+from quadsim.session.pacing import FixedStepPacer
 from quadsim.apps.window.teleop import TeleopApp, TeleopOptions
 from quadsim.session.outputs import OutputOptions
 

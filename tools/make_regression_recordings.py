@@ -17,13 +17,14 @@ os.environ.setdefault("PYGAME_HIDE_SUPPORT_PROMPT", "1")
 
 import pygame  # noqa: E402
 
-from quadsim import ControllerKind, Fleet, FleetVehicle, SimConfig, Simulator, StartPose, ZMode  # noqa: E402
-from quadsim.apps.window.pacing import FixedStepPacer  # noqa: E402
+from quadsim import ControllerKind, FleetVehicle, SimConfig, StartPose, ZMode  # noqa: E402
 from quadsim.apps.window.teleop import TeleopApp, TeleopOptions  # noqa: E402
 from quadsim.drivers.scripted import ScriptedDriver, load_script  # noqa: E402
 from quadsim.physics.wind import Turbulence, WindSettings  # noqa: E402
-from quadsim.session.fleet_outputs import FleetRecordedRun  # noqa: E402
-from quadsim.session.outputs import OutputOptions, RecordedRun  # noqa: E402
+from quadsim.session.outputs import OutputOptions  # noqa: E402
+from quadsim.session.pacing import FixedStepPacer  # noqa: E402
+from quadsim.session.plan import RunPlan  # noqa: E402
+from quadsim.session.run import fly  # noqa: E402
 from quadsim.vehicle.params import SHIPPED_VEHICLES  # noqa: E402
 
 OUT = ROOT / "tests" / "recordings"
@@ -35,11 +36,13 @@ def scripted(name: str, controller: ControllerKind, wind: WindSettings = WindSet
     path = OUT / f"{name}{windy}_{controller.value}.mcap"
     path.unlink(missing_ok=True)
     config = SimConfig(controller=controller, z_mode=script.z_mode or ZMode.VELOCITY, wind=wind, seed=seed)
-    with Simulator(config, ScriptedDriver(script)) as sim:
-        with RecordedRun(
-            sim, sim.description(), OutputOptions(out=path, cameras=()), name, {"command": "run", "script": name}
-        ):
-            sim.run_for(script.duration_s)
+    outputs = OutputOptions(out=path, cameras=())
+    info = {"command": "run", "script": name}
+    fly(
+        RunPlan.alone(
+            config, ScriptedDriver(script), duration_s=script.duration_s, outputs=outputs, label=name, run_info=info
+        )
+    )
     return path
 
 
@@ -97,9 +100,8 @@ def fleet_trio() -> Path:
         FleetVehicle("charlie", start=StartPose(-4.0, 0.0), urdf=SHIPPED_VEHICLES["hexa"]),
     ]
     config = SimConfig(z_mode=ZMode.HEIGHT, wind=WindSettings(3.0, 45.0, Turbulence.LIGHT), seed=11)
-    with Fleet(vehicles, config) as fleet:
-        with FleetRecordedRun(fleet, OutputOptions(out=path, cameras=()), "fleet", {"command": "run"}):
-            fleet.run_for(10.0)
+    outputs = OutputOptions(out=path, cameras=())
+    fly(RunPlan(config, tuple(vehicles), 10.0, outputs, label="fleet", run_info={"command": "run"}))
     return path
 
 

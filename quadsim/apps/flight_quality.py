@@ -16,6 +16,8 @@ from quadsim.core.kinematics import clamp, matrix_from_rpy, quaternion_from_matr
 from quadsim.core.types import Twist, VehicleState, ZMode
 from quadsim.drivers.scripted import ScriptedDriver, load_script
 from quadsim.physics.wind import Turbulence, WindSettings
+from quadsim.session.plan import RunPlan
+from quadsim.session.run import Run, to_the_end
 from quadsim.sim.config import SimConfig
 from quadsim.sim.flight_events import EventKind
 from quadsim.sim.loop import StateLog
@@ -46,10 +48,10 @@ def fly(scenario: str, controller: ControllerKind = ControllerKind.CASCADE, conf
     script = load_script(scenario)
     base = config or SimConfig()
     cfg = SimConfig(**{**base.__dict__, "controller": controller, "z_mode": script.z_mode or base.z_mode})
-    with Simulator(cfg, ScriptedDriver(script)) as sim:
-        log = StateLog()
-        sim.add_sink(log)
-        sim.run_for(script.duration_s)
+    log = StateLog()
+    with Run(RunPlan.alone(cfg, ScriptedDriver(script), duration_s=script.duration_s)) as run:
+        run.fleet.members[0].add_sink(log)
+        run.fly(stop=to_the_end)
     return Flight(scenario, controller, tuple(log.states), cfg.rates.physics_hz)
 
 

@@ -32,6 +32,10 @@ if TYPE_CHECKING:
 
 #: sim time a single run may cover: a week (a longer run is surely a typo)
 MAX_DURATION_S = 7 * 24 * 3600.0
+#: what `fly` records when there is no display for its window
+DEMO_SCENARIO = "figure8"
+#: `run --commands-from` flies this long after the last command (the dead-man timeout, and settling)
+COMMANDS_TAIL_S = 2.0
 DEFAULT_CAMERAS, DEFAULT_CAMERA_SIZE, DEFAULT_CAMERA_HZ = "front,floor", "320x240", 30
 PLOT_SUFFIXES = (".png", ".jpg", ".jpeg", ".pdf", ".svg")
 

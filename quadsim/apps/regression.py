@@ -11,7 +11,6 @@ from typing import TYPE_CHECKING
 from quadsim.errors import QuadsimError
 
 if TYPE_CHECKING:
-    from quadsim.session.fleet_resim import FleetResimReport
     from quadsim.sim.description import RunDescription
 
 #: how far a re-flight may stray from its recording, by default (`check`, the pytest plugin)
@@ -47,8 +46,7 @@ def check_one(task: CheckTask) -> CheckOutcome:
     """Re-fly one recording (one vehicle's or a fleet's) and say how it went (never raises for a
     bad file: it is 'unusable')."""
     from quadsim.recording.flight import load_flights
-    from quadsim.session.fleet_resim import resimulate_fleet
-    from quadsim.session.resim import NothingFlown, ResimReport, resimulate
+    from quadsim.session.resim import NothingFlown, resimulate
 
     path = task.path
     try:
@@ -57,22 +55,14 @@ def check_one(task: CheckTask) -> CheckOutcome:
         flights = load_flights(path)
         flight = next(iter(flights.values()))
         m, rad = task.tolerance_m, task.tolerance_rad
-        if flight.vehicle:
-            report: ResimReport | FleetResimReport = resimulate_fleet(
-                flights, record=False, position_tolerance_m=m, attitude_tolerance_rad=rad
-            )
-        else:
-            report = resimulate(flight, record=False, position_tolerance_m=m, attitude_tolerance_rad=rad)
+        report = resimulate(flights, record=False, position_tolerance_m=m, attitude_tolerance_rad=rad)
     except NothingFlown:  # a run stopped at once: its (empty) flight is the same as re-flown
         return CheckOutcome(path, "ok", (f"ok    {path}: nothing was flown (stopped before the first step)",))
     except QuadsimError as exc:
         return CheckOutcome(path, "unusable", (f"ERROR {path}: {str(exc).removeprefix(f'{path}: ')}",))
     ok = report.within(task.tolerance_m, task.tolerance_rad)
-    if isinstance(report, ResimReport):
-        position, attitude, what = report.position.max_error, report.attitude.max_error, ""
-    else:
-        position, attitude = report.worst_position_m, report.worst_attitude_rad
-        what = f" (a fleet of {len(report.vehicles)})"
+    position, attitude = report.position.max_error, report.attitude.max_error
+    what = f" (a fleet of {report.fleet_size})" if report.fleet_size else ""
     lines = [
         f"{'ok   ' if ok else 'FAIL '} {path}{what}: position off by up to {position:.3g} m, "
         f"attitude by up to {attitude:.3g} rad"

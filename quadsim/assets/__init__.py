@@ -13,3 +13,13 @@ from pathlib import Path
 def asset_path(*parts: str) -> Path:
     """The file system path of a shipped asset (packages are installed unzipped)."""
     return Path(str(resources.files(__name__).joinpath(*parts)))
+
+
+#: the kinds of file the shipped examples are (programs, sweep and fleet files)
+EXAMPLE_SUFFIXES = (".py", ".toml")
+
+
+def shipped_examples() -> dict[str, Path]:
+    """name -> path of each shipped example (`quadsim examples` lists and copies them)."""
+    folder = asset_path("examples")
+    return {p.name: p for p in sorted(folder.iterdir()) if p.suffix in EXAMPLE_SUFFIXES}

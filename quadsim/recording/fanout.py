@@ -1,11 +1,14 @@
-"""One topic fan-out: a run's commands, states, camera frames, joystick input and events become
-the recording contract's messages once, and every consumer gets the same messages.
+"""One topic fan-out per run: every vehicle's commands, states, camera frames, joystick input and
+events become the recording contract's messages once, and every consumer gets the same messages.
 
 A message is (topic, log time in ns of simulation time, CDR bytes), with header.stamp equal to
-its log time. Consumers (the MCAP recorder today; a ROS 2 bridge, a Foxglove server and the
-window later) choose nothing: which messages a state becomes is decided here alone. Each producer
-hands its messages over in log-time order (a state's five at once); frames rendered in other
-processes arrive when they are ready, as they would on a live bus.
+its log time. Consumers (the MCAP recorder, the ROS 2 and Foxglove bridges) choose nothing: which
+messages a state becomes is decided here alone. The run's fan-out (`TopicFanout`) holds the
+consumers, the topics and the latched messages; each vehicle's producer (`VehicleTopics`, a loop
+sink and a camera-frame sink) turns what that vehicle does into messages under its names (a run
+of one vehicle: the contract's own). Each producer hands its messages over in log-time order (a
+state's five at once); frames rendered in other processes arrive when they are ready, as they
+would on a live bus.
 """
 
 from __future__ import annotations
@@ -84,81 +87,64 @@ class _Camera(NamedTuple):
 
 
 class TopicFanout:
-    """A loop sink (commands, states) and a camera-frame sink that turns what it receives into the
-    contract's messages and hands them to its consumers. With no consumer it does nothing.
+    """A run's fan-out: its consumers, the topics announced so far and the latched messages (one
+    /tf_static with every vehicle's links, each vehicle's robot description, the world's markers),
+    fed by each vehicle's producer (`add_vehicle`). With no consumer it does nothing.
 
-    Given the run's `vehicle` and `world`, the latched messages describe the scene as well: the
-    URDF, the world's markers and every link's static transform (`quadsim.recording.scene`).
+    A consumer added at any time gets every topic announced so far, then the latched messages, as
+    a late joiner of a live graph needs them (one message a latched topic keeps)."""
 
-    `names`: in a fleet, the vehicle's topics and frames have its name in front (contract.Names);
-    the fleet's fan-out (`FleetFanout`) then sends the latched messages the vehicles share."""
+    def __init__(self, physics_hz: int, world: WorldSpec | None = None) -> None:
+        self.physics_hz = physics_hz
+        self._world = world
+        self.consumers: list[TopicConsumer] = []
+        #: each vehicle's producer, in the run's order
+        self.vehicles: list[VehicleTopics] = []
+        self._announced: list[Topic] = []  # what producers declared since they were made
+        self._known: set[str] = {WORLD_MARKERS.name} if world is not None else set()  # every topic's name so far
 
-    def __init__(
+    def add_vehicle(
         self,
-        physics_hz: int,
+        names: Names = ONE_VEHICLE,
         cameras: Sequence[tuple[CameraSpec, CameraMount]] = (),
         vehicle: VehicleParams | None = None,
-        world: WorldSpec | None = None,
-        names: Names = ONE_VEHICLE,
-    ) -> None:
-        self.physics_hz = physics_hz
-        self.names = names
-        t, body = names.topic, names.frame(BODY_FRAME)
-        self._twist, self._joy, self._wind, self._description = t(TWIST), t(JOY), t(WIND), t(ROBOT_DESCRIPTION)
-        self._state_topics = tuple(t(topic) for topic in STATE_TOPICS)
-        self._logger = f"{names.vehicle}.{LOGGER_NAME}" if names.vehicle else LOGGER_NAME
-        self._joy_frame = names.frame(JOY_FRAME)
-        # the encoders of the state's messages, compiled for their frames
-        self._pose = cdr.pose_stamped_encoder(WORLD_FRAME)
-        self._odometry = cdr.odometry_encoder(WORLD_FRAME, body)
-        self._imu = cdr.imu_encoder(body)
-        self._tf = cdr.transform_encoder(WORLD_FRAME, body)
-        self.consumers: list[TopicConsumer] = []
-        self._cameras = {
-            spec.name: _Camera(spec, t(image_topic(spec)), t(camera_info_topic(spec)), names.frame(spec.optical_frame))
-            for spec, _ in cameras
-        }
-        self._infos = {spec.name: spec.camera_info() for spec, _ in cameras}
-        #: every topic announced so far, in the order consumers get them
-        self.topics: list[Topic] = [self._twist, *self._state_topics, TF_STATIC]
-        for camera in self._cameras.values():
-            self.topics += [camera.image, camera.info]
-        static = link_transforms(vehicle) if vehicle is not None else []
-        static += [
-            cdr.TransformStamped(
-                0, BODY_FRAME, spec.optical_frame, mount.position_m, quaternion_from_matrix(optical_rotation(mount))
-            )
-            for spec, mount in cameras
-        ]
-        #: base_link -> every URDF link and camera (stamped when sent)
-        self.static_transforms = [
-            s._replace(frame_id=names.frame(s.frame_id), child_frame_id=names.frame(s.child_frame_id)) for s in static
-        ]
-        self._urdf_path = vehicle.urdf_path if vehicle is not None else None
-        self._robot_description: dict[bool, bytes] = {}  # by local_files: made when first asked for
-        self._world = world
-        self.topics += [self._description] if vehicle is not None else []
-        self.topics += [WORLD_MARKERS] if world is not None else []
+    ) -> VehicleTopics:
+        """A vehicle's producer: its topics under `names` (a run of one vehicle: the contract's),
+        its cameras' images and infos, and with `vehicle` its links and robot description. Every
+        vehicle is added before the first consumer (which gets their latched messages)."""
+        if self.consumers:
+            raise RuntimeError("a run's vehicles are added to its fan-out before its consumers")
+        topics = VehicleTopics(self, names, cameras, vehicle)
+        self.vehicles.append(topics)
+        self._known.update(topic.name for topic in topics.topics)
+        return topics
+
+    @property
+    def topics(self) -> list[Topic]:
+        """Every topic announced so far: each vehicle's own in the run's order (with /tf_static
+        once), the world's markers, then what was declared since, in that order."""
+        seen: dict[str, Topic] = {}
+        for vehicle in self.vehicles:
+            for topic in vehicle.topics:
+                seen.setdefault(topic.name, topic)
+        if self._world is not None:
+            seen.setdefault(WORLD_MARKERS.name, WORLD_MARKERS)
+        for topic in self._announced:
+            seen.setdefault(topic.name, topic)
+        return list(seen.values())
 
     def latched(self, step: int = 0, local_files: bool = False) -> tuple[Message, ...]:
         """The latched messages (transient local), stamped at `step`: every consumer gets them
         first, whenever it joins. `local_files`: the URDF names its meshes by file:// URLs (for
         a consumer whose readers read files, as RViz does), not data: URLs (scene.py)."""
         ns = self.ns(step)
-        static = [t._replace(ns=ns) for t in self.static_transforms]
-        messages: list[Message] = [(TF_STATIC, ns, cdr.tf_message(static)), *self.own_latched(step, local_files)]
+        static = [t._replace(ns=ns) for vehicle in self.vehicles for t in vehicle.static_transforms]
+        messages: list[Message] = [(TF_STATIC, ns, cdr.tf_message(static))]
+        for vehicle in self.vehicles:
+            messages += vehicle.own_latched(step, local_files)
         if self._world is not None:
             messages.append((WORLD_MARKERS, ns, cdr.marker_array(world_markers(self._world, ns))))
         return tuple(messages)
-
-    def own_latched(self, step: int, local_files: bool = False) -> tuple[Message, ...]:
-        """The latched messages that are this vehicle's alone (its /robot_description)."""
-        if self._urdf_path is None:
-            return ()
-        if local_files not in self._robot_description:
-            text = robot_description(self._urdf_path, inline_meshes=not local_files)
-            self._robot_description[local_files] = cdr.string(text)
-        return ((self._description, self.ns(step), self._robot_description[local_files]),)
 
     # --- consumers ----------------------------------------------------------------------------
 
@@ -175,9 +161,10 @@ class TopicFanout:
             self.consumers.remove(consumer)
 
     def declare(self, topic: Topic) -> None:
-        """Announce a topic that not every run has (/joy when a joystick drives)."""
-        if topic not in self.topics:
-            self.topics.append(topic)
+        """Announce a topic that not every run has (/joy when a joystick drives, /wind, /rosout)."""
+        if topic.name not in self._known:
+            self._known.add(topic.name)
+            self._announced.append(topic)
             for consumer in self.consumers:
                 consumer.add_topic(topic)
 
@@ -185,23 +172,102 @@ class TopicFanout:
         """Log time of a physics step: floor(step * 1e9 / physics_hz)."""
         return step * NS_PER_S // self.physics_hz
 
-    def _publish(self, messages: Sequence[Message]) -> None:
+    def publish(self, messages: Sequence[Message]) -> None:
+        """Hand `messages` (in log-time order) to every consumer."""
         for consumer in self.consumers:
             consumer.on_messages(messages)
+
+    def note_event(self, step: int, kind: str, value: str, vehicle: str = "", logger: str = LOGGER_NAME) -> None:
+        """An event -> /rosout (a crash as a warning) as `logger`'s, and `on_event` for consumers
+        that keep it apart (a re-flight switches z-mode where it says); `vehicle`: the vehicle of
+        a fleet it is about ("": the run's, or the one vehicle's)."""
+        if not self.consumers:
+            return
+        self.declare(ROSOUT)
+        ns = self.ns(step)
+        level = cdr.LogLevel.WARN if kind in WARNING_EVENTS else cdr.LogLevel.INFO
+        message = (ROSOUT, ns, cdr.log(ns, level, logger, f"{kind}: {value}"))
+        for consumer in self.consumers:
+            if vehicle:
+                consumer.on_event(step, kind, value, vehicle)
+            else:  # as before fleets: a consumer written for one vehicle takes three
+                consumer.on_event(step, kind, value)
+            consumer.on_messages((message,))
+
+
+class VehicleTopics:
+    """One vehicle's producer: a loop sink (commands, states, flight events) and a camera-frame
+    sink that turns what it receives into the contract's messages, under the vehicle's names
+    (contract.Names: in a fleet, its name in front of its topics and frames), and hands them to
+    the run's fan-out. With no consumer it does nothing."""
+
+    def __init__(
+        self,
+        fanout: TopicFanout,
+        names: Names = ONE_VEHICLE,
+        cameras: Sequence[tuple[CameraSpec, CameraMount]] = (),
+        vehicle: VehicleParams | None = None,
+    ) -> None:
+        self.fanout = fanout
+        self.names = names
+        t, body = names.topic, names.frame(BODY_FRAME)
+        self._twist, self._joy, self._wind, self._description = t(TWIST), t(JOY), t(WIND), t(ROBOT_DESCRIPTION)
+        self._state_topics = tuple(t(topic) for topic in STATE_TOPICS)
+        self._logger = f"{names.vehicle}.{LOGGER_NAME}" if names.vehicle else LOGGER_NAME
+        self._joy_frame = names.frame(JOY_FRAME)
+        # the encoders of the state's messages, compiled for their frames
+        self._pose = cdr.pose_stamped_encoder(WORLD_FRAME)
+        self._odometry = cdr.odometry_encoder(WORLD_FRAME, body)
+        self._imu = cdr.imu_encoder(body)
+        self._tf = cdr.transform_encoder(WORLD_FRAME, body)
+        self._cameras = {
+            spec.name: _Camera(spec, t(image_topic(spec)), t(camera_info_topic(spec)), names.frame(spec.optical_frame))
+            for spec, _ in cameras
+        }
+        self._infos = {spec.name: spec.camera_info() for spec, _ in cameras}
+        #: this vehicle's topics, in the order consumers get them (/tf_static is the run's, shared)
+        self.topics: list[Topic] = [self._twist, *self._state_topics, TF_STATIC]
+        for camera in self._cameras.values():
+            self.topics += [camera.image, camera.info]
+        static = link_transforms(vehicle) if vehicle is not None else []
+        static += [
+            cdr.TransformStamped(
+                0, BODY_FRAME, spec.optical_frame, mount.position_m, quaternion_from_matrix(optical_rotation(mount))
+            )
+            for spec, mount in cameras
+        ]
+        #: base_link -> every URDF link and camera (stamped when sent)
+        self.static_transforms = [
+            s._replace(frame_id=names.frame(s.frame_id), child_frame_id=names.frame(s.child_frame_id)) for s in static
+        ]
+        self._urdf_path = vehicle.urdf_path if vehicle is not None else None
+        self._robot_description: dict[bool, bytes] = {}  # by local_files: made when first asked for
+        self.topics += [self._description] if vehicle is not None else []
+
+    def own_latched(self, step: int, local_files: bool = False) -> tuple[Message, ...]:
+        """The latched messages that are this vehicle's alone (its robot description)."""
+        if self._urdf_path is None:
+            return ()
+        if local_files not in self._robot_description:
+            text = robot_description(self._urdf_path, inline_meshes=not local_files)
+            self._robot_description[local_files] = cdr.string(text)
+        return ((self._description, self.fanout.ns(step), self._robot_description[local_files]),)
 
     # --- producers ----------------------------------------------------------------------------
 
     def on_command(self, step: int, twist: Twist) -> None:
         """The command as the controller received it -> /quad_cmd_twist."""
-        if self.consumers:
-            self._publish(((self._twist, self.ns(step), cdr.twist(twist[:3], twist[3:])),))
+        fanout = self.fanout
+        if fanout.consumers:
+            fanout.publish(((self._twist, fanout.ns(step), cdr.twist(twist[:3], twist[3:])),))
 
     def on_state(self, state: VehicleState) -> None:
         """A state -> pose, odometry, IMU (its noisy reading where the run has one), rotor
         thrusts, /tf and, in runs with wind, /wind, all stamped at its step."""
-        if not self.consumers:
+        fanout = self.fanout
+        if not fanout.consumers:
             return
-        ns = state.step * NS_PER_S // self.physics_hz
+        ns = state.step * NS_PER_S // fanout.physics_hz
         p, q, rates = state.position_m, state.orientation_xyzw, state.angular_velocity_body_rps
         thrusts = state.rotor_thrusts_n
         velocity = body_velocity(q, state.linear_velocity_mps)  # odometry's twist is in base_link
@@ -218,14 +284,15 @@ class TopicFanout:
             (tf, ns, self._tf(ns, p, q)),
         ]
         if state.wind_mps is not None:
-            self.declare(self._wind)
+            fanout.declare(self._wind)
             messages.append((self._wind, ns, cdr.vector3_stamped(ns, WORLD_FRAME, state.wind_mps)))
-        self._publish(messages)
+        fanout.publish(messages)
 
     def on_camera_frame(self, frame: CameraFrame) -> None:
         """A rendered frame -> its CompressedImage and the matching CameraInfo."""
         camera = self._cameras.get(frame.camera)
-        if camera is None or not self.consumers:
+        fanout = self.fanout
+        if camera is None or not fanout.consumers:
             return
         jpeg = frame.jpeg
         if jpeg is None:  # rendered before a recording asked for JPEG (it was in flight)
@@ -234,10 +301,10 @@ class TopicFanout:
             from quadsim.sensors.rendering import encode_jpeg
 
             jpeg = encode_jpeg(frame.rgb, camera.spec.jpeg_quality)
-        ns = self.ns(frame.step)
+        ns = fanout.ns(frame.step)
         i = self._infos[frame.camera]
         info = cdr.camera_info(ns, camera.frame, i.height_px, i.width_px, i.distortion_model, i.d, i.k, i.r, i.p)
-        self._publish(
+        fanout.publish(
             (
                 (camera.image, ns, cdr.compressed_image(ns, camera.frame, "jpeg", jpeg)),
                 (camera.info, ns, info),
@@ -246,93 +313,16 @@ class TopicFanout:
 
     def on_joy(self, step: int, axes: Sequence[float], buttons: Sequence[int]) -> None:
         """Joystick axes and buttons in the ROS `joy` convention -> /joy."""
-        if self.consumers:
-            self.declare(self._joy)
-            ns = self.ns(step)
-            self._publish(((self._joy, ns, cdr.joy(ns, self._joy_frame, axes, buttons)),))
+        fanout = self.fanout
+        if fanout.consumers:
+            fanout.declare(self._joy)
+            ns = fanout.ns(step)
+            fanout.publish(((self._joy, ns, cdr.joy(ns, self._joy_frame, axes, buttons)),))
 
     def on_event(self, step: int, kind: str, value: str) -> None:
         """A flight event from the loop (take-off, touchdown, landed, crash, reset) -> /rosout."""
         self.note_event(step, kind, value)
 
     def note_event(self, step: int, kind: str, value: str) -> None:
-        """An event (a z-mode switch, a flight event) -> /rosout (a crash as a warning), and
-        `on_event` for consumers that keep it apart."""
-        if not self.consumers:
-            return
-        self.declare(ROSOUT)
-        ns = self.ns(step)
-        level = cdr.LogLevel.WARN if kind in WARNING_EVENTS else cdr.LogLevel.INFO
-        message = (ROSOUT, ns, cdr.log(ns, level, self._logger, f"{kind}: {value}"))
-        vehicle = self.names.vehicle
-        for consumer in self.consumers:
-            if vehicle:
-                consumer.on_event(step, kind, value, vehicle)
-            else:  # as before fleets: a consumer written for one vehicle takes three
-                consumer.on_event(step, kind, value)
-            consumer.on_messages((message,))
-
-
-class FleetFanout:
-    """The fan-outs of a fleet's vehicles, each with its name in front of its topics, as one: a
-    consumer added here gets every vehicle's topics and messages, and the latched messages once,
-    as a late joiner of a live graph needs them (one message a latched topic keeps): one
-    /tf_static with every vehicle's links, each vehicle's /NAME/robot_description, and the
-    shared /world/markers."""
-
-    def __init__(self, members: Sequence[TopicFanout], world: WorldSpec | None = None) -> None:
-        if not members:
-            raise ValueError("a fleet's fan-out needs at least one vehicle's")
-        self.members = list(members)
-        self._world = world
-        self.consumers: list[TopicConsumer] = []
-
-    @property
-    def topics(self) -> list[Topic]:
-        """Every topic announced so far by any vehicle, once, and the shared ones."""
-        seen: dict[str, Topic] = {}
-        for member in self.members:
-            for topic in member.topics:
-                seen.setdefault(topic.name, topic)
-        if self._world is not None:
-            seen.setdefault(WORLD_MARKERS.name, WORLD_MARKERS)
-        return list(seen.values())
-
-    def ns(self, step: int) -> int:
-        return self.members[0].ns(step)
-
-    def latched(self, step: int = 0, local_files: bool = False) -> tuple[Message, ...]:
-        ns = self.ns(step)
-        static = [t._replace(ns=ns) for member in self.members for t in member.static_transforms]
-        messages: list[Message] = [(TF_STATIC, ns, cdr.tf_message(static))]
-        for member in self.members:
-            messages += member.own_latched(step, local_files)
-        if self._world is not None:
-            messages.append((WORLD_MARKERS, ns, cdr.marker_array(world_markers(self._world, ns))))
-        return tuple(messages)
-
-    def add_consumer(self, consumer: TopicConsumer, step: int = 0) -> None:
-        """As TopicFanout.add_consumer, for every vehicle at once."""
-        for topic in self.topics:
-            consumer.add_topic(topic)
-        consumer.on_messages(self.latched(step, getattr(consumer, "reads_local_files", False)))
-        for member in self.members:
-            member.consumers.append(consumer)
-        self.consumers.append(consumer)
-
-    def remove_consumer(self, consumer: TopicConsumer) -> None:
-        for member in self.members:
-            member.remove_consumer(consumer)
-        if consumer in self.consumers:
-            self.consumers.remove(consumer)
-
-    def note_event(self, step: int, kind: str, value: str) -> None:
-        """An event of the whole run (recording started or stopped) -> /rosout, as quadsim's."""
-        if not self.consumers:
-            return
-        ns = self.ns(step)
-        message = (ROSOUT, ns, cdr.log(ns, cdr.LogLevel.INFO, LOGGER_NAME, f"{kind}: {value}"))
-        for consumer in self.consumers:
-            consumer.add_topic(ROSOUT)
-            consumer.on_event(step, kind, value)
-            consumer.on_messages((message,))
+        """An event of this vehicle (a z-mode switch, a flight event) -> /rosout, as its logger's."""
+        self.fanout.note_event(step, kind, value, self.names.vehicle, self._logger)

@@ -1,12 +1,13 @@
-"""Re-simulation: fly a recording's commands again with the vehicle, controller and settings it
-was made with (from its metadata and attachments), and measure how far the new flight is from
-the recorded one."""
+"""Re-simulation: fly a recording's commands again with the vehicles, controllers and settings it
+was made with (from its metadata and attachments), one world and one clock for all of them, and
+measure how far each vehicle's new flight is from its recorded one. A recording of one vehicle is
+a fleet of one: the same plan, flown by the same Run."""
 
 from __future__ import annotations
 
 import math
 import tempfile
-import time
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, fields, replace
 from pathlib import Path
 from typing import Any
@@ -18,14 +19,12 @@ from quadsim.drivers.replay import ReplayDriver
 from quadsim.errors import QuadsimError
 from quadsim.recording.contract import ODOM, POSE, Names
 from quadsim.recording.flight import RecordedFlight
-from quadsim.session.outputs import OutputOptions, RecordedRun
+from quadsim.session.outputs import OutputOptions
+from quadsim.session.plan import RunPlan
+from quadsim.session.run import Run, to_the_end
 from quadsim.sim.config import SimConfig
+from quadsim.sim.fleet import Fleet, FleetVehicle
 from quadsim.sim.loop import StateLog
-from quadsim.sim.simulator import Simulator
-
-#: defaults for `check`: a recording re-flies when every state is within these of the recorded one
-POSITION_TOLERANCE_M = 1e-3
-ATTITUDE_TOLERANCE_RAD = 1e-3
 
 
 @dataclass(frozen=True)
@@ -42,27 +41,65 @@ class Deviation:
 
 
 @dataclass(frozen=True)
-class ResimReport:
-    recording: Path
+class VehicleReport:
+    """How far one vehicle's new flight is from its recorded one."""
+
     states_compared: int
     position: Deviation
     attitude: Deviation
     velocity: Deviation
-    new_recording: Path | None
-    sim_time_s: float = 0.0
-    stepping_wall_s: float = 0.0  # wall time spent flying (not loading, building or comparing)
 
     def within(self, position_m: float, attitude_rad: float) -> bool:
         return self.position.max_error <= position_m and self.attitude.max_error <= attitude_rad
 
     def lines(self) -> list[str]:
-        out = [f"re-flew {self.recording}: {self.states_compared} recorded states compared"]
+        out = []
         for d in (self.position, self.attitude, self.velocity):
             where = f", first beyond tolerance at t={d.first_beyond_s:.2f} s" if d.first_beyond_s is not None else ""
             out.append(
                 f"  {d.topic} {d.quantity}: max {d.max_error:.6g} {d.unit} at t={d.max_at_s:.2f} s, "
                 f"RMS {d.rms_error:.6g} {d.unit}{where}"
             )
+        return out
+
+
+@dataclass(frozen=True)
+class ResimReport:
+    """Each vehicle's report, in the run's order (a run of one vehicle: "" alone)."""
+
+    recording: Path
+    vehicles: dict[str, VehicleReport]
+    new_recording: Path | None
+    sim_time_s: float = 0.0
+    stepping_wall_s: float = 0.0  # wall time spent flying (not loading, building or comparing)
+
+    def within(self, position_m: float, attitude_rad: float) -> bool:
+        return all(r.within(position_m, attitude_rad) for r in self.vehicles.values())
+
+    @property
+    def states_compared(self) -> int:
+        return sum(r.states_compared for r in self.vehicles.values())
+
+    @property
+    def position(self) -> Deviation:
+        """The position deviation of the vehicle that strayed furthest."""
+        return max((r.position for r in self.vehicles.values()), key=lambda d: d.max_error)
+
+    @property
+    def attitude(self) -> Deviation:
+        """The attitude deviation of the vehicle that turned furthest from its recording."""
+        return max((r.attitude for r in self.vehicles.values()), key=lambda d: d.max_error)
+
+    @property
+    def fleet_size(self) -> int:
+        """How many named vehicles flew (0: a run of one vehicle)."""
+        return 0 if "" in self.vehicles else len(self.vehicles)
+
+    def lines(self) -> list[str]:
+        fleet = f"a fleet of {self.fleet_size}, " if self.fleet_size else ""
+        out = [f"re-flew {self.recording}: {fleet}{self.states_compared} recorded states compared"]
+        for name, report in self.vehicles.items():
+            out += [f"  {name}:", *("  " + line for line in report.lines())] if name else report.lines()
         if self.new_recording is not None:
             out.append(f"  new flight recorded to {self.new_recording}")
         return out
@@ -180,66 +217,90 @@ def _finite(value: object) -> bool:
 
 
 def resimulate(
-    flight: RecordedFlight,
+    flights: RecordedFlight | Mapping[str, RecordedFlight],
     out: Path | None = None,
     record: bool = True,
-    position_tolerance_m: float = POSITION_TOLERANCE_M,
-    attitude_tolerance_rad: float = ATTITUDE_TOLERANCE_RAD,
-    progress=None,
+    position_tolerance_m: float | None = None,
+    attitude_tolerance_rad: float | None = None,
+    progress: Callable[[float], None] | None = None,
 ) -> ResimReport:
-    """Fly `flight`'s commands again; with `record`, the new flight is recorded (no cameras)."""
+    """Fly every vehicle of a recording again, together (`flights`: load_flights' result, or
+    the one flight of a run of one vehicle); with `record`, the new flight is recorded (no cameras).
+    The tolerances say where each deviation first went beyond them (None: not judged; `check`'s
+    are quadsim.apps.regression's)."""
+    if isinstance(flights, RecordedFlight):
+        if flights.vehicle:
+            raise QuadsimError(f"{flights.path}: a fleet's recording: re-fly all its vehicles (load_flights)")
+        flights = {"": flights}
+    first = next(iter(flights.values()))
     with tempfile.TemporaryDirectory(prefix="quadsim-resim-") as tmp:
-        config, gains = rebuild_config(flight, Path(tmp))
-        driver = ReplayDriver(sorted(flight.command_steps(), key=lambda c: c[0]), str(flight.path))
-        try:
-            sim = Simulator(config, driver, controller_gains=gains, texture_required=False, **flight_settings(flight))
-        except (QuadsimError, ValueError) as exc:
-            # name the recording's attachments, not the temporary folder they were written to
-            why = str(exc).replace(f"{tmp}/", "attachment ")
-            raise QuadsimError(
-                f"{flight.path}: cannot rebuild the run from its parameters and attachments: {why}"
-            ) from None
-        with sim:
-            log = StateLog()
-            sim.add_sink(log)
-            outputs = OutputOptions(record=record, out=out, cameras=())
-            label = f"resim_{flight.path.stem}"
-            with RecordedRun(
-                sim, sim.description(), outputs, label, {"command": "replay --resim", "source": str(flight.path)}
-            ) as run:
-                t_fly = time.perf_counter()
-                _fly_commands(sim, run, flight, progress)
-                stepping_wall_s = time.perf_counter() - t_fly
-                new_path = run.path
-    return compare_states(
-        flight, log, config.rates.physics_hz, new_path, stepping_wall_s, position_tolerance_m, attitude_tolerance_rad
+        plan = _plan(flights, Path(tmp), OutputOptions(record=record, out=out, cameras=()))
+        logs = {name: StateLog() for name in flights}
+        with _rebuild(plan, first, tmp) as fleet, Run(plan, fleet) as run:
+            for name, log in logs.items():
+                fleet[name].add_sink(log)
+            run.fly(progress=progress, stop=to_the_end)
+            new_path = run.outputs.path
+            stepping_wall_s = run.wall_s
+    hz = plan.config.rates.physics_hz
+    reports = {
+        name: compare_states(flight, logs[name], hz, position_tolerance_m, attitude_tolerance_rad)
+        for name, flight in flights.items()
+    }
+    return ResimReport(first.path, reports, new_path, run.end_step / hz, stepping_wall_s)
+
+
+def _plan(flights: Mapping[str, RecordedFlight], folder: Path, outputs: OutputOptions) -> RunPlan:
+    """The recorded run as a plan: each vehicle as it flew, driven by its recorded commands, its
+    z-mode switched where the recording did, flown to the last recorded state of any vehicle."""
+    first = next(iter(flights.values()))
+    vehicles, switches, config = [], [], None
+    for name, flight in flights.items():
+        own, gains = rebuild_config(flight, folder)
+        config = config or own
+        label = f"{flight.path} ({name})" if name else str(flight.path)
+        driver = ReplayDriver(sorted(flight.command_steps(), key=lambda c: c[0]), label)
+        vehicles.append(
+            FleetVehicle(name, own.start, own.urdf, own.vehicle_params, own.controller, own.z_mode, driver, gains)
+        )
+        switches += [(step, name, ZMode(value)) for step, kind, value in flight.events if kind == "z_mode"]
+    assert config is not None
+    if first.fleet is not None:  # what the vehicles share is the fleet's, with the world written out
+        config = replace(first.fleet.config, world=config.world, gui=False)
+    end_step = max(flight.states[-1].step for flight in flights.values())
+    return RunPlan(
+        config,
+        tuple(vehicles),
+        duration_s=end_step / config.rates.physics_hz,
+        outputs=outputs,
+        label=f"resim_{first.path.stem}",
+        run_info={"command": "replay --resim", "source": str(first.path)},
+        texture_required=False,
+        z_switches=tuple(sorted(switches, key=lambda s: s[0])),
+        **flight_settings(first),
     )
 
 
-def _fly_commands(sim: Simulator, run: RecordedRun, flight: RecordedFlight, progress: Any) -> None:
-    """Step to the recording's last state, switching z-mode where the recording did."""
-    end_step = flight.states[-1].step
-    z_events = sorted((step, ZMode(v)) for step, kind, v in flight.events if kind == "z_mode")
-    for step, mode in [*z_events, (end_step, None)]:
-        if step > sim.step_count:
-            while sim.step_count < min(step, end_step):
-                sim.step(min(2400, min(step, end_step) - sim.step_count))
-                if progress is not None:
-                    progress(sim.step_count / sim.config.rates.physics_hz)
-        if mode is not None:
-            sim.set_z_mode(mode)
-            run.note_event(sim.step_count, "z_mode", mode.value)
+def _rebuild(plan: RunPlan, first: RecordedFlight, folder: str) -> Fleet:
+    """The recorded run's fleet; a file of the recording that does not build is said as the
+    recording's (its attachments), not as the temporary folder they were written to."""
+    try:
+        return Fleet(plan.vehicles, plan.config, plan.landing, plan.reset_on_crash, texture_required=False)
+    except (QuadsimError, ValueError) as exc:
+        why = str(exc).replace(f"{folder}/", "attachment ")
+        what = "fleet" if first.fleet is not None else "run"
+        raise QuadsimError(
+            f"{first.path}: cannot rebuild the {what} from its parameters and attachments: {why}"
+        ) from None
 
 
 def compare_states(
     flight: RecordedFlight,
     log: StateLog,
     physics_hz: int,
-    new_path: Path | None,
-    stepping_wall_s: float,
-    position_tolerance_m: float,
-    attitude_tolerance_rad: float,
-) -> ResimReport:
+    position_tolerance_m: float | None,
+    attitude_tolerance_rad: float | None,
+) -> VehicleReport:
     """The new flight's states against the recorded ones, step by step."""
     new = {s.step: s for s in log.states}
     pos, att, vel = [], [], []
@@ -256,13 +317,9 @@ def compare_states(
     names = Names(flight.vehicle)
     if not pos:
         raise QuadsimError(f"{flight.path}: its states are not at this simulation's state rate; nothing to compare")
-    return ResimReport(
-        flight.path,
+    return VehicleReport(
         len(pos),
         _deviation(names.topic(POSE).name, "position", "m", pos, position_tolerance_m),
         _deviation(names.topic(POSE).name, "attitude", "rad", att, attitude_tolerance_rad),
         _deviation(names.topic(ODOM).name, "velocity", "m/s", vel, None),
-        new_path,
-        flight.states[-1].step / physics_hz,
-        stepping_wall_s,
     )

@@ -29,6 +29,7 @@ from quadsim.core.types import Twist, ZMode
 from quadsim.physics.pybullet_quiet import pb
 from quadsim.sensors.camera import CameraSpec
 from quadsim.sensors.rendering import projection_matrix, view_matrix
+from quadsim.session.pacing import RealTimePacer
 from quadsim.sim.cameras import CameraMode, Cameras
 from quadsim.sim.config import SimConfig
 from quadsim.sim.simulator import Simulator
@@ -80,12 +81,12 @@ def pipelined_frame_age(wall_s: float = 5.0, workers: int = 2) -> tuple[float, f
         cams.wait()
         period = sim.config.rates.physics_hz // FRONT.rate_hz
         ages: list[int] = []
-        start, start_step = time.perf_counter(), sim.step_count
+        pacer = RealTimePacer(sim.config.rates.physics_hz)  # paced as a window or a live bridge is
+        pacer.rebase(sim.step_count)
+        start = time.perf_counter()
         while time.perf_counter() - start < wall_s:
             sim.step(period)
-            ahead = (sim.step_count - start_step) / sim.config.rates.physics_hz - (time.perf_counter() - start)
-            if ahead > 0:
-                time.sleep(ahead)  # pacing, as a window or a live bridge does
+            pacer.wait(sim.step_count)
             age = cams.frame_age_steps("front")
             if age is not None:
                 ages.append(age)

@@ -22,13 +22,17 @@ SIZES = (1, 4, 10, 25)
 SPACING_M, ORIGIN = 1.5, (-12.0, 6.0)
 
 
-def _hovering_fleet(size: int) -> Fleet:
+def _grid(size: int) -> tuple[FleetVehicle, ...]:
+    """`size` vehicles on a grid in a clear corner of the default world."""
     side = math.ceil(math.sqrt(size))
-    vehicles = [
+    return tuple(
         FleetVehicle(f"v{i}", start=StartPose(ORIGIN[0] + SPACING_M * (i % side), ORIGIN[1] + SPACING_M * (i // side)))
         for i in range(size)
-    ]
-    fleet = Fleet(vehicles, SimConfig(z_mode=ZMode.HEIGHT))
+    )
+
+
+def _hovering_fleet(size: int) -> Fleet:
+    fleet = Fleet(_grid(size), SimConfig(z_mode=ZMode.HEIGHT))
     for name in fleet:
         fleet[name].send(Twist())  # hold 2 m
     fleet.run_for(2.0)
@@ -57,8 +61,9 @@ def run_fleet_bench(out: Callable[[str], None] = print, steps: int = 2400, repea
 def _recorded(out: Callable[[str], None], seconds: float = 5.0) -> None:
     """Real-time factors of recorded runs: a wall-clock second per simulated second is 1x."""
     from quadsim.sensors.camera import default_cameras
-    from quadsim.session.fleet_outputs import FleetRecordedRun
-    from quadsim.session.outputs import OutputOptions, RecordedRun
+    from quadsim.session.outputs import OutputOptions
+    from quadsim.session.plan import RunPlan
+    from quadsim.session.run import Run, to_the_end
 
     cameras = default_cameras(320, 240, 30)
     out(f"  recorded to MCAP, {seconds:g} s simulated each (best of 2):")
@@ -66,17 +71,24 @@ def _recorded(out: Callable[[str], None], seconds: float = 5.0) -> None:
         folder = Path(tmp)
 
         def one_vehicle() -> float:
-            with Simulator(SimConfig(z_mode=ZMode.HEIGHT)) as sim:
-                sim.send(Twist())
-                options = OutputOptions(out=folder, cameras=cameras)
-                with RecordedRun(sim, sim.description(), options, "bench"):
-                    return _timed(lambda: sim.run_for(seconds))
+            options = OutputOptions(out=folder, cameras=cameras)
+            plan = RunPlan.alone(SimConfig(z_mode=ZMode.HEIGHT), duration_s=seconds, outputs=options, label="bench")
+            with Run(plan) as run:
+                run.fleet.members[0].send(Twist())
+                return _timed(lambda: run.fly(stop=to_the_end))
 
         def ten(with_cameras: bool) -> float:
             with _hovering_fleet(10) as fleet:
-                specs = {"v0": cameras} if with_cameras else {}
-                with FleetRecordedRun(fleet, OutputOptions(out=folder, cameras=()), "bench", cameras=specs):
-                    return _timed(lambda: fleet.run_for(seconds))
+                plan = RunPlan(
+                    fleet.config,
+                    _grid(10),
+                    duration_s=seconds,
+                    outputs=OutputOptions(out=folder, cameras=()),
+                    cameras={"v0": cameras} if with_cameras else {},
+                    label="bench",
+                )
+                with Run(plan, fleet) as run:
+                    return _timed(lambda: run.fly(stop=to_the_end))
 
         baseline = min(one_vehicle() for _ in range(2))
         rows = [

@@ -9,8 +9,10 @@ from pathlib import Path
 from typing import Any
 
 from quadsim.core.types import ZMode
+from quadsim.session.pacing import RealTimePacer
+from quadsim.session.plan import RunPlan
+from quadsim.session.run import Run
 from quadsim.sim.config import SimConfig
-from quadsim.sim.simulator import Simulator
 
 
 def _thread_cpu_s(tids: set[int]) -> float:
@@ -68,29 +70,29 @@ def _twist_client(url: str, stop: threading.Event, published: list[tuple[float, 
 
 
 def _paced_run(
-    sim: Simulator, wall_s: float, published: list[tuple[float, float]], server_threads: set[int]
+    run: Run, wall_s: float, published: list[tuple[float, float]], server_threads: set[int]
 ) -> dict[str, float]:
-    """Step in real time for `wall_s`; the real-time factor, the CPU shares and the latency from
-    a published Twist to the gate's command."""
+    """Fly in real time for `wall_s` (the run's pacer); the real-time factor, the CPU shares and
+    the latency from a published Twist to the gate's command."""
     results: dict[str, float] = {}
-    hz = sim.config.rates.physics_hz
+    drone = run.fleet.members[0]
+    hz = drone.config.rates.physics_hz
     latencies: list[float] = []
-    last_z = None
-    cpu0, server0, t0 = time.process_time(), _thread_cpu_s(server_threads), time.perf_counter()
-    steps0 = sim.step_count
-    while time.perf_counter() - t0 < wall_s:
-        sim.step(4)  # 1/60 s, as the real-time headless run does
-        z = sim.gate.last_command.linear_z
-        if last_z is not None and z != last_z:  # the command changed: when was it sent?
+    last_z: list[float] = []
+
+    def watch(_flown_s: float) -> None:
+        z = drone.gate.last_command.linear_z
+        if last_z and z != last_z[0]:  # the command changed: when was it sent?
             changes = [t for t, sent_z in published if sent_z == z]
             if changes:
                 latencies.append(time.perf_counter() - changes[-1])
-        last_z = z
-        ahead = (sim.step_count - steps0) / hz - (time.perf_counter() - t0)
-        if ahead > 0:
-            time.sleep(ahead)
+        last_z[:] = [z]
+
+    cpu0, server0, t0 = time.process_time(), _thread_cpu_s(server_threads), time.perf_counter()
+    steps0 = drone.step_count
+    run.fly(RealTimePacer(hz), watch, stop=lambda: time.perf_counter() - t0 >= wall_s)
     wall = time.perf_counter() - t0
-    results["real_time_factor"] = (sim.step_count - steps0) / hz / wall
+    results["real_time_factor"] = (drone.step_count - steps0) / hz / wall
     results["cpu_share"] = (time.process_time() - cpu0) / wall
     results["server_cpu_share"] = (_thread_cpu_s(server_threads) - server0) / wall
     results["latency_ms"] = 1e3 * max(latencies) if latencies else float("nan")
@@ -108,10 +110,10 @@ def measure_live(wall_s: float, foxglove: bool) -> dict[str, float]:
     import tempfile
 
     from quadsim.drivers.subscribed import SubscribedDriver
-    from quadsim.session.outputs import OutputOptions, RecordedRun
+    from quadsim.session.outputs import OutputOptions
 
     driver = SubscribedDriver("foxglove")
-    with tempfile.TemporaryDirectory() as tmp, Simulator(SimConfig(z_mode=ZMode.VELOCITY), driver) as sim:
+    with tempfile.TemporaryDirectory() as tmp:
         before = _thread_ids()
         live: list[Any] = []
         if foxglove:
@@ -123,12 +125,13 @@ def measure_live(wall_s: float, foxglove: bool) -> dict[str, float]:
         published: list[tuple[float, float]] = []  # (perf_counter, linear z) of each Twist that changed it
 
         outputs = OutputOptions(out=Path(tmp), ordered_delivery=False)  # real time: frames are not waited for
-        with RecordedRun(sim, sim.description(), outputs, "bench_live", live=live):
+        config = SimConfig(z_mode=ZMode.VELOCITY)
+        with Run(RunPlan.alone(config, driver, outputs=outputs, label="bench_live", live=tuple(live))) as run:
             worker = None
             if foxglove:
                 worker = threading.Thread(target=_twist_client, args=(live[0].url, stop, published), daemon=True)
                 worker.start()
-            results = _paced_run(sim, wall_s, published, server_threads)
+            results = _paced_run(run, wall_s, published, server_threads)
             stop.set()
             if worker is not None:
                 worker.join(timeout=2)

@@ -51,7 +51,8 @@ def camera_costs(frames: int, repeats: int, out: Callable[[str], None]) -> dict[
     with tempfile.TemporaryDirectory() as tmp:
         rec = McapRecorder(Path(tmp) / "bench.mcap", sim.description().with_outputs(cams, 0))
         mounts = tuple((c, sim.vehicle.camera_mount(c.link_name)) for c in cams)
-        fanout = TopicFanout(sim.config.rates.physics_hz, mounts)
+        fanout = TopicFanout(sim.config.rates.physics_hz)
+        producer = fanout.add_vehicle(cameras=mounts)
         fanout.add_consumer(rec)
         for cam in cams:
 
@@ -69,7 +70,7 @@ def camera_costs(frames: int, repeats: int, out: Callable[[str], None]) -> dict[
             def pipeline(n: int, cam=cam) -> None:
                 for i in range(n):
                     for frame in rig.render((cam.name,), i, state.position_m, state.orientation_xyzw):
-                        fanout.on_camera_frame(frame)
+                        producer.on_camera_frame(frame)
 
             results[f"bare_{cam.name}"] = best_of(repeats, frames, bare)
             results[f"pipeline_{cam.name}"] = best_of(repeats, frames, pipeline)
@@ -99,20 +100,28 @@ def recorded_flight(duration_s: float, cameras: bool, workers: int, record: bool
 
     from quadsim.drivers.scripted import ScriptedDriver, load_script
     from quadsim.sensors.camera import default_cameras
-    from quadsim.session.outputs import OutputOptions, RecordedRun
+    from quadsim.session.outputs import OutputOptions
+    from quadsim.session.plan import RunPlan
+    from quadsim.session.run import Run, to_the_end
 
     script = load_script("square")
     with tempfile.TemporaryDirectory() as tmp:
         path = Path(tmp) / "bench.mcap"
-        with Simulator(SimConfig(z_mode=ZMode.HEIGHT), ScriptedDriver(script)) as sim:
-            cams = default_cameras() if cameras else ()
-            options = OutputOptions(record=record, out=path, cameras=cams, render_workers=workers)
-            run = RecordedRun(sim, sim.description(), options, "bench")  # workers start before the clock does
+        cams = default_cameras() if cameras else ()
+        options = OutputOptions(record=record, out=path, cameras=cams, render_workers=workers)
+        plan = RunPlan.alone(
+            SimConfig(z_mode=ZMode.HEIGHT),
+            ScriptedDriver(script),
+            duration_s=duration_s,
+            outputs=options,
+            label="bench",
+        )
+        with Run(plan) as run:  # workers start before the clock does
             t0, cpu0 = time.perf_counter(), time.process_time()
             try:
-                sim.run_for(duration_s)
+                run.fly(stop=to_the_end)
             finally:
-                run.close()
+                run.outputs.close()
             wall, cpu = time.perf_counter() - t0, time.process_time() - cpu0
         return FlightFigure(duration_s / wall, duration_s / cpu, path.stat().st_size if record else 0)
 
@@ -152,15 +161,17 @@ def message_costs(states: int = 6000, repeats: int = 5) -> dict[str, float]:
         encode = write = float("inf")
         for _ in range(repeats):
             fanout, kept = TopicFanout(sim.config.rates.physics_hz), Keep(True)
+            producer = fanout.add_vehicle()
             fanout.add_consumer(Keep(False))
             t0 = time.perf_counter()
             for state in flown:
-                fanout.on_state(state)
+                producer.on_state(state)
             encode = min(encode, time.perf_counter() - t0)
             fanout = TopicFanout(sim.config.rates.physics_hz)
+            producer = fanout.add_vehicle()
             fanout.add_consumer(kept)
             for state in flown:
-                fanout.on_state(state)
+                producer.on_state(state)
             batches = kept.batches[1:]  # after /tf_static
             with tempfile.TemporaryDirectory() as tmp:
                 rec = McapRecorder(Path(tmp) / "bench.mcap", sim.description())

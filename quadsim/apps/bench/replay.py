@@ -9,7 +9,6 @@ from pathlib import Path
 from quadsim.apps.bench.flight import full_loop
 from quadsim.core.types import ZMode
 from quadsim.sim.config import SimConfig
-from quadsim.sim.simulator import Simulator
 
 
 def run_replay_bench(out: Callable[[str], None] = print, flight_s: float = 20.0) -> None:
@@ -21,8 +20,10 @@ def run_replay_bench(out: Callable[[str], None] = print, flight_s: float = 20.0)
     from quadsim.drivers.scripted import ScriptedDriver, load_script
     from quadsim.recording.flight import load_flight
     from quadsim.sensors.camera import default_cameras
-    from quadsim.session.outputs import OutputOptions, RecordedRun
+    from quadsim.session.outputs import OutputOptions
+    from quadsim.session.plan import RunPlan
     from quadsim.session.resim import resimulate
+    from quadsim.session.run import fly
 
     out("quadsim bench: replay")
     script = load_script("square")
@@ -30,9 +31,9 @@ def run_replay_bench(out: Callable[[str], None] = print, flight_s: float = 20.0)
         paths = {}
         for name, cams in (("cams", default_cameras()), ("nocams", ())):
             paths[name] = Path(tmp) / f"{name}.mcap"
-            with Simulator(SimConfig(z_mode=ZMode.HEIGHT), ScriptedDriver(script)) as sim:
-                with RecordedRun(sim, sim.description(), OutputOptions(out=paths[name], cameras=cams), name):
-                    sim.run_for(flight_s)
+            outputs = OutputOptions(out=paths[name], cameras=cams)
+            config = SimConfig(z_mode=ZMode.HEIGHT)
+            fly(RunPlan.alone(config, ScriptedDriver(script), duration_s=flight_s, outputs=outputs, label=name))
         best = float("inf")
         for _ in range(3):
             t0 = time.perf_counter()

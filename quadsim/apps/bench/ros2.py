@@ -8,7 +8,6 @@ from pathlib import Path
 from typing import Any
 
 from quadsim.sim.config import SimConfig
-from quadsim.sim.simulator import Simulator
 
 #: the ROS 2 distributions the bench flies from, oldest supported and newest (tests/ros2_env.py makes them)
 ROS2_DISTRIBUTIONS = ("jazzy", "kilted")
@@ -47,16 +46,19 @@ def _realtime_cameras_run(wall_s: float, live: tuple[Any, ...], driver: Any, sin
     import tempfile
 
     from quadsim.sensors.camera import default_cameras
-    from quadsim.session.headless import run_headless
-    from quadsim.session.outputs import OutputOptions, RecordedRun
+    from quadsim.session.outputs import OutputOptions
+    from quadsim.session.pacing import RealTimePacer
+    from quadsim.session.plan import RunPlan
+    from quadsim.session.run import Run
 
-    with tempfile.TemporaryDirectory() as tmp, Simulator(SimConfig(), driver) as sim:
-        if sink is not None:
-            sim.add_sink(sink)
+    with tempfile.TemporaryDirectory() as tmp:
         options = OutputOptions(out=Path(tmp) / "bench.mcap", cameras=default_cameras(), ordered_delivery=False)
-        with RecordedRun(sim, sim.description(), options, "bench", live=live):
+        plan = RunPlan.alone(SimConfig(), driver, duration_s=wall_s, outputs=options, label="bench", live=live)
+        with Run(plan) as run:
+            if sink is not None:
+                run.fleet.members[0].add_sink(sink)
             t0, cpu0 = time.perf_counter(), time.process_time()
-            run_headless(sim, wall_s, realtime=True)
+            run.fly(RealTimePacer(plan.config.rates.physics_hz))
             return time.perf_counter() - t0, time.process_time() - cpu0
 
 
@@ -101,9 +103,13 @@ def _ros2_bench_one(
     driver, times = SubscribedDriver("ros2"), _CommandTimes()
     with tempfile.TemporaryDirectory() as tmp:
         report_path = Path(tmp) / "peer.json"
-        node = subprocess.Popen([str(python), str(script), "latency", str(report_path)], env=env)
+        node = subprocess.Popen(
+            [str(python), str(script), "latency", str(report_path)], env=env, stdout=subprocess.PIPE, text=True
+        )
         try:
-            time.sleep(2.0)  # the node is up (rclpy imported) before the bridge starts: first message is the bridge's
+            # the node is up (rclpy imported) before the bridge starts: the first message is the bridge's
+            if node.stdout is None or "node up" not in node.stdout.readline():
+                raise RuntimeError("the ROS 2 node did not start")
             started = time.time()
             with Ros2Bridge(exclude=("/quad_cmd_twist",), env=env) as bridge:
                 bridge.subscribe_twist(driver)

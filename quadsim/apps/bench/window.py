@@ -71,8 +71,8 @@ def measure_window(wall_s: float, hogs: int = 0) -> WindowFigures:
             timer = _Timer()
             timer.wrap(app.sim, "step", "simulation (physics, control, recording)")
             timer.wrap(app.view, "draw", "drawing")
-            if app.session.cameras is not None:
-                timer.wrap(app.session.cameras, "poll", "camera hand-over")
+            if app.session.outputs.cameras is not None:
+                timer.wrap(app.session.outputs.cameras, "poll", "camera hand-over")
             app.run(max_frames=30)  # warm up: take off, first frames
             timer.seconds.clear()
             frames0, steps0, t0 = app.frame_count, app.sim.step_count, time.perf_counter()

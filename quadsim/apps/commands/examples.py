@@ -8,16 +8,8 @@ import re
 import shutil
 from pathlib import Path
 
-from quadsim.assets import asset_path
+from quadsim.assets import shipped_examples
 from quadsim.errors import QuadsimError
-
-SUFFIXES = (".py", ".toml")
-
-
-def shipped() -> dict[str, Path]:
-    """name -> path of each shipped example."""
-    folder = asset_path("examples")
-    return {p.name: p for p in sorted(folder.iterdir()) if p.suffix in SUFFIXES}
 
 
 def summary(path: Path, width: int = 100) -> str:
@@ -50,7 +42,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
 
 
 def main(args: argparse.Namespace) -> int:
-    examples = shipped()
+    examples = shipped_examples()
     unknown = [n for n in args.names if n not in examples]
     if unknown:
         raise QuadsimError(f"no example named {unknown[0]!r}; the examples are {', '.join(examples)}")

@@ -9,8 +9,8 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from quadsim.apps.flying import DEMO_SCENARIO, fly_script, fly_subscribed
 from quadsim.apps.options import (
+    DEMO_SCENARIO,
     add_duration_option,
     add_live_options,
     add_sim_options,
@@ -85,6 +85,10 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
 
 
 def main(args: argparse.Namespace) -> int:
+    # the command's implementation, loaded when it runs (`--help` stays light)
+    from quadsim.apps.flying import HeadlessFlight
+    from quadsim.apps.plans import script_plan, subscribed_plan
+
     if args.fleet is not None:
         return _fly_fleet(args)
     if args.gui and not has_display():
@@ -93,7 +97,7 @@ def main(args: argparse.Namespace) -> int:
         who = "Foxglove clients" if args.input == "foxglove" else "ROS 2 nodes"
         print(f"No display found: flying headless, in real time, what {who} publish.")
         args.gui = False
-        return fly_subscribed(args, "fly")
+        return HeadlessFlight(args, subscribed_plan(args, "fly")).fly()
     if not has_display():
         print(
             f"No display found: the teleop window cannot open. Recording the scripted demo '{DEMO_SCENARIO}' "
@@ -101,7 +105,7 @@ def main(args: argparse.Namespace) -> int:
             f"{program()} scenarios)"
         )
         args.gui = False
-        return fly_script(args, DEMO_SCENARIO, realtime=False)
+        return HeadlessFlight(args, script_plan(args, DEMO_SCENARIO, realtime=False)).fly()
     return _fly_window(args)
 
 
@@ -153,7 +157,7 @@ def _fly_window(
 
 def _fly_fleet(args: argparse.Namespace) -> int:
     """`fly --fleet`: the window flies the fleet file's keyboard or gamepad vehicle among the others."""
-    from quadsim.apps.fleet_flight import check_fleet_options, fleet_cameras, fleet_drivers, read_fleet_file
+    from quadsim.apps.plans import check_fleet_options, fleet_cameras, fleet_drivers, read_fleet_file
     from quadsim.apps.window.teleop import FleetSetup
     from quadsim.drivers.subscribed import SubscribedDriver
 

@@ -6,9 +6,8 @@ from __future__ import annotations
 import argparse
 import contextlib
 import sys
-import time
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
 
 from quadsim.apps.options import (
     PLOT_SUFFIXES,
@@ -23,6 +22,7 @@ from quadsim.apps.options import (
     window_size,
 )
 from quadsim.errors import QuadsimError
+from quadsim.session.pacing import RealTimePacer
 from quadsim.session.stopping import SignalStop, stop_requested
 from quadsim.session.stopping import describe as describe_stop
 from quadsim.session.stopping import exit_code as stop_exit_code
@@ -31,6 +31,10 @@ if TYPE_CHECKING:
     from quadsim.live.playback import RecordingFeed
     from quadsim.recording.flight import RecordedFlight
     from quadsim.session.outputs import LiveOutput
+
+
+#: live playback's ticks are nanoseconds of the recording; it plays this much at a time
+NS_PER_S, PLAY_TICK_NS = 1_000_000_000, 10_000_000
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
@@ -147,18 +151,16 @@ def main(args: argparse.Namespace) -> int:
 
 def _resim(args: argparse.Namespace, flight: RecordedFlight) -> int:
     """Fly the recorded commands again and say how far the new flight is from the recorded one."""
+    from quadsim.apps.regression import DEFAULT_TOLERANCE_M, DEFAULT_TOLERANCE_RAD
+    from quadsim.recording.flight import load_flights
     from quadsim.session.progress import ProgressBar
     from quadsim.session.resim import resimulate
 
     bar = ProgressBar(flight.duration_s, "re-flying")
-    if flight.vehicle:  # a fleet's recording: every vehicle flies again, together
-        from quadsim.recording.flight import load_flights
-        from quadsim.session.fleet_resim import resimulate_fleet
-
-        flights = load_flights(args.file)
-        report: Any = resimulate_fleet(flights, out=args.out, record=not args.no_record, progress=bar.update)
-    else:
-        report = resimulate(flight, out=args.out, record=not args.no_record, progress=bar.update)
+    flights = load_flights(args.file) if flight.vehicle else flight  # a fleet's: every vehicle again, together
+    report = resimulate(
+        flights, args.out, not args.no_record, DEFAULT_TOLERANCE_M, DEFAULT_TOLERANCE_RAD, progress=bar.update
+    )
     bar.close()
     for line in report.lines():
         print(line)
@@ -252,16 +254,18 @@ def _play_live(args: argparse.Namespace) -> int:
             f"at {args.speed:g}x{', looping' if args.loop else ''}; Ctrl-C stops",
             flush=True,
         )
-        t0 = time.monotonic()
+        pacer = RealTimePacer(NS_PER_S, speed=args.speed)  # ticks: nanoseconds of the recording
+        t_ns = 0
         while not stop_requested():
-            t_ns = int((time.monotonic() - t0) * args.speed * 1e9)
+            pacer.wait(t_ns + PLAY_TICK_NS, stop_requested)
+            t_ns += pacer.steps_for_frame(t_ns)
             if t_ns > feed.end_ns:
                 feed.play_to(feed.end_ns)
                 if not args.loop:
                     break
-                t0, t_ns = time.monotonic(), 0
+                t_ns = 0
+                pacer.rebase(0)
             feed.play_to(t_ns)
-            time.sleep(0.01)
     finally:
         for output in live:
             output.close()

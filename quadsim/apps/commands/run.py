@@ -5,8 +5,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from quadsim.apps.flying import COMMANDS_TAIL_S, fly_bag, fly_script, fly_subscribed
-from quadsim.apps.options import add_duration_option, add_live_options, add_sim_options, program
+from quadsim.apps.options import COMMANDS_TAIL_S, add_duration_option, add_live_options, add_sim_options, program
 from quadsim.errors import QuadsimError
 
 
@@ -65,21 +64,23 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
 
 
 def main(args: argparse.Namespace) -> int:
+    # the command's implementation, loaded when it runs (`--help` stays light)
+    from quadsim.apps.flying import HeadlessFlight
+    from quadsim.apps.plans import bag_plan, fleet_plan, script_plan, subscribed_plan
+
     if args.fleet is not None:
         if args.input != "script":
             raise QuadsimError(f"--input {args.input} with --fleet: each vehicle's input is in the fleet file")
-        from quadsim.apps.fleet_flight import fly_fleet
-
-        return fly_fleet(args, "run")
+        return HeadlessFlight(args, fleet_plan(args, "run")).fly()
     inputs = [args.script is not None, args.commands_from is not None, args.input in ("foxglove", "ros2")]
     if sum(inputs) > 1:
         what = f"--input {args.input}" if args.input != "script" else "--input"
         raise QuadsimError(f"--script, --commands-from and {what} each say where commands come from; give one")
     if args.input in ("foxglove", "ros2"):
-        return fly_subscribed(args, "run")
+        return HeadlessFlight(args, subscribed_plan(args, "run")).fly()
     realtime = args.gui or args.realtime
     if args.commands_from is not None:
-        return fly_bag(args, realtime)
+        return HeadlessFlight(args, bag_plan(args, realtime)).fly()
     if args.script is None:
         raise QuadsimError("say what to fly: --script NAME|FILE, --commands-from FILE.mcap, or --input foxglove|ros2")
-    return fly_script(args, args.script, realtime)
+    return HeadlessFlight(args, script_plan(args, args.script, realtime)).fly()

@@ -24,7 +24,7 @@ from quadsim.live.playback import RecordingFeed
 from quadsim.physics.world_spec import FloorSpec, WorldSpec, load_world
 from quadsim.recording.flight import NS, RecordedFlight
 from quadsim.sensors.camera import CameraFrame
-from quadsim.session.real_time import collect_start_up_garbage
+from quadsim.session.pacing import FixedStepPacer, Pacer, RealTimePacer, collect_start_up_garbage
 
 SPEEDS = (0.25, 0.5, 1.0, 2.0, 4.0, 8.0, 16.0)
 SEEK_S = 5.0
@@ -87,10 +87,12 @@ class ReplayApp:
         self.show_help = False
         self.quit = False
         self.frame_count = 0
+        #: how far playback moves each frame: the wall clock (times the speed), or `frame_s` (tests)
+        self.pacer: Pacer = FixedStepPacer(NS, frame_s) if frame_s is not None else RealTimePacer(NS, speed=self.speed)
+        self._paced_from: int | None = None  # where playback stood after the last paced frame
         self._frame_s = frame_s
         self.feed = feed
         collect_start_up_garbage()  # the flight just read: a full collection of it now, not while it plays
-        self._last_wall = time.perf_counter()
         self._track = [s.position_m[:2] for s in flight.states[::6]]
         self.others = {name: (f, [s.position_m[:2] for s in f.states[::6]]) for name, f in (others or {}).items()}
         self._notice, self._notice_until = "", 0.0
@@ -202,16 +204,18 @@ class ReplayApp:
         for event in events:
             self.handle_event(event)
         now = time.perf_counter()
-        dt = self._frame_s if self._frame_s is not None else now - self._last_wall
-        self._last_wall = now
         if self.playing:
-            self.t_ns += int(dt * self.speed * NS)
+            if self.t_ns != self._paced_from or self.speed != self.pacer.speed:  # moved, paused or sped up
+                self.pacer.rebase(self.t_ns, self.speed)
+            self.t_ns += self.pacer.steps_for_frame(self.t_ns)
             if self.t_ns >= self.end_ns:
                 if self.loop:
                     self.t_ns = 0
+                    self.pacer.rebase(0, self.speed)
                 else:
                     self.t_ns = self.end_ns
                     self.playing = False
+        self._paced_from = self.t_ns if self.playing else None
         if self.feed is not None:
             self.feed.play_to(self.t_ns)
         self.view.draw(self.screen, self.model())

@@ -31,8 +31,7 @@ from typing import Any
 os.environ.setdefault("PYGAME_HIDE_SUPPORT_PROMPT", "1")
 import pygame
 
-from quadsim.apps.window.fleet_window import Track, WindowFleet
-from quadsim.apps.window.pacing import FixedStepPacer, RealTimePacer
+from quadsim.apps.window.vehicles import WindowVehicles
 from quadsim.apps.window.view import TeleopView, ViewModel
 from quadsim.apps.window.x11_guard import X11Guard
 from quadsim.control.landing import LandingSettings
@@ -43,17 +42,17 @@ from quadsim.drivers.joystick import JoystickDriver, JoystickMapping
 from quadsim.drivers.keyboard import LAYOUTS, KeyboardDriver
 from quadsim.drivers.subscribed import SubscribedDriver
 from quadsim.errors import QuadsimError
-from quadsim.recording.fanout import WARNING_EVENTS, TopicFanout
+from quadsim.recording.fanout import WARNING_EVENTS
 from quadsim.sensors.camera import CameraFrame, CameraSpec
 from quadsim.sensors.pipeline import CameraPipeline
-from quadsim.session.fleet_outputs import FleetRecordedRun
-from quadsim.session.headless import final_pose_text
-from quadsim.session.outputs import LiveOutput, OutputOptions, RecordedRun
-from quadsim.session.real_time import collect_start_up_garbage
+from quadsim.session.outputs import LiveOutput, OutputOptions
+from quadsim.session.pacing import FixedStepPacer, RealTimePacer, collect_start_up_garbage
+from quadsim.session.plan import RunPlan
+from quadsim.session.run import Run
+from quadsim.session.summary import final_pose_text
 from quadsim.sim.config import SimConfig
 from quadsim.sim.fleet_file import FleetFile
 from quadsim.sim.flight_events import EventKind
-from quadsim.sim.simulator import Simulator
 
 #: wall time over which the HUD's frame rate and real-time factor are measured
 RATE_WINDOW_S = 1.0
@@ -197,35 +196,65 @@ class TeleopApp:
         self.input = _ActiveInput(commands or (self.joystick if use_joystick else self.keyboard))
         #: the device a second person flies a fleet's other held vehicle with (or None)
         self.second_hand = self._second_hand(fleet)
-        settings: dict[str, Any] = {"landing": options.landing, "reset_on_crash": options.reset_on_crash}
-        self.fleet: WindowFleet | None = None
+        #: who flies what: the vehicle flown by hand ("" for a run of one vehicle), the second person's
+        self.crew = WindowVehicles(fleet.file if fleet is not None else None, self.second_hand is not None)
+        self.outputs = replace(outputs, ordered_delivery=False)  # show frames as soon as they are ready
         try:
-            if fleet is None:
-                self.sim = Simulator(config, self.input, **settings)
-            else:
-                self.fleet = WindowFleet(fleet.file, config, self.input, fleet.drivers, settings, self.second_hand)
-                self.sim = self.fleet.fleet[self.fleet.flown]
-                self._match_z_modes()
+            self.session = Run(self._plan(config, live, fleet))
         except BaseException:
             self.joystick.close()
             raise
-        self.track = Track() if self.fleet is None else self.fleet.tracks[self.fleet.flown]
-        self.sim.add_sink(self.track)
+        #: the vehicle the window flies (or watches)
+        self.sim = self.session.fleet[self.crew.flown]
+        if fleet is not None:
+            self._match_z_modes()
+        self.crew.attach(self.session.fleet, self.session.outputs.pipelines)
+        self.track = self.crew.tracks[self.crew.flown]
         self.flight_notices = _FlightNotices()
         self.sim.add_sink(self.flight_notices)
         self.frames: dict[str, CameraFrame] = {}
-        self.outputs = replace(outputs, ordered_delivery=False)  # show frames as soon as they are ready
-        self.session = self._open_session(config, live, fleet)
-        if self.fleet is not None:
-            self.fleet.show(self.fleet.shown, self)
-        elif self.session.cameras is not None:
-            self.session.cameras.sinks.append(self)
+        self.crew.show(self.crew.shown, self)
         self._hook_joy()
         collect_start_up_garbage()
         self._init_window_state(pacer or RealTimePacer(config.rates.physics_hz))
-        self.recordings: list[Path] = [self.session.path] if self.session.path else []
+        self.recordings: list[Path] = [self.session.outputs.path] if self.session.outputs.path else []
         # last, so nothing after it can fail with the handlers installed
         self._x11 = X11Guard.install(on_fatal=self._finish_after_fatal_loss)
+
+    @property
+    def fleet(self) -> WindowVehicles | None:
+        """A fleet's vehicles in the window (None: a run of one vehicle)."""
+        return self.crew if self.crew.is_fleet else None
+
+    def _plan(self, config: SimConfig, live: Sequence[LiveOutput], fleet: FleetSetup | None) -> RunPlan:
+        """The run the window flies: the input driver flying the flown vehicle (and a second
+        person's device the other held one), every other vehicle flown by its own input."""
+        settings: dict[str, Any] = {"landing": self.options.landing, "reset_on_crash": self.options.reset_on_crash}
+        if fleet is None:
+            info = {"command": "fly", "input": self.driver.name}
+            return RunPlan.alone(
+                config,
+                self.input,
+                outputs=self.outputs,
+                label=f"fly_{config.controller.value}",
+                run_info=info,
+                live=tuple(live),
+                **settings,
+            )
+        by_hand: dict[str, Any] = {self.crew.flown: self.input} if self.crew.by_hand else {}
+        if self.crew.second is not None:
+            by_hand[self.crew.second] = self.second_hand
+        info = {"command": "fly", "fleet": str(fleet.file.path), "input": self.driver.name}
+        return RunPlan(
+            config,
+            tuple(fleet.file.fleet_vehicles({**fleet.drivers, **by_hand})),
+            outputs=replace(self.outputs, cameras=()),
+            cameras=fleet.cameras,
+            label=f"fly_{fleet.file.path.stem}",
+            run_info=info,
+            live=tuple(live),
+            **settings,
+        )
 
     def _second_hand(self, fleet: FleetSetup | None) -> KeyboardDriver | JoystickDriver | None:
         """A fleet with a keyboard vehicle and a gamepad vehicle: the device of the one the
@@ -240,45 +269,13 @@ class TeleopApp:
 
     def _match_z_modes(self) -> None:
         """Each hand's device reads its sticks or keys in the z-mode of the vehicle it flies."""
-        assert self.fleet is not None
         for driver in (self.keyboard, self.joystick):
-            second = self.fleet.second if driver is self.second_hand else None
-            sim = self.fleet.fleet[second or self.fleet.flown]
-            driver.set_z_mode(sim.gate.z_mode, sim.state.position_m[2])
-
-    def _open_session(
-        self, config: SimConfig, live: Sequence[LiveOutput], fleet: FleetSetup | None
-    ) -> RecordedRun | FleetRecordedRun:
-        """The run's recording, cameras and live bridges; the simulator and the pad are closed
-        if they cannot open."""
-        try:
-            if self.fleet is not None and fleet is not None:
-                info = {"command": "fly", "fleet": str(fleet.file.path), "input": self.driver.name}
-                outputs = replace(self.outputs, cameras=())
-                return self.fleet.open_session(outputs, f"fly_{fleet.file.path.stem}", info, live, fleet.cameras)
-            return RecordedRun(
-                self.sim,
-                self.sim.description(),
-                self.outputs,
-                f"fly_{config.controller.value}",
-                {"command": "fly", "input": self.driver.name},
-                live=live,
-            )
-        except BaseException:
-            self._close_flight()
-            self.joystick.close()
-            raise
-
-    def _close_flight(self) -> None:
-        if self.fleet is not None:
-            self.fleet.close()
-        else:
-            self.sim.close()
+            second = self.crew.second if driver is self.second_hand else None
+            drone = self.session.fleet[second or self.crew.flown]
+            driver.set_z_mode(drone.gate.z_mode, drone.state.position_m[2])
 
     def _pipelines(self) -> list[CameraPipeline]:
-        if self.fleet is not None:
-            return list(self.fleet.pipelines.values())
-        return [self.session.cameras] if isinstance(self.session, RecordedRun) and self.session.cameras else []
+        return list(self.session.outputs.pipelines.values())
 
     def _init_window_state(self, pacer: RealTimePacer | FixedStepPacer) -> None:
         """What the window shows and counts, before its first frame."""
@@ -312,20 +309,11 @@ class TeleopApp:
         return self.input.driver
 
     def _hook_joy(self) -> None:
+        """The pad's axes and buttons go to /joy of the vehicle it flies (a fleet's: /NAME/joy)."""
         self.joystick.joy_sinks.clear()
         if self.driver is self.joystick or self.second_hand is self.joystick:
-            if self.fleet is None:
-                fanout = self.session.fanout
-            else:  # the pad's vehicle's /NAME/joy
-                name = self.fleet.second if self.second_hand is self.joystick else None
-                fanout = self._vehicle_fanout(name or self.fleet.flown)
-            self.joystick.joy_sinks.append(fanout.on_joy)
-
-    def _vehicle_fanout(self, name: str) -> TopicFanout:
-        """A fleet: where the topics of the vehicle `name` go (named /NAME/...)."""
-        assert self.fleet is not None
-        fanout: TopicFanout = self.session.fanout.members[list(self.fleet.fleet).index(name)]
-        return fanout
+            name = self.crew.second if self.second_hand is self.joystick else None
+            self.joystick.joy_sinks.append(self.session.outputs.topics[name or self.crew.flown].on_joy)
 
     @property
     def display_lost(self) -> str | None:
@@ -343,7 +331,7 @@ class TeleopApp:
     def _finish_after_fatal_loss(self, reason: str) -> None:
         """With a libX11 older than 1.7 the process ends inside the X call that met the loss:
         finish the recording and say what `fly` says after a loss, from there."""
-        self.session.close()
+        self.session.outputs.close()
         print(f"flew {self.sim.time_s:.1f} s of simulation time")
         for path in self.recordings:
             print(f"recording       {path}")
@@ -353,14 +341,9 @@ class TeleopApp:
         self.notice = text
         self._notice_until = time.monotonic() + seconds
 
-    def _record_event(self, kind: str, value: str, vehicle: bool = False) -> None:
-        """The one place events reach the recording (z-mode switches, input device changes).
-        `vehicle`: an event of the vehicle flown (a z-mode switch), which a fleet's recording
-        keeps under that vehicle's name (a re-flight switches that vehicle)."""
-        if vehicle and self.fleet is not None:
-            self._vehicle_fanout(self.fleet.flown).note_event(self.sim.step_count, kind, value)
-        else:
-            self.session.note_event(self.sim.step_count, kind, value)
+    def _record_event(self, kind: str, value: str) -> None:
+        """The one place the window's events reach the recording (input device changes)."""
+        self.session.outputs.note_event(self.sim.step_count, kind, value)
 
     # --- events -----------------------------------------------------------------------------
 
@@ -454,8 +437,7 @@ class TeleopApp:
 
     def toggle_z_mode(self) -> None:
         new = ZMode.HEIGHT if self.sim.gate.z_mode is ZMode.VELOCITY else ZMode.VELOCITY
-        self.sim.set_z_mode(new)
-        self._record_event("z_mode", new.value, vehicle=True)
+        self.session.switch_z_mode(self.crew.flown, new)  # recorded under the vehicle, as a re-flight switches it
         altitude = self.sim.state.position_m[2]
         for driver in (self.keyboard, self.joystick):
             if driver is not self.second_hand:  # the other person's vehicle keeps its z-mode
@@ -464,23 +446,23 @@ class TeleopApp:
 
     def next_cameras(self) -> None:
         """A fleet: show the next vehicle's cameras (those that have some)."""
-        assert self.fleet is not None
-        name = self.fleet.next_cameras()
+        name = self.crew.next_cameras()
         if name is None:
             self._say("no vehicle of this fleet has cameras")
             return
-        self.fleet.show(name, self)
+        self.crew.show(name, self)
         self.frames.clear()
         self._restart_camera_rates()
         self._say(f"cameras: {name}'s")
 
     def toggle_recording(self) -> None:
-        if self.session.recording:
-            self.session.stop_recording()
-            self._say(f"recording saved: {self.session.path}")
+        outputs = self.session.outputs
+        if outputs.recording:
+            outputs.stop_recording()
+            self._say(f"recording saved: {outputs.path}")
         else:
             try:
-                path = self.session.start_recording()
+                path = outputs.start_recording()
             except QuadsimError as exc:
                 self._say(f"cannot record: {exc.cli_message}", 6.0)
                 return
@@ -497,37 +479,35 @@ class TeleopApp:
         """A fleet's vehicles where they ended, one line each (none for one vehicle)."""
         if self.fleet is None:
             return []
-        width = max(len(name) for name in self.fleet.fleet)
+        fleet = self.session.fleet
+        width = max(len(name) for name in fleet)
         lines = []
-        for name in self.fleet.fleet:
-            sim = self.fleet.fleet[name]
-            crashes = sum(e.kind is EventKind.CRASH for e in sim.events)
+        for drone in fleet.members:
+            name = drone.name
+            crashes = sum(e.kind is EventKind.CRASH for e in drone.events)
             lines.append(
-                f"{name:<{width}}  {final_pose_text(sim.state)}; {self.fleet.inputs[name]}"
+                f"{name:<{width}}  {final_pose_text(drone.state)}; {self.crew.inputs[name]}"
                 + (f"; {crashes} crash{'es' if crashes > 1 else ''}" if crashes else "")
             )
         return lines
 
     def reset(self) -> None:
         self._flown_before_resets_s += self.sim.time_s
-        was_recording = self.session.recording
+        outputs = self.session.outputs
+        was_recording = outputs.recording
         if was_recording:
-            self.session.stop_recording()
-        if self.fleet is not None:
-            self.fleet.fleet.reset()
-            for track in self.fleet.tracks.values():
-                track.points.clear()
-        else:
-            self.sim.reset()
+            outputs.stop_recording()
+        self.session.fleet.reset()
+        for track in self.crew.tracks.values():
+            track.points.clear()
         self.keyboard.reset()
         self.joystick.reset()
         if self.fleet is not None:  # as at the start: each device reads in its vehicle's z-mode, from where it is
             self._match_z_modes()
-        self.track.points.clear()
         self.pacer.rebase(0)
         self._frame_walls.clear()  # rates restart with the clock (no negative real-time factor)
         if was_recording:
-            self.recordings.append(self.session.start_recording())
+            self.recordings.append(outputs.start_recording())
             self._hook_joy()
         self._say("reset to the start")
 
@@ -544,10 +524,7 @@ class TeleopApp:
         if not self.paused:
             steps = self.pacer.steps_for_frame(self.sim.step_count)
             if steps:
-                if self.fleet is not None:
-                    self.fleet.fleet.step(steps)
-                else:
-                    self.sim.step(steps)
+                self.session.step(steps)
         for pipeline in self._pipelines():
             pipeline.poll()
         self.view.draw(self.screen, self._model())
@@ -594,7 +571,7 @@ class TeleopApp:
         gate = self.sim.gate
         active = gate.active(self.sim.step_count)
         fps, rtf = self._rates()
-        rec = self.session.recorder
+        rec = self.session.outputs.recorder
         warnings = self.joystick.warnings() if self.driver is self.joystick else []
         if time.monotonic() > self._notice_until:
             self.notice = ""
@@ -610,7 +587,7 @@ class TeleopApp:
             flight_event=flight_event,
             flight_alert=flight_alert,
             input_status=self._input_status(),
-            recording_path=str(self.session.path) if self.session.recording else None,
+            recording_path=str(self.session.outputs.path) if self.session.outputs.recording else None,
             recording_error=rec.error if rec is not None else None,
             paused=self.paused,
             # behind real time just now, and still behind over the last second (a hiccup the pacer
@@ -653,7 +630,6 @@ class TeleopApp:
         try:
             self.session.close()
         finally:
-            self._close_flight()
             self.joystick.close()
             if self._x11 is None:
                 pygame.display.quit()

@@ -1,0 +1,121 @@
+"""What a run did, vehicle by vehicle: where each vehicle ended, how far it flew, the commands it
+took and its flight events (an odometer sink counts them as it flies)."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+from quadsim.core.types import VehicleState
+from quadsim.drivers.subscribed import SubscribedDriver
+from quadsim.sim.drone import Drone
+from quadsim.sim.flight_events import EventKind, FlightEvent
+
+
+def final_pose_text(state: VehicleState) -> str:
+    """Where a fleet vehicle ended, as its summary line starts: position and heading."""
+    x, y, z = state.position_m
+    return f"final x={x:+.2f} y={y:+.2f} z={z:+.2f} m yaw={math.degrees(state.yaw_rad()):+.0f} deg"
+
+
+@dataclass(frozen=True)
+class RunSummary:
+    sim_time_s: float
+    wall_time_s: float
+    final_state: VehicleState
+    distance_m: float
+    max_altitude_m: float
+    commands_received: int
+    commands_rejected: int
+    commands_clamped: int = 0  # taken with a field past the vehicle's limits, brought within them
+    live_input: str = ""  # what a live input (ROS 2, Foxglove) saw arrive, when one flew the run
+    stopped_early: bool = False  # a signal asked the run to stop before its end
+    events: tuple[FlightEvent, ...] = ()  # take-off, touchdown, landed, crash, reset
+    physics_hz: int = 240  # the events' steps -> seconds
+
+    @property
+    def real_time_factor(self) -> float:
+        return self.sim_time_s / self.wall_time_s if self.wall_time_s > 0 else math.inf
+
+    def lines(self) -> list[str]:
+        s = self.final_state
+        x, y, z = s.position_m
+        roll, pitch = s.roll_pitch_rad()
+        return [
+            f"sim time        {self.sim_time_s:.2f} s",
+            f"wall time       {self.wall_time_s:.2f} s",
+            f"real-time factor {self.real_time_factor:.1f}x",
+            f"final pose      x={x:+.3f} m  y={y:+.3f} m  z={z:+.3f} m  "
+            f"yaw={math.degrees(s.yaw_rad()):+.1f} deg  roll={math.degrees(roll):+.1f}  pitch={math.degrees(pitch):+.1f}",
+            f"distance flown  {self.distance_m:.2f} m (max altitude {self.max_altitude_m:.2f} m)",
+            f"commands        {self.commands_received} received, {self.commands_rejected} rejected (not finite), "
+            f"{self.commands_clamped} clamped to the limits",
+            *([f"live input      {self.live_input}"] if self.live_input else []),
+            f"flight events   {self.events_line()}",
+            *(
+                f"crash           at t={e.step / self.physics_hz:.2f} s: {e.value}"
+                for e in self.events
+                if e.kind is EventKind.CRASH
+            ),
+        ]
+
+    def events_line(self) -> str:
+        counts = {kind: sum(e.kind is kind for e in self.events) for kind in EventKind}
+        return ", ".join(f"{n} {kind.value}" for kind, n in counts.items() if n) or "none"
+
+
+def _live_input(driver: object) -> str:
+    """What arrived from a live input (drivers/subscribed.py), said so a user sees what the wire
+    brought: a DDS payload of the right size always decodes to some Twist."""
+    if not isinstance(driver, SubscribedDriver):
+        return ""
+    arrived = driver.received + driver.rejected
+    return (
+        f"{arrived} arrived on {driver.topic} from {driver.name}: {driver.rejected} rejected (not finite), "
+        f"{driver.dropped} superseded before a step took them"
+    )
+
+
+class Odometer:
+    """A sink adding up the path length between published states, and the commands taken; with
+    `summary`, what its vehicle did since it was attached."""
+
+    def __init__(self, drone: Drone) -> None:
+        self.drone = drone
+        self.start_step = drone.step_count
+        self.first_event = len(drone.events)
+        self.distance_m = 0.0
+        self.max_z_m = -math.inf
+        self.commands = 0
+        self._last: tuple[float, float, float] | None = None
+
+    def on_command(self, step: int, twist: object) -> None:
+        self.commands += 1
+
+    def on_state(self, state: VehicleState) -> None:
+        p = state.position_m
+        if self._last is not None:
+            self.distance_m += math.dist(p, self._last)
+        self._last = p
+        self.max_z_m = max(self.max_z_m, p[2])
+
+    def summary(self, wall_s: float, stopped_early: bool) -> RunSummary:
+        """What the vehicle did since this odometer was attached, flown in `wall_s` of wall time."""
+        drone = self.drone
+        hz = drone.config.rates.physics_hz
+        state = drone.state
+        return RunSummary(
+            sim_time_s=(drone.step_count - self.start_step) / hz,
+            wall_time_s=wall_s,
+            final_state=state,
+            distance_m=self.distance_m,
+            max_altitude_m=self.max_z_m if self.max_z_m > -math.inf else state.position_m[2],
+            commands_received=self.commands,
+            commands_rejected=drone.gate.rejected_count
+            + (drone.driver.rejected if isinstance(drone.driver, SubscribedDriver) else 0),
+            commands_clamped=drone.gate.clamped_count,
+            live_input=_live_input(drone.driver),
+            stopped_early=stopped_early,
+            events=tuple(drone.events[self.first_event :]),
+            physics_hz=hz,
+        )
