@@ -94,7 +94,7 @@ def test_info_on_damaged_input(kind, tmp_path, good):
 
 def test_info_on_truncated_file_says_how_much_is_readable(tmp_path, good):
     out = cli("info", _make("truncated", tmp_path, good))
-    assert "Readable:" in out.stderr and "complete chunks" in out.stderr and "quadsim recover" in out.stderr
+    assert "Readable:" in out.stderr and "complete chunks" in out.stderr and "main.py recover" in out.stderr
 
 
 @pytest.mark.parametrize("kind", ["empty", "random", "not_mcap", "magic_only", "other_topics"])

@@ -25,6 +25,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any, BinaryIO
 
 from quadsim import __version__
+from quadsim.core.invocation import program
 from quadsim.errors import QuadsimError
 from quadsim.recording.contract import Names, Topic, camera_info_topic, image_topic, schema_text
 from quadsim.recording.paths import default_recordings_dir
@@ -441,7 +442,7 @@ class McapRecorder:
             reason = os.strerror(errno.ENOSPC)
         self.error = (
             f"recording stopped at sim time {self.last_log_time_ns / 1e9:.2f} s: {reason}. "
-            f"What was written is kept; run 'quadsim recover {self.path}' to index it"
+            f"What was written is kept; run '{program()} recover {self.path}' to index it"
         )
         log.error("%s", self.error)
         if self._writer is not None:
