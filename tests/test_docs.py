@@ -129,3 +129,24 @@ def test_the_readme_is_a_front_door():
         assert (ROOT / page).is_file(), page
     for needed in ("make fly", "make test", "Foxglove", "ROS 2", "check"):
         assert needed in readme
+
+
+#: how a clone runs a program: its own environment's python (what `make fly` sets up)
+BARE_PYTHON = re.compile(r"(?<![\w/.-])python3? (main\.py|examples/)")
+#: pages whose text is rewritten elsewhere for now (the architecture page's layout tree)
+SPELLING_LATER = {"architecture.md"}
+
+
+def test_the_docs_spell_a_clones_commands_one_way():
+    """A clone runs `.venv/bin/python main.py` (a bare `python main.py` is the system's Python,
+    which lacks the dependencies); installed, `quadsim`. The README, every page and the shipped
+    examples say it so."""
+    texts = [ROOT / "README.md", *PAGES, *sorted((ROOT / "quadsim" / "assets" / "examples").iterdir())]
+    found = [
+        f"{path.relative_to(ROOT)}: {line.strip()}"
+        for path in texts
+        if path.name not in SPELLING_LATER and path.suffix in (".md", ".py", ".toml")
+        for line in path.read_text().splitlines()
+        if BARE_PYTHON.search(line)
+    ]
+    assert not found, "\n".join(found)

@@ -40,7 +40,7 @@ def _block_after(text: str, marker: str) -> str:
     ("text", "marker"),
     [
         (README, "```sh\n.venv/bin/python main.py run --script square --cameras none\n```"),
-        (COMMAND_LINE_PAGE, "`python main.py run --script square\n--cameras none` prints"),
+        (COMMAND_LINE_PAGE, "`.venv/bin/python main.py run --script square\n--cameras none` prints"),
     ],
     ids=["README", "docs/command-line.md"],
 )
