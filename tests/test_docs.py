@@ -150,3 +150,17 @@ def test_the_docs_spell_a_clones_commands_one_way():
         if BARE_PYTHON.search(line)
     ]
     assert not found, "\n".join(found)
+
+
+def test_the_docs_name_the_version_they_describe():
+    """The docs, the changelog's newest heading and `quadsim.__version__` (what the wheel and
+    `--version` say) name one version: a user can tell whether the pages describe theirs."""
+    import quadsim
+
+    version = quadsim.__version__
+    assert f"These pages describe quadsim **{version}**" in (DOCS / "index.md").read_text()
+    changelog = (ROOT / "CHANGELOG.md").read_text()
+    newest = next(line for line in changelog.splitlines() if line.startswith("## ["))
+    assert newest == f"## [Unreleased] - {version}"
+    for page in [ROOT / "README.md", *PAGES]:
+        assert "(unreleased)" not in page.read_text().lower(), page  # a version the docs cannot name
