@@ -23,10 +23,10 @@ from quadsim.core.invocation import install_extra
 from quadsim.recording.flight import load_flight
 from quadsim.session.outputs import OutputOptions
 from quadsim.session.resim import resimulate
-from tests.recording_helpers import copy_recording, record_flight
+from tests.recording_helpers import SHIPPED_RECORDINGS, copy_recording, record_flight
 
 ROOT = Path(__file__).resolve().parent.parent
-RECORDINGS = sorted((ROOT / "tests" / "recordings").glob("*.mcap"))
+RECORDINGS = SHIPPED_RECORDINGS
 
 
 def cli(*args):
