@@ -57,6 +57,15 @@ def test_main_py_without_the_dependencies_says_to_set_up_the_clone(clone, tmp_pa
     assert "'make fly'" in line and line.endswith("then: .venv/bin/python main.py run --script square")
 
 
+def test_main_py_in_an_isolated_python_says_it_too(clone):
+    """`python3 -S -I main.py`: no site-packages, and no script folder on sys.path (-I)."""
+    result = subprocess.run(
+        [sys.executable, "-S", "-I", "main.py", "check", "recordings/"], capture_output=True, text=True, cwd=clone
+    )
+    line = _one_line(result)
+    assert "lacks quadsim's dependencies" in line and line.endswith(".venv/bin/python main.py check recordings/")
+
+
 def test_main_py_without_the_dependencies_names_the_clones_environment(clone, tmp_path):
     """A .venv there (set up before, the user typed python3): the command with its python."""
     _bare_python(clone / ".venv")
