@@ -9,9 +9,16 @@ except ImportError:
 if hasattr(signal, "pthread_sigmask"):
     signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT, signal.SIGTERM})
 
+import os
 import sys
 
-from quadsim.apps.launch import main
+# quadsim is the package beside this file: importable even where Python leaves the script's
+# folder off sys.path (-P, -I), so that a Python without the dependencies is told what to run
+_here = os.path.dirname(os.path.realpath(__file__))
+if _here not in sys.path:
+    sys.path.insert(0, _here)
+
+from quadsim.apps.launch import main  # noqa: E402
 
 if __name__ == "__main__":
     sys.exit(main())

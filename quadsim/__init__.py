@@ -14,7 +14,9 @@ The public API, loaded on first use so that `import quadsim` stays light (no pyb
 # would add some 10 ms in which a Ctrl-C meets Python's default handler (a traceback)
 TYPE_CHECKING = False
 
-__version__ = "0.2.0"
+#: the version these sources are: a development release (.devN) until 0.3.0 is released; the docs
+#: and the changelog's first heading name it too (tests/test_docs.py)
+__version__ = "0.3.0.dev0"
 
 #: public name -> module that defines it
 _PUBLIC = {

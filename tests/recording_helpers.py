@@ -13,6 +13,19 @@ from quadsim.sensors.camera import default_cameras
 from quadsim.session.outputs import OutputOptions, RecordedRun
 
 SCRIPT = "z_mode height\n2.0 linear.z=0\n1.0 linear.x=1.0 angular.z=0.5\n"
+#: the project's own regression recordings (tools/make_regression_recordings.py), by name: flights
+#: a user adds to tests/recordings/ (the docs ask for a folder of their own) change no test's count
+SHIPPED_RECORDINGS = [
+    Path(__file__).with_name("recordings") / name
+    for name in (
+        "climb_cascade.mcap",
+        "figure8_seed.mcap",
+        "fleet_trio_wind.mcap",
+        "keyboard_session_cascade.mcap",
+        "square_cascade.mcap",
+        "takeoff_moderate_wind_cascade.mcap",
+    )
+]
 
 
 def record_flight(path: Path, workers: int = 0, size=(160, 120), cameras=True, script: str = SCRIPT) -> StateLog:

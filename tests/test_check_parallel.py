@@ -12,6 +12,8 @@ from pathlib import Path
 
 import pytest
 
+from tests.recording_helpers import SHIPPED_RECORDINGS
+
 ROOT = Path(__file__).resolve().parent.parent
 
 
@@ -25,7 +27,7 @@ def _check(*args: str) -> subprocess.CompletedProcess:
 def folder(tmp_path_factory: pytest.TempPathFactory) -> Path:
     """The regression recordings plus a damaged file, so every kind of line is in the report."""
     out = tmp_path_factory.mktemp("check")
-    for f in sorted((ROOT / "tests" / "recordings").glob("*.mcap")):
+    for f in SHIPPED_RECORDINGS:
         shutil.copy(f, out / f.name)
     (out / "broken.mcap").write_bytes(b"\x89MCAP0\r\nnot really")
     return out
@@ -40,7 +42,7 @@ def test_jobs_gives_the_serial_report(folder: Path) -> None:
     assert [line.split()[1].rstrip(":") for line in lines[:-1] if not line.startswith(" ")] == [
         str(p) for p in sorted(folder.glob("*.mcap"))
     ]
-    count = len(list((ROOT / "tests" / "recordings").glob("*.mcap")))
+    count = len(SHIPPED_RECORDINGS)
     assert lines[-1] == f"{count} of {count + 1} recordings re-fly within 0.001 m and 0.001 rad; 1 unusable"
 
 
@@ -74,7 +76,7 @@ def test_check_stopped_part_way_says_so_and_exits_130(tmp_path):
     """Ctrl-C part-way through: the files not reached are counted, and the exit code is 130 (it
     was 0, with a line saying the signal came once the command had finished)."""
     for i in range(4):
-        for src in sorted((ROOT / "tests" / "recordings").glob("*.mcap")):
+        for src in SHIPPED_RECORDINGS:
             shutil.copy(src, tmp_path / f"{i}_{src.name}")
     proc = subprocess.Popen(
         [sys.executable, str(ROOT / "main.py"), "check", str(tmp_path), "--jobs", "1"],

@@ -17,6 +17,7 @@ import pytest
 from quadsim.control.cascade import CascadeController
 from quadsim.control.cascade_step import cascade_update
 from quadsim.core import compiled
+from quadsim.core.invocation import install_extra
 from quadsim.core.kinematics import matrix_from_quaternion
 from quadsim.core.types import ActiveCommand, Twist, VehicleState, ZMode
 from quadsim.vehicle.mixer import Mixer, mix
@@ -309,7 +310,7 @@ print(compiled.COMPILED, compiled.status())
 @pytest.mark.parametrize(
     ("mode", "said"),
     [
-        ("missing", "flight core as plain Python: pip install 'quadsim[fast]' (numba) to compile it"),
+        ("missing", "flight core as plain Python: {install} (numba) to compile it"),
         (
             "broken",
             "flight core as plain Python: numba is installed but did not import "
@@ -317,7 +318,7 @@ print(compiled.COMPILED, compiled.status())
         ),
     ],
 )
-def test_without_a_working_numba_it_flies_as_python_and_says_why(tmp_path, mode, said):
+def test_without_a_working_numba_it_flies_as_python_and_says_why(tmp_path, mode, said, monkeypatch):
     """A numba that is installed but fails to import (a NumPy it does not support) was reported as
     not installed, with advice to install it."""
     (tmp_path / "numba").mkdir()
@@ -327,4 +328,5 @@ def test_without_a_working_numba_it_flies_as_python_and_says_why(tmp_path, mode,
         [sys.executable, "-c", STATUS, mode], capture_output=True, text=True, env=env, cwd=ROOT, timeout=120
     )
     assert done.returncode == 0, done.stderr[-2000:]
-    assert done.stdout.strip().splitlines()[-1] == f"False {said}"
+    monkeypatch.chdir(ROOT)  # where it ran: the hint is the clone's install command there
+    assert done.stdout.strip().splitlines()[-1] == f"False {said.format(install=install_extra('fast'))}"

@@ -94,7 +94,26 @@ def test_info_on_damaged_input(kind, tmp_path, good):
 
 def test_info_on_truncated_file_says_how_much_is_readable(tmp_path, good):
     out = cli("info", _make("truncated", tmp_path, good))
-    assert "Readable:" in out.stderr and "complete chunks" in out.stderr and "quadsim recover" in out.stderr
+    assert "Readable:" in out.stderr and "complete chunks" in out.stderr and "main.py recover" in out.stderr
+
+
+def test_info_on_a_cut_short_file_says_the_error_alone(tmp_path, good):
+    """Checked first, then printed: no half of a report before the error."""
+    out = cli("info", _make("truncated", tmp_path, good))
+    assert out.returncode == 2 and out.stdout == ""
+    assert len(out.stderr.strip().splitlines()) == 1 and "cut short" in out.stderr
+
+
+@pytest.mark.parametrize("argv", [["--headless"], ["--plot", "p.png"], []])
+def test_replay_refuses_a_cut_short_file_as_info_does(tmp_path, good, argv):
+    """A run killed mid-write lost its last states: replay says what info says (what is
+    readable, the recover command), in one line, exit 2, and plays nothing."""
+    cut = _make("truncated", tmp_path, good)
+    said = cli("info", cut).stderr
+    out = cli("replay", cut, *argv)
+    assert out.returncode == 2 and out.stdout == "" and out.stderr == said, out.stdout + out.stderr
+    assert "Readable:" in said and " recover " in said
+    assert not (ROOT / "p.png").exists()
 
 
 @pytest.mark.parametrize("kind", ["empty", "random", "not_mcap", "magic_only", "other_topics"])

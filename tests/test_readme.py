@@ -40,7 +40,7 @@ def _block_after(text: str, marker: str) -> str:
     ("text", "marker"),
     [
         (README, "```sh\n.venv/bin/python main.py run --script square --cameras none\n```"),
-        (COMMAND_LINE_PAGE, "`python main.py run --script square\n--cameras none` prints"),
+        (COMMAND_LINE_PAGE, "`.venv/bin/python main.py run --script square\n--cameras none` prints"),
     ],
     ids=["README", "docs/command-line.md"],
 )
@@ -64,3 +64,17 @@ def test_the_run_example_is_what_run_prints(tmp_path, text, marker):
     )
     assert result.returncode == 0, result.stderr
     assert _normalise(result.stdout.splitlines()) == _normalise(block.splitlines())
+
+
+def test_what_the_readme_says_of_the_example_fleet_holds():
+    """The README said `fly --fleet` flies one of the example's vehicles from the keyboard: the
+    example has none (`run --fleet` refuses one, and the example is what `run --fleet` flies).
+    It says which input a vehicle needs and which of the example's to change."""
+    from quadsim.core.toml_files import read_toml
+
+    example = read_toml(ROOT / "examples" / "fleet.toml", "fleet file")
+    inputs = {vehicle["name"]: vehicle["input"] for vehicle in example["vehicle"]}
+    assert not {"keyboard", "gamepad"} & set(inputs.values())  # so the README must say what to set
+    said = " ".join(README.split("`fly --fleet", 1)[1].split("\n\n", 1)[0].split())
+    assert 'whose input is `"keyboard"` or `"gamepad"`' in said
+    assert 'set `delta`\'s input to `"keyboard"`' in said and inputs["delta"] == "idle"

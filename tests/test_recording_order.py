@@ -49,3 +49,94 @@ def test_a_recording_started_mid_run_begins_when_it_began(tmp_path):
     assert min(times) >= 5_000_000_000 and times == sorted(times)
     camera = next(t for t in info.topics if t.name == "/quad/front_camera/image_raw/compressed")
     assert 55 <= camera.count <= 61 and abs(camera.rate_hz - 30.0) < 1.0
+
+
+class _Delivered:
+    """A frame sink that notes at which loop step each frame was handed on."""
+
+    def __init__(self) -> None:
+        self.now = 0
+        self.lags: list[int] = []  # steps from a frame's capture to its delivery
+
+    def on_camera_frame(self, frame) -> None:
+        self.lags.append(self.now - frame.step)
+
+
+def test_ordered_frames_come_within_the_ordered_lag_whatever_the_camera_rate():
+    """Headless runs hand a frame on a fixed number of captures after its own: at most
+    ORDERED_LAG_S of simulated time, which bounds how long the recorder holds the rest back (what
+    a killed run loses). A 2 Hz camera's frame comes at its own capture (it waited 2 s before)."""
+    from quadsim.sensors.camera import CameraSpec
+    from quadsim.sensors.pipeline import ORDERED_LAG_S, CameraPipeline
+
+    lag_steps = ORDERED_LAG_S * 240
+    with Simulator(SimConfig(z_mode=ZMode.HEIGHT)) as sim:
+        for rate_hz, captures_behind in ((30, 4), (10, 2), (2, 0)):
+            spec = CameraSpec("front", "front_camera_link", width_px=32, height_px=24, rate_hz=rate_hz)
+            pipe = CameraPipeline(sim.vehicle, sim.world, 240, (spec,), workers=2)
+            sink = _Delivered()
+            pipe.sinks.append(sink)
+            try:
+                state = sim.state
+                for step in range(0, 240 * 3, pipe.tap_interval_steps):
+                    sink.now = step
+                    pipe.capture(state._replace(step=step))
+            finally:
+                pipe.close()
+            every = 240 // rate_hz
+            assert sink.lags and set(sink.lags) == {captures_behind * every}, (rate_hz, set(sink.lags))
+            assert max(sink.lags) <= lag_steps
+
+
+def test_a_frame_later_than_the_hold_is_left_out_not_written_out_of_order():
+    """In the window frames come when they are ready; the recorder holds the rest back for them
+    half a second of simulated time at most, then writes; a frame that comes later still is left
+    out (it would break the file's log-time order) and counted."""
+    from quadsim.recording.contract import POSE, Topic
+    from quadsim.recording.writer import MAX_FRAME_WAIT_NS, _LogTimeOrder
+
+    image = Topic("/quad/front_camera/image_raw/compressed", "sensor_msgs/msg/CompressedImage")
+    order = _LogTimeOrder({image.name}, start_ns=0)
+    written = []
+    for i in range(1, 61):  # a second of states at 60 Hz, no frame yet
+        written += order.push([(POSE, i * 1_000_000_000 // 60, b"")])
+    assert written and written[-1][1] <= 1_000_000_000 - MAX_FRAME_WAIT_NS  # held half a second, no more
+    written += order.push([(image, 100_000_000, b"late"), (image, 900_000_000, b"in time")])
+    written += order.drain()
+    times = [ns for _, ns, _ in written]
+    assert times == sorted(times) and order.late == 1
+    assert [data for topic, _, data in written if topic is image] == [b"in time"]
+
+
+def test_a_slow_run_closes_a_chunk_every_wall_second(tmp_path):
+    """A camera run on a busy machine takes several wall seconds per simulated second: the file
+    gets a complete chunk once a wall second has passed, not only at each simulated second, so a
+    run killed in its first simulated second keeps what it flew (it kept nothing)."""
+    import shutil
+
+    from quadsim.recording.contract import TWIST
+    from quadsim.recording.mcap_scan import McapFile
+    from quadsim.recording.writer import McapRecorder
+
+    def on_disk() -> int:
+        """The messages in complete chunks of the file as it is now (what a kill -9 leaves)."""
+        shutil.copyfile(path, tmp_path / "now.mcap")
+        with McapFile(tmp_path / "now.mcap") as found:
+            return found.message_count
+
+    wall_s = [0.0]
+    path = tmp_path / "slow.mcap"
+    with Simulator(SimConfig()) as sim:
+        recorder = McapRecorder(path, sim.description(), clock=lambda: wall_s[0])
+        recorder.add_topic(TWIST)
+        recorder.on_messages([(TWIST, 100_000_000, b"\0" * 8)])
+        assert on_disk() == 0  # 0.1 s of simulated time, no wall time: still in the open chunk
+        wall_s[0] = 0.9
+        recorder.on_messages([(TWIST, 200_000_000, b"\0" * 8)])
+        assert on_disk() == 0
+        wall_s[0] = 1.05  # a wall second since the recorder opened
+        recorder.on_messages([(TWIST, 300_000_000, b"\0" * 8)])
+        assert on_disk() == 3
+        recorder.on_messages([(TWIST, 1_000_000_000, b"\0" * 8)])  # a simulated second: closed as before
+        assert on_disk() == 4
+        recorder.close()

@@ -250,7 +250,7 @@ def test_a_write_error_on_the_file_itself_stops_recording_not_the_flight(tmp_pat
     # the flight went on, but a run whose recording stopped does not say "all fine": exit 1
     assert result.returncode == 1 and "Traceback" not in result.stderr
     assert "its recording did not" in result.stderr
-    assert "recording stopped at sim time" in result.stdout and "quadsim recover" in result.stdout
+    assert "recording stopped at sim time" in result.stdout and "main.py recover" in result.stdout
     # the reason: the OS's (File too large) when our flush meets it, the MCAP writer's own I/O error
     # when it meets it closing a chunk (a flight event's metadata record closes one)
     assert "File too large" in result.stdout or "I/O error from writing" in result.stdout
@@ -282,7 +282,7 @@ def test_a_full_disk_under_camera_frames_is_one_message_not_hundreds(tmp_path, l
     assert result.returncode == 1
     problems = [line for line in result.stderr.splitlines() if not line.startswith("sim time:")]
     assert len(problems) == 2, result.stderr  # recording stopped (with why); the run's closing line
-    assert "recording stopped at sim time" in problems[0] and "quadsim recover" in problems[0]
+    assert "recording stopped at sim time" in problems[0] and "main.py recover" in problems[0]
     assert "its recording did not" in problems[1]
 
 

@@ -18,14 +18,15 @@ from quadsim import QuadsimError, SimConfig
 from quadsim.apps.replay_export import export_mp4
 from quadsim.apps.window.replay import ReplayApp
 from quadsim.apps.window.teleop import TeleopApp, TeleopOptions
+from quadsim.core.invocation import install_extra
 from quadsim.recording.flight import load_flight
 from quadsim.session.outputs import OutputOptions
 from quadsim.session.pacing import FixedStepPacer
 from quadsim.session.resim import resimulate
-from tests.recording_helpers import copy_recording, record_flight
+from tests.recording_helpers import SHIPPED_RECORDINGS, copy_recording, record_flight
 
 ROOT = Path(__file__).resolve().parent.parent
-RECORDINGS = sorted((ROOT / "tests" / "recordings").glob("*.mcap"))
+RECORDINGS = SHIPPED_RECORDINGS
 
 
 def cli(*args):
@@ -106,6 +107,7 @@ def test_check_on_unusable_files_exits_2(tmp_path):
     data = (ROOT / "tests" / "recordings" / "square_cascade.mcap").read_bytes()
     bad.write_bytes(data[: len(data) // 3])
     out = cli("check", bad)
+    # the re-flight's own refusal (session/resim.py) names recover as the installed command
     assert out.returncode == 2 and "ERROR" in out.stdout and "quadsim recover" in out.stdout
     assert "Traceback" not in out.stderr
 
@@ -274,7 +276,7 @@ def test_plot_without_matplotlib_says_how_to_get_it(with_cameras, tmp_path, monk
         return real_import(name, *args, **kwargs)
 
     monkeypatch.setattr(builtins, "__import__", no_matplotlib)
-    with pytest.raises(QuadsimError, match=r"pip install 'quadsim\[plot\]'"):
+    with pytest.raises(QuadsimError, match=re.escape(install_extra("plot"))):
         export_plot(load_flight(with_cameras), tmp_path / "p.png")
     # `replay --mp4 --plot` says so before encoding a frame (it used to, after minutes of videos)
     from quadsim.apps.cli import main
@@ -282,7 +284,7 @@ def test_plot_without_matplotlib_says_how_to_get_it(with_cameras, tmp_path, monk
     assert (
         main(["replay", str(with_cameras), "--mp4", str(tmp_path / "videos"), "--plot", str(tmp_path / "p.png")]) == 2
     )
-    assert "pip install 'quadsim[plot]'" in capsys.readouterr().err
+    assert install_extra("plot") in capsys.readouterr().err
     videos = tmp_path / "videos"
     assert not (videos.exists() and list(videos.iterdir())) and not (tmp_path / "p.png").exists()
 

@@ -19,6 +19,7 @@ import cv2
 import numpy as np
 import pytest
 
+from quadsim.core.invocation import install_extra
 from quadsim.recording.reader import RecordingReader
 from tests.recording_helpers import commanded_motion
 from tests.ros2_env import DISTRIBUTIONS, PEER, free_domain, local_env, ros2_python
@@ -198,7 +199,9 @@ def test_replay_publishes_the_recording_as_it_plays(ros2_flight: tuple[Path, str
     assert last - first > 4_000_000_000  # /clock follows the playback (twice as fast as the wall clock)
 
 
-def test_without_cyclonedds_a_one_line_message_says_how_to_install(tmp_path: Path) -> None:
+def test_without_cyclonedds_a_one_line_message_says_how_to_install(tmp_path: Path, monkeypatch) -> None:
+    """From a clone, the install command of the clone's environment (tests/test_invocation.py
+    has the installed case)."""
     blocker = tmp_path / "cyclonedds"
     blocker.mkdir()
     (blocker / "__init__.py").write_text("raise ImportError('blocked for the test')\n")
@@ -210,10 +213,12 @@ def test_without_cyclonedds_a_one_line_message_says_how_to_install(tmp_path: Pat
         capture_output=True,
         text=True,
         timeout=60,
+        cwd=ROOT,
     )
     assert sim.returncode != 0
+    monkeypatch.chdir(ROOT)
     assert sim.stderr.strip().splitlines() == [
-        "quadsim: error: --ros2 and --input ros2 need Eclipse Cyclone DDS for Python: pip install 'quadsim[ros2]'"
+        f"quadsim: error: --ros2 and --input ros2 need Eclipse Cyclone DDS for Python: {install_extra('ros2')}"
     ]
 
 

@@ -18,6 +18,7 @@ import pytest
 from quadsim.apps.sweep.metrics import METRICS
 from quadsim.apps.sweep.spec import load_sweep
 from quadsim.apps.sweep.table import existing_table, read_table
+from quadsim.core.invocation import install_extra
 from quadsim.errors import ConfigError
 from quadsim.recording.flight import load_flight
 
@@ -195,7 +196,7 @@ def test_the_wind_example_on_ray_and_on_the_pool_gives_the_docs_table(tmp_path: 
     tilt = {w: sum(r["max_tilt_deg"] for r in cascade if r["wind"] == w) for w in ("0,90", "6,90")}
     assert tilt["6,90"] > tilt["0,90"]
     sweeps_page = (ROOT / "docs" / "sweeps.md").read_text()
-    block = sweeps_page.split("$ python main.py sweep examples/sweep_wind.toml", 1)[1].split("```", 1)[0]
+    block = sweeps_page.split("$ .venv/bin/python main.py sweep examples/sweep_wind.toml", 1)[1].split("```", 1)[0]
     shown = [line for line in block.strip().splitlines()[2:] if not line.startswith(("table", "plot"))]
     printed = [line for line in pool.stdout.splitlines()[1:] if not line.startswith(("table", "plot"))]
     assert printed == shown
@@ -544,7 +545,9 @@ NO_NUMBA = (
 )
 
 
-def test_without_numba_a_long_sweep_says_how_to_fly_it_faster_and_a_short_one_does_not(tmp_path: Path) -> None:
+def test_without_numba_a_long_sweep_says_how_to_fly_it_faster_and_a_short_one_does_not(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
     """The compiled core costs each worker a quarter to half a second to load: it pays on long sweeps,
     not on short ones (where the note would be bad advice)."""
     said = {}
@@ -562,7 +565,8 @@ def test_without_numba_a_long_sweep_says_how_to_fly_it_faster_and_a_short_one_do
         assert done.returncode == 0, done.stderr[-2000:]
         said[seconds] = done.stdout.splitlines()[1]
     assert not said[30].startswith("note:")
-    assert said[700] == "note: flight core as plain Python: pip install 'quadsim[fast]' (numba) to compile it"
+    monkeypatch.chdir(ROOT)  # where it ran: the hint is the clone's install command there
+    assert said[700] == f"note: flight core as plain Python: {install_extra('fast')} (numba) to compile it"
 
 
 POOL_SCRIPT = """

@@ -212,6 +212,24 @@ def test_window_shows_both_cameras_map_and_hud(tmp_path):
     app.close()
 
 
+def test_without_cameras_the_panes_say_the_cameras_are_off(tmp_path, monkeypatch):
+    """--cameras none: the camera panes say so (they said "no image yet", as if one would come)."""
+    from quadsim.apps.window.view import TeleopView
+
+    said: dict[str, str] = {}
+    draw_camera = TeleopView._camera
+
+    def spy(self, surface, rect, frame, title, empty):
+        said[title] = empty
+        return draw_camera(self, surface, rect, frame, title, empty)
+
+    monkeypatch.setattr(TeleopView, "_camera", spy)
+    app = make_app(tmp_path, cameras=())
+    run_with(app, 2)
+    app.close()
+    assert said == {"front camera": "cameras off (--cameras none)", "floor camera": "cameras off (--cameras none)"}
+
+
 def test_input_foxglove_flies_the_delivered_twists_and_ignores_the_keyboard(tmp_path: Path) -> None:
     from quadsim.drivers.subscribed import SubscribedDriver
 

@@ -4,13 +4,30 @@ so the page and `--help` cannot disagree (tests/test_docs.py checks the built pa
 from __future__ import annotations
 
 import argparse
+import os
 from typing import Any
 
 MARKER = "<!-- cli-reference -->"
+#: the help's width: what a code block holds between the site's navigation and its table of
+#: contents at 1280 px without wrapping (docs/stylesheets/extra.css wraps what is wider)
+COLUMNS = 66
 
 
 def cli_reference() -> str:
-    """Markdown: the top-level help, then each command's, as `--help` prints them."""
+    """Markdown: the top-level help, then each command's, as `--help` prints them in a terminal
+    COLUMNS wide."""
+    previous = os.environ.get("COLUMNS")
+    os.environ["COLUMNS"] = str(COLUMNS)  # argparse reads the width when it formats
+    try:
+        return _cli_reference()
+    finally:
+        if previous is None:
+            del os.environ["COLUMNS"]
+        else:
+            os.environ["COLUMNS"] = previous
+
+
+def _cli_reference() -> str:
     from quadsim.apps.cli import build_parser
 
     parser = build_parser()

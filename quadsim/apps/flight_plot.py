@@ -13,6 +13,7 @@ import tempfile
 from pathlib import Path
 from typing import Any
 
+from quadsim.core.invocation import install_extra
 from quadsim.core.types import HEIGHT_MODE_BASE_M, VehicleState, ZMode
 from quadsim.errors import QuadsimError
 from quadsim.physics.world_spec import load_world
@@ -28,7 +29,7 @@ def _matplotlib() -> Any:
     try:
         import matplotlib
     except ImportError:
-        raise QuadsimError("plots need matplotlib: pip install 'quadsim[plot]'") from None
+        raise QuadsimError(f"plots need matplotlib: {install_extra('plot')}") from None
     matplotlib.use("Agg", force=True)  # files only: no display, no GUI toolkit
     import matplotlib.pyplot as plt
 

@@ -57,6 +57,12 @@ def main(argv: list[str] | None = None) -> int:
             if early is not None:
                 print(f"quadsim: {describe(early)} while starting", file=sys.stderr)
                 return exit_code(early)
+            from quadsim.core.invocation import missing_modules, missing_modules_message
+
+            missing = missing_modules()  # said in one line, not as a traceback from deep in a command
+            if missing:
+                print(f"quadsim: error: {missing_modules_message(missing)}", file=sys.stderr)
+                return 2
             from quadsim.apps.cli import main as cli_main
         except (StopRequested, ImportError) as exc:  # a second signal, or what it broke mid-import
             if stop.signum is None:

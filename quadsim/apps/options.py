@@ -14,6 +14,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from quadsim.control import ControllerKind
+from quadsim.core.invocation import program
 from quadsim.core.types import StartPose, ZMode
 from quadsim.errors import QuadsimError
 from quadsim.live import FOXGLOVE_DEFAULT_ENDPOINT
@@ -68,17 +69,6 @@ def whole(low: int, high: int) -> Callable[[str], int]:
         return value
 
     return parse
-
-
-def program() -> str:
-    """How the user started quadsim, for help and hints to name: `python main.py` in a clone,
-    `python -m quadsim`, or the installed `quadsim` command."""
-    started = Path(sys.argv[0]) if sys.argv and sys.argv[0] else Path()
-    if started.name == "main.py":
-        return "python main.py"
-    if started.name == "__main__.py" and started.parent.name == "quadsim":
-        return "python -m quadsim"
-    return "quadsim"
 
 
 def recordings_default(below: str = "") -> str:
@@ -271,7 +261,7 @@ def add_live_options(p: argparse.ArgumentParser, what: str = "the run", flown: b
         "--ros2",
         action="store_true",
         help=f"join a ROS 2 graph (ROS_DOMAIN_ID, ROS_AUTOMATIC_DISCOVERY_RANGE) and publish {what} live: every "
-        "topic of the recording with its QoS, plus /clock for use_sim_time; needs pip install 'quadsim[ros2]' "
+        "topic of the recording with its QoS, plus /clock for use_sim_time; needs the ros2 extra "
         "(Cyclone DDS; no ROS installation)",
     )
     g.add_argument(
@@ -306,7 +296,7 @@ def add_parallel_options(p: argparse.ArgumentParser, jobs_help: str) -> None:
         default=None,
         metavar="ADDRESS",
         help="run as Ray tasks: on a local Ray instance (no ADDRESS), or on a cluster "
-        "(auto, ray://HOST:10001); needs pip install 'quadsim[ray]'",
+        "(auto, ray://HOST:10001); needs the ray extra",
     )
 
 
@@ -467,4 +457,4 @@ def warn(lines: list[str], path: Path, most: int = 8) -> None:
     for line in lines[:most]:
         print(f"quadsim: warning: {path}: {line}", file=sys.stderr)
     if len(lines) > most:
-        print(f"quadsim: warning: {path}: and {len(lines) - most} more (see 'quadsim info')", file=sys.stderr)
+        print(f"quadsim: warning: {path}: and {len(lines) - most} more (see '{program()} info')", file=sys.stderr)

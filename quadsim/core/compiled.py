@@ -21,6 +21,8 @@ from collections.abc import Callable, Iterable, MutableSequence, Sequence
 from pathlib import Path
 from typing import Any, TypeVar
 
+from quadsim.core.invocation import install_extra
+
 F = TypeVar("F", bound=Callable[..., Any])
 #: what compiled functions take for constants (a float64 array, or a list: `floats`)
 Floats = Sequence[float]
@@ -51,7 +53,7 @@ def status() -> str:
         return "flight core as plain Python: NUMBA_DISABLE_JIT is set"
     if NUMBA_PROBLEM is not None:
         return f"flight core as plain Python: numba is installed but did not import ({NUMBA_PROBLEM})"
-    return "flight core as plain Python: pip install 'quadsim[fast]' (numba) to compile it"
+    return f"flight core as plain Python: {install_extra('fast')} (numba) to compile it"
 
 
 #: every module of the package with compiled functions (tests/test_compiled.py checks the list)

@@ -9,13 +9,14 @@ observation, info = env.reset(seed=0)
 
 from __future__ import annotations
 
+from quadsim.core.invocation import install_extra
 from quadsim.errors import QuadsimError
 
 try:
     import gymnasium
 except ImportError:  # pragma: no cover - depends on what is installed
     raise QuadsimError(
-        "the Gymnasium environments need gymnasium: pip install 'quadsim[gym]' ('quadsim[marl]' for the PettingZoo "
+        f"the Gymnasium environments need gymnasium: {install_extra('gym')} (the marl extra for the PettingZoo "
         "fleet env)"
     ) from None
 

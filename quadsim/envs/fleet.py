@@ -24,6 +24,7 @@ from typing import Any
 
 import numpy as np
 
+from quadsim.core.invocation import install_extra
 from quadsim.core.types import StartPose, Twist, ZMode
 from quadsim.envs.quad import (
     AGENT_HZ,
@@ -44,7 +45,7 @@ try:
     from gymnasium import spaces
     from pettingzoo import ParallelEnv
 except ImportError:  # pragma: no cover - depends on what is installed
-    raise QuadsimError("the fleet environment needs PettingZoo: pip install 'quadsim[marl]'") from None
+    raise QuadsimError(f"the fleet environment needs PettingZoo: {install_extra('marl')}") from None
 
 #: the seeds the env hands the fleet (SimConfig's range)
 _SIM_SEEDS = 2**63 - 1

@@ -31,6 +31,7 @@ from importlib import import_module
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
+from quadsim.core.invocation import install_extra
 from quadsim.errors import QuadsimError
 from quadsim.live.dds_types import dds_type_name, idl_type
 from quadsim.recording.contract import TWIST, Topic
@@ -39,7 +40,6 @@ from quadsim.recording.fanout import NS_PER_S, Message
 if TYPE_CHECKING:
     from quadsim.drivers.subscribed import SubscribedDriver
 
-INSTALL_HINT = "--ros2 and --input ros2 need Eclipse Cyclone DDS for Python: pip install 'quadsim[ros2]'"
 CLOCK = Topic("/clock", "rosgraph_msgs/msg/Clock")
 #: /clock is published with the newest log time seen, at most this often (of simulation time)
 CLOCK_HZ = 100
@@ -77,7 +77,9 @@ def cyclonedds() -> Any:
     try:
         import cyclonedds.domain
     except ImportError:
-        raise QuadsimError(INSTALL_HINT) from None
+        raise QuadsimError(
+            f"--ros2 and --input ros2 need Eclipse Cyclone DDS for Python: {install_extra('ros2')}"
+        ) from None
     import cyclonedds
 
     return cyclonedds

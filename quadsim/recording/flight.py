@@ -45,6 +45,7 @@ class RecordedFlight:
     end_ns: int = 0
     description_error: str | None = None  # why the run's parameters could not be read, if so
     damage: list[Damage] = field(default_factory=list)  # what is wrong with the file (chunks skipped...)
+    damage_report: str = ""  # the damage in one line, as `info` says it: what is readable, what to run
     notes: list[str] = field(default_factory=list)  # what was not read though the file is sound there
     bad_events: list[str] = field(default_factory=list)  # event records that are malformed
     undecodable: dict[str, int] = field(default_factory=dict)  # topic -> messages that did not decode
@@ -163,6 +164,7 @@ def load_flights(path: Path | str) -> dict[str, RecordedFlight]:
             flight.events = reader.vehicle_events.get(name, []) if name else reader.events
             flight.bad_events = reader.bad_events
             flight.damage, flight.notes = reader.damage, reader.notes
+            flight.damage_report = reader.file.damage_report() if reader.damage else ""
             flight.attachments = reader.attachments()
             flight.topics = reader.topic_counts()
             flight.start_ns, flight.end_ns = reader.span_ns

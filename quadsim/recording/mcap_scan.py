@@ -23,6 +23,7 @@ from collections.abc import Iterator
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 
+from quadsim.core.invocation import program
 from quadsim.errors import QuadsimError
 
 MAGIC = b"\x89MCAP0\r\n"
@@ -390,9 +391,9 @@ class McapFile:
         if not self.message_count:
             action = " Nothing can be recovered."
         elif lost:
-            action = f" Run 'quadsim recover {self.path}' to save them to an indexed file."
+            action = f" Run '{program()} recover {self.path}' to save them to an indexed file."
         else:
-            action = f" Nothing is lost: 'quadsim recover {self.path}' rewrites it as a sound file."
+            action = f" Nothing is lost: '{program()} recover {self.path}' rewrites it as a sound file."
         said = "" if kind == "cut short" else f"{kind}: "  # its first problem says 'cut short' itself
         return f"{self.path}: {said}{first}{more}. {readable}{action}"
 

@@ -3,8 +3,10 @@
 A consumer of the topic fan-out (`quadsim.recording.fanout`): it writes the messages it is given
 and decides nothing about them. Profile `ros2`, `ros2msg` schemas, CDR messages, zstd chunks,
 written by foxglove-sdk's MCAP writer (Rust). Log time = publish time = header.stamp =
-simulation time in ns from 0. A chunk is closed and the file flushed every simulated second, so
-a crash loses about a second; the file is fsynced at most once per wall second. If writing fails
+simulation time in ns from 0. A chunk is closed and handed to the OS at every simulated second,
+and at least once a second of wall time (a run with cameras is slower than real time): a process
+killed outright loses the last second or so, the open chunk and what waits for the camera frames
+of its time (see _LogTimeOrder); the file is fsynced at most once per wall second. If writing fails
 (the disk is full), recording stops, what was written stays readable (`quadsim recover` indexes
 it), and the flight goes on.
 """
@@ -20,11 +22,12 @@ import os
 import re
 import shutil
 import time
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, BinaryIO
 
 from quadsim import __version__
+from quadsim.core.invocation import program
 from quadsim.errors import QuadsimError
 from quadsim.recording.contract import Names, Topic, camera_info_topic, image_topic, schema_text
 from quadsim.recording.paths import default_recordings_dir
@@ -164,16 +167,24 @@ def _no_space_left(folder: Path) -> bool:
     return st.f_bavail == 0 or st.f_bfree == 0
 
 
+#: how long (simulated time) the recorder holds messages back for camera frames at most: headless
+#: runs hand frames on within sensors.pipeline.ORDERED_LAG_S; the window hands them on when they
+#: are ready, and one later than this is left out of the file (it is stale, and would break the
+#: log-time order)
+MAX_FRAME_WAIT_NS = 500_000_000
+
+
 class _LogTimeOrder:
     """Puts messages from producers that run at different delays back in log-time order.
 
-    Frames come in capture order, from the render workers, some camera periods after the states
-    of their time. Everything else is held until a frame at least as late has come (or
-    `max_hold_ns` of newer messages have piled up, when frames stop: a window dropping them on a
-    busy machine). Frames from before `start_ns` (rendered before recording began) are left out.
+    Frames come in capture order, from the render workers, a few camera periods after the states
+    of their time. Everything else is held until a frame at least as late has come, or until
+    `max_hold_ns` of newer messages have piled up (frames stop: a window dropping them on a busy
+    machine); a frame older than what was written by then is left out and counted in `late`.
+    Frames from before `start_ns` (rendered before recording began) are left out.
     """
 
-    def __init__(self, camera_topics: set[str], start_ns: int, max_hold_ns: int = 2_000_000_000) -> None:
+    def __init__(self, camera_topics: set[str], start_ns: int, max_hold_ns: int = MAX_FRAME_WAIT_NS) -> None:
         self._camera_topics = camera_topics
         self._start_ns = start_ns
         self._max_hold_ns = max_hold_ns
@@ -181,12 +192,17 @@ class _LogTimeOrder:
         self._arrivals = 0
         self._frames_up_to = -1  # every frame up to this log time is in
         self._newest = 0
+        self._released_to = -1  # every message up to this log time has been handed on
+        self.late = 0  # frames that came after their time was written: left out
 
     def push(self, messages: Sequence[Message]) -> list[Message]:
         for message in messages:
             topic, ns, _ = message
             if topic.name in self._camera_topics:
                 if ns < self._start_ns:
+                    continue
+                if ns < self._released_to:
+                    self.late += 1
                     continue
                 if ns > self._frames_up_to:
                     self._frames_up_to = ns
@@ -199,6 +215,8 @@ class _LogTimeOrder:
         held = self._held
         while held and held[0][0] <= release_to:
             out.append(heapq.heappop(held)[2])
+        if out:
+            self._released_to = max(self._released_to, out[-1][1])
         return out
 
     def drain(self) -> list[Message]:
@@ -286,10 +304,12 @@ class McapRecorder:
     """A consumer of the topic fan-out that writes one MCAP file: the run's metadata and
     attachments when it opens, then every message it is given.
 
-    Chunks are closed here, at every simulated second and whenever `chunk_size` bytes of
-    messages have gathered, not by the writer while it logs a message: so a write error surfaces
-    here, as an exception, and recording stops (one that hits the few bytes the writer puts down
-    when it opens a chunk is logged by foxglove and surfaces at the next flush)."""
+    Chunks are closed here, at every simulated second, once `flush_every_wall_s` of wall time has
+    passed since the last one, and whenever `chunk_size` bytes of messages have gathered, not by
+    the writer while it logs a message: so a write error surfaces here, as an exception, and
+    recording stops (one that hits the few bytes the writer puts down when it opens a chunk is
+    logged by foxglove and surfaces at the next flush). Where chunks end depends on the wall clock
+    (`clock`); the messages, their order and their times do not."""
 
     def __init__(
         self,
@@ -297,6 +317,8 @@ class McapRecorder:
         description: RunDescription,
         stream: BinaryIO | None = None,
         chunk_size: int = 4 * 1024 * 1024,
+        flush_every_wall_s: float = 1.0,
+        clock: Callable[[], float] = time.monotonic,
     ) -> None:
         import foxglove
         from foxglove.mcap import MCAPCompression, MCAPWriteOptions
@@ -319,6 +341,8 @@ class McapRecorder:
         self._next_flush_ns = self._flush_every_ns
         self._chunk_size = chunk_size
         self._chunk_bytes = 0
+        # a camera run may take several wall seconds per simulated second: a kill -9 lost them all
+        self._clock, self._flush_every_wall_s, self._last_flush_wall = clock, flush_every_wall_s, clock()
         self._last_fsync_wall = time.monotonic()
         self._context = foxglove.Context()  # this file's channels, apart from any other sink's
         self._channels: dict[str, Any] = {}
@@ -393,6 +417,8 @@ class McapRecorder:
             if ns >= self._next_flush_ns:
                 self._next_flush_ns = (ns // self._flush_every_ns + 1) * self._flush_every_ns
             self._flush()
+        elif self._clock() - self._last_flush_wall >= self._flush_every_wall_s:
+            self._flush()
 
     def on_event(self, step: int, kind: str, value: str, vehicle: str = "") -> None:
         """Kept as metadata too, where re-simulation reads it (a z-mode switch); in a fleet, with
@@ -420,6 +446,7 @@ class McapRecorder:
     def _flush(self) -> None:
         """Close the chunk and hand it to the OS; fsync at most once per wall second."""
         self._chunk_bytes = 0
+        self._last_flush_wall = self._clock()
         if not self._call(self._writer.flush):
             return
         now = time.monotonic()
@@ -441,7 +468,7 @@ class McapRecorder:
             reason = os.strerror(errno.ENOSPC)
         self.error = (
             f"recording stopped at sim time {self.last_log_time_ns / 1e9:.2f} s: {reason}. "
-            f"What was written is kept; run 'quadsim recover {self.path}' to index it"
+            f"What was written is kept; run '{program()} recover {self.path}' to index it"
         )
         log.error("%s", self.error)
         if self._writer is not None:
@@ -463,6 +490,14 @@ class McapRecorder:
             rest = self._reorder.drain()
             if rest:
                 self._write(rest)
+            if self._reorder.late:
+                log.warning(
+                    "%d camera frames came more than %.1f s of simulated time after their moment (the machine "
+                    "was busy) and were left out of %s",
+                    self._reorder.late,
+                    MAX_FRAME_WAIT_NS / 1e9,
+                    self.path,
+                )
         self.closed = True
         if self.error is not None or not self._call(self._writer.close):
             return

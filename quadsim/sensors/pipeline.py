@@ -5,8 +5,10 @@ Two back-ends with the same output:
 - workers: a pool of render processes, each with its own PyBullet client holding the same
   scene, so rendering and JPEG encoding run on the other core while physics keeps stepping.
   Jobs go round-robin; results come back in capture order. With `ordered_delivery` (headless
-  runs), frame j is handed on just before job j + in_flight is submitted, and the rest at the
-  end, so a recording's message order does not depend on timing. Without it (the window),
+  runs), frame j is handed on just after job j + in_flight is submitted, and the rest at the
+  end, so a recording's message order does not depend on timing; in_flight is as many captures
+  as fit in ORDERED_LAG_S of simulated time (at most two per worker; none for cameras slower than
+  4 Hz: each frame is waited for as soon as it is asked for). Without it (the window),
   frames are handed on as soon as they are ready, and a capture that finds every worker busy
   is dropped: the person flying comes first, the cameras take what is left of the machine
   (the workers also run at a lower priority then).
@@ -36,6 +38,10 @@ from quadsim.vehicle.params import VehicleParams
 
 #: how much lower the render workers' priority is when a window is in front of a person
 WINDOW_WORKER_NICENESS = 10
+#: with ordered delivery, how far (simulated time) a frame may be handed on after its capture:
+#: the recorder holds the run's other messages back until the frames of their time are in (to
+#: write them in log-time order), so this bounds what a killed run loses on top of the open chunk
+ORDERED_LAG_S = 0.25
 
 
 class FrameSink(Protocol):
@@ -136,7 +142,9 @@ class CameraPipeline:
                 self._rig = CameraRig(vehicle, specs, renderer, scene_client, None)
         else:
             self._start_workers(vehicle, world, workers, worker_start_timeout_s)
-        self._in_flight = 2 * max(1, workers)
+        most = 2 * max(1, workers)
+        captures_per_s = physics_hz / min(self._every.values())  # at least: the fastest camera's rate
+        self._in_flight = min(most, int(ORDERED_LAG_S * captures_per_s)) if ordered_delivery else most
 
     @property
     def tap_interval_steps(self) -> int:
@@ -241,14 +249,15 @@ class CameraPipeline:
                 for name in names:
                     self.frames_dropped[name] = self.frames_dropped.get(name, 0) + 1
                 return
-        while len(self._pending) >= self._in_flight:
-            self._receive_oldest()
         index = self._seq % len(self._conns)
         companions = self._companions.poses() if self._companions is not None else ()
         job = (self._seq, step, names, state.position_m, state.orientation_xyzw, self.kinds, companions)
         self._conns[index].send(job)
         self._pending.append((self._seq, index))
         self._seq += 1
+        if self._ordered:  # the oldest frame, at a fixed point: in_flight captures after its own
+            while len(self._pending) > self._in_flight:
+                self._receive_oldest()
 
     def poll(self) -> None:
         """Hand on every frame that is ready, without waiting (for live viewers)."""

@@ -25,6 +25,7 @@ from quadsim.apps.bench.peers import (
     peer_python,
     step_randomly,
 )
+from quadsim.core.invocation import install_extra
 from quadsim.core.types import Twist, ZMode
 from quadsim.physics.pybullet_quiet import pb
 from quadsim.sensors.camera import CameraSpec
@@ -183,7 +184,7 @@ def run_autonomy_bench(out: Callable[[str], None] = print) -> None:
     try:
         import gymnasium  # noqa: F401
     except ImportError:
-        out("  Gymnasium environments: skipped (pip install 'quadsim[gym]')")
+        out(f"  Gymnasium environments: skipped ({install_extra('gym')})")
         return
     out(f"  Gymnasium envs at 30 Hz, random actions            {'env steps/s':>12s} {'x real time':>12s}")
     hover = env_stepping("quadsim/Hover-v0")

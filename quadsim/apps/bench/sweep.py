@@ -12,6 +12,7 @@ from quadsim.apps.sweep.backends import default_jobs, ray_available, run_tasks, 
 from quadsim.apps.sweep.execute import hand_out_order
 from quadsim.apps.sweep.run import RunTask, fly_run, forget_simulators
 from quadsim.apps.sweep.spec import RunSpec, SweepSpec, load_sweep
+from quadsim.core.invocation import install_extra
 
 BENCH_SWEEP = """
 name = "bench"
@@ -83,7 +84,7 @@ def run_sweep_bench(out: Callable[[str], None] = print) -> None:
         f"{warm / cores:.2f} without; target 0.85; workers {method}ed) [{same}]"
     )
     if not ray_available():
-        out("  Ray                       not installed (pip install 'quadsim[ray]')")
+        out(f"  Ray                       not installed ({install_extra('ray')})")
         return
     import ray
 

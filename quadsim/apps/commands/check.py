@@ -45,7 +45,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
 
 def main(args: argparse.Namespace) -> int:
     from quadsim.apps.regression import CheckOutcome, CheckTask, check_one, recordings_in
-    from quadsim.apps.sweep.backends import RAY_MISSING, default_jobs, ray_available, run_tasks
+    from quadsim.apps.sweep.backends import default_jobs, ray_available, ray_missing, run_tasks
 
     files = recordings_in(args.paths)
     jobs = args.jobs if args.jobs is not None else 1
@@ -53,7 +53,7 @@ def main(args: argparse.Namespace) -> int:
         raise QuadsimError(f"--jobs must be from 1 to 1024, got {jobs}")
     use_ray = args.ray is not None
     if use_ray and not ray_available():
-        raise QuadsimError(RAY_MISSING)
+        raise QuadsimError(ray_missing())
     tasks = [CheckTask(path, args.tolerance_m, args.tolerance_rad) for path in files]
     if use_ray and args.jobs is None:
         jobs = default_jobs()

@@ -25,10 +25,10 @@ def main(args: argparse.Namespace) -> int:
 
     args.file = bag_file(args.file)
     info = read_info(args.file)
+    if info.damage:  # said before any of the report: one line, what is readable and what to run
+        raise QuadsimError(info.damage_report)
     for line in info.lines():
         print(line)
-    if info.damage:
-        raise QuadsimError(info.damage_report)
     missing = info.missing_topics()
     if missing:  # a sound file another program wrote: described, not an error
         print(

@@ -45,7 +45,8 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         "track, the HUD; Space play/pause, arrows seek and speed, click the timeline). "
         "--headless prints a summary and can export MP4 videos and a plot. --resim rebuilds "
         "the vehicle, controller and settings from the recording, flies its commands again, "
-        "records the new flight and reports how far it is from the recorded one.",
+        "records the new flight and reports how far it is from the recorded one. A recording that lost commands "
+        "or states (a run killed mid-write) is refused, as info refuses it: recover it first.",
     )
     p.add_argument("file", type=Path, metavar="FILE.mcap", help="the recording, or a ros2 bag's folder holding one")
     p.add_argument("--headless", action="store_true", help="no window: print a summary")
@@ -123,6 +124,9 @@ def main(args: argparse.Namespace) -> int:
         raise QuadsimError(f"{option} is for the new flight of --resim; without --resim nothing is recorded")
     try:
         flight = load_flight(args.file, args.vehicle)
+        lost = flight.lost_for_resim()
+        if lost is not None:  # commands or states are missing (a run killed mid-write): said as `info` says it
+            raise QuadsimError(flight.damage_report or f"{args.file}: {lost}")
         if mp4_folder is not None:  # refused before anything is encoded or printed
             from quadsim.apps.replay_export import mp4_paths
 

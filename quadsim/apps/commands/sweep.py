@@ -8,6 +8,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from quadsim.apps.options import add_parallel_options, recordings_default
+from quadsim.core.invocation import install_extra
 from quadsim.errors import QuadsimError
 from quadsim.session.stopping import SignalStop, exit_code
 from quadsim.session.stopping import describe as describe_stop
@@ -117,17 +118,17 @@ def main(args: argparse.Namespace) -> int:
 
 def _check_where(args: argparse.Namespace, jobs: int) -> None:
     """The workers and the table format asked for exist, before any run flies."""
-    from quadsim.apps.sweep.backends import RAY_MISSING, ray_available
+    from quadsim.apps.sweep.backends import ray_available, ray_missing
 
     if not 1 <= jobs <= 1024:
         raise QuadsimError(f"--jobs must be from 1 to 1024, got {jobs}")
     if args.ray is not None and not ray_available():
-        raise QuadsimError(RAY_MISSING)
+        raise QuadsimError(ray_missing())
     if args.format == "parquet":
         from quadsim.apps.sweep.table import parquet_available
 
         if not parquet_available():
-            raise QuadsimError("--format parquet needs pyarrow: pip install 'quadsim[parquet]'")
+            raise QuadsimError(f"--format parquet needs pyarrow: {install_extra('parquet')}")
 
 
 def _report(args: argparse.Namespace, spec: SweepSpec, result: SweepResult, out: Path) -> int:
@@ -151,7 +152,7 @@ def _report(args: argparse.Namespace, spec: SweepSpec, result: SweepResult, out:
             else:
                 print("plot            none: every metric is 0 in every run")
         except ImportError:
-            print("plot            skipped: matplotlib is not installed: pip install 'quadsim[plot]'")
+            print(f"plot            skipped: matplotlib is not installed: {install_extra('plot')}")
     stop = SignalStop.current()
     if result.stopped and stop is not None and stop.signum is not None:
         print(

@@ -19,13 +19,17 @@ from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wai
 from contextlib import contextmanager
 from typing import Any, TypeVar
 
+from quadsim.core.invocation import install_extra
 from quadsim.errors import QuadsimError
 from quadsim.session.stopping import stop_requested
 
 T = TypeVar("T")
 R = TypeVar("R")
 
-RAY_MISSING = "Ray is not installed: pip install 'quadsim[ray]'"
+
+def ray_missing() -> str:
+    """What to do when Ray is asked for and is not installed."""
+    return f"Ray is not installed: {install_extra('ray')}"
 
 
 _STOP_SIGNALS = {signal.SIGINT, signal.SIGTERM}
@@ -155,7 +159,7 @@ def run_ray(fn: Callable[[T], R], tasks: Sequence[T], address: str | None, jobs:
     try:
         import ray
     except ImportError:
-        raise QuadsimError(RAY_MISSING) from None
+        raise QuadsimError(ray_missing()) from None
     kwargs: dict[str, Any] = {"include_dashboard": False, "log_to_driver": False, "configure_logging": False}
     if address is None:
         kwargs["num_cpus"] = jobs

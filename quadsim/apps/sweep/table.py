@@ -15,6 +15,7 @@ from pathlib import Path
 from typing import Any
 
 from quadsim.apps.sweep.metrics import METRICS
+from quadsim.core.invocation import install_extra
 from quadsim.errors import QuadsimError
 
 AXES = ("scenario", "airframe", "controller", "wind", "turbulence", "seed")
@@ -91,7 +92,7 @@ def read_table(path: Path) -> list[dict[str, Any]]:
         if path.suffix == ".parquet":
             if not parquet_available():
                 raise QuadsimError(
-                    f"{path} is a Parquet table and pyarrow is not installed: pip install 'quadsim[parquet]'"
+                    f"{path} is a Parquet table and pyarrow is not installed: {install_extra('parquet')}"
                 )
             import pyarrow.parquet as pq
 

@@ -89,9 +89,13 @@ class TeleopView:
         surface.fill(BACKGROUND)
         rects = self.layout(surface.get_size())
         whose = f" ({m.cameras_of})" if m.cameras_of else ""
+        # a flight asked for no camera at all (--cameras none): no rate, and no recording played
+        cameras_off = m.camera_rate_hz == 0 and m.playback is None
         for name in ("front", "floor"):
             absent = m.camera_names is not None and name not in m.camera_names
-            if not absent:
+            if cameras_off:
+                empty = "cameras off (--cameras none)"
+            elif not absent:
                 empty = "no image yet"
             elif m.cameras_of:
                 empty = f"{m.cameras_of} has no {name} camera"

@@ -1,8 +1,10 @@
 """Fly to the red tower by looking for it with the front camera. Find it in the image, turn until
 it is centred, approach it, stop short of it.
 
-    python examples/fly_to_tower.py                      # start facing away from it (yaw 150 deg)
-    python examples/fly_to_tower.py --start-yaw-deg 0 --save-frame tower.png
+    .venv/bin/python examples/fly_to_tower.py          # start facing away from it (yaw 150 deg)
+    .venv/bin/python examples/fly_to_tower.py --start-yaw-deg 0 --save-frame tower.png
+
+(from a clone; installed, `quadsim examples --copy my_examples` and `python my_examples/fly_to_tower.py`).
 
 The program knows nothing of where the tower is: it sees red pixels in the front camera (a colour
 threshold), turns toward the largest red blob, and reads the range from the depth image.
