@@ -45,7 +45,7 @@ def test_the_shape_check_sees_a_long_function_and_its_reason():
 
 def test_every_command_is_a_module_with_its_parser_and_its_main():
     modules = {m.name for m in pkgutil.iter_modules(commands.__path__)}
-    listed = {c.__name__.rsplit(".", 1)[1] for c in commands.COMMANDS}
+    listed = {c.name for c in commands.COMMANDS}
     assert modules == listed, "a module of quadsim.apps.commands is missing from COMMANDS, or the reverse"
     for name in sorted(modules):
         module = importlib.import_module(f"quadsim.apps.commands.{name}")
@@ -57,6 +57,5 @@ def test_the_command_line_names_each_command_after_its_module():
 
     parser = build_parser()
     sub = next(a for a in parser._actions if a.dest == "command")
-    for module in commands.COMMANDS:
-        name = module.__name__.rsplit(".", 1)[1]
-        assert sub.choices[name].get_default("func") is module.main, name
+    for command in commands.COMMANDS:
+        assert sub.choices[command.name].get_default("func") is command.module().main, command.name

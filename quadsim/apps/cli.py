@@ -1,9 +1,10 @@
-"""The command line: `quadsim COMMAND --help` (or `python main.py`, `python -m quadsim`).
+"""The command line: `quadsim COMMAND --help` (or `.venv/bin/python main.py`, `python -m quadsim`).
 
-Each command lives in its own module of quadsim.apps.commands; this module assembles their
-parsers, and turns what a command raises into one line and an exit code: 2 for a usage or input
-error, 130 and 143 for SIGINT and SIGTERM (a run stops at its next safe point), 141 for a closed
-pipe."""
+Each command lives in its own module of quadsim.apps.commands; this module assembles the parser,
+importing the module of the command that runs (and no other: the one place quadsim loads lazily
+what a command needs), and turns what a command raises into one line and an exit code: 2 for a
+usage or input error, 130 and 143 for SIGINT and SIGTERM (a run stops at its next safe point),
+141 for a closed pipe."""
 
 from __future__ import annotations
 
@@ -13,10 +14,11 @@ import logging
 import os
 import re
 import sys
+from collections.abc import Iterable
 from typing import NoReturn
 
 from quadsim import __version__
-from quadsim.apps.commands import COMMANDS
+from quadsim.apps.commands import BY_NAME, COMMANDS
 from quadsim.apps.options import program
 from quadsim.errors import QuadsimError
 from quadsim.live import FOXGLOVE_DEFAULT_ENDPOINT
@@ -32,7 +34,10 @@ class _Parser(argparse.ArgumentParser):
         self.exit(2, f"{self.prog}: error: {message} (see {self.prog} --help)\n")
 
 
-def build_parser() -> argparse.ArgumentParser:
+def build_parser(commands: Iterable[str] | None = None) -> argparse.ArgumentParser:
+    """The parser; `commands`: the names of the commands whose modules are imported for their
+    options (None: every command's, as the docs' reference needs); the others are listed."""
+    loaded = None if commands is None else {BY_NAME[name].name for name in commands}
     parser = _Parser(
         prog=program(),
         description="Quadrotor teleop simulator: PyBullet physics flying Twist commands (/quad_cmd_twist semantics).",
@@ -42,8 +47,17 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("-v", "--verbose", action="store_true", help="log more")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
     for command in COMMANDS:
-        command.add_parser(sub)
+        if loaded is None or command.name in loaded:
+            command.module().add_parser(sub)
+        else:
+            command.add_parser(sub)
     return parser
+
+
+def _command_named(argv: list[str]) -> str | None:
+    """The command `argv` asks for (its first word that is not an option), if it names one."""
+    word = next((arg for arg in argv if not arg.startswith("-")), None)
+    return word if word in BY_NAME else None
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -94,8 +108,10 @@ def _normalise_argv(argv: list[str]) -> list[str]:
 
 
 def _main(argv: list[str] | None) -> int:
-    parser = build_parser()
-    args, extra = parser.parse_known_args(_normalise_argv(list(sys.argv[1:] if argv is None else argv)))
+    words = _normalise_argv(list(sys.argv[1:] if argv is None else argv))
+    command = _command_named(words)
+    parser = build_parser([command] if command is not None else [])
+    args, extra = parser.parse_known_args(words)
     if extra:  # said by the command's own parser, which names its own --help
         commands = next(a for a in parser._actions if isinstance(a, argparse._SubParsersAction))
         commands.choices.get(args.command, parser).error(f"unrecognized arguments: {' '.join(extra)}")

@@ -11,7 +11,7 @@ from quadsim.core.kinematics import clamp
 
 
 class ZMode(enum.Enum):
-    """How `linear.z` of a Twist is read (see DESIGN.md, command semantics)."""
+    """How `linear.z` of a Twist is read (docs/reference/command-semantics.md)."""
 
     VELOCITY = "velocity"  # climb rate, m/s
     HEIGHT = "height"  # altitude wanted = 2.0 + linear.z, m (the original V-REP semantics)

@@ -8,7 +8,7 @@ Script format (one statement per line; `#` starts a comment):
     1.0                      # no fields: a zero Twist (hover in place)
     silence 2.0              # publish nothing for 2 s (the dead-man timeout then holds)
 
-Fields are `linear.x linear.y linear.z angular.x angular.y angular.z` (units of DESIGN.md:
+Fields are `linear.x linear.y linear.z angular.x angular.y angular.z` (units of docs/reference/command-semantics.md:
 m/s, m/s or m, rad/s); unnamed fields are zero; `angular.x` and `angular.y` are Twist fields the
 vehicle ignores, as from every input. The z_mode line comes before the first command: a script
 flies in one z-mode. Segments follow one another; the script lasts

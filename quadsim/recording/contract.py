@@ -1,4 +1,4 @@
-"""The recording contract of DESIGN.md: topics, their ROS 2 types and QoS, frames, schemas.
+"""The recording contract (docs/recordings.md): topics, their ROS 2 types and QoS, frames, schemas.
 
 Messages are encoded by `quadsim.recording.cdr` (by hand, byte for byte what ROS 2 writes) and
 made once per step by `quadsim.recording.fanout`. rosbags' typestore (ROS 2 Humble) stays the

@@ -1,4 +1,4 @@
-"""The recorder: writes a run to MCAP following the recording contract of DESIGN.md.
+"""The recorder: writes a run to MCAP following the recording contract (docs/recordings.md).
 
 A consumer of the topic fan-out (`quadsim.recording.fanout`): it writes the messages it is given
 and decides nothing about them. Profile `ros2`, `ros2msg` schemas, CDR messages, zstd chunks,

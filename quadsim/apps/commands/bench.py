@@ -3,17 +3,18 @@
 from __future__ import annotations
 
 import argparse
-import importlib
 import os
 
-from quadsim.apps.bench import SECTIONS
+from quadsim.apps.bench.sections import SECTIONS
+from quadsim.apps.commands import add_command_parser
 from quadsim.apps.options import whole
+from quadsim.core import compiled  # here: numba's import is not every command's
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
-    p = sub.add_parser(
+    p = add_command_parser(
+        sub,
         "bench",
-        help="measure speed against a bare-PyBullet baseline run in the same process",
         description="Benchmark. Every figure is given as steps/s, real-time factor and a ratio to a "
         "baseline measured in the same run, the best of several runs. The first two lines say the machine's load and "
         "whether the flight core is compiled (the fast extra: numba).",
@@ -35,23 +36,21 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         "--section",
         choices=["all", *SECTIONS],
         default="all",
-        help="; ".join(f"{name}: {what}" for name, (_, _, what) in SECTIONS.items()) + " (default: all)",
+        help="; ".join(f"{name}: {section.what}" for name, section in SECTIONS.items()) + " (default: all)",
     )
     p.set_defaults(func=main)
 
 
 def main(args: argparse.Namespace) -> int:
-    from quadsim.core import compiled  # here: numba's import is not every command's
 
     print(_load("before"))
     print(compiled.status())
-    for name, (module, function, _) in SECTIONS.items():
+    for name, section in SECTIONS.items():
         if args.section in ("all", name):
-            run = getattr(importlib.import_module(module), function)
             if name == "flight":
-                run(steps=args.steps, repeats=args.repeats)
+                section.run(steps=args.steps, repeats=args.repeats)
             else:
-                run()
+                section.run()
     print(_load("after"))
     return 0
 

@@ -7,17 +7,26 @@ import argparse
 import math
 from pathlib import Path
 
+from quadsim.apps.commands import add_command_parser
 from quadsim.apps.options import add_parallel_options, number
-from quadsim.apps.regression import DEFAULT_TOLERANCE_M, DEFAULT_TOLERANCE_RAD
+from quadsim.apps.regression import (
+    DEFAULT_TOLERANCE_M,
+    DEFAULT_TOLERANCE_RAD,
+    CheckOutcome,
+    CheckTask,
+    check_one,
+    recordings_in,
+)
+from quadsim.apps.sweep.backends import default_jobs, ray_available, ray_missing, run_tasks
 from quadsim.errors import QuadsimError
 from quadsim.session.stopping import SignalStop
 from quadsim.session.stopping import exit_code as stop_exit_code
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
-    p = sub.add_parser(
+    p = add_command_parser(
+        sub,
         "check",
-        help="re-fly recordings as regression tests (exit 1 when one changed)",
         description="Fly each recording's commands again and compare with what it recorded. Exit code "
         "0 when every recording re-flies within the tolerances, 1 when one no longer does "
         "(with a report: which topic, when, how far), 2 when a file cannot be used. A recording re-flies "
@@ -44,8 +53,6 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
 
 
 def main(args: argparse.Namespace) -> int:
-    from quadsim.apps.regression import CheckOutcome, CheckTask, check_one, recordings_in
-    from quadsim.apps.sweep.backends import default_jobs, ray_available, ray_missing, run_tasks
 
     files = recordings_in(args.paths)
     jobs = args.jobs if args.jobs is not None else 1

@@ -4,13 +4,15 @@ from __future__ import annotations
 
 import argparse
 
+from quadsim.apps.commands import add_command_parser
+from quadsim.apps.flight_quality import MANOEUVRE_TARGETS, PHYSICS_TARGETS, SCENARIO_METRICS, TARGETS, evaluate
 from quadsim.control import ControllerKind
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
-    p = sub.add_parser(
+    p = add_command_parser(
+        sub,
         "evaluate",
-        help="fly the scenarios with each controller and print the flight-quality table",
         description="Fly every measured scenario and print its metrics as a Markdown table.",
     )
     p.add_argument(
@@ -28,7 +30,6 @@ DETAILS |= {"landed", "final_z_m", "drops", "heading_rate_radps", "bank_deg"}
 
 
 def main(args: argparse.Namespace) -> int:
-    from quadsim.apps.flight_quality import MANOEUVRE_TARGETS, PHYSICS_TARGETS, SCENARIO_METRICS, TARGETS, evaluate
 
     controllers = [ControllerKind(c) for c in args.controller] if args.controller else list(ControllerKind)
     results = {c: evaluate(controller=c) for c in controllers}

@@ -8,6 +8,7 @@ import re
 import shutil
 from pathlib import Path
 
+from quadsim.apps.commands import add_command_parser
 from quadsim.assets import shipped_examples
 from quadsim.errors import QuadsimError
 
@@ -30,9 +31,9 @@ def summary(path: Path, width: int = 100) -> str:
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
-    p = sub.add_parser(
+    p = add_command_parser(
+        sub,
         "examples",
-        help="list the example programs and sweep files that ship with quadsim, or copy them to a folder",
         description="List the examples that ship inside the package; --copy DIR copies them (all, or the "
         "NAMEs given) into DIR to run and change. Nothing in DIR is overwritten.",
     )

@@ -9,6 +9,8 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING
 
+from quadsim.apps.commands import add_command_parser
+from quadsim.apps.flying import HeadlessFlight
 from quadsim.apps.options import (
     DEMO_SCENARIO,
     add_duration_option,
@@ -22,6 +24,18 @@ from quadsim.apps.options import (
     sim_config,
     window_size,
 )
+from quadsim.apps.plans import (
+    check_fleet_options,
+    fleet_cameras,
+    fleet_drivers,
+    read_fleet_file,
+    script_plan,
+    subscribed_plan,
+)
+from quadsim.apps.window.teleop import FleetSetup, TeleopApp, TeleopOptions
+from quadsim.apps.window.x11_guard import EXIT_DISPLAY_LOST
+from quadsim.drivers.joystick import JoystickMapping, load_mapping
+from quadsim.drivers.subscribed import SubscribedDriver
 from quadsim.errors import QuadsimError
 from quadsim.session.stopping import SignalStop, StopRequested, stop_requested
 from quadsim.session.stopping import describe as describe_stop
@@ -33,10 +47,9 @@ if TYPE_CHECKING:
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
-    p = sub.add_parser(
+    p = add_command_parser(
+        sub,
         "fly",
-        aliases=["demo"],
-        help="fly with keyboard or gamepad in a window (no display: a demo)",
         description="Open the teleop window: fly with the keyboard or a gamepad, see the front and floor "
         "cameras, a map and a HUD; the flight is recorded. With no display, record the "
         "scripted demo flight headless instead, and say so.",
@@ -86,8 +99,6 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
 
 def main(args: argparse.Namespace) -> int:
     # the command's implementation, loaded when it runs (`--help` stays light)
-    from quadsim.apps.flying import HeadlessFlight
-    from quadsim.apps.plans import script_plan, subscribed_plan
 
     if args.fleet is not None:
         return _fly_fleet(args)
@@ -114,8 +125,6 @@ def _fly_window(
 ) -> int:
     """The teleop window, until Esc, a signal or a lost display; with `fleet` (a FleetSetup),
     flying one vehicle of it, and `fleet_inputs` fed by the live bridges."""
-    from quadsim.apps.window.teleop import TeleopApp, TeleopOptions
-    from quadsim.drivers.joystick import JoystickMapping, load_mapping
 
     width, height = window_size(args.window)
     options = TeleopOptions(
@@ -127,8 +136,6 @@ def _fly_window(
     )
     config, outputs, commands = sim_config(args, None), output_options(args), None
     if args.input in ("foxglove", "ros2"):
-        from quadsim.drivers.subscribed import SubscribedDriver
-
         commands = SubscribedDriver(args.input)
     live = live_outputs(args, fleet_inputs or commands)
     flown, recordings, lost, finals = 0.0, [], None, []
@@ -157,9 +164,6 @@ def _fly_window(
 
 def _fly_fleet(args: argparse.Namespace) -> int:
     """`fly --fleet`: the window flies the fleet file's keyboard or gamepad vehicle among the others."""
-    from quadsim.apps.plans import check_fleet_options, fleet_cameras, fleet_drivers, read_fleet_file
-    from quadsim.apps.window.teleop import FleetSetup
-    from quadsim.drivers.subscribed import SubscribedDriver
 
     if not has_display():
         raise QuadsimError(
@@ -184,8 +188,6 @@ def _report(flown: float, recordings: list, lost: str | None, finals: Sequence[s
     for path in recordings:
         print(f"recording       {path}")
     if lost is not None:
-        from quadsim.apps.window.x11_guard import EXIT_DISPLAY_LOST
-
         finished = "; the recording is finished" if recordings else ""
         print(f"the window's display was lost ({lost}){finished}", file=sys.stderr)
         return EXIT_DISPLAY_LOST

@@ -5,13 +5,16 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+from quadsim.apps.commands import add_command_parser
 from quadsim.errors import QuadsimError
+from quadsim.recording.info import read_info
+from quadsim.recording.mcap_scan import bag_file
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
-    p = sub.add_parser(
+    p = add_command_parser(
+        sub,
         "info",
-        help="describe a recording: duration, topics, rates, run parameters",
         description="Describe an MCAP recording (quadsim's, or another program's: a note says what it "
         "lacks). On a damaged file, say what is wrong and how much is readable (exit code 2).",
     )
@@ -20,8 +23,6 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
 
 
 def main(args: argparse.Namespace) -> int:
-    from quadsim.recording.info import read_info
-    from quadsim.recording.mcap_scan import bag_file
 
     args.file = bag_file(args.file)
     info = read_info(args.file)

@@ -5,11 +5,16 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+from quadsim.apps.commands import add_command_parser
+from quadsim.recording.contract import CORE_TOPICS
+from quadsim.recording.mcap_scan import bag_file
+from quadsim.recording.salvage import recover
+
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
-    p = sub.add_parser(
+    p = add_command_parser(
+        sub,
         "recover",
-        help="salvage a recording cut short (killed process, power loss)",
         description="Read every complete chunk of a damaged or cut-short MCAP file and write its "
         "messages, schemas, metadata and attachments to a new, valid, indexed MCAP.",
     )
@@ -27,9 +32,6 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
 
 
 def main(args: argparse.Namespace) -> int:
-    from quadsim.recording.contract import CORE_TOPICS
-    from quadsim.recording.mcap_scan import bag_file
-    from quadsim.recording.salvage import recover
 
     if args.output is None and args.file.is_dir():  # beside the bag's folder: a second .mcap in it would
         args.output = args.file.with_name(args.file.name + ".recovered.mcap")  # leave the folder ambiguous

@@ -9,6 +9,8 @@ import sys
 from pathlib import Path
 from typing import TYPE_CHECKING
 
+from quadsim.apps.commands import add_command_parser
+from quadsim.apps.flight_plot import export_plot, require_matplotlib
 from quadsim.apps.options import (
     PLOT_SUFFIXES,
     add_live_options,
@@ -21,8 +23,16 @@ from quadsim.apps.options import (
     warn,
     window_size,
 )
+from quadsim.apps.regression import DEFAULT_TOLERANCE_M, DEFAULT_TOLERANCE_RAD
+from quadsim.apps.replay_export import export_mp4, mp4_paths, mp4_target, summary_lines
+from quadsim.apps.window.replay import ReplayApp
+from quadsim.apps.window.x11_guard import EXIT_DISPLAY_LOST
 from quadsim.errors import QuadsimError
+from quadsim.live.playback import RecordingFeed
+from quadsim.recording.flight import load_flight, load_flights
+from quadsim.recording.mcap_scan import bag_file
 from quadsim.session.pacing import RealTimePacer
+from quadsim.session.progress import ProgressBar
 from quadsim.session.stopping import SignalStop, stop_requested
 from quadsim.session.stopping import describe as describe_stop
 from quadsim.session.stopping import exit_code as stop_exit_code
@@ -38,9 +48,9 @@ NS_PER_S, PLAY_TICK_NS = 1_000_000_000, 10_000_000
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
-    p = sub.add_parser(
+    p = add_command_parser(
+        sub,
         "replay",
-        help="play a recording back (window, or --headless summary, MP4, plot), or fly it again (--resim)",
         description="Play a recording back in the teleop window (both cameras, the map with the whole "
         "track, the HUD; Space play/pause, arrows seek and speed, click the timeline). "
         "--headless prints a summary and can export MP4 videos and a plot. --resim rebuilds "
@@ -93,20 +103,14 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
 
 
 def main(args: argparse.Namespace) -> int:
-    from quadsim.recording.flight import load_flight
-    from quadsim.recording.mcap_scan import bag_file
 
     args.file = bag_file(args.file)
     size = window_size(args.window)
     if args.plot is not None:
-        from quadsim.apps.flight_plot import require_matplotlib
-
         check_output_file("--plot", args.plot, PLOT_SUFFIXES)
         require_matplotlib()  # said before the videos are encoded, not after
     mp4_folder = None
     if args.mp4 is not None and not args.resim:
-        from quadsim.apps.replay_export import mp4_target
-
         mp4_folder = mp4_target(args.mp4, args.file)[0]
         made = not mp4_folder.exists()
         check_output_dir("--mp4", mp4_folder)
@@ -128,8 +132,6 @@ def main(args: argparse.Namespace) -> int:
         if lost is not None:  # commands or states are missing (a run killed mid-write): said as `info` says it
             raise QuadsimError(flight.damage_report or f"{args.file}: {lost}")
         if mp4_folder is not None:  # refused before anything is encoded or printed
-            from quadsim.apps.replay_export import mp4_paths
-
             mp4_paths(args.mp4, flight)
     except QuadsimError:
         if mp4_folder is not None and made:
@@ -155,9 +157,6 @@ def main(args: argparse.Namespace) -> int:
 
 def _resim(args: argparse.Namespace, flight: RecordedFlight) -> int:
     """Fly the recorded commands again and say how far the new flight is from the recorded one."""
-    from quadsim.apps.regression import DEFAULT_TOLERANCE_M, DEFAULT_TOLERANCE_RAD
-    from quadsim.recording.flight import load_flights
-    from quadsim.session.progress import ProgressBar
     from quadsim.session.resim import resimulate
 
     bar = ProgressBar(flight.duration_s, "re-flying")
@@ -174,8 +173,6 @@ def _resim(args: argparse.Namespace, flight: RecordedFlight) -> int:
 
 def _headless(args: argparse.Namespace, flight: RecordedFlight) -> int:
     """The summary, then the videos and the plot asked for, then live playback if asked for."""
-    from quadsim.apps.flight_plot import export_plot
-    from quadsim.apps.replay_export import summary_lines
 
     for line in summary_lines(flight):
         print(line)
@@ -186,8 +183,6 @@ def _headless(args: argparse.Namespace, flight: RecordedFlight) -> int:
     if args.plot is not None:
         others = None
         if flight.vehicle:  # a fleet's: the others' tracks too
-            from quadsim.recording.flight import load_flights
-
             others = {n: f.states for n, f in load_flights(args.file).items() if n != flight.vehicle}
         print(f"plot        {export_plot(flight, args.plot, others)}")
     if args.foxglove is not None or args.ros2:
@@ -197,8 +192,6 @@ def _headless(args: argparse.Namespace, flight: RecordedFlight) -> int:
 
 def _export_videos(folder: Path, flight: RecordedFlight) -> int:
     """Each camera stream as a video, with progress; a signal ends each at its next frame (exit code)."""
-    from quadsim.apps.replay_export import export_mp4
-    from quadsim.session.progress import ProgressBar
 
     bar = ProgressBar(sum(len(frames) for frames in flight.frames.values()), "encoding video", unit="frames")
     videos = export_mp4(flight, folder, progress=lambda done, _: bar.update(done), stop=stop_requested)
@@ -214,15 +207,12 @@ def _export_videos(folder: Path, flight: RecordedFlight) -> int:
 
 def _window(args: argparse.Namespace, flight: RecordedFlight, size: tuple[int, int]) -> int:
     """The playback window, until Esc, a signal or a lost display."""
-    from quadsim.apps.window.replay import ReplayApp
 
     live = live_outputs(args)
     try:
         feed = _feed(args.file, live)
         others = None
         if flight.vehicle:  # a fleet's: the others on the map
-            from quadsim.recording.flight import load_flights
-
             others = {n: f for n, f in load_flights(args.file).items() if n != flight.vehicle}
         with ReplayApp(flight, size, speed=args.speed, loop=args.loop, feed=feed, others=others) as app:
             print("replaying; press H or F1 in the window for the keys, Esc to quit")
@@ -231,8 +221,6 @@ def _window(args: argparse.Namespace, flight: RecordedFlight, size: tuple[int, i
         for output in live:
             output.close()
     if app.display_lost is not None:
-        from quadsim.apps.window.x11_guard import EXIT_DISPLAY_LOST
-
         print(f"the window's display was lost ({app.display_lost})", file=sys.stderr)
         return EXIT_DISPLAY_LOST
     return _stopped_by_signal()
@@ -241,7 +229,6 @@ def _window(args: argparse.Namespace, flight: RecordedFlight, size: tuple[int, i
 def _feed(path: Path, live: list[LiveOutput]) -> RecordingFeed | None:
     if not live:
         return None
-    from quadsim.live.playback import RecordingFeed
 
     return RecordingFeed(path, live)
 

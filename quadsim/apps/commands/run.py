@@ -5,14 +5,17 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+from quadsim.apps.commands import add_command_parser
+from quadsim.apps.flying import HeadlessFlight
 from quadsim.apps.options import COMMANDS_TAIL_S, add_duration_option, add_live_options, add_sim_options, program
+from quadsim.apps.plans import bag_plan, fleet_plan, script_plan, subscribed_plan
 from quadsim.errors import QuadsimError
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
-    p = sub.add_parser(
+    p = add_command_parser(
+        sub,
         "run",
-        help="fly a scripted flight headless, as fast as possible, and summarise it",
         description="Fly a built-in scenario, a script file or the /quad_cmd_twist commands of any MCAP "
         "headless as fast as the machine allows, showing progress, then print sim time, wall time, "
         "real-time factor, final pose and distance flown. Script format: one segment a line, "
@@ -65,8 +68,6 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
 
 def main(args: argparse.Namespace) -> int:
     # the command's implementation, loaded when it runs (`--help` stays light)
-    from quadsim.apps.flying import HeadlessFlight
-    from quadsim.apps.plans import bag_plan, fleet_plan, script_plan, subscribed_plan
 
     if args.fleet is not None:
         if args.input != "script":

@@ -4,11 +4,14 @@ from __future__ import annotations
 
 import argparse
 
+from quadsim.apps.commands import add_command_parser
+from quadsim.drivers.scripted import builtin_scenarios, load_script
+
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
-    p = sub.add_parser(
+    p = add_command_parser(
+        sub,
         "scenarios",
-        help="list the built-in scripted scenarios",
         description="List the built-in scripted scenarios, each with its length and what it flies. "
         "Fly one with 'run --script NAME'; a script file of your own is 'run --script FILE.qscript'.",
     )
@@ -16,7 +19,6 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
 
 
 def main(args: argparse.Namespace) -> int:
-    from quadsim.drivers.scripted import builtin_scenarios, load_script
 
     for name, summary in builtin_scenarios().items():
         script = load_script(name)

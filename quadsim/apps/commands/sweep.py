@@ -7,9 +7,17 @@ import sys
 from pathlib import Path
 from typing import TYPE_CHECKING
 
+from quadsim.apps.commands import add_command_parser
 from quadsim.apps.options import add_parallel_options, recordings_default
+from quadsim.apps.sweep.backends import default_jobs, ray_available, ray_missing
+from quadsim.apps.sweep.execute import check_table_free, run_sweep
+from quadsim.apps.sweep.report import plot, summary_lines
+from quadsim.apps.sweep.spec import load_sweep
+from quadsim.apps.sweep.table import parquet_available
+from quadsim.core import compiled  # here: numba's import is not every command's
 from quadsim.core.invocation import install_extra
 from quadsim.errors import QuadsimError
+from quadsim.recording.paths import default_recordings_dir
 from quadsim.session.stopping import SignalStop, exit_code
 from quadsim.session.stopping import describe as describe_stop
 
@@ -23,10 +31,9 @@ ASK_SIM_S = 24 * 3600.0
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
-    p = sub.add_parser(
+    p = add_command_parser(
+        sub,
         "sweep",
-        help="fly every combination of a sweep file (scenarios x controllers x airframes x wind x seeds) "
-        "and tabulate their flight metrics",
         description="Fly the runs a sweep file stands for (a TOML file of scenarios, airframes, controllers, wind, "
         "turbulence, seeds and [limits]; a scenario may be a fleet file, whose row is its worst vehicle's), "
         "each a headless run measured with flight metrics, on a pool of processes (--jobs) or on Ray (--ray). Results go "
@@ -70,10 +77,6 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
 
 
 def main(args: argparse.Namespace) -> int:
-    from quadsim.apps.sweep.backends import default_jobs
-    from quadsim.apps.sweep.execute import check_table_free, run_sweep
-    from quadsim.apps.sweep.spec import load_sweep
-    from quadsim.recording.paths import default_recordings_dir
 
     spec = load_sweep(args.spec)
     if (len(spec.runs) > ASK_RUNS or spec.sim_s > ASK_SIM_S) and not args.yes:
@@ -95,7 +98,6 @@ def main(args: argparse.Namespace) -> int:
         f"sweep '{spec.name}': {len(spec.runs)} run{'s' * (len(spec.runs) != 1)} on {where}; results in {out}",
         flush=True,
     )
-    from quadsim.core import compiled  # here: numba's import is not every command's
 
     # the runs fly as plain Python: say how to have them faster when that clearly pays for the
     # time the compiled core costs each worker to load (about a quarter of a second a forked
@@ -118,22 +120,17 @@ def main(args: argparse.Namespace) -> int:
 
 def _check_where(args: argparse.Namespace, jobs: int) -> None:
     """The workers and the table format asked for exist, before any run flies."""
-    from quadsim.apps.sweep.backends import ray_available, ray_missing
 
     if not 1 <= jobs <= 1024:
         raise QuadsimError(f"--jobs must be from 1 to 1024, got {jobs}")
     if args.ray is not None and not ray_available():
         raise QuadsimError(ray_missing())
-    if args.format == "parquet":
-        from quadsim.apps.sweep.table import parquet_available
-
-        if not parquet_available():
-            raise QuadsimError(f"--format parquet needs pyarrow: {install_extra('parquet')}")
+    if args.format == "parquet" and not parquet_available():
+        raise QuadsimError(f"--format parquet needs pyarrow: {install_extra('parquet')}")
 
 
 def _report(args: argparse.Namespace, spec: SweepSpec, result: SweepResult, out: Path) -> int:
     """The summary, the table and the plot; the exit code (0 all within limits, 1 not, 130/143 stopped)."""
-    from quadsim.apps.sweep.report import plot, summary_lines
 
     for line in summary_lines(result.rows, [a for a in spec.varied]):
         print(line)
