@@ -136,7 +136,6 @@ def test_the_readme_is_a_front_door():
 #: how a clone runs a program: its own environment's python (what `make fly` sets up)
 BARE_PYTHON = re.compile(r"(?<![\w/.-])python3? (main\.py|examples/)")
 #: pages whose text is rewritten elsewhere for now (the architecture page's layout tree)
-SPELLING_LATER = {"architecture.md"}
 
 
 def test_the_docs_spell_a_clones_commands_one_way():
@@ -147,7 +146,7 @@ def test_the_docs_spell_a_clones_commands_one_way():
     found = [
         f"{path.relative_to(ROOT)}: {line.strip()}"
         for path in texts
-        if path.name not in SPELLING_LATER and path.suffix in (".md", ".py", ".toml")
+        if path.suffix in (".md", ".py", ".toml")
         for line in path.read_text().splitlines()
         if BARE_PYTHON.search(line)
     ]
@@ -213,3 +212,53 @@ def test_the_docs_record_your_flights_into_a_folder_of_your_own():
     """In a clone, tests/recordings/ is the project's own suite: the docs wrote new flights there."""
     for page in [ROOT / "README.md", *PAGES]:
         assert "--out tests/recordings" not in page.read_text(), page
+
+
+def _tree_entries() -> tuple[set[str], set[tuple[str, str]]]:
+    """The folders and the (folder, file) pairs the architecture page's tree names: a folder is a
+    `name/` entry; a file is any `name.py` on the line of an entry (and on the description lines
+    under it), in that entry's folder (or the folder it opens)."""
+    page = (DOCS / "reference" / "architecture.md").read_text()
+    tree = page.split("## The tree\n\n```\n", 1)[1].split("\n```", 1)[0]
+    folders: set[str] = set()
+    files: set[tuple[str, str]] = set()
+    stack: list[tuple[int, str]] = []  # (indent, folder path) of the folders open above
+    line_folder = ""
+    for line in tree.splitlines():
+        indent = len(line) - len(line.lstrip())
+        first = line.split()[0] if line.strip() else ""
+        if indent < 25:  # an entry, not a description carried over
+            while stack and stack[-1][0] >= indent:
+                stack.pop()
+            parent = stack[-1][1] if stack else ""
+            if first.endswith("/"):
+                line_folder = f"{parent}{first}"
+                folders.add(line_folder)
+                stack.append((indent, line_folder))
+            else:
+                line_folder = parent
+        files.update((line_folder, name) for name in re.findall(r"\b(\w+\.py)\b", line))
+    return folders, files
+
+
+def test_the_architecture_page_names_every_module():
+    """Every module of the package is in the tree of docs/reference/architecture.md, in its folder
+    (a package by its folder), so the page cannot fall behind the code."""
+    folders, files = _tree_entries()
+    missing = []
+    for path in sorted((ROOT / "quadsim").rglob("*.py")):
+        relative = path.relative_to(ROOT)
+        folder = "".join(f"{part}/" for part in relative.parts[:-1])
+        if path.name == "__init__.py" and folder != "quadsim/":
+            if folder not in folders:
+                missing.append(folder)
+        elif (folder, path.name) not in files:
+            missing.append(str(relative))
+    assert not missing, "modules missing from docs/reference/architecture.md's tree: " + ", ".join(missing)
+
+
+def test_the_tree_check_sees_a_missing_module():
+    folders, files = _tree_entries()
+    assert "quadsim/sim/" in folders and ("quadsim/sim/", "drone.py") in files
+    assert ("quadsim/apps/sweep/", "table.py") in files  # named on a description line under its folder
+    assert ("quadsim/sim/", "nothing_here.py") not in files

@@ -1,4 +1,4 @@
-"""Physics: the PyBullet world, the vehicle body, its motors and the forces applied each step.
+"""A vehicle's body in the PyBullet world: its motors and the forces applied to it each step.
 
 Holds no controller and no gains: it takes N commanded rotor forces per step and returns
 the vehicle's state. It is the only flight module that imports pybullet.

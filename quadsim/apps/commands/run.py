@@ -1,4 +1,4 @@
-"""`quadsim run`: fly a script, a bag's commands or live clients' Twists headless, and summarise it."""
+"""`quadsim run`: fly a script, a bag's commands, live clients' Twists or a fleet headless, and summarise it."""
 
 from __future__ import annotations
 
