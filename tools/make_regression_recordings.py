@@ -105,6 +105,19 @@ def fleet_trio() -> Path:
     return path
 
 
+def golden() -> Path:
+    """tests/golden/takeoff_cameras.mcap: the one-vehicle flight tests/test_recording_golden.py
+    flies again through the command line and compares record for record."""
+    import subprocess
+
+    sys.path.insert(0, str(ROOT / "tests"))
+    from test_recording_golden import COMMAND, GOLDEN
+
+    GOLDEN.unlink(missing_ok=True)
+    subprocess.run([sys.executable, str(ROOT / "main.py"), *COMMAND, "--out", str(GOLDEN)], check=True)
+    return GOLDEN
+
+
 RECORDINGS = {
     "square_cascade": lambda: scripted("square", ControllerKind.CASCADE),
     "figure8_seed": lambda: scripted("figure8", ControllerKind.SEED),
@@ -116,6 +129,8 @@ RECORDINGS = {
     "keyboard_session_cascade": keyboard_session,
     # a fleet: every vehicle under its name, one clock, each with its own random streams
     "fleet_trio_wind": fleet_trio,
+    # tests/golden/: compared record for record, cameras included
+    "golden": golden,
 }
 
 if __name__ == "__main__":
