@@ -27,7 +27,9 @@ _PUBLIC = {
     "Cameras": "quadsim.sim.cameras",
     "CameraSpec": "quadsim.sensors.camera",
     "ConfigError": "quadsim.errors",
+    "Controller": "quadsim.control",
     "ControllerKind": "quadsim.control",
+    "Drone": "quadsim.sim.drone",
     "Fleet": "quadsim.sim.fleet",
     "FleetVehicle": "quadsim.sim.fleet",
     "QuadsimError": "quadsim.errors",
@@ -40,6 +42,7 @@ _PUBLIC = {
     "Turbulence": "quadsim.physics.wind",
     "Twist": "quadsim.core.types",
     "VehicleState": "quadsim.core.types",
+    "WindModel": "quadsim.physics.wind",
     "WindSettings": "quadsim.physics.wind",
     "ZMode": "quadsim.core.types",
     "record": "quadsim.session.outputs",
@@ -53,7 +56,9 @@ __all__ = [
     "CameraSpec",
     "Cameras",
     "ConfigError",
+    "Controller",
     "ControllerKind",
+    "Drone",
     "Fleet",
     "FleetVehicle",
     "QuadsimError",
@@ -66,6 +71,7 @@ __all__ = [
     "Turbulence",
     "Twist",
     "VehicleState",
+    "WindModel",
     "WindSettings",
     "ZMode",
     "__version__",
@@ -91,13 +97,14 @@ def __dir__() -> list[str]:
 if TYPE_CHECKING:  # for type checkers and IDEs: the same names, eagerly
     from typing import Any
 
-    from quadsim.control import ControllerKind
+    from quadsim.control import Controller, ControllerKind
     from quadsim.core.types import ActiveCommand, StartPose, Twist, VehicleState, ZMode
     from quadsim.errors import ConfigError, QuadsimError, ScriptError
-    from quadsim.physics.wind import Turbulence, WindSettings
+    from quadsim.physics.wind import Turbulence, WindModel, WindSettings
     from quadsim.sensors.camera import CameraInfo, CameraSpec
     from quadsim.session.outputs import record
     from quadsim.sim.cameras import CameraImage, CameraMode, Cameras
     from quadsim.sim.config import Rates, SimConfig
+    from quadsim.sim.drone import Drone
     from quadsim.sim.loop import StateLog
     from quadsim.sim.simulator import Simulator

@@ -187,7 +187,7 @@ def export_plot(f: RecordedFlight, path: Path, others: dict[str, list[VehicleSta
     fig.suptitle(
         f"{f.path.name}: {f.duration_s:.1f} s"
         + (f", vehicle {f.vehicle} of a fleet of {len(others or {}) + 1}" if f.vehicle else "")
-        + (f", {f.description.controller.kind.value} controller" if f.description else "")
+        + (f", {f.description.controller.name} controller" if f.description else "")
     )
 
     _draw_track(

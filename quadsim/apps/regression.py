@@ -92,10 +92,11 @@ def files_changed_since(description: RunDescription) -> list[str]:
     tail = "it re-flies with its own, so this check does not test the file's (a flight recorded again does)"
     if any(p is not None and not Path(p).is_file() for p in (cfg.urdf, cfg.vehicle_params)):
         return []  # flown on another machine, or the files were moved: nothing to compare with
+    kind = description.controller.kind
     try:
         vehicle = load_vehicle(cfg.urdf, cfg.vehicle_params)
-        kind = description.controller.kind
-        gains = asdict(load_gains(vehicle, kind.value, gains_type(kind)))
+        # a controller of the user's own has no gains file: its parameters are its own business
+        gains = asdict(load_gains(vehicle, kind.value, gains_type(kind))) if kind is not None else {}
     except QuadsimError as exc:
         return [f"the vehicle's files as they are now cannot be flown ({exc}): {tail}"]
     if vehicle.name != description.vehicle.name:
@@ -116,7 +117,7 @@ def files_changed_since(description: RunDescription) -> list[str]:
             for g in changed[:3]
         )
         notes.append(
-            f"this recording's {kind.value} gains differ from {gains_path(vehicle).name} as it is now "
+            f"this recording's {description.controller.name} gains differ from {gains_path(vehicle).name} as it is now "
             f"({shown}{', ...' if len(changed) > 3 else ''}): {tail}"
         )
     return notes

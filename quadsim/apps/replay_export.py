@@ -48,7 +48,7 @@ def summary_lines(f: RecordedFlight) -> list[str]:
         out.append(f"camera      {cam}: {len(frames)} frames")
     if f.description is not None:
         d = f.description
-        out.append(f"flown with  {d.controller.kind.value} controller, z-mode {d.z_mode.value}, {d.driver_name} input")
+        out.append(f"flown with  {d.controller.name} controller, z-mode {d.z_mode.value}, {d.driver_name} input")
     elif f.description_error:
         out.append(f"flown with  (run parameters unreadable: {f.description_error})")
     else:

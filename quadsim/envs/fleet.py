@@ -20,10 +20,12 @@ target's x and y are each within 1 m of its start's, its height 1 to 2.5 m.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from typing import Any
 
 import numpy as np
 
+from quadsim.control import Controller
 from quadsim.core.invocation import install_extra
 from quadsim.core.types import StartPose, Twist, ZMode
 from quadsim.envs.quad import (
@@ -36,7 +38,7 @@ from quadsim.envs.quad import (
     hover_reward,
 )
 from quadsim.errors import QuadsimError
-from quadsim.physics.wind import WindSettings
+from quadsim.physics.wind import WindModel, WindSettings
 from quadsim.sim.config import Rates, SimConfig
 from quadsim.sim.fleet import Fleet, FleetVehicle
 from quadsim.sim.flight_events import EventKind
@@ -61,8 +63,11 @@ class HoverFleetEnv(ParallelEnv):
         agents: int = 3,
         spacing_m: float = 2.0,
         episode_s: float = HOVER_EPISODE_S,
-        wind: WindSettings | None = None,
+        wind: WindSettings | WindModel | None = None,
+        controllers: Sequence[Controller] | None = None,
     ) -> None:
+        """`wind`: WindSettings, or a wind of your own (a WindModel) for every agent;
+        `controllers`: a controller of your own for each agent, in order (one object each)."""
         if not 1 <= agents <= 100:
             raise ValueError(f"agents must be within 1..100, got {agents}")
         if spacing_m < 1.5:
@@ -71,10 +76,18 @@ class HoverFleetEnv(ParallelEnv):
         self.agents: list[str] = []
         self.render_mode = None
         self._slots = [(spacing_m * (i - (agents - 1) / 2), 0.0) for i in range(agents)]
-        config = SimConfig(z_mode=ZMode.VELOCITY, rates=Rates(input_hz=AGENT_HZ), wind=wind or WindSettings())
+        if controllers is not None and len(controllers) != agents:
+            raise ValueError(f"controllers: one for each of the {agents} agents, got {len(controllers)}")
+        settings = wind if isinstance(wind, WindSettings) else WindSettings()
+        config = SimConfig(z_mode=ZMode.VELOCITY, rates=Rates(input_hz=AGENT_HZ), wind=settings)
+        own = list(controllers) if controllers is not None else [None] * agents
         self.fleet = Fleet(
-            [FleetVehicle(name, start=StartPose(x, y)) for name, (x, y) in zip(self.possible_agents, self._slots)],
+            [
+                FleetVehicle(name, start=StartPose(x, y), controller=controller)
+                for name, (x, y), controller in zip(self.possible_agents, self._slots, own)
+            ],
             config,
+            wind=None if wind is None or isinstance(wind, WindSettings) else wind,
         )
         self.steps_per_action = config.rates.physics_hz // AGENT_HZ
         self.max_cycles = round(episode_s * AGENT_HZ)

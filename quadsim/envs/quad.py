@@ -25,9 +25,10 @@ import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
 
+from quadsim.control import Controller
 from quadsim.core.kinematics import body_velocity
 from quadsim.core.types import StartPose, Twist, VehicleState, ZMode
-from quadsim.physics.wind import WindSettings
+from quadsim.physics.wind import WindModel, WindSettings
 from quadsim.sensors.camera import CameraSpec
 from quadsim.sim.cameras import Cameras
 from quadsim.sim.config import Rates, SimConfig
@@ -54,13 +55,22 @@ class QuadEnv(gym.Env):
 
     metadata = {"render_modes": ["rgb_array"], "render_fps": AGENT_HZ}  # noqa: RUF012 - gymnasium declares it so
 
-    def __init__(self, render_mode: str | None = None, wind: WindSettings | None = None) -> None:
+    def __init__(
+        self,
+        render_mode: str | None = None,
+        wind: WindSettings | WindModel | None = None,
+        controller: Controller | None = None,
+    ) -> None:
+        """`wind`: WindSettings, or a wind of your own (a WindModel); `controller`: a controller
+        of your own (the Controller protocol) in place of the cascade."""
         if render_mode is not None and render_mode not in self.metadata["render_modes"]:
             raise ValueError(f"render_mode must be one of {self.metadata['render_modes']}, got {render_mode!r}")
         self.render_mode = render_mode
         # commands are polled at the agent rate: an action reaches the gate at its first physics step
-        config = SimConfig(z_mode=ZMode.VELOCITY, rates=Rates(input_hz=AGENT_HZ), wind=wind or WindSettings())
-        self.sim = Simulator(config)
+        settings = wind if isinstance(wind, WindSettings) else WindSettings()
+        config = SimConfig(z_mode=ZMode.VELOCITY, rates=Rates(input_hz=AGENT_HZ), wind=settings)
+        model = None if wind is None or isinstance(wind, WindSettings) else wind
+        self.sim = Simulator(config, controller=controller, wind=model)
         self.steps_per_action = config.rates.physics_hz // AGENT_HZ
         self._scale = ActionScale(self.sim.vehicle.limits)
         self.action_space: spaces.Box = spaces.Box(-1.0, 1.0, (4,), np.float32)
@@ -162,8 +172,13 @@ class HoverEnv(QuadEnv):
     uniform in [-1, 1] m, any heading; the target's x and y are each uniform in [-2, 2] m, its
     height in [1, 2.5] m."""
 
-    def __init__(self, render_mode: str | None = None, wind: WindSettings | None = None) -> None:
-        super().__init__(render_mode, wind)
+    def __init__(
+        self,
+        render_mode: str | None = None,
+        wind: WindSettings | WindModel | None = None,
+        controller: Controller | None = None,
+    ) -> None:
+        super().__init__(render_mode, wind, controller)
         self._space = hover_observation_space()
         self.observation_space = self._space
         self.target_m = np.zeros(3)
@@ -265,8 +280,13 @@ class TowerVisionEnv(QuadEnv):
 
     IMAGE = CameraSpec("front", "front_camera_link", 64, 64, rate_hz=AGENT_HZ)
 
-    def __init__(self, render_mode: str | None = None, wind: WindSettings | None = None) -> None:
-        super().__init__(render_mode, wind)
+    def __init__(
+        self,
+        render_mode: str | None = None,
+        wind: WindSettings | WindModel | None = None,
+        controller: Controller | None = None,
+    ) -> None:
+        super().__init__(render_mode, wind, controller)
         self.observation_space = spaces.Dict(
             {
                 "image": spaces.Box(0, 255, (64, 64, 3), np.uint8),

@@ -18,7 +18,7 @@ from quadsim.errors import ConfigError
 from quadsim.physics.client import WorldClient
 from quadsim.physics.pybullet_quiet import pb
 from quadsim.physics.scene import inertial_offset, load_vehicle_body
-from quadsim.physics.wind import WindField, WindSettings
+from quadsim.physics.wind import ModelWind, WindField, WindModel, WindSettings
 from quadsim.vehicle.motors import MotorBank
 from quadsim.vehicle.params import VehicleParams
 from quadsim.vehicle.wrench import airframe_constants, airframe_wrench, hub_table
@@ -70,10 +70,12 @@ class PhysicsWorld:
         wind_seed: np.random.SeedSequence | None = None,
         name: str = "vehicle",
         far_index: int = 0,
+        wind_model: WindModel | None = None,
     ) -> None:
         """`client`: the world to fly in, which every vehicle of the run shares (its owner
         closes it); `name`: what other vehicles' contacts call this one; `far_index`: where
-        `reset` parks the body for a moment, apart from the others'."""
+        `reset` parks the body for a moment, apart from the others'; `wind_model`: a wind of
+        the user's own, in place of `wind`'s."""
         self.vehicle = vehicle
         self.dt_s = client.dt_s
         self._inv_dt = 1.0 / self.dt_s
@@ -92,8 +94,9 @@ class PhysicsWorld:
         self._clear_from: Vec3 = (math.inf, math.inf, math.inf)
         self._clear_slack_m = 0.0
         self.wind_settings = wind
+        self._wind_model = wind_model
         self._wind_seed = wind_seed if wind_seed is not None else np.random.SeedSequence(0)
-        self._wind: WindField | None = None
+        self._wind: WindField | ModelWind | None = None
         self._reset_wind()
         self.motors = MotorBank(len(vehicle.rotors), vehicle.motor_time_constant_s, vehicle.max_thrust_n, self.dt_s)
         self._prepare_wrench()
@@ -124,7 +127,9 @@ class PhysicsWorld:
         self._wind_seed = wind_seed
 
     def _reset_wind(self) -> None:
-        if self.wind_settings.enabled:
+        if self._wind_model is not None:
+            self._wind = ModelWind(self._wind_model, self.dt_s)
+        elif self.wind_settings.enabled:
             rng = np.random.Generator(np.random.PCG64(self._wind_seed))
             self._wind = WindField(self.wind_settings, self.dt_s, rng)
 
@@ -332,7 +337,7 @@ class PhysicsWorld:
             motors.check_count(command_n)
         air = self._linear_velocity
         if self._wind is not None:  # drag acts through the airspeed: velocity minus wind
-            (vx, vy, vz), (wx, wy, wz) = air, self._wind.advance()
+            (vx, vy, vz), (wx, wy, wz) = air, self._wind.advance(self._position)
             air = (vx - wx, vy - wy, vz - wz)
         out = self._wrench
         constants, hubs, thrusts, rotation, z = (

@@ -1,4 +1,5 @@
-"""The air the vehicle flies through: a constant wind plus Dryden turbulence, seeded.
+"""The air the vehicle flies through: a constant wind plus Dryden turbulence, seeded, or a wind
+model of the user's own (`WindModel`: the wind at a time and place).
 
 Pure numbers (numpy for the random draws), no pybullet. Physics advances it once per physics
 step and the aerodynamic forces act through the airspeed, velocity minus this wind.
@@ -25,6 +26,7 @@ from __future__ import annotations
 import enum
 import math
 from dataclasses import dataclass
+from typing import Protocol
 
 import numpy as np
 
@@ -213,8 +215,9 @@ class WindField:
         self._next = 0
         self.wind_mps: Vec3 = self.mean_mps
 
-    def advance(self) -> Vec3:
-        """The wind for the next physics step, world frame, m/s."""
+    def advance(self, position_m: Vec3 = (0.0, 0.0, 0.0)) -> Vec3:
+        """The wind for the next physics step, world frame, m/s (the same everywhere: the vehicle's
+        `position_m` is for a model of one's own)."""
         if self._filters is None:
             return self.wind_mps
         if self._next >= len(self._noise):
@@ -227,4 +230,50 @@ class WindField:
         mx, my, mz = self.mean_mps
         (ax, ay), (cx, cy) = self._along, self._across
         self.wind_mps = (mx + u * ax + v * cx, my + u * ay + v * cy, mz + w)
+        return self.wind_mps
+
+
+class WindModel(Protocol):
+    """A wind of one's own: the air's velocity at a time and a place.
+
+    `velocity_mps(time_s, position_m)`: the wind (world frame, m/s; REP 103: x east, y north, z
+    up) at `time_s` of simulation time since the run's start (or its last reset) and at
+    `position_m` (base_link's origin, world frame, m), asked once per physics step for each
+    vehicle, before the step. Optional: `reset(rng)`, called as the run starts and at each
+    reset with a numpy Generator seeded from the run's seed (a random model re-flies bit for bit
+    when it draws from it alone), and `describe()`, JSON-able settings a recording keeps. A
+    recording names the model's class (module:Class), and `check` makes it again as
+    `Class.from_description(details)` where it has that classmethod, else `Class()`."""
+
+    def velocity_mps(self, time_s: float, position_m: Vec3) -> Vec3: ...
+
+
+#: the methods a wind model of one's own must have
+WIND_MODEL_METHODS = ("velocity_mps",)
+#: the strongest wind a model may give, m/s (anything beyond is a bug, said as one)
+MAX_MODEL_WIND_MPS = 1000.0
+
+
+class ModelWind:
+    """A WindModel asked once per physics step, as the built-in field is advanced."""
+
+    def __init__(self, model: WindModel, dt_s: float) -> None:
+        self.model = model
+        self._dt_s = dt_s
+        self._step = 0
+        self.wind_mps: Vec3 = (0.0, 0.0, 0.0)
+
+    def advance(self, position_m: Vec3) -> Vec3:
+        """The model's wind for the next physics step, checked: three finite numbers."""
+        given = self.model.velocity_mps(self._step * self._dt_s, position_m)
+        self._step += 1
+        try:
+            wx, wy, wz = (float(v) for v in given)
+        except (TypeError, ValueError):
+            raise ConfigError(f"the wind model gave {given!r:.80}, not three numbers (x, y, z in m/s)") from None
+        if not all(math.isfinite(v) and abs(v) <= MAX_MODEL_WIND_MPS for v in (wx, wy, wz)):
+            raise ConfigError(
+                f"the wind model gave {given!r:.80}: three finite speeds within {MAX_MODEL_WIND_MPS:g} m/s"
+            )
+        self.wind_mps = (wx, wy, wz)
         return self.wind_mps

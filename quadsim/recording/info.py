@@ -91,7 +91,7 @@ class RecordingInfo:
                 out += [f"    {name}: {_vehicle_line(own)}" for name, own in d.fleet]
             else:
                 out.append(
-                    f"  controller {d.controller.kind.value}, z-mode {d.z_mode.value}, driver {d.driver_name}"
+                    f"  controller {d.controller.name}, z-mode {d.z_mode.value}, driver {d.driver_name}"
                     + (f" ({script})" if isinstance(script, str) and script else "")
                 )
             out.append("  rates " + ", ".join(f"{k.replace('_hz', '')} {v} Hz" for k, v in cfg.rates.to_dict().items()))
@@ -104,7 +104,8 @@ class RecordingInfo:
                     f"command timeout {timeout}"
                 )
             noise = "IMU noise on" if cfg.sensor_noise else "IMU noise off"
-            out.append(f"  {cfg.wind.describe()}, {noise}, seed {cfg.seed}")
+            wind = f"wind of its own ({d.wind_model.import_path})" if d.wind_model is not None else cfg.wind.describe()
+            out.append(f"  {wind}, {noise}, seed {cfg.seed}")
             for cam in d.cameras:
                 out.append(
                     f"  camera {cam.name}: {cam.width_px}x{cam.height_px} @ {cam.rate_hz} Hz, "
@@ -129,7 +130,7 @@ def _vehicle_line(d: RunDescription) -> str:
     script = d.driver.get("script")
     return (
         f"{d.vehicle.name} ({d.vehicle.rotor_count} rotors, {d.vehicle.mass_kg:.3f} kg) from "
-        f"x={start.x_m:g} y={start.y_m:g} m yaw={math.degrees(start.yaw_rad):g} deg, {d.controller.kind.value}, "
+        f"x={start.x_m:g} y={start.y_m:g} m yaw={math.degrees(start.yaw_rad):g} deg, {d.controller.name}, "
         f"z-mode {d.z_mode.value}, driver {d.driver_name}"
         + (f" ({script})" if isinstance(script, str) and script else "")
     )

@@ -13,6 +13,7 @@ from quadsim.control.landing import LandingSettings
 from quadsim.core.types import ZMode
 from quadsim.drivers import InputDriver
 from quadsim.errors import QuadsimError
+from quadsim.physics.wind import WindModel
 from quadsim.sensors.camera import CameraSpec
 from quadsim.session.outputs import OutputOptions
 from quadsim.sim.config import SimConfig
@@ -27,7 +28,8 @@ class RunPlan:
     """Everything a run is made of. `vehicles`: the fleet's (one unnamed vehicle: `alone`);
     `cameras`: each vehicle's by name (None: a run of one vehicle has `outputs.cameras`);
     `z_switches`: (step, vehicle name, z-mode) switches made at those steps and recorded, as the
-    window's Tab makes them (a re-flight replays a recording's)."""
+    window's Tab makes them (a re-flight replays a recording's); `wind`: a wind of the user's
+    own (quadsim.physics.wind.WindModel) in place of the config's."""
 
     config: SimConfig
     vehicles: tuple[FleetVehicle, ...]
@@ -41,6 +43,7 @@ class RunPlan:
     reset_on_crash: bool = False
     texture_required: bool = True
     z_switches: tuple[tuple[int, str, ZMode], ...] = ()
+    wind: WindModel | None = None
 
     def __post_init__(self) -> None:
         if not self.duration_s > 0:

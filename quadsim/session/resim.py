@@ -12,19 +12,24 @@ from dataclasses import dataclass, fields, replace
 from pathlib import Path
 from typing import Any
 
+from quadsim.control import Controller, ControllerKind, remake_controller
 from quadsim.control.landing import LandingSettings
 from quadsim.core.kinematics import body_velocity
+from quadsim.core.parts import part_class
 from quadsim.core.types import VehicleState, ZMode
 from quadsim.drivers.replay import ReplayDriver
 from quadsim.errors import QuadsimError
+from quadsim.physics.wind import WIND_MODEL_METHODS, WindModel
 from quadsim.recording.contract import ODOM, POSE, Names
 from quadsim.recording.flight import RecordedFlight
 from quadsim.session.outputs import OutputOptions
 from quadsim.session.plan import RunPlan
 from quadsim.session.run import Run, to_the_end
 from quadsim.sim.config import SimConfig
+from quadsim.sim.description import WindModelDescription
 from quadsim.sim.fleet import Fleet, FleetVehicle
 from quadsim.sim.loop import StateLog
+from quadsim.vehicle.params import load_vehicle
 
 
 @dataclass(frozen=True)
@@ -261,13 +266,16 @@ def _plan(flights: Mapping[str, RecordedFlight], folder: Path, outputs: OutputOp
         label = f"{flight.path} ({name})" if name else str(flight.path)
         driver = ReplayDriver(sorted(flight.command_steps(), key=lambda c: c[0]), label)
         vehicles.append(
-            FleetVehicle(name, own.start, own.urdf, own.vehicle_params, own.controller, own.z_mode, driver, gains)
+            FleetVehicle(
+                name, own.start, own.urdf, own.vehicle_params, _controller(flight, own), own.z_mode, driver, gains
+            )
         )
         switches += [(step, name, ZMode(value)) for step, kind, value in flight.events if kind == "z_mode"]
     assert config is not None
     if first.fleet is not None:  # what the vehicles share is the fleet's, with the world written out
         config = replace(first.fleet.config, world=config.world, gui=False)
     end_step = max(flight.states[-1].step for flight in flights.values())
+    whole = first.fleet if first.fleet is not None else first.description
     return RunPlan(
         config,
         tuple(vehicles),
@@ -277,15 +285,49 @@ def _plan(flights: Mapping[str, RecordedFlight], folder: Path, outputs: OutputOp
         run_info={"command": "replay --resim", "source": str(first.path)},
         texture_required=False,
         z_switches=tuple(sorted(switches, key=lambda s: s[0])),
+        wind=_wind_model(first.path, whole.wind_model if whole is not None else None),
         **flight_settings(first),
     )
+
+
+def _controller(flight: RecordedFlight, config: SimConfig) -> ControllerKind | Controller:
+    """The controller a vehicle flew: its built-in kind, or the user's own made again from its
+    class (module:Class), with what it described of itself; one line where it cannot be."""
+    recorded = flight.description.controller if flight.description is not None else None
+    if recorded is None or recorded.kind is not None:
+        return config.controller
+    try:
+        return remake_controller(
+            recorded.import_path, load_vehicle(config.urdf, config.vehicle_params), recorded.details
+        )
+    except QuadsimError as exc:
+        raise QuadsimError(f"{flight.path}: {exc}") from None
+
+
+def _wind_model(path: Path, recorded: WindModelDescription | None) -> WindModel | None:
+    """The run's wind of the user's own made again from its class (module:Class), as
+    `Class.from_description(details)` where it has that, else `Class()`; one line where it cannot be."""
+    if recorded is None:
+        return None
+    try:
+        cls = part_class(recorded.import_path, "wind model", WIND_MODEL_METHODS)
+        make = getattr(cls, "from_description", None)
+        try:
+            model: WindModel = make(recorded.details) if callable(make) else cls()
+        except Exception as exc:  # the user's constructor
+            raise QuadsimError(
+                f"the wind model {recorded.import_path} could not be made again ({type(exc).__name__}: {str(exc)[:120]})"
+            ) from None
+    except QuadsimError as exc:
+        raise QuadsimError(f"{path}: {exc}") from None
+    return model
 
 
 def _rebuild(plan: RunPlan, first: RecordedFlight, folder: str) -> Fleet:
     """The recorded run's fleet; a file of the recording that does not build is said as the
     recording's (its attachments), not as the temporary folder they were written to."""
     try:
-        return Fleet(plan.vehicles, plan.config, plan.landing, plan.reset_on_crash, texture_required=False)
+        return Fleet(plan.vehicles, plan.config, plan.landing, plan.reset_on_crash, False, plan.wind)
     except (QuadsimError, ValueError) as exc:
         why = str(exc).replace(f"{folder}/", "attachment ")
         what = "fleet" if first.fleet is not None else "run"

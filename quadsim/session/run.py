@@ -148,7 +148,7 @@ class Run:
 
 
 def _build(plan: RunPlan) -> Fleet:
-    return Fleet(plan.vehicles, plan.config, plan.landing, plan.reset_on_crash, plan.texture_required)
+    return Fleet(plan.vehicles, plan.config, plan.landing, plan.reset_on_crash, plan.texture_required, plan.wind)
 
 
 def fly(

@@ -23,6 +23,7 @@ from pathlib import Path
 from typing import Any
 
 from quadsim.control import ControllerKind
+from quadsim.core.parts import IMPORT_PATH, import_path
 from quadsim.core.types import StartPose, ZMode
 from quadsim.errors import QuadsimError
 from quadsim.physics.wind import Turbulence, WindSettings
@@ -54,9 +55,31 @@ class VehicleDescription:
 
 @dataclass(frozen=True)
 class ControllerDescription:
-    kind: ControllerKind
+    """The controller a vehicle flew: a shipped kind with its gains, or a user's own (its class's
+    import path, module:Class, `kind` None)."""
+
+    kind: ControllerKind | None
     gains: dict[str, float]
     details: dict[str, Any] = field(default_factory=dict, compare=False)  # the controller's describe()
+    import_path: str = ""
+
+    @property
+    def name(self) -> str:
+        """What flew, as a person reads it: "cascade", or "own (mypackage.control:MyController)"."""
+        return self.kind.value if self.kind is not None else f"own ({self.import_path})"
+
+
+@dataclass(frozen=True)
+class WindModelDescription:
+    """A wind model of the user's own a run flew in: its class (module:Class) and its settings."""
+
+    import_path: str
+    details: dict[str, Any] = field(default_factory=dict, compare=False)  # its describe(), if it has one
+
+    @classmethod
+    def of(cls, model: object) -> WindModelDescription:
+        describe = getattr(model, "describe", None)
+        return cls(import_path(model), dict(describe()) if callable(describe) else {})
 
 
 @dataclass(frozen=True)
@@ -79,6 +102,8 @@ class RunDescription:
     #: a fleet's vehicles: (name, that vehicle's own description), in the fleet's order; empty
     #: for a run of one vehicle
     fleet: tuple[tuple[str, RunDescription], ...] = ()
+    #: the run's wind of the user's own (None: the config's wind)
+    wind_model: WindModelDescription | None = None
 
     @property
     def z_mode(self) -> ZMode:
@@ -107,6 +132,8 @@ class RunDescription:
         }
         if self.fleet:
             params["fleet"] = [{"name": name, **d._own_parameters()} for name, d in self.fleet]
+        if self.wind_model is not None:
+            params["wind_model"] = {"import_path": self.wind_model.import_path, "details": self.wind_model.details}
         return params
 
     def _own_parameters(self) -> dict[str, Any]:
@@ -118,11 +145,9 @@ class RunDescription:
             "params": self.vehicle.params_file,
             "mass_kg": self.vehicle.mass_kg,
         }
-        controller = {
-            **self.controller.details,
-            "name": self.controller.kind.value,
-            "gains": dict(self.controller.gains),
-        }
+        c = self.controller
+        own = {"name": "own", "import_path": c.import_path}  # its describe() is its own business
+        controller = {**c.details, **({"name": c.kind.value, "gains": dict(c.gains)} if c.kind is not None else own)}
         return {
             "config": self.config.to_dict(),
             "vehicle": vehicle,
@@ -146,9 +171,23 @@ class RunDescription:
         start_step = p.integer("start_step", default=0, low=0)
         own = cls._own_from(p, version, start_step)
         fleet = _fleet(p, version, start_step) if version >= FLEET_SCHEMA_VERSION else ()
-        known = {"schema_version", "config", "vehicle", "controller", "driver", "cameras", "start_step", "fleet"}
+        known = {
+            "schema_version",
+            "config",
+            "vehicle",
+            "controller",
+            "driver",
+            "cameras",
+            "start_step",
+            "fleet",
+            "wind_model",
+        }
         return replace(
-            own, extra={k: v for k, v in p.data.items() if k not in known}, schema_version=version, fleet=fleet
+            own,
+            extra={k: v for k, v in p.data.items() if k not in known},
+            schema_version=version,
+            fleet=fleet,
+            wind_model=_wind_model(p),
         )
 
     @classmethod
@@ -157,9 +196,15 @@ class RunDescription:
         config = _config(p.section("config"), version)
         vehicle = _vehicle(p.section("vehicle"))
         c = p.section("controller")
-        gains_f = c.section("gains", optional=True)
-        gains = {key: gains_f.number(key) for key in gains_f.data}
-        controller = ControllerDescription(c.choice("name", ControllerKind), gains, dict(c.data))
+        if "import_path" in c.data:  # a controller of the user's own: its class, made again by a re-flight
+            path = c.text("import_path")
+            if not IMPORT_PATH.fullmatch(path):
+                raise DescriptionError(f"{c.where}.import_path: {path[:80]!r} is not module:Class")
+            controller = ControllerDescription(None, {}, dict(c.data), path)
+        else:
+            gains_f = c.section("gains", optional=True)
+            gains = {key: gains_f.number(key) for key in gains_f.data}
+            controller = ControllerDescription(c.choice("name", ControllerKind), gains, dict(c.data))
         driver = p.section("driver", optional=True)
         cameras = p.raw("cameras", default=[])
         if not isinstance(cameras, list):
@@ -195,6 +240,17 @@ def _fleet(p: _Fields, version: int, start_step: int) -> tuple[tuple[str, RunDes
             raise DescriptionError(f"{f.where}.name: {name!r:.60} is not a unique ROS name segment")
         out.append((name, RunDescription._own_from(f, version, start_step)))
     return tuple(out)
+
+
+def _wind_model(p: _Fields) -> WindModelDescription | None:
+    """parameters.wind_model: a wind of the user's own, named by its class (module:Class)."""
+    if p.raw("wind_model") is None:
+        return None
+    w = p.section("wind_model")
+    path = w.text("import_path")
+    if not IMPORT_PATH.fullmatch(path):
+        raise DescriptionError(f"{w.where}.import_path: {path[:80]!r} is not module:Class")
+    return WindModelDescription(path, dict(w.section("details", optional=True).data))
 
 
 # --- validation helpers ---------------------------------------------------------------------

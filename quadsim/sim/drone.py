@@ -14,15 +14,17 @@ from typing import Any
 
 import numpy as np
 
-from quadsim.control import make_controller
+from quadsim.control import Controller, builtin_kind, make_controller
 from quadsim.control.gate import CommandGate
 from quadsim.control.landing import FlightPhase, LandingSettings
+from quadsim.core.parts import import_path
 from quadsim.core.types import Twist, VehicleState, ZMode
 from quadsim.drivers import InputDriver
 from quadsim.drivers.programmatic import ProgrammaticDriver
 from quadsim.errors import QuadsimError
 from quadsim.physics.client import WorldClient
 from quadsim.physics.pybullet_world import PhysicsWorld
+from quadsim.physics.wind import WindModel
 from quadsim.sensors.imu import ImuNoise
 from quadsim.sim.config import SimConfig, enum_choice
 from quadsim.sim.description import ControllerDescription, RunDescription, VehicleDescription
@@ -44,11 +46,15 @@ class Drone:
         reset_on_crash: bool = False,
         name: str = "",
         index: int = 0,
+        controller: Controller | None = None,
+        wind_model: WindModel | None = None,
     ) -> None:
         """`config`: this vehicle's (its airframe, controller, z-mode, start, seed; the rates and
         the world are the run's); `client`: the world it flies in; `name`: what its topics and
         TF frames are prefixed with ("": a run of one vehicle, the contract's names unchanged);
-        `index`: its place in the fleet."""
+        `index`: its place in the fleet; `controller`: a controller of the user's own (the
+        Controller protocol), in place of the config's built-in one; `wind_model`: the run's
+        wind of the user's own, in place of the config's."""
         self.name = name
         self.driver: InputDriver = driver if driver is not None else ProgrammaticDriver()
         if config.z_mode is None:  # the driver's wish (a script's z_mode line), else velocity
@@ -60,13 +66,15 @@ class Drone:
         self._client = client
         rates = config.rates
         timeout = config.command_timeout_s
-        self.controller = make_controller(config.controller, self.vehicle, controller_gains)
+        self.controller: Controller = (
+            controller if controller is not None else make_controller(config.controller, self.vehicle, controller_gains)
+        )
         self.gate = CommandGate(
             self.vehicle.limits, self.z_mode, None if timeout is None else round(timeout * rates.physics_hz)
         )
         wind_seed, imu_seed = _streams(config.seed)
         self.physics = PhysicsWorld(
-            self.vehicle, client, config.start, config.wind, wind_seed, name=name or "vehicle", far_index=index
+            self.vehicle, client, config.start, config.wind, wind_seed, name or "vehicle", index, wind_model
         )
         imu = ImuNoise(self.vehicle.imu_noise, rates.state_hz, imu_seed) if config.sensor_noise else None
         self.loop = SimLoop(
@@ -194,15 +202,17 @@ class Drone:
     def description(self) -> RunDescription:
         """Everything this vehicle's run is made with, typed (outputs complete it with their own part)."""
         v, ctrl = self.vehicle, self.controller.describe()
+        kind = builtin_kind(self.controller)
         return RunDescription(
             config=self.config,
             vehicle=VehicleDescription(
                 v.name, v.urdf_path.name, v.params_path.name, v.mass_kg, len(v.rotors), v.to_dict()
             ),
             controller=ControllerDescription(
-                self.controller.kind,
-                dict(ctrl.get("gains", {})),
+                kind,
+                dict(ctrl.get("gains", {})) if kind is not None else {},
                 {**ctrl, "landing": asdict(self.loop.landing.settings), "reset_on_crash": self.loop.reset_on_crash},
+                import_path(self.controller) if kind is None else "",
             ),
             driver=self.driver.describe(),
             vehicle_model=v,

@@ -25,15 +25,16 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from quadsim.control import ControllerKind
+from quadsim.control import Controller, ControllerKind
 from quadsim.control.landing import LandingSettings
 from quadsim.core.types import StartPose, VehicleState, ZMode
 from quadsim.drivers import InputDriver
 from quadsim.errors import ConfigError, QuadsimError
 from quadsim.physics.client import WorldClient
+from quadsim.physics.wind import WindModel
 from quadsim.physics.world_spec import WorldSpec, load_world
 from quadsim.sim.config import MAX_SEED, SimConfig, steps_of, whole_steps
-from quadsim.sim.description import MAX_FLEET, VEHICLE_NAME, RunDescription
+from quadsim.sim.description import MAX_FLEET, VEHICLE_NAME, RunDescription, WindModelDescription
 from quadsim.sim.drone import Drone
 from quadsim.vehicle.params import VehicleParams
 
@@ -44,14 +45,16 @@ if TYPE_CHECKING:
 @dataclass(frozen=True)
 class FleetVehicle:
     """One vehicle of a fleet: its name, start pose, input and gains, and where it differs from
-    the fleet's config: airframe (URDF and parameter file), controller, z-mode (None: the fleet's).
-    The name "" is a vehicle flying alone (a Simulator's): the contract's topics, unprefixed."""
+    the fleet's config: airframe (URDF and parameter file), controller (a built-in kind, or a
+    controller object of one's own: the Controller protocol, one per vehicle), z-mode (None: the
+    fleet's). The name "" is a vehicle flying alone (a Simulator's): the contract's topics,
+    unprefixed."""
 
     name: str
     start: StartPose = StartPose()
     urdf: Path | None = None
     vehicle_params: Path | None = None
-    controller: ControllerKind | None = None
+    controller: ControllerKind | Controller | None = None
     z_mode: ZMode | None = None
     driver: InputDriver | None = None
     controller_gains: dict[str, Any] | None = field(default=None, compare=False)
@@ -67,11 +70,18 @@ class Fleet:
         landing: LandingSettings = LandingSettings(),
         reset_on_crash: bool = False,
         texture_required: bool = True,
+        wind: WindModel | None = None,
     ) -> None:
         """`config`: what the vehicles share (world, rates, wind, sensor noise, the run's seed);
         its vehicle, controller, z-mode and start are each vehicle's own. `texture_required`:
-        False lets a world whose floor texture is missing load (a re-flight draws nothing)."""
+        False lets a world whose floor texture is missing load (a re-flight draws nothing).
+        `wind`: a wind of your own (the WindModel protocol: the wind at a time and place), for
+        every vehicle, instead of the config's."""
         _check(vehicles, config)
+        if wind is not None and config.wind.enabled:
+            raise ConfigError("a wind model and the config's wind: give one (SimConfig's wind stays off with a model)")
+        #: the run's wind of the user's own (None: the config's)
+        self.wind_model = wind
         world = load_world(config.world, texture_required)
         gravity = VehicleParams.gravity_mps2  # what every vehicle carries; each is checked against the world's
         self.client = WorldClient(world, config.rates.physics_hz, gravity, config.gui)
@@ -82,13 +92,25 @@ class Fleet:
                     config,
                     urdf=v.urdf if v.urdf is not None else config.urdf,
                     vehicle_params=v.vehicle_params if v.urdf is not None else config.vehicle_params,
-                    controller=v.controller if v.controller is not None else config.controller,
+                    controller=v.controller if isinstance(v.controller, ControllerKind) else config.controller,
                     z_mode=v.z_mode if v.z_mode is not None else config.z_mode,
                     start=v.start,
                     seed=_vehicle_seed(config.seed, index, v.name),
                 )
+                own_controller = (
+                    None if v.controller is None or isinstance(v.controller, ControllerKind) else v.controller
+                )
                 self.vehicles[v.name] = Drone(
-                    own, self.client, v.driver, v.controller_gains, landing, reset_on_crash, v.name, index
+                    own,
+                    self.client,
+                    v.driver,
+                    v.controller_gains,
+                    landing,
+                    reset_on_crash,
+                    v.name,
+                    index,
+                    own_controller,
+                    wind,
                 )
         except BaseException:
             self.close()
@@ -100,6 +122,13 @@ class Fleet:
         #: the run's settings; a vehicle flying alone's own (its z-mode as its driver asked)
         self.config = self._alone.config if self._alone is not None else config
         self._states: list[VehicleState | None] = [None] * len(self._members)
+        self._reset_wind_model()
+
+    def _reset_wind_model(self) -> None:
+        """A wind model of the user's own starts again with a generator of the run's seed."""
+        reset = getattr(self.wind_model, "reset", None)
+        if callable(reset):
+            reset(np.random.default_rng(self.config.seed))
 
     def __getitem__(self, name: str) -> Drone:
         try:
@@ -174,6 +203,7 @@ class Fleet:
         for index, member in enumerate(self._members):
             member.reset(None if seed is None else _vehicle_seed(seed, index, member.name))
         self._states = [None] * len(self._members)
+        self._reset_wind_model()
 
     def restart(self, drivers: Mapping[str, InputDriver], seed: int | None = None) -> None:
         """Back to step 0 (as `reset`), each vehicle named in `drivers` flown by its driver from
@@ -187,10 +217,11 @@ class Fleet:
         """The whole run: a vehicle flying alone's own description; for named vehicles, the
         fleet's config (with the run's seed) and each vehicle's own description, in order (its
         vehicle, controller and driver are the first vehicle's)."""
+        wind = WindModelDescription.of(self.wind_model) if self.wind_model is not None else None
         if self._alone is not None:
-            return self._alone.description()
+            return replace(self._alone.description(), wind_model=wind)
         members = tuple((name, drone.description()) for name, drone in self.vehicles.items())
-        return replace(members[0][1], config=self.config, fleet=members)
+        return replace(members[0][1], config=self.config, fleet=members, wind_model=wind)
 
     # --- lifetime ---------------------------------------------------------------------------
 

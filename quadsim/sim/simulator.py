@@ -20,6 +20,7 @@ from quadsim.control.landing import FlightPhase, LandingSettings
 from quadsim.core.types import Twist, VehicleState, ZMode
 from quadsim.drivers import InputDriver
 from quadsim.physics.pybullet_world import PhysicsWorld
+from quadsim.physics.wind import WindModel
 from quadsim.sim.config import SimConfig
 from quadsim.sim.fleet import Fleet, FleetVehicle
 from quadsim.sim.flight_events import FlightEvent
@@ -40,13 +41,20 @@ class Simulator(Fleet):
         texture_required: bool = True,
         landing: LandingSettings = LandingSettings(),
         reset_on_crash: bool = False,
+        controller: Controller | None = None,
+        wind: WindModel | None = None,
     ) -> None:
         """`driver`: where commands come from (default: `send`); `controller_gains`: gains that
         replace those of the vehicle's gains file; `texture_required`: False lets a world whose
         floor texture is missing load; `landing` and `reset_on_crash`: the landing layer's
-        settings and whether a crash puts the vehicle back at its start."""
-        alone = FleetVehicle("", start=config.start, driver=driver, controller_gains=controller_gains)
-        super().__init__([alone], config, landing, reset_on_crash, texture_required)
+        settings and whether a crash puts the vehicle back at its start; `controller`: a
+        controller of your own (the Controller protocol: reset, update, describe) instead of the
+        config's built-in one; `wind`: a wind of your own (the WindModel protocol: velocity_mps at
+        a time and place) instead of the config's."""
+        alone = FleetVehicle(
+            "", start=config.start, controller=controller, driver=driver, controller_gains=controller_gains
+        )
+        super().__init__([alone], config, landing, reset_on_crash, texture_required, wind)
         #: the one vehicle
         self.drone = self.members[0]
 

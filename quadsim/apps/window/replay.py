@@ -252,7 +252,7 @@ class ReplayApp:
             command_held=False,
             armed=command is not None,
             z_mode=zm.value if (zm := f.z_mode_at(t)) is not None else "?",
-            controller=d.controller.kind.value if d else "?",
+            controller=d.controller.name if d else "?",
             input_status=f"replay: flown with the {d.driver_name} input" if d else "replay: flown by another program",
             recording_path=None,
             recording_error=None,
