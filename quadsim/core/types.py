@@ -38,10 +38,6 @@ class Twist(NamedTuple):
         """True when no field is NaN or infinite (the gate rejects such commands)."""
         return all(math.isfinite(v) for v in self)
 
-    def is_zero_motion(self) -> bool:
-        """True when no horizontal, vertical or yaw motion is asked for."""
-        return self.linear_x == 0.0 and self.linear_y == 0.0 and self.angular_z == 0.0
-
 
 class ActiveCommand(NamedTuple):
     """What the controller acts on at one control step, as decided by the command gate.

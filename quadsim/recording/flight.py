@@ -53,10 +53,6 @@ class RecordedFlight:
     fleet: RunDescription | None = None  # in a fleet's recording, the whole run's description
 
     @property
-    def is_quadsim(self) -> bool:
-        return self.description is not None
-
-    @property
     def duration_s(self) -> float:
         return self.end_ns / NS
 

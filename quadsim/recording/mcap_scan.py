@@ -85,9 +85,6 @@ class _Fields:
         self.pos += size
         return int(value)
 
-    def u8(self) -> int:
-        return self._num("<B", 1)
-
     def u16(self) -> int:
         return self._num("<H", 2)
 

@@ -40,14 +40,6 @@ class Scan:
     complete: bool = False  # finished properly and undamaged
 
     @property
-    def bad_chunks(self) -> int:
-        return sum(1 for d in self.damage if d.loses == "messages")
-
-    @property
-    def stop_reason(self) -> str:
-        return "; ".join(d.describe() for d in self.damage)
-
-    @property
     def span_s(self) -> tuple[float, float]:
         if not self.messages:
             return (0.0, 0.0)

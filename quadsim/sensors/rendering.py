@@ -59,20 +59,6 @@ def depth_metres(spec: CameraSpec, depth_buffer: np.ndarray) -> np.ndarray:
     return metres.astype(np.float32, copy=False)
 
 
-def render_rgb(
-    spec: CameraSpec,
-    pose: CameraPose,
-    cid: int,
-    renderer: RendererKind = RendererKind.TINY,
-    projection: tuple[float, ...] | None = None,
-    atmosphere: Atmosphere | None = None,
-) -> np.ndarray:
-    """Render one RGB image. With `atmosphere`, the empty background becomes sky and distance
-    softens and hazes the scene (see Atmosphere)."""
-    rgb, depth, _ = render_raw(spec, pose, cid, renderer, projection)
-    return rgb if atmosphere is None else atmosphere.apply(rgb, depth, pose)
-
-
 def is_blank(rgb: np.ndarray, depth: np.ndarray) -> bool:
     """True when a renderer drew nothing: one flat colour, or no depth anywhere."""
     return int(rgb.max()) - int(rgb.min()) <= 2 or float(depth.min()) >= 0.99999

@@ -3,7 +3,7 @@ MCAP recorder, live bridges), opened together and always finished together (norm
 SIGTERM, an exception).
 
 A run is a fleet (a run of one vehicle is a fleet of one): each vehicle's producer attaches to
-that vehicle through its sinks and taps (the OutputPort protocol), under the vehicle's names
+that vehicle through its sinks and taps, under the vehicle's names
 (/alpha/quad/odom; a vehicle flying alone has the contract's own), and the outputs know the run by
 its typed RunDescription. Cameras are per vehicle; in a fleet they render the others where they
 are. The recorder's and the cameras' modules (and so mcap, foxglove, rosbags, cv2) are imported

@@ -3,7 +3,7 @@ in a world it shares with the run's other vehicles.
 
 A run's fleet (quadsim.sim.fleet.Fleet) builds its drones and steps them together; a Simulator is
 the fleet of one. `fleet["alpha"]` is a Drone: send it commands, read its state and events, attach
-outputs to it (the OutputPort protocol's sinks and taps).
+outputs to it (its sinks and taps).
 """
 
 from __future__ import annotations
@@ -107,7 +107,7 @@ class Drone:
 
     run_for = step
 
-    # --- where outputs attach (the OutputPort protocol) --------------------------------------
+    # --- where outputs attach: sinks and taps ----------------------------------------------
 
     def add_sink(self, sink: Sink) -> None:
         """Receive every command (as the controller got it) and every published state."""

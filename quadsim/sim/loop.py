@@ -47,27 +47,6 @@ class Sink(Protocol):
     # (take-off, touchdown, landed, crash, reset; see sim/flight_events.py) at `step`
 
 
-class OutputPort(Protocol):
-    """Where outputs (recorder, cameras, bridges, the window) attach to a running simulation,
-    without holding the simulator itself. The Simulator is one."""
-
-    @property
-    def step_count(self) -> int:
-        """The loop's step count: simulation time in physics steps."""
-
-    @property
-    def scene_client(self) -> int | None:
-        """A PyBullet client holding the scene, for rendering in-process (None: there is none)."""
-
-    def add_sink(self, sink: Sink) -> None: ...
-
-    def remove_sink(self, sink: Sink) -> None: ...
-
-    def add_tap(self, every_steps: int, callback: Callable[[VehicleState], None]) -> None: ...
-
-    def remove_tap(self, callback: Callable[[VehicleState], None]) -> None: ...
-
-
 class StateLog:
     """A sink that keeps everything in memory: for tests, summaries and autonomy code."""
 
@@ -146,11 +125,6 @@ class SimLoop:
     @property
     def time_s(self) -> float:
         return self.step_count / self.rates.physics_hz
-
-    @property
-    def rotor_command_n(self) -> RotorForces:
-        """The rotor forces the controller asked for at its last update."""
-        return self._rotor_command
 
     def state(self) -> VehicleState:
         """The vehicle's state now, stamped with the loop's step count."""

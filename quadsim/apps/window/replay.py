@@ -16,6 +16,7 @@ from pathlib import Path
 os.environ.setdefault("PYGAME_HIDE_SUPPORT_PROMPT", "1")
 import pygame
 
+from quadsim.apps.window.display import close_display, lost, open_display, run_frames
 from quadsim.apps.window.view import TeleopView, ViewModel
 from quadsim.apps.window.x11_guard import X11Guard
 from quadsim.core.kinematics import clamp
@@ -71,10 +72,7 @@ class ReplayApp:
         `others`: a fleet's other vehicles, by name, drawn on the map."""
         import tempfile
 
-        pygame.display.init()
-        pygame.font.init()
-        self.screen = pygame.display.set_mode(window_size, pygame.RESIZABLE)
-        pygame.display.set_caption(f"quadsim replay: {flight.path.name}")
+        self.screen = open_display(window_size, f"quadsim replay: {flight.path.name}")
         self.flight = flight
         with tempfile.TemporaryDirectory() as tmp:
             self.world = _world_of(flight, Path(tmp))
@@ -106,7 +104,7 @@ class ReplayApp:
         return self._x11.reason if self._x11 is not None else None
 
     def _display_gone(self) -> bool:
-        if self._x11 is not None and self._x11.lost:
+        if lost(self._x11):
             self.quit = True
             return True
         return False
@@ -288,19 +286,10 @@ class ReplayApp:
         stop: Callable[[], bool] | None = None,
     ) -> None:
         """Plays until the window is closed, `max_frames` frames, or `stop()` (a signal) is true."""
-        while not self.quit and (max_frames is None or self.frame_count < max_frames):
-            if stop is not None and stop():
-                return
-            if before_frame is not None:
-                before_frame(self)
-            self.frame()
+        run_frames(self, max_frames, before_frame, stop)
 
     def close(self) -> None:
-        if self._x11 is None:
-            pygame.display.quit()
-        elif not self._x11.lost:  # after a loss SDL's teardown would wait forever on it
-            self._x11.uninstall()
-            pygame.display.quit()
+        close_display(self._x11)
 
     def __enter__(self) -> ReplayApp:
         return self

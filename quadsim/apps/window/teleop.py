@@ -31,6 +31,7 @@ from typing import Any
 os.environ.setdefault("PYGAME_HIDE_SUPPORT_PROMPT", "1")
 import pygame
 
+from quadsim.apps.window.display import close_display, lost, open_display, run_frames
 from quadsim.apps.window.vehicles import WindowVehicles
 from quadsim.apps.window.view import TeleopView, ViewModel
 from quadsim.apps.window.x11_guard import X11Guard
@@ -181,11 +182,8 @@ class TeleopApp:
         """`live`: bridges fed for the whole run; `commands`: what flies with --input foxglove;
         `fleet`: fly one vehicle of a fleet file among the others (fly --fleet)."""
         _check_options(options, commands)
-        pygame.display.init()
-        pygame.font.init()
         pygame.joystick.init()
-        self.screen = pygame.display.set_mode(options.window_size, pygame.RESIZABLE)
-        pygame.display.set_caption("quadsim")
+        self.screen = open_display(options.window_size, "quadsim")
         self.options = options
         z_mode = config.z_mode or ZMode.VELOCITY
         self.keyboard = KeyboardDriver(LAYOUTS[options.keyboard_layout], z_mode=z_mode)
@@ -323,7 +321,7 @@ class TeleopApp:
 
     def _display_gone(self) -> bool:
         """After each call that touches the display: once it is lost, stop (and touch it no more)."""
-        if self._x11 is not None and self._x11.lost:
+        if lost(self._x11):
             self.quit = True
             return True
         return False
@@ -619,23 +617,14 @@ class TeleopApp:
     ) -> None:
         """Run frames until quit (or `max_frames`, or `stop()` says so); `before_frame` lets tests
         post events."""
-        while not self.quit and (max_frames is None or self.frame_count < max_frames):
-            if stop is not None and stop():
-                break
-            if before_frame is not None:
-                before_frame(self)
-            self.frame()
+        run_frames(self, max_frames, before_frame, stop)
 
     def close(self) -> None:
         try:
             self.session.close()
         finally:
             self.joystick.close()
-            if self._x11 is None:
-                pygame.display.quit()
-            elif not self._x11.lost:  # after a loss SDL's teardown would wait forever on it
-                self._x11.uninstall()
-                pygame.display.quit()
+            close_display(self._x11)
 
     def __enter__(self) -> TeleopApp:
         return self
