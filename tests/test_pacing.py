@@ -84,6 +84,13 @@ def test_steps_follow_the_wall_clock_at_any_speed_and_a_backlog_is_given_up():
     assert pacer.steps_for_frame(1000) == 30 and not pacer.lagging  # twice as fast
 
 
+def test_a_headless_runs_pacer_catches_up_after_a_stall():
+    clock = FakeClock()
+    pacer = RealTimePacer(240, max_frame_s=None, clock=clock)
+    clock.now += 1.0  # a stall: all of it is due, and taken
+    assert pacer.steps_for_frame(0) == 240 and not pacer.lagging
+
+
 def test_wait_sleeps_until_the_steps_are_due_and_stops_when_asked():
     clock = FakeClock()
     pacer = RealTimePacer(240, clock=clock, sleep=clock.sleep)

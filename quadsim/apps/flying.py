@@ -49,9 +49,9 @@ class HeadlessFlight:
                 bar = ProgressBar(planned.plan.duration_s, "sim time") if not planned.live_inputs else None
                 hz = run.fleet.config.rates.physics_hz
                 try:
-                    self.summaries = run.fly(
-                        RealTimePacer(hz) if planned.realtime else None, bar.update if bar is not None else None
-                    )
+                    # paced, a headless run catches up after a stall (live inputs keep their rate)
+                    pacer = RealTimePacer(hz, max_frame_s=None) if planned.realtime else None
+                    self.summaries = run.fly(pacer, bar.update if bar is not None else None)
                 finally:
                     self.sim_time = run.fleet.time_s
         except StopRequested:

@@ -20,14 +20,15 @@ _CLOSE_ENOUGH_S = 1e-6
 
 
 class RealTimePacer:
-    """Keeps ticks in step with the wall clock, `speed` times as fast. When the machine cannot
-    keep up, it does not skip ticks: it advances at most `max_frame_s` of wall time's worth per
-    frame and lets the run fall behind (the slowdown is visible, and `lagging` says so)."""
+    """Keeps ticks in step with the wall clock, `speed` times as fast. It never skips ticks. When
+    the machine cannot keep up, a window's pacer (`max_frame_s`) advances at most that much wall
+    time's worth per frame and lets the run fall behind (the slowdown is visible, and `lagging`
+    says so); a headless run's (`max_frame_s` None) steps whatever is due, catching up."""
 
     def __init__(
         self,
         rate_hz: int,
-        max_frame_s: float = 0.1,
+        max_frame_s: float | None = 0.1,
         clock: Callable[[], float] = time.perf_counter,
         lag_hold_s: float = 1.0,
         speed: float = 1.0,
@@ -35,7 +36,7 @@ class RealTimePacer:
     ) -> None:
         self.rate_hz = rate_hz
         self.speed = speed
-        self.max_steps = max(1, round(max_frame_s * rate_hz * speed))
+        self.max_steps = None if max_frame_s is None else max(1, round(max_frame_s * rate_hz * speed))
         self._clock = clock
         self._sleep = sleep
         self._origin_wall = clock()
@@ -59,10 +60,11 @@ class RealTimePacer:
 
     def steps_for_frame(self, steps_done: int) -> int:
         """Ticks to advance now, with `steps_done` done: what the wall clock says is due, at
-        most `max_steps` (a backlog beyond it is given up: the run slows down instead)."""
+        most `max_steps` (a backlog beyond it is given up: the run slows down instead) where
+        there is such a cap."""
         now = self._clock()
         wanted = self._due(now) - steps_done
-        if wanted > self.max_steps:
+        if self.max_steps is not None and wanted > self.max_steps:
             self.lagging = True
             self._last_behind_wall = now
             self._origin_wall = now  # give up on the backlog: slow down instead

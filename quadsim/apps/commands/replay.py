@@ -245,7 +245,7 @@ def _play_live(args: argparse.Namespace) -> int:
             f"at {args.speed:g}x{', looping' if args.loop else ''}; Ctrl-C stops",
             flush=True,
         )
-        pacer = RealTimePacer(NS_PER_S, speed=args.speed)  # ticks: nanoseconds of the recording
+        pacer = RealTimePacer(NS_PER_S, None, speed=args.speed)  # ticks: ns of the recording; catches up
         t_ns = 0
         while not stop_requested():
             pacer.wait(t_ns + PLAY_TICK_NS, stop_requested)
