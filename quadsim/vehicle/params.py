@@ -47,6 +47,7 @@ class AeroParams:
     body_drag_linear_ns_per_m: Vec3  # per base_link axis (x forward, y left, z up)
     body_drag_quadratic_ns2_per_m2: Vec3  # per base_link axis: 1/2 rho C_d A
     rotor_drag_ns_per_m_rad: float  # per rotor, per rad/s of rotor speed, per m/s of in-plane airspeed
+    rotor_axial_drag_ns_per_m_rad: float  # the same along the rotor axis (body z)
     rotor_radius_m: float
     ground_effect: bool
     ground_effect_max_ratio: float  # cap on T_ige / T_oge (Cheeseman-Bennett diverges at z = R/4)
@@ -56,6 +57,7 @@ class AeroParams:
             "body_drag_linear_ns_per_m": list(self.body_drag_linear_ns_per_m),
             "body_drag_quadratic_ns2_per_m2": list(self.body_drag_quadratic_ns2_per_m2),
             "rotor_drag_ns_per_m_rad": self.rotor_drag_ns_per_m_rad,
+            "rotor_axial_drag_ns_per_m_rad": self.rotor_axial_drag_ns_per_m_rad,
             "rotor_radius_m": self.rotor_radius_m,
             "ground_effect": self.ground_effect,
             "ground_effect_max_ratio": self.ground_effect_max_ratio,
@@ -394,9 +396,24 @@ def _refuse_unknown_keys(table: dict[str, Any], path: Path) -> None:
             refuse_unknown_keys(value, keys, f"{path}: [{section}]")
 
 
-def _number(table: dict[str, Any], section: str, key: str, path: Path, *, low: float, high: float) -> float:
+def _number(
+    table: dict[str, Any],
+    section: str,
+    key: str,
+    path: Path,
+    *,
+    low: float,
+    high: float,
+    default: float | None = None,
+) -> float:
+    """[section] key, a finite number in [low, high]; `default` when the file leaves it out (a key
+    added after recordings were made: their attached parameter files still load), else refused."""
     sec = table.get(section)
-    if not isinstance(sec, dict) or key not in sec:
+    if sec is not None and not isinstance(sec, dict):
+        raise ConfigError(f"{path}: [{section}] must be a table, got {sec!r}")
+    if sec is None or key not in sec:
+        if default is not None:
+            return default
         raise ConfigError(f"{path}: missing [{section}] {key}")
     value = sec[key]
     if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
@@ -427,6 +444,10 @@ def _aero(table: dict[str, Any], path: Path) -> AeroParams:
             table, "aero", "body_drag_quadratic_ns2_per_m2", path, low=0.0, high=100.0
         ),
         rotor_drag_ns_per_m_rad=_number(table, "aero", "rotor_drag_ns_per_m_rad", path, low=0.0, high=1.0),
+        # not modelled before it was a key: a file without it flies as it did
+        rotor_axial_drag_ns_per_m_rad=_number(
+            table, "aero", "rotor_axial_drag_ns_per_m_rad", path, low=0.0, high=1.0, default=0.0
+        ),
         rotor_radius_m=_number(table, "aero", "rotor_radius_m", path, low=1e-3, high=10.0),
         ground_effect=ground_effect,
         ground_effect_max_ratio=_number(table, "aero", "ground_effect_max_ratio", path, low=1.0, high=3.0),

@@ -1,6 +1,7 @@
 """What acts on the airframe in one physics step, as one force and one torque: the motors move
 toward the commanded forces, each rotor pushes along body z at its hub (times its ground-effect
-ratio) with its yaw reaction torque, body and rotor drag act at the centre of mass. One function
+ratio) with its yaw reaction torque, body and rotor drag (in the rotor plane and along the rotor
+axis) act at the centre of mass. One function
 of floats and arrays, compiled where numba is installed (quadsim.core.compiled).
 
 quadsim.physics.pybullet_world applies the result to the body each step.
@@ -31,6 +32,7 @@ C_FIELDS = (
     "body_drag_quadratic_y",
     "body_drag_quadratic_z",
     "rotor_drag_ns_per_m_rad",
+    "rotor_axial_drag_ns_per_m_rad",
     "com_x_m",
     "com_y_m",
     "com_z_m",
@@ -50,6 +52,7 @@ C_FIELDS = (
     QUADRATIC_Y,
     QUADRATIC_Z,
     ROTOR_DRAG,
+    ROTOR_AXIAL_DRAG,
     COM_X,
     COM_Y,
     COM_Z,
@@ -70,6 +73,7 @@ def airframe_constants(vehicle: VehicleParams, motor_alpha: float) -> list[float
         **dict(zip(C_FIELDS[LINEAR_X : LINEAR_Z + 1], aero.body_drag_linear_ns_per_m)),
         **dict(zip(C_FIELDS[QUADRATIC_X : QUADRATIC_Z + 1], aero.body_drag_quadratic_ns2_per_m2)),
         "rotor_drag_ns_per_m_rad": aero.rotor_drag_ns_per_m_rad,
+        "rotor_axial_drag_ns_per_m_rad": aero.rotor_axial_drag_ns_per_m_rad,
         **dict(zip(C_FIELDS[COM_X : COM_Z + 1], vehicle.com_m)),
     }
     return [values[name] for name in C_FIELDS]
@@ -124,6 +128,7 @@ def airframe_wrench(
         c[QUADRATIC_Y],
         c[QUADRATIC_Z],
         c[ROTOR_DRAG] * omega_sum,
+        c[ROTOR_AXIAL_DRAG] * omega_sum,
         m00 * vx + m10 * vy + m20 * vz,
         m01 * vx + m11 * vy + m21 * vz,
         m02 * vx + m12 * vy + m22 * vz,
