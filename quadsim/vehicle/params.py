@@ -65,6 +65,19 @@ class AeroParams:
 
 
 @dataclass(frozen=True)
+class ContactParams:
+    """The [contact] section: how the frame meets the world. PyBullet multiplies the two bodies'
+    figures of a contact; the world's bodies have restitution 1, so the frame's is the contact's,
+    and the floor's friction (the world file's) multiplies the frame's."""
+
+    restitution: float  # rebound speed over impact speed, normal to the contact
+    lateral_friction: float  # Coulomb friction coefficient
+
+    def to_dict(self) -> dict[str, float]:
+        return vars(self).copy()
+
+
+@dataclass(frozen=True)
 class RotorSpec:
     link_name: str
     position_m: Vec3  # rotor origin relative to the vehicle's centre of mass, in base_link
@@ -135,6 +148,7 @@ class VehicleParams:
     imu_noise: ImuNoiseParams
     limits: CommandLimits
     camera_mounts: tuple[CameraMount, ...]
+    contact: ContactParams = ContactParams(0.0, 0.5)
     gravity_mps2: float = 9.81
     #: every link but base_link, in the URDF's order
     link_frames: tuple[LinkFrame, ...] = ()
@@ -192,6 +206,7 @@ class VehicleParams:
             "aero": self.aero.to_dict(),
             "imu_noise": self.imu_noise.to_dict(),
             "limits": vars(self.limits).copy(),
+            "contact": self.contact.to_dict(),
         }
 
 
@@ -378,6 +393,7 @@ PARAM_KEYS: dict[str, tuple[str, ...]] = {
     "aero": tuple(f.name for f in fields(AeroParams)),
     "imu": tuple(f.name for f in fields(ImuNoiseParams)),
     "limits": tuple(f.name for f in fields(CommandLimits)),
+    "contact": tuple(f.name for f in fields(ContactParams)),
 }
 
 
@@ -519,6 +535,15 @@ def _imu(table: dict[str, Any], params: Path) -> ImuNoiseParams:
     )
 
 
+def _contact(table: dict[str, Any], params: Path) -> ContactParams:
+    """The [contact] table; a file without it (one older than the table) keeps PyBullet's own
+    figures, restitution 0 and friction 0.5, as it flew before."""
+    return ContactParams(
+        restitution=_number(table, "contact", "restitution", params, low=0.0, high=1.0, default=0.0),
+        lateral_friction=_number(table, "contact", "lateral_friction", params, low=0.0, high=10.0, default=0.5),
+    )
+
+
 def _limits(table: dict[str, Any], params: Path) -> CommandLimits:
     return CommandLimits(
         max_horizontal_speed_mps=_number(table, "limits", "max_horizontal_speed_mps", params, low=0.1, high=50.0),
@@ -579,6 +604,7 @@ def _build(urdf: Path, params: Path, links: dict[str, _Link], table: dict[str, A
         imu_noise=imu,
         limits=limits,
         camera_mounts=cameras,
+        contact=_contact(table, params),
         link_frames=tuple(
             LinkFrame(n, link.origin_in_base_m, link.rotation_in_base) for n, link in links.items() if n != "base_link"
         ),
