@@ -34,13 +34,15 @@ def test_drag_acts_at_the_centre_of_mass_and_does_not_pitch_a_falling_vehicle(ve
 
 def test_rotor_drag_grows_in_proportion_to_airspeed_and_rotor_speed(vehicle):
     params = vehicle.aero
-    no_body = aero.AeroParams((0.0,) * 3, (0.0,) * 3, params.rotor_drag_ns_per_m_rad, 0.1, False, 1.0)
+    in_plane, axial = params.rotor_drag_ns_per_m_rad, params.rotor_axial_drag_ns_per_m_rad
+    no_body = aero.AeroParams((0.0,) * 3, (0.0,) * 3, in_plane, axial, 0.1, False, 1.0)
     one = aero.drag_force_body_n(no_body, (1.0, -0.5, 2.0), 1500.0)
-    two = aero.drag_force_body_n(no_body, (2.0, -1.0, 2.0), 1500.0)
-    assert two[0] == pytest.approx(2 * one[0]) and two[1] == pytest.approx(2 * one[1])
-    assert one[0] == pytest.approx(-params.rotor_drag_ns_per_m_rad * 1500.0)
-    assert one[2] == 0.0  # in the rotor plane only
-    assert aero.drag_force_body_n(no_body, (1.0, 0.0, 0.0), 0.0) == (0.0, 0.0, 0.0)  # stopped rotors
+    two = aero.drag_force_body_n(no_body, (2.0, -1.0, 4.0), 1500.0)
+    assert two == pytest.approx(tuple(2 * f for f in one))
+    assert one[0] == pytest.approx(-in_plane * 1500.0)
+    assert one[2] == pytest.approx(-axial * 1500.0 * 2.0)  # along the rotor axis, its own coefficient
+    assert 0.0 < axial < in_plane
+    assert aero.drag_force_body_n(no_body, (1.0, 0.0, 1.0), 0.0) == (0.0, 0.0, 0.0)  # stopped rotors
 
 
 def test_in_forward_flight_the_drag_balances_the_tilt(vehicle):

@@ -152,9 +152,10 @@ def test_the_mixer_and_the_airframe_forces_are_the_same_to_the_bit_compiled_and_
         q /= np.linalg.norm(q)
         rotation = matrix_from_quaternion(tuple(q.tolist()))
         pz, air = float(rng.uniform(-0.1, 1.0)), tuple(rng.uniform(-10, 10, 3).tolist())
+        spin = tuple(rng.normal(0.0, 10.0, 3).tolist())
         a, b = np.zeros(6), np.zeros(6)
-        airframe_wrench(constants, hubs, thrusts, command, rotation, pz, air, a)
-        airframe_wrench.py_func(constants, hubs, thrusts_plain, command, rotation, pz, air, b)
+        airframe_wrench(constants, hubs, thrusts, command, rotation, pz, air, spin, a)
+        airframe_wrench.py_func(constants, hubs, thrusts_plain, command, rotation, pz, air, spin, b)
         assert a.tobytes() == b.tobytes() and thrusts.tobytes() == thrusts_plain.tobytes()
 
 

@@ -68,7 +68,7 @@ def test_the_seed_controller_refuses_it_and_its_reference_is_the_original_quads(
 
     roll, yaw = seed_responses(load_vehicle(DEFAULT_URDF))
     assert roll == pytest.approx(SEED_ROLL_RESPONSE, rel=1e-3) and yaw == pytest.approx(SEED_YAW_RESPONSE, rel=3e-3)
-    with pytest.raises(ConfigError, match=r"crazyflie.urdf: the seed controller.*roll 3.8x and yaw 23x"):
+    with pytest.raises(ConfigError, match=r"crazyflie.urdf: the seed controller.*roll 3.8x and yaw 5.4x"):
         Simulator(SimConfig(urdf=CF, controller=ControllerKind.SEED))
     args = ["run", "--script", "takeoff", "--vehicle", "crazyflie", "--controller", "seed", "--cameras", "none"]
     done = subprocess.run([sys.executable, str(ROOT / "main.py"), *args], capture_output=True, text=True, cwd=tmp_path)

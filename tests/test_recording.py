@@ -173,15 +173,24 @@ def test_recorded_poses_equal_simulated_ones(recorded):
 
 
 def test_imu_specific_force_matches_recorded_thrust(recorded, vehicle):
-    # an accelerometer in flight reads (rotor thrust - body drag) / mass along body z, plus its noise
+    # an accelerometer in flight reads (rotor thrust - body drag - rotor drag along the rotor
+    # axis) / mass along body z, plus its noise
+    from quadsim.vehicle.aero import rotor_speed_radps
+
     _, _, _, _, decoded, _, _ = recorded
     imu = {msg.log_time: dec.linear_acceleration.z for topic, msg, dec in decoded if topic == "/quad/imu"}
-    thrust = {msg.log_time: sum(dec.data) for topic, msg, dec in decoded if topic == "/quad/rotor_thrusts"}
+    rotors = {msg.log_time: dec.data for topic, msg, dec in decoded if topic == "/quad/rotor_thrusts"}
     climb = {msg.log_time: dec.twist.twist.linear.z for topic, msg, dec in decoded if topic == "/quad/odom"}
     airborne = [t for t in imu if t > 1.0e9]
     assert len(airborne) > 100
-    linear, quadratic = vehicle.aero.body_drag_linear_ns_per_m[2], vehicle.aero.body_drag_quadratic_ns2_per_m2[2]
-    error = [imu[t] - (thrust[t] - (linear + quadratic * abs(climb[t])) * climb[t]) / vehicle.mass_kg for t in airborne]
+    aero, kf = vehicle.aero, vehicle.thrust_coefficient_n_per_rad2s2
+    linear, quadratic = aero.body_drag_linear_ns_per_m[2], aero.body_drag_quadratic_ns2_per_m2[2]
+
+    def drag_coefficient(t: int) -> float:
+        axial = aero.rotor_axial_drag_ns_per_m_rad * sum(rotor_speed_radps(f, kf) for f in rotors[t])
+        return linear + quadratic * abs(climb[t]) + axial
+
+    error = [imu[t] - (sum(rotors[t]) - drag_coefficient(t) * climb[t]) / vehicle.mass_kg for t in airborne]
     # white noise of 0.03 m/s^2 at 60 Hz (MPU-6000) on a small bias; and the IMU sits at the base
     # origin, 1.8 mm from the CoM, so pitching adds a little
     assert max(abs(e) for e in error) < 0.15

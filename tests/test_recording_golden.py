@@ -2,8 +2,9 @@
 channels, every message's bytes and times, the attachments and the run's parameters, apart from
 the wall-clock start, the version and where the vehicle's files were (tests/golden/).
 
-tests/golden/takeoff_cameras.mcap was made by quadsim 0.2.0, before a run of one vehicle became
-a fleet of one (one plan, one Run, one fan-out for every run): the same command still writes it.
+tests/golden/takeoff_cameras.mcap was made by the code before a run of one vehicle became a fleet
+of one (one plan, one Run, one fan-out for every run), with today's physics (the flight constants
+and contacts of issue 36): the same command still writes it.
 Regenerate it (tools/make_regression_recordings.py golden) only when a change to the flight or the
 contract is meant, and say why in the commit."""
 

@@ -129,7 +129,7 @@ PARAMS_CASES = [
         "a_top_level_key",
         lambda t: "bogus_key = 3\n" + t,
         "mine.params.toml: unknown key 'bogus_key' (a vehicle parameter file has the tables [rotors], [aero], "
-        "[imu], [limits])",
+        "[imu], [limits], [contact])",
     ),
     (
         "a_misspelt_key",

@@ -86,7 +86,7 @@ def _constants(vehicle: VehicleParams, gains: CascadeGains) -> dict[str, float]:
         "jyy": jyy,
         "jzz": jzz,
         "drag_xy": (aero.body_drag_linear_ns_per_m[0] + aero.rotor_drag_ns_per_m_rad * hover_speed_sum) / m,
-        "drag_z": aero.body_drag_linear_ns_per_m[2] / m,
+        "drag_z": (aero.body_drag_linear_ns_per_m[2] + aero.rotor_axial_drag_ns_per_m_rad * hover_speed_sum) / m,
         "drag_q_xy": aero.body_drag_quadratic_ns2_per_m2[0] / m,
         "drag_q_z": aero.body_drag_quadratic_ns2_per_m2[2] / m,
         "tan_max_tilt": math.tan(gains.max_tilt_rad),

@@ -58,6 +58,7 @@ def status() -> str:
 
 #: every module of the package with compiled functions (tests/test_compiled.py checks the list)
 FLIGHT_CORE = (
+    "core/rigid_body.py",
     "vehicle/aero.py",
     "vehicle/motors.py",
     "vehicle/mixer.py",

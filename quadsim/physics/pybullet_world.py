@@ -51,7 +51,9 @@ class PhysicsWorld:
     WORLD_FRAME (a LINK_FRAME force on a rotor link would be turned with that link's pose of the
     step before; a LINK_FRAME torque on the base is applied in the world frame: STYLE.md); then
     one `stepSimulation`. PyBullet clears external forces after each step, so both are
-    re-applied. The ground effect sees the floor (z = 0) only, not the landmarks.
+    re-applied. The ground effect sees the floor (z = 0) only, not the landmarks. The torque
+    also carries what makes PyBullet's explicit gyroscopic step an exact, energy-keeping one
+    (quadsim.core.rigid_body), for the merged body.
 
     The body is the URDF with its fixed links merged into one rigid body (scene.load_vehicle_body),
     whose pose PyBullet keeps at the centre of mass; what this class reads, sets and reports is
@@ -107,7 +109,7 @@ class PhysicsWorld:
         """The constants, rotor table and output `airframe_wrench` takes each step, and the
         function itself made for them (without numba's type dispatch: quadsim.core.compiled)."""
         vehicle, xyz = self.vehicle, (0.0, 0.0, 0.0)
-        self._airframe = floats(airframe_constants(vehicle, self.motors.alpha))
+        self._airframe = floats(airframe_constants(vehicle, self.motors.alpha, self.dt_s, self.merged))
         self._hub_table = table(hub_table(vehicle))
         self._wrench = floats([0.0] * 6)
         self._airframe_wrench = specialize(
@@ -118,6 +120,7 @@ class PhysicsWorld:
             (0.0,) * len(vehicle.rotors),
             (xyz, xyz, xyz),
             0.0,
+            xyz,
             xyz,
             self._wrench,
         )
@@ -191,6 +194,9 @@ class PhysicsWorld:
         at, facing = self._spawn_position(), self._spawn_orientation()
         self.body_id = load_vehicle_body(self.vehicle, cid, at, facing, merged=True)
         offset = inertial_offset(self.body_id, cid)
+        #: one rigid body with the URDF's principal inertia, whose rotation is stepped exactly
+        #: (quadsim.core.rigid_body); a tree of links keeps PyBullet's own gyroscopic term
+        self.merged = offset is not None
         if offset is None:  # a merge that turned the inertial frame: the URDF's tree as it is
             pb.removeBody(self.body_id, physicsClientId=cid)
             self.body_id = load_vehicle_body(self.vehicle, cid, at, facing)
@@ -340,18 +346,19 @@ class PhysicsWorld:
             (vx, vy, vz), (wx, wy, wz) = air, self._wind.advance(self._position)
             air = (vx - wx, vy - wy, vz - wz)
         out = self._wrench
-        constants, hubs, thrusts, rotation, z = (
+        constants, hubs, thrusts, rotation, z, spin = (
             self._airframe,
             self._hub_table,
             motors.thrusts,
             self._rotation,
             self._position[2],
+            self._angular_velocity,
         )
         try:
-            self._airframe_wrench(constants, hubs, thrusts, command_n, rotation, z, air, out)
+            self._airframe_wrench(constants, hubs, thrusts, command_n, rotation, z, air, spin, out)
         except (TypeError, ValueError):  # forces given as a list, or as integers: as a tuple of floats
             forces = float_tuple(command_n)
-            self._airframe_wrench(constants, hubs, thrusts, forces, rotation, z, air, out)
+            self._airframe_wrench(constants, hubs, thrusts, forces, rotation, z, air, spin, out)
         fx, fy, fz, tx, ty, tz = out
         world, body, cid = pb.WORLD_FRAME, self.body_id, self._cid
         pb.applyExternalForce(body, -1, (fx, fy, fz), self._position, world, cid)

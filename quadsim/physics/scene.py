@@ -90,7 +90,9 @@ def build_world(world: WorldSpec, cid: int, collisions: bool = True) -> dict[str
         )
     floor_col = pb.createCollisionShape(pb.GEOM_PLANE, physicsClientId=cid) if collisions else -1
     floor = pb.createMultiBody(0.0, floor_col, floor_vis, physicsClientId=cid)
-    pb.changeDynamics(floor, -1, lateralFriction=world.floor.friction, physicsClientId=cid)
+    # PyBullet multiplies the restitutions of a contact's two bodies: the world's are 1, so a
+    # vehicle's own (its parameter file's [contact]) is what an impact rebounds with
+    pb.changeDynamics(floor, -1, lateralFriction=world.floor.friction, restitution=1.0, physicsClientId=cid)
     if world.floor.texture_path is not None:
         tex = pb.loadTexture(str(world.floor.texture_path), physicsClientId=cid)
         pb.changeVisualShape(floor, -1, textureUniqueId=tex, rgbaColor=(1, 1, 1, 1), physicsClientId=cid)
@@ -113,6 +115,7 @@ def build_world(world: WorldSpec, cid: int, collisions: bool = True) -> dict[str
             vis = pb.createVisualShape(pb.GEOM_SPHERE, radius=sx, rgbaColor=lm.color_rgba, physicsClientId=cid)
             col = pb.createCollisionShape(pb.GEOM_SPHERE, radius=sx, physicsClientId=cid) if collide else -1
         ids[lm.name] = pb.createMultiBody(0.0, col, vis, basePosition=lm.position_m, physicsClientId=cid)
+        pb.changeDynamics(ids[lm.name], -1, restitution=1.0, physicsClientId=cid)
     return ids
 
 
@@ -139,9 +142,18 @@ def load_vehicle_body(
     except pb.error as exc:
         raise ConfigError(f"PyBullet could not load {vehicle.urdf_path}: {exc}") from None
     # PyBullet damps every link a little by default (0.04); the parameter file's drag is the
-    # only drag the vehicle should feel
+    # only drag the vehicle should feel. How it meets the world is the parameter file's [contact].
+    contact = vehicle.contact
     for link in range(-1, pb.getNumJoints(body, physicsClientId=cid)):
-        pb.changeDynamics(body, link, linearDamping=0.0, angularDamping=0.0, physicsClientId=cid)
+        pb.changeDynamics(
+            body,
+            link,
+            linearDamping=0.0,
+            angularDamping=0.0,
+            restitution=contact.restitution,
+            lateralFriction=contact.lateral_friction,
+            physicsClientId=cid,
+        )
     if merged and pb.getNumJoints(body, physicsClientId=cid) == 0:
         inertia = vehicle.inertia_kgm2
         diagonal = (inertia[0][0], inertia[1][1], inertia[2][2])

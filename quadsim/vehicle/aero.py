@@ -9,6 +9,9 @@ pybullet. Every force acts through the airspeed, the vehicle's velocity relative
 - Rotor drag (induced drag, "H-force"): each spinning rotor pushes back against the airspeed
   in its plane in proportion to its speed, F = -k_rd * sum(omega_i) * v_in_plane, omega_i from
   its thrust (T = k_f omega^2). This is what makes a multirotor's drag nearly linear at low speed.
+  Along the rotor axis the same holds with its own coefficient, F_z = -k_rz * sum(omega_i) * v_z
+  (a climb takes thrust away, a descent gives it back: Foerster 2015 identified both on the
+  Crazyflie 2.0).
 - Ground effect (Cheeseman & Bennett, 1955): a rotor at height z above the ground gives
   T_ige / T_oge = 1 / (1 - (R / 4z)^2) for the same power; the ratio diverges at z = R/4, so it
   is capped at the parameter file's `ground_effect_max_ratio`.
@@ -44,19 +47,31 @@ def drag_force_body_n(params: AeroParams, air_body_mps: Vec3, rotor_speed_sum_ra
     lx, ly, lz = params.body_drag_linear_ns_per_m
     qx, qy, qz = params.body_drag_quadratic_ns2_per_m2
     rotor = params.rotor_drag_ns_per_m_rad * rotor_speed_sum_radps
-    return drag_body(lx, ly, lz, qx, qy, qz, rotor, vx, vy, vz)
+    axial = params.rotor_axial_drag_ns_per_m_rad * rotor_speed_sum_radps
+    return drag_body(lx, ly, lz, qx, qy, qz, rotor, axial, vx, vy, vz)
 
 
 @jit
 def drag_body(
-    lx: float, ly: float, lz: float, qx: float, qy: float, qz: float, rotor: float, vx: float, vy: float, vz: float
+    lx: float,
+    ly: float,
+    lz: float,
+    qx: float,
+    qy: float,
+    qz: float,
+    rotor: float,
+    axial: float,
+    vx: float,
+    vy: float,
+    vz: float,
 ) -> Vec3:
     """`drag_force_body_n` from its numbers: linear and quadratic body drag per axis, the rotor
-    drag coefficient times the rotors' summed speed (`rotor`), the airspeed in base_link."""
+    drag coefficients in the rotor plane (`rotor`) and along the rotor axis (`axial`) times the
+    rotors' summed speed, the airspeed in base_link."""
     return (
         -(lx + qx * abs(vx) + rotor) * vx,
         -(ly + qy * abs(vy) + rotor) * vy,
-        -(lz + qz * abs(vz)) * vz,
+        -(lz + qz * abs(vz) + axial) * vz,
     )
 
 

@@ -47,6 +47,7 @@ class AeroParams:
     body_drag_linear_ns_per_m: Vec3  # per base_link axis (x forward, y left, z up)
     body_drag_quadratic_ns2_per_m2: Vec3  # per base_link axis: 1/2 rho C_d A
     rotor_drag_ns_per_m_rad: float  # per rotor, per rad/s of rotor speed, per m/s of in-plane airspeed
+    rotor_axial_drag_ns_per_m_rad: float  # the same along the rotor axis (body z)
     rotor_radius_m: float
     ground_effect: bool
     ground_effect_max_ratio: float  # cap on T_ige / T_oge (Cheeseman-Bennett diverges at z = R/4)
@@ -56,10 +57,24 @@ class AeroParams:
             "body_drag_linear_ns_per_m": list(self.body_drag_linear_ns_per_m),
             "body_drag_quadratic_ns2_per_m2": list(self.body_drag_quadratic_ns2_per_m2),
             "rotor_drag_ns_per_m_rad": self.rotor_drag_ns_per_m_rad,
+            "rotor_axial_drag_ns_per_m_rad": self.rotor_axial_drag_ns_per_m_rad,
             "rotor_radius_m": self.rotor_radius_m,
             "ground_effect": self.ground_effect,
             "ground_effect_max_ratio": self.ground_effect_max_ratio,
         }
+
+
+@dataclass(frozen=True)
+class ContactParams:
+    """The [contact] section: how the frame meets the world. PyBullet multiplies the two bodies'
+    figures of a contact; the world's bodies have restitution 1, so the frame's is the contact's,
+    and the floor's friction (the world file's) multiplies the frame's."""
+
+    restitution: float  # rebound speed over impact speed, normal to the contact
+    lateral_friction: float  # Coulomb friction coefficient
+
+    def to_dict(self) -> dict[str, float]:
+        return vars(self).copy()
 
 
 @dataclass(frozen=True)
@@ -133,6 +148,7 @@ class VehicleParams:
     imu_noise: ImuNoiseParams
     limits: CommandLimits
     camera_mounts: tuple[CameraMount, ...]
+    contact: ContactParams = ContactParams(0.0, 0.5)
     gravity_mps2: float = 9.81
     #: every link but base_link, in the URDF's order
     link_frames: tuple[LinkFrame, ...] = ()
@@ -190,6 +206,7 @@ class VehicleParams:
             "aero": self.aero.to_dict(),
             "imu_noise": self.imu_noise.to_dict(),
             "limits": vars(self.limits).copy(),
+            "contact": self.contact.to_dict(),
         }
 
 
@@ -376,6 +393,7 @@ PARAM_KEYS: dict[str, tuple[str, ...]] = {
     "aero": tuple(f.name for f in fields(AeroParams)),
     "imu": tuple(f.name for f in fields(ImuNoiseParams)),
     "limits": tuple(f.name for f in fields(CommandLimits)),
+    "contact": tuple(f.name for f in fields(ContactParams)),
 }
 
 
@@ -394,9 +412,24 @@ def _refuse_unknown_keys(table: dict[str, Any], path: Path) -> None:
             refuse_unknown_keys(value, keys, f"{path}: [{section}]")
 
 
-def _number(table: dict[str, Any], section: str, key: str, path: Path, *, low: float, high: float) -> float:
+def _number(
+    table: dict[str, Any],
+    section: str,
+    key: str,
+    path: Path,
+    *,
+    low: float,
+    high: float,
+    default: float | None = None,
+) -> float:
+    """[section] key, a finite number in [low, high]; `default` when the file leaves it out (a key
+    added after recordings were made: their attached parameter files still load), else refused."""
     sec = table.get(section)
-    if not isinstance(sec, dict) or key not in sec:
+    if sec is not None and not isinstance(sec, dict):
+        raise ConfigError(f"{path}: [{section}] must be a table, got {sec!r}")
+    if sec is None or key not in sec:
+        if default is not None:
+            return default
         raise ConfigError(f"{path}: missing [{section}] {key}")
     value = sec[key]
     if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
@@ -427,6 +460,10 @@ def _aero(table: dict[str, Any], path: Path) -> AeroParams:
             table, "aero", "body_drag_quadratic_ns2_per_m2", path, low=0.0, high=100.0
         ),
         rotor_drag_ns_per_m_rad=_number(table, "aero", "rotor_drag_ns_per_m_rad", path, low=0.0, high=1.0),
+        # not modelled before it was a key: a file without it flies as it did
+        rotor_axial_drag_ns_per_m_rad=_number(
+            table, "aero", "rotor_axial_drag_ns_per_m_rad", path, low=0.0, high=1.0, default=0.0
+        ),
         rotor_radius_m=_number(table, "aero", "rotor_radius_m", path, low=1e-3, high=10.0),
         ground_effect=ground_effect,
         ground_effect_max_ratio=_number(table, "aero", "ground_effect_max_ratio", path, low=1.0, high=3.0),
@@ -498,6 +535,15 @@ def _imu(table: dict[str, Any], params: Path) -> ImuNoiseParams:
     )
 
 
+def _contact(table: dict[str, Any], params: Path) -> ContactParams:
+    """The [contact] table; a file without it (one older than the table) keeps PyBullet's own
+    figures, restitution 0 and friction 0.5, as it flew before."""
+    return ContactParams(
+        restitution=_number(table, "contact", "restitution", params, low=0.0, high=1.0, default=0.0),
+        lateral_friction=_number(table, "contact", "lateral_friction", params, low=0.0, high=10.0, default=0.5),
+    )
+
+
 def _limits(table: dict[str, Any], params: Path) -> CommandLimits:
     return CommandLimits(
         max_horizontal_speed_mps=_number(table, "limits", "max_horizontal_speed_mps", params, low=0.1, high=50.0),
@@ -558,6 +604,7 @@ def _build(urdf: Path, params: Path, links: dict[str, _Link], table: dict[str, A
         imu_noise=imu,
         limits=limits,
         camera_mounts=cameras,
+        contact=_contact(table, params),
         link_frames=tuple(
             LinkFrame(n, link.origin_in_base_m, link.rotation_in_base) for n, link in links.items() if n != "base_link"
         ),

@@ -1,7 +1,9 @@
 """What acts on the airframe in one physics step, as one force and one torque: the motors move
 toward the commanded forces, each rotor pushes along body z at its hub (times its ground-effect
-ratio) with its yaw reaction torque, body and rotor drag act at the centre of mass. One function
-of floats and arrays, compiled where numba is installed (quadsim.core.compiled).
+ratio) with its yaw reaction torque, body and rotor drag (in the rotor plane and along the rotor
+axis) act at the centre of mass; and the torque that has PyBullet step the body's rotation
+exactly instead of by its explicit gyroscopic term (quadsim.core.rigid_body). One function of
+floats and arrays, compiled where numba is installed (quadsim.core.compiled).
 
 quadsim.physics.pybullet_world applies the result to the body each step.
 """
@@ -12,6 +14,7 @@ import math
 from collections.abc import Sequence
 
 from quadsim.core.compiled import Floats, MutableFloats, jit
+from quadsim.core.rigid_body import add_gyroscopic_correction
 from quadsim.vehicle.aero import drag_body, ground_effect_ratio
 from quadsim.vehicle.motors import advance_motors
 from quadsim.vehicle.params import VehicleParams
@@ -31,9 +34,15 @@ C_FIELDS = (
     "body_drag_quadratic_y",
     "body_drag_quadratic_z",
     "rotor_drag_ns_per_m_rad",
+    "rotor_axial_drag_ns_per_m_rad",
     "com_x_m",
     "com_y_m",
     "com_z_m",
+    "exact_rotation",
+    "inertia_x_kgm2",
+    "inertia_y_kgm2",
+    "inertia_z_kgm2",
+    "step_s",
 )
 # where each of those is in `c` (constants in the compiled code)
 (
@@ -50,16 +59,27 @@ C_FIELDS = (
     QUADRATIC_Y,
     QUADRATIC_Z,
     ROTOR_DRAG,
+    ROTOR_AXIAL_DRAG,
     COM_X,
     COM_Y,
     COM_Z,
+    EXACT_ROTATION,
+    INERTIA_X,
+    INERTIA_Y,
+    INERTIA_Z,
+    STEP,
 ) = range(len(C_FIELDS))
 
 
-def airframe_constants(vehicle: VehicleParams, motor_alpha: float) -> list[float]:
+def airframe_constants(
+    vehicle: VehicleParams, motor_alpha: float, step_s: float, exact_rotation: bool = True
+) -> list[float]:
     """What `airframe_wrench` reads from `c`, in the order of C_FIELDS; `motor_alpha`: the
-    motors' step response (quadsim.vehicle.motors.MotorBank.alpha)."""
-    aero = vehicle.aero
+    motors' step response (quadsim.vehicle.motors.MotorBank.alpha); `step_s`: the physics step;
+    `exact_rotation`: the body is one rigid body with the URDF's principal inertia (the merged
+    flight body), whose rotation the wrench has PyBullet step exactly; else PyBullet's own
+    gyroscopic term stands."""
+    aero, inertia = vehicle.aero, vehicle.inertia_kgm2
     values = {
         "motor_alpha": motor_alpha,
         "max_thrust_n": vehicle.max_thrust_n,
@@ -70,7 +90,12 @@ def airframe_constants(vehicle: VehicleParams, motor_alpha: float) -> list[float
         **dict(zip(C_FIELDS[LINEAR_X : LINEAR_Z + 1], aero.body_drag_linear_ns_per_m)),
         **dict(zip(C_FIELDS[QUADRATIC_X : QUADRATIC_Z + 1], aero.body_drag_quadratic_ns2_per_m2)),
         "rotor_drag_ns_per_m_rad": aero.rotor_drag_ns_per_m_rad,
+        "rotor_axial_drag_ns_per_m_rad": aero.rotor_axial_drag_ns_per_m_rad,
         **dict(zip(C_FIELDS[COM_X : COM_Z + 1], vehicle.com_m)),
+        "exact_rotation": 1.0 if exact_rotation else 0.0,
+        # the principal moments, as the merged body has them (physics.scene.load_vehicle_body)
+        **dict(zip(C_FIELDS[INERTIA_X : INERTIA_Z + 1], (inertia[0][0], inertia[1][1], inertia[2][2]))),
+        "step_s": step_s,
     }
     return [values[name] for name in C_FIELDS]
 
@@ -91,12 +116,14 @@ def airframe_wrench(
     rotation: tuple[tuple[float, float, float], tuple[float, float, float], tuple[float, float, float]],
     pz: float,
     air: tuple[float, float, float],
+    spin: tuple[float, float, float],
     out: MutableFloats,
 ) -> None:
     """Advance the motors' `thrusts` (in place) toward `command`, then write the step's force
     and torque, world frame, about base_link's origin, into `out` (fx, fy, fz, tx, ty, tz).
     `hubs`: per rotor (x, y, z of its hub from base_link's origin, yaw torque per newton);
-    `rotation`: world <- body; `pz`: base_link's height; `air`: the airspeed, world frame."""
+    `rotation`: world <- body; `pz`: base_link's height; `air`: the airspeed, world frame;
+    `spin`: the body's rates, world frame."""
     advance_motors(thrusts, command, c[MOTOR_ALPHA], c[MAX_THRUST])
     (m00, m01, m02), (m10, m11, m12), (m20, m21, m22) = rotation
     inv_kf, ground = c[INVERSE_KF], c[GROUND_EFFECT] != 0.0
@@ -124,6 +151,7 @@ def airframe_wrench(
         c[QUADRATIC_Y],
         c[QUADRATIC_Z],
         c[ROTOR_DRAG] * omega_sum,
+        c[ROTOR_AXIAL_DRAG] * omega_sum,
         m00 * vx + m10 * vy + m20 * vz,
         m01 * vx + m11 * vy + m21 * vz,
         m02 * vx + m12 * vy + m22 * vz,
@@ -137,3 +165,5 @@ def airframe_wrench(
     out[3] = m00 * tx + m01 * ty + m02 * tz
     out[4] = m10 * tx + m11 * ty + m12 * tz
     out[5] = m20 * tx + m21 * ty + m22 * tz
+    if c[EXACT_ROTATION] != 0.0:
+        add_gyroscopic_correction(c[INERTIA_X], c[INERTIA_Y], c[INERTIA_Z], c[STEP], rotation, spin, out)
