@@ -108,6 +108,6 @@ def test_cli_flies_the_hexa_and_checks_its_recording(tmp_path):
     assert out.returncode == 0, out.stderr
     assert "vehicle quadsim_hexa" in cli("info", "h.mcap").stdout
     checked = cli("check", "h.mcap")
-    assert checked.returncode == 0 and "position off by up to 0 m" in checked.stdout
+    assert checked.returncode == 0 and "flies again identically" in checked.stdout
     both = cli("run", "--script", "hover", "--vehicle", "hexa", "--urdf", str(HEXA))
     assert both.returncode == 2 and "not allowed with" in both.stderr

@@ -86,7 +86,7 @@ def test_every_run_records_each_vehicle_under_its_names_and_flies_again_at_zero(
     fleet = f" (a fleet of {len(names)})" if names != ("",) else ""
     out = cli("check", str(path), "--tolerance-m", "0", "--tolerance-rad", "0")
     assert out.returncode == 0, out.stdout + out.stderr
-    assert f"ok    {path}{fleet}: position off by up to 0 m, attitude by up to 0 rad" in out.stdout
+    assert f"ok    {path}{fleet}: flies again identically (position and attitude as recorded, to the bit)" in out.stdout
     again = tmp_path / "again"
     out = cli("replay", str(path), "--resim", "--out", str(again))
     assert out.returncode == 0, out.stderr

@@ -59,7 +59,7 @@ def test_your_own_controller_flies_the_square_and_check_flies_it_again(tmp_path)
     assert flight.description is not None
     assert flight.description.controller.kind is None and flight.description.controller.import_path == OWN_CONTROLLER
     outcome = check_one(CheckTask(path, 1e-3, 1e-3))
-    assert outcome.status == "ok" and "off by up to 0 m" in outcome.lines[0], outcome.lines
+    assert outcome.status == "ok" and "flies again identically" in outcome.lines[0], outcome.lines
 
 
 def test_a_controller_that_does_not_import_is_said_in_one_line(tmp_path):
@@ -122,7 +122,7 @@ def test_your_own_wind_blows_records_and_flies_again_bit_for_bit(tmp_path):
     assert flight.description.wind_model.import_path == "tests.own_parts:GustyWind"
     assert flight.description.wind_model.details == {"gust_mps": 1.5}
     outcome = check_one(CheckTask(path, 1e-3, 1e-3))
-    assert outcome.status == "ok" and "off by up to 0 m" in outcome.lines[0], outcome.lines
+    assert outcome.status == "ok" and "flies again identically" in outcome.lines[0], outcome.lines
     info = subprocess.run(
         [sys.executable, str(ROOT / "main.py"), "info", str(path)], capture_output=True, text=True, timeout=120
     )

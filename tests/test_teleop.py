@@ -257,3 +257,26 @@ def test_slow_is_said_only_while_the_flight_is_behind_real_time(tmp_path, monkey
     monkeypatch.setattr(app, "_rates", lambda: (60.0, 0.6))
     assert app._model().lagging
     app.close()
+
+
+def test_the_window_says_what_it_is_doing_before_it_flies(tmp_path, monkeypatch, capsys):
+    """Before the run opens (the world, the cameras' workers, a first compile: seconds on a busy
+    machine), the window shows what it is doing, not black, and the terminal says the slow parts."""
+    import numpy as np
+
+    import quadsim.apps.window.teleop as teleop
+    from quadsim.sensors.camera import default_cameras
+
+    seen: list[np.ndarray] = []
+    real_run = teleop.Run
+
+    def run_seen(plan):
+        seen.append(pygame.surfarray.array3d(pygame.display.get_surface()).copy())
+        return real_run(plan)
+
+    monkeypatch.setattr(teleop, "Run", run_seen)
+    app = make_app(tmp_path, cameras=default_cameras())
+    app.close()
+    (screen,) = seen
+    assert (screen.max(axis=2) > 200).sum() > 500  # light text on the dark start-up screen
+    assert "quadsim: starting 2 cameras..." in capsys.readouterr().err

@@ -10,7 +10,7 @@ import sys
 from dataclasses import replace
 
 from quadsim.apps.options import live_outputs
-from quadsim.apps.plans import Planned
+from quadsim.apps.plans import Planned, start_up_notes
 from quadsim.core.types import ZMode
 from quadsim.errors import ConfigError
 from quadsim.session.outputs import RecordedRun
@@ -39,6 +39,8 @@ class HeadlessFlight:
         planned = self.planned
         live = live_outputs(self.args, planned.live_inputs or None)
         bar = None
+        for note in start_up_notes(planned.plan):  # said before the wait, on stderr beside the progress
+            print(f"quadsim: {note}...", file=sys.stderr, flush=True)
         try:
             with self._open(replace(planned.plan, live=tuple(live))) as run:
                 # said once the world and the vehicles have loaded: a bad file is the only line, not the second
@@ -46,7 +48,7 @@ class HeadlessFlight:
                 self.outputs = run.outputs
                 if run.outputs.path is not None:
                     print(f"recording to {run.outputs.path}", flush=True)
-                bar = ProgressBar(planned.plan.duration_s, "sim time") if not planned.live_inputs else None
+                bar = ProgressBar(planned.plan.duration_s, "sim time", eta=True) if not planned.live_inputs else None
                 hz = run.fleet.config.rates.physics_hz
                 try:
                     # paced, a headless run catches up after a stall (live inputs keep their rate)

@@ -63,10 +63,11 @@ def check_one(task: CheckTask) -> CheckOutcome:
     ok = report.within(task.tolerance_m, task.tolerance_rad)
     position, attitude = report.position.max_error, report.attitude.max_error
     what = f" (a fleet of {report.fleet_size})" if report.fleet_size else ""
-    lines = [
-        f"{'ok   ' if ok else 'FAIL '} {path}{what}: position off by up to {position:.3g} m, "
-        f"attitude by up to {attitude:.3g} rad"
-    ]
+    if position == 0.0 and attitude == 0.0:  # bit for bit: said as such, not as an error of 0
+        how = "flies again identically (position and attitude as recorded, to the bit)"
+    else:
+        how = f"position off by up to {position:.3g} m, attitude by up to {attitude:.3g} rad"
+    lines = [f"{'ok   ' if ok else 'FAIL '} {path}{what}: {how}"]
     if not ok:
         lines += ["     " + line for line in report.lines()[1:]]
     lines += [f"      note: {line}" for line in flight.warnings()]

@@ -8,10 +8,14 @@ from typing import TextIO
 
 
 class ProgressBar:
-    """Redraws at most ten times a second on a terminal; elsewhere prints a line per quarter."""
+    """Redraws at most ten times a second on a terminal; elsewhere prints a line per quarter. With
+    `eta`, each line says when the work will be done at the pace so far."""
 
-    def __init__(self, total: float, label: str, stream: TextIO | None = None, unit: str = "s") -> None:
+    def __init__(
+        self, total: float, label: str, stream: TextIO | None = None, unit: str = "s", eta: bool = False
+    ) -> None:
         self.total = total
+        self._eta = Eta(total) if eta else None
         self.label = label
         self.unit = unit
         self.stream = stream if stream is not None else sys.stderr
@@ -23,6 +27,8 @@ class ProgressBar:
         return f"{value:g}" if isinstance(self.total, int) else f"{value:.1f}"
 
     def update(self, done: float, extra: str = "") -> None:
+        if self._eta is not None and not extra:
+            extra = self._eta.text(done)
         frac = 0.0 if self.total <= 0 else min(1.0, done / self.total)
         if self._tty:
             now = time.monotonic()
@@ -48,3 +54,23 @@ class ProgressBar:
         if self._tty:
             self.stream.write("\n")
             self.stream.flush()
+
+
+class Eta:
+    """Work done per second since the start (runs, simulated seconds), and the time left at that pace."""
+
+    def __init__(self, total: float) -> None:
+        self.total = total
+        self.t0 = time.monotonic()
+
+    def text(self, done: float) -> str:
+        elapsed = time.monotonic() - self.t0
+        if done == 0 or elapsed <= 0:
+            return ""
+        left = (self.total - done) * elapsed / done
+        return f"ETA {_clock(left)}" if done < self.total else f"in {_clock(elapsed)}"
+
+
+def _clock(seconds: float) -> str:
+    s = round(seconds)
+    return f"{s // 3600}:{s // 60 % 60:02d}:{s % 60:02d}" if s >= 3600 else f"{s // 60}:{s % 60:02d}"

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import argparse
 import math
+import sys
 from pathlib import Path
 
 from quadsim.apps.commands import add_command_parser
@@ -64,6 +65,13 @@ def main(args: argparse.Namespace) -> int:
     tasks = [CheckTask(path, args.tolerance_m, args.tolerance_rad) for path in files]
     if use_ray and args.jobs is None:
         jobs = default_jobs()
+    if len(files) > 1:  # each takes seconds: say what comes before the first line does
+        at_once = f", {jobs} at a time" if jobs > 1 else ", one after the other"
+        print(
+            f"quadsim: re-flying {len(files)} recordings{at_once}; each is reported as it is done",
+            file=sys.stderr,
+            flush=True,
+        )
     # results come in completion order; the report keeps the order of the files
     outcomes: dict[Path, CheckOutcome] = {}
     shown = 0

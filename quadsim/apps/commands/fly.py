@@ -110,9 +110,14 @@ def main(args: argparse.Namespace) -> int:
         args.gui = False
         return HeadlessFlight(args, subscribed_plan(args, "fly")).fly()
     if not has_display():
+        cameras = (
+            ""
+            if args.cameras == "none"
+            else " (with both cameras: a minute or so on a busy machine; --cameras none flies it in seconds)"
+        )
         print(
             f"No display found: the teleop window cannot open. Recording the scripted demo '{DEMO_SCENARIO}' "
-            f"headless instead. (Headless flights: {program()} run --script NAME; list them with: "
+            f"headless instead{cameras}. (Headless flights: {program()} run --script NAME; list them with: "
             f"{program()} scenarios)"
         )
         args.gui = False

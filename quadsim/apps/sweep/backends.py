@@ -13,7 +13,6 @@ import os
 import signal
 import sys
 import threading
-import time
 from collections.abc import Callable, Iterator, Sequence
 from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
 from contextlib import contextmanager
@@ -215,23 +214,3 @@ def run_tasks(
     if use_ray:
         return run_ray(fn, tasks, ray_address, jobs)
     return run_pool(fn, tasks, jobs)
-
-
-class Eta:
-    """Runs done per second since the start, and the time left at that pace."""
-
-    def __init__(self, total: int) -> None:
-        self.total = total
-        self.t0 = time.monotonic()
-
-    def text(self, done: int) -> str:
-        elapsed = time.monotonic() - self.t0
-        if done == 0 or elapsed <= 0:
-            return ""
-        left = (self.total - done) * elapsed / done
-        return f"ETA {_clock(left)}" if done < self.total else f"in {_clock(elapsed)}"
-
-
-def _clock(seconds: float) -> str:
-    s = round(seconds)
-    return f"{s // 3600}:{s // 60 % 60:02d}:{s % 60:02d}" if s >= 3600 else f"{s // 60}:{s % 60:02d}"

@@ -8,12 +8,12 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from quadsim.apps.sweep.backends import Eta, run_tasks
+from quadsim.apps.sweep.backends import run_tasks
 from quadsim.apps.sweep.run import RunTask, fly_run, forget_simulators, judge, recording_path
 from quadsim.apps.sweep.spec import SweepSpec
 from quadsim.apps.sweep.table import existing_table, read_table, table_path, write_table
 from quadsim.errors import QuadsimError
-from quadsim.session.progress import ProgressBar
+from quadsim.session.progress import Eta, ProgressBar
 from quadsim.session.stopping import shielded_from_signals, stop_requested
 
 _SAVE_EVERY_S = 2.0

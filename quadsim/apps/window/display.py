@@ -32,6 +32,21 @@ def open_display(size: tuple[int, int], caption: str) -> pygame.Surface:
     return screen
 
 
+def show_starting(screen: pygame.Surface, lines: list[str]) -> None:
+    """A window that is not flying yet says what it is doing (it would show black while the world,
+    the cameras and a first compile load), in the middle, line under line."""
+    screen.fill((18, 20, 26))
+    font = pygame.font.Font(None, 28)
+    width, height = screen.get_size()
+    y = height // 2 - 18 * len(lines)
+    for text in lines:
+        image = font.render(text, True, (220, 224, 232))
+        screen.blit(image, ((width - image.get_width()) // 2, y))
+        y += 36
+    pygame.display.flip()
+    pygame.event.pump()  # a window manager sees it respond
+
+
 def lost(guard: X11Guard | None) -> bool:
     """Whether the display went away (destroyed from outside, X connection lost): from then on
     nothing touches it."""

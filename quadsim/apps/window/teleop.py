@@ -31,7 +31,8 @@ from typing import Any
 os.environ.setdefault("PYGAME_HIDE_SUPPORT_PROMPT", "1")
 import pygame
 
-from quadsim.apps.window.display import close_display, lost, open_display, run_frames
+from quadsim.apps.plans import start_up_notes
+from quadsim.apps.window.display import close_display, lost, open_display, run_frames, show_starting
 from quadsim.apps.window.vehicles import WindowVehicles
 from quadsim.apps.window.view import TeleopView, ViewModel
 from quadsim.apps.window.x11_guard import X11Guard
@@ -198,7 +199,12 @@ class TeleopApp:
         self.crew = WindowVehicles(fleet.file if fleet is not None else None, self.second_hand is not None)
         self.outputs = replace(outputs, ordered_delivery=False)  # show frames as soon as they are ready
         try:
-            self.session = Run(self._plan(config, live, fleet))
+            plan = self._plan(config, live, fleet)
+            notes = ["loading the world and the vehicles", *start_up_notes(plan)]
+            show_starting(self.screen, ["quadsim is starting", *notes])
+            for note in notes[1:]:  # the slow ones, said in the terminal too
+                print(f"quadsim: {note}...", file=sys.stderr, flush=True)
+            self.session = Run(plan)
         except BaseException:
             self.joystick.close()
             raise
