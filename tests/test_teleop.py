@@ -67,6 +67,10 @@ def test_keys_fly_where_they_say_and_are_recorded(tmp_path):
     x, y, z = app.sim.state.position_m
     assert 1.3 < z < 1.8  # 2 s at 0.8 m/s
     assert x > 1.2 and abs(y) < 0.05
+    said = "\n".join(app.final_lines())  # what `fly` prints at the end, as `run` says it
+    assert (
+        f"final pose      x={x:+.3f} m" in said and "distance flown  " in said and "flight events   1 takeoff" in said
+    )
     app.close()
     path = app.recordings[0]
     msgs = twist_messages(path)
@@ -201,10 +205,15 @@ def test_window_shows_both_cameras_map_and_hud(tmp_path):
     assert set(app.frames) == {"front", "floor"}
     # paused, the cameras deliver nothing and the HUD says nothing of their rate (it used to say
     # the machine was busy); resumed, they are counted afresh
+    wall = [1000.0]  # the HUD's wall clock, moved by hand: whatever the machine's load
+    app.wall_clock = lambda: wall[0]
     run_with(app, 2, {0: [lambda: key(pygame.K_p)]})
     assert app.paused and app.camera_rates() == {} and not app._model().camera_rates
     run_with(app, 2, {0: [lambda: key(pygame.K_p)]})
+    wall[0] += 0.4
     assert not app.paused and app.camera_rates() == {}  # not yet counted for half a second
+    wall[0] += 0.2
+    assert set(app.camera_rates()) <= {"front", "floor"}  # counted from then on
     # the window resizes
     app.screen = pygame.display.set_mode((640, 480), pygame.RESIZABLE)
     run_with(app, 2)
@@ -280,3 +289,18 @@ def test_the_window_says_what_it_is_doing_before_it_flies(tmp_path, monkeypatch,
     (screen,) = seen
     assert (screen.max(axis=2) > 200).sum() > 500  # light text on the dark start-up screen
     assert "quadsim: starting 2 cameras..." in capsys.readouterr().err
+
+
+def test_a_reset_is_not_counted_as_distance_flown():
+    """The odometer of a run's summary adds up the path, not the jump back to the start."""
+    from quadsim.core.types import VehicleState
+    from quadsim.session.summary import Odometer
+
+    class Still:  # what the odometer asks of its vehicle
+        step_count, events = 0, []
+
+    odometer = Odometer(Still())  # type: ignore[arg-type]
+    zero = (0.0, 0.0, 0.0)
+    for step, x in ((4, 0.0), (8, 3.0), (4, 0.0), (8, 1.0)):  # 3 m out, reset to the start, 1 m
+        odometer.on_state(VehicleState(step, (x, 0.0, 2.0), (0.0, 0.0, 0.0, 1.0), zero, zero, (0.0,) * 4, zero))
+    assert odometer.distance_m == 4.0

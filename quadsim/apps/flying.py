@@ -21,7 +21,7 @@ from quadsim.session.run import Run
 from quadsim.session.stopping import SignalStop, StopRequested
 from quadsim.session.stopping import describe as describe_stop
 from quadsim.session.stopping import exit_code as stop_exit_code
-from quadsim.session.summary import RunSummary, final_pose_text
+from quadsim.session.summary import RunSummary
 
 
 class HeadlessFlight:
@@ -88,7 +88,7 @@ class HeadlessFlight:
             print(f"real-time factor {first.real_time_factor:.1f}x")
             width = max(len(name) for name in self.summaries)
             for name, summary in self.summaries.items():
-                print(f"{name:<{width}}  {_vehicle_line(summary)}")
+                print(f"{name:<{width}}  {summary.vehicle_line()}")
                 for line in summary.lines():
                     if line.startswith(("crash", "live input")):
                         print(f"{name:<{width}}  {line}")  # under its vehicle, named again
@@ -113,13 +113,6 @@ def headline(run: Run, what: str) -> str:
 
 def _cameras(outputs: RecordedRun) -> dict[str, tuple]:
     return {name: d.cameras for name, d in outputs.description.fleet if d.cameras}
-
-
-def _vehicle_line(s: RunSummary) -> str:
-    return (
-        f"{final_pose_text(s.final_state)}; "
-        f"flown {s.distance_m:.2f} m; {s.commands_received} commands; events: {s.events_line()}"
-    )
 
 
 def report_end(outputs: RecordedRun | None, sim_time: float, planned_s: float | None = None) -> int:

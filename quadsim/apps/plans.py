@@ -265,6 +265,7 @@ def start_up_notes(plan: RunPlan) -> list[str]:
     )
     if cameras:
         notes.append(
-            f"starting {cameras} camera{'s' * (cameras != 1)} and {plan.outputs.render_workers} render workers"
+            f"starting {cameras} camera{'s' * (cameras != 1)}"
+            + (f" and {plan.outputs.render_workers} render workers" if plan.outputs.render_workers else "")
         )
     return notes

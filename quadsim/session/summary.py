@@ -38,13 +38,20 @@ class RunSummary:
         return self.sim_time_s / self.wall_time_s if self.wall_time_s > 0 else math.inf
 
     def lines(self) -> list[str]:
-        s = self.final_state
-        x, y, z = s.position_m
-        roll, pitch = s.roll_pitch_rad()
+        """The whole summary: how long it flew and how fast, then where it went (`where_lines`)."""
         return [
             f"sim time        {self.sim_time_s:.2f} s",
             f"wall time       {self.wall_time_s:.2f} s",
             f"real-time factor {self.real_time_factor:.1f}x",
+            *self.where_lines(),
+        ]
+
+    def where_lines(self) -> list[str]:
+        """Where the vehicle ended, how far it flew, the commands it took and its flight events."""
+        s = self.final_state
+        x, y, z = s.position_m
+        roll, pitch = s.roll_pitch_rad()
+        return [
             f"final pose      x={x:+.3f} m  y={y:+.3f} m  z={z:+.3f} m  "
             f"yaw={math.degrees(s.yaw_rad()):+.1f} deg  roll={math.degrees(roll):+.1f}  pitch={math.degrees(pitch):+.1f}",
             f"distance flown  {self.distance_m:.2f} m (max altitude {self.max_altitude_m:.2f} m)",
@@ -58,6 +65,13 @@ class RunSummary:
                 if e.kind is EventKind.CRASH
             ),
         ]
+
+    def vehicle_line(self) -> str:
+        """A fleet's vehicle in one line: where it ended, how far it flew, its commands and events."""
+        return (
+            f"{final_pose_text(self.final_state)}; "
+            f"flown {self.distance_m:.2f} m; {self.commands_received} commands; events: {self.events_line()}"
+        )
 
     def events_line(self) -> str:
         counts = {kind: sum(e.kind is kind for e in self.events) for kind in EventKind}
@@ -88,15 +102,16 @@ class Odometer:
         self.max_z_m = -math.inf
         self.commands = 0
         self._last: tuple[float, float, float] | None = None
+        self._last_step = -1
 
     def on_command(self, step: int, twist: object) -> None:
         self.commands += 1
 
     def on_state(self, state: VehicleState) -> None:
         p = state.position_m
-        if self._last is not None:
+        if self._last is not None and state.step > self._last_step:  # (not across a reset to the start)
             self.distance_m += math.dist(p, self._last)
-        self._last = p
+        self._last, self._last_step = p, state.step
         self.max_z_m = max(self.max_z_m, p[2])
 
     def summary(self, wall_s: float, stopped_early: bool) -> RunSummary:

@@ -188,7 +188,7 @@ def _fly_fleet(args: argparse.Namespace) -> int:
 
 def _report(flown: float, recordings: list, lost: str | None, finals: Sequence[str] = ()) -> int:
     print(f"flew {flown:.1f} s of simulation time")
-    for line in finals:  # a fleet's vehicles, where each ended
+    for line in finals:  # where it ended, how far it flew, its events (a fleet's vehicle by vehicle)
         print(line)
     for path in recordings:
         print(f"recording       {path}")

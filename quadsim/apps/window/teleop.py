@@ -51,10 +51,8 @@ from quadsim.session.outputs import LiveOutput, OutputOptions
 from quadsim.session.pacing import FixedStepPacer, RealTimePacer, collect_start_up_garbage
 from quadsim.session.plan import RunPlan
 from quadsim.session.run import Run
-from quadsim.session.summary import final_pose_text
 from quadsim.sim.config import SimConfig
 from quadsim.sim.fleet_file import FleetFile
-from quadsim.sim.flight_events import EventKind
 
 #: wall time over which the HUD's frame rate and real-time factor are measured
 RATE_WINDOW_S = 1.0
@@ -294,7 +292,9 @@ class TeleopApp:
         self.frame_count = 0
         self._frame_walls: deque[tuple[float, int]] = deque()  # (wall s, step) of the last second
         self._camera_walls: dict[str, deque[float]] = {}  # wall times of the frames that came in
-        self._camera_rates_from = time.perf_counter()  # since when they are counted
+        #: the wall clock the HUD's rates are measured by (a test gives its own)
+        self.wall_clock: Callable[[], float] = time.perf_counter
+        self._camera_rates_from = self.wall_clock()  # since when they are counted
         self._help_keys = {pygame.K_F1} | (
             {pygame.K_h} if pygame.K_h not in {b.key for b in self.keyboard.layout.bindings} else set()
         )
@@ -305,7 +305,7 @@ class TeleopApp:
     def on_camera_frame(self, frame: CameraFrame) -> None:
         self.frames[frame.camera] = frame
         walls = self._camera_walls.setdefault(frame.camera, deque())
-        walls.append(time.perf_counter())
+        walls.append(self.wall_clock())
 
     @property
     def driver(self) -> KeyboardDriver | JoystickDriver | SubscribedDriver:
@@ -480,20 +480,16 @@ class TeleopApp:
         return self._flown_before_resets_s + self.sim.time_s
 
     def final_lines(self) -> list[str]:
-        """A fleet's vehicles where they ended, one line each (none for one vehicle)."""
+        """What the window flew, as `run` says it: where the vehicle ended, how far it flew, its
+        commands and flight events; a fleet's vehicles one line each, with what flew them."""
+        summaries = self.session.summaries()
         if self.fleet is None:
-            return []
-        fleet = self.session.fleet
-        width = max(len(name) for name in fleet)
-        lines = []
-        for drone in fleet.members:
-            name = drone.name
-            crashes = sum(e.kind is EventKind.CRASH for e in drone.events)
-            lines.append(
-                f"{name:<{width}}  {final_pose_text(drone.state)}; {self.crew.inputs[name]}"
-                + (f"; {crashes} crash{'es' if crashes > 1 else ''}" if crashes else "")
-            )
-        return lines
+            return summaries[""].where_lines()
+        width = max(len(name) for name in summaries)
+        return [
+            f"{name:<{width}}  {summary.vehicle_line()}; {self.crew.inputs[name]}"
+            for name, summary in summaries.items()
+        ]
 
     def reset(self) -> None:
         self._flown_before_resets_s += self.sim.time_s
@@ -536,7 +532,7 @@ class TeleopApp:
         if self._display_gone():
             return
         self.frame_count += 1
-        now = time.perf_counter()
+        now = self.wall_clock()
         self._frame_walls.append((now, self.sim.step_count))
         while len(self._frame_walls) > 2 and now - self._frame_walls[0][0] > RATE_WINDOW_S:
             self._frame_walls.popleft()
@@ -555,12 +551,12 @@ class TeleopApp:
     def _restart_camera_rates(self) -> None:
         """Count the cameras' frames afresh (after a pause, or another vehicle's cameras)."""
         self._camera_walls.clear()
-        self._camera_rates_from = time.perf_counter()
+        self._camera_rates_from = self.wall_clock()
 
     def camera_rates(self) -> dict[str, float]:
         """Frames per second each camera actually delivered over the last two seconds (none while
         paused, or in the first half second after a pause or a switch of cameras: not measured)."""
-        now = time.perf_counter()
+        now = self.wall_clock()
         window = min(CAMERA_RATE_WINDOW_S, now - self._camera_rates_from)
         if self.paused or window < CAMERA_RATE_MIN_WINDOW_S:
             return {}
