@@ -7,10 +7,9 @@ import math
 import pytest
 
 from quadsim.physics.pybullet_quiet import pb
-from quadsim.physics.pybullet_world import PhysicsWorld
-from quadsim.physics.world_spec import load_world
 from quadsim.vehicle.mixer import Mixer
 from quadsim.vehicle.params import SHIPPED_VEHICLES, Spin, VehicleParams, load_vehicle
+from tests.sim_helpers import body_alone
 
 #: J. Foerster, "System Identification of the Crazyflie 2.0 Nano Quadrocopter", ETH Zurich 2015:
 #: reaction torque per newton of thrust (his torque map's slope, the firmware's THRUST2TORQUE), m
@@ -44,7 +43,7 @@ def _hover_forces(vehicle: VehicleParams, yaw_split_n: float = 0.0) -> tuple[flo
 def _one_step_from(vehicle: VehicleParams, forces, velocity_mps=(0.0, 0.0, 0.0)):
     """The state after one physics step from level at 50 m, moving at `velocity_mps`, the motors
     already at `forces` (so they hold them)."""
-    with PhysicsWorld(vehicle, load_world(), 240) as world:
+    with body_alone(vehicle) as world:
         world.place((0.0, 0.0, 50.0), (0.0, 0.0, 0.0, 1.0), forces)
         pb.resetBaseVelocity(world.body_id, velocity_mps, (0.0, 0.0, 0.0), physicsClientId=world.client_id)
         world._read_kinematics()

@@ -11,9 +11,8 @@ from quadsim.core import compiled
 from quadsim.core.kinematics import matrix_from_quaternion
 from quadsim.core.rigid_body import add_gyroscopic_correction, free_rotation
 from quadsim.physics.pybullet_quiet import pb
-from quadsim.physics.pybullet_world import PhysicsWorld
-from quadsim.physics.world_spec import load_world
 from quadsim.vehicle.params import SHIPPED_VEHICLES, load_vehicle
+from tests.sim_helpers import body_alone
 
 #: rate (rad/s) -> the most the world-frame angular momentum may drift in 10 s (fraction)
 MOMENTUM_DRIFT = {1.0: 0.001, 6.0: 0.01, 20.0: 0.03}
@@ -24,7 +23,7 @@ def _tumble(airframe: str, rate_radps: float, seconds: float = 10.0) -> tuple[fl
     of the kinetic energy of rotation and of the angular momentum over `seconds`, as fractions."""
     vehicle = load_vehicle(SHIPPED_VEHICLES[airframe])
     inertia = np.diag([vehicle.inertia_kgm2[i][i] for i in range(3)])
-    with PhysicsWorld(vehicle, load_world(), 240) as world:
+    with body_alone(vehicle) as world:
         world.place((0.0, 0.0, 5000.0))
         spin = (rate_radps / math.sqrt(3.0),) * 3
         pb.resetBaseVelocity(world.body_id, (0.0, 0.0, 0.0), spin, physicsClientId=world.client_id)
