@@ -107,8 +107,8 @@ def test_check_on_unusable_files_exits_2(tmp_path):
     data = (ROOT / "tests" / "recordings" / "square_cascade.mcap").read_bytes()
     bad.write_bytes(data[: len(data) // 3])
     out = cli("check", bad)
-    # the re-flight's own refusal (session/resim.py) names recover as the installed command
-    assert out.returncode == 2 and "ERROR" in out.stdout and "quadsim recover" in out.stdout
+    # the re-flight's own refusal (session/resim.py) names recover as the command that ran: a clone's
+    assert out.returncode == 2 and "ERROR" in out.stdout and "main.py recover" in out.stdout
     assert "Traceback" not in out.stderr
 
 

@@ -14,6 +14,7 @@ from typing import Any
 
 from quadsim.control import Controller, ControllerKind, remake_controller
 from quadsim.control.landing import LandingSettings
+from quadsim.core.invocation import program
 from quadsim.core.kinematics import body_velocity
 from quadsim.core.parts import part_class
 from quadsim.core.types import VehicleState, ZMode
@@ -131,7 +132,7 @@ def rebuild_config(flight: RecordedFlight, folder: Path) -> tuple[SimConfig, dic
     if lost is not None:
         raise QuadsimError(
             f"{flight.path}: damaged: {lost}. The recorded flight is incomplete, so it cannot be re-flown "
-            f"faithfully; 'quadsim recover {flight.path}' saves what is readable"
+            f"faithfully; '{program()} recover {flight.path}' saves what is readable"
         )
     unreadable = flight.unreadable_for_resim()
     if unreadable is not None:
