@@ -77,9 +77,10 @@ def _duration(args: argparse.Namespace, default_s: float) -> float:
     return duration
 
 
-def _outputs(args: argparse.Namespace, live: bool) -> OutputOptions:
+def _outputs(args: argparse.Namespace, live: bool, paced: bool) -> OutputOptions:
     """The recording and cameras of a run of one vehicle, refused where no one would see the
-    frames asked for; flown live, the cameras drop frames rather than hold the flight back."""
+    frames asked for; flown live or in real time, the cameras drop frames rather than hold the
+    flight back (a run that is not real-time keeps every frame)."""
     outputs = output_options(args)
     live_wanted = args.foxglove is not None or args.ros2 or live
     if not outputs.record and outputs.cameras and not live_wanted:  # nobody would see a frame
@@ -90,7 +91,7 @@ def _outputs(args: argparse.Namespace, live: bool) -> OutputOptions:
                 "with --foxglove or --ros2, or leave the camera options out)"
             )
         outputs = replace(outputs, cameras=())
-    return replace(outputs, ordered_delivery=False) if live else outputs
+    return replace(outputs, ordered_delivery=False) if paced else outputs
 
 
 def script_plan(args: argparse.Namespace, script_name: str, realtime: bool, command: str = "run") -> Planned:
@@ -103,7 +104,7 @@ def script_plan(args: argparse.Namespace, script_name: str, realtime: bool, comm
         config,
         ScriptedDriver(script),
         duration_s=duration,
-        outputs=_outputs(args, live=False),
+        outputs=_outputs(args, live=False, paced=realtime),
         label=f"{Path(script.name).stem}_{args.controller}",
         run_info={"command": command, "script": script.name, "duration_s": duration, "realtime": realtime},
         **flight_settings(args),
@@ -139,7 +140,7 @@ def bag_plan(args: argparse.Namespace, realtime: bool) -> Planned:
         config,
         driver,
         duration_s=duration,
-        outputs=_outputs(args, live=False),
+        outputs=_outputs(args, live=False, paced=realtime),
         label=f"{bag.path.stem}_{config.controller.value}",
         run_info={"command": "run", "commands_from": str(bag.path), "duration_s": duration, "realtime": realtime},
         **flight_settings(args),
@@ -158,7 +159,7 @@ def subscribed_plan(args: argparse.Namespace, command: str) -> Planned:
         sim_config(args, None),
         driver,
         duration_s=duration,
-        outputs=_outputs(args, live=True),
+        outputs=_outputs(args, live=True, paced=True),
         label=f"{args.input}_{args.controller}",
         run_info={"command": command, "input": args.input, "duration_s": duration, "realtime": True},
         **flight_settings(args),
@@ -238,7 +239,7 @@ def fleet_plan(args: argparse.Namespace, command: str) -> Planned:
     else:
         duration = fleet_file.longest_script_s
     realtime = bool(live_inputs) or args.realtime
-    outputs = replace(output_options(args), cameras=(), ordered_delivery=not live_inputs)
+    outputs = replace(output_options(args), cameras=(), ordered_delivery=not realtime)
     plan = RunPlan(
         sim_config(args, None),
         tuple(fleet_file.fleet_vehicles(drivers)),

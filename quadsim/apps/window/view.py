@@ -50,6 +50,7 @@ class ViewModel:
     warnings: list[str] = field(default_factory=list)
     camera_rates: dict[str, float] = field(default_factory=dict)  # frames/s each camera delivered
     camera_rate_hz: int = 0  # the rate the cameras were asked for
+    camera_dropped: int = 0  # captures dropped so far, every render worker busy
     playback: str | None = None  # replay: shown instead of the recording state
     timeline: tuple[float, float] | None = None  # replay: (time, duration) s, drawn as a clickable bar
     phase: str = ""  # landed / flying (empty: not known, as in replay)
@@ -221,6 +222,7 @@ class TeleopView:
             lines.append(
                 (
                     f"cameras {achieved} of {m.camera_rate_hz} frames/s"
+                    + (f", {m.camera_dropped} dropped" if m.camera_dropped else "")
                     + ("  (the machine is busy: frames are dropped, the flight keeps real time)" if short else ""),
                     WARN if short else TEXT,
                 )
