@@ -112,9 +112,9 @@ class Run:
             done = fleet.step_count
             if pacer is None:
                 steps = chunk
-            else:
+            else:  # a chunk at a time, catching up too: between chunks, progress, frames and a stop are seen
                 pacer.wait(done + chunk, stop)
-                steps = pacer.steps_for_frame(done)
+                steps = min(pacer.steps_for_frame(done), chunk)
             steps = min(steps, end - done)
             if steps > 0:
                 self.step(steps)
