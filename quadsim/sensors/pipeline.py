@@ -107,6 +107,18 @@ class CameraAccount:
         return ages[len(ages) // 2] / self.physics_hz if ages else 0.0
 
 
+def _steps_between_frames(specs: tuple[CameraSpec, ...], physics_hz: int) -> dict[str, int]:
+    """Each camera's physics steps between two frames (its rate must divide the physics rate)."""
+    every = {}
+    for spec in specs:
+        if physics_hz % spec.rate_hz:
+            raise ConfigError(
+                f"camera {spec.name}: rate {spec.rate_hz} Hz does not divide the physics rate {physics_hz} Hz"
+            )
+        every[spec.name] = physics_hz // spec.rate_hz
+    return every
+
+
 class CameraPipeline:
     """Renders `specs` of `vehicle` in `world`; it knows nothing of the simulator.
 
@@ -137,13 +149,7 @@ class CameraPipeline:
         self.renderer = renderer
         self.sinks: list[FrameSink] = []
         self.kinds: frozenset[ImageKind] = JPEG_ONLY
-        self._every = {}
-        for spec in specs:
-            if physics_hz % spec.rate_hz:
-                raise ConfigError(
-                    f"camera {spec.name}: rate {spec.rate_hz} Hz does not divide the physics rate {physics_hz} Hz"
-                )
-            self._every[spec.name] = physics_hz // spec.rate_hz
+        self._every = _steps_between_frames(specs, physics_hz)
         self._tick = math.gcd(*self._every.values()) if specs else 1
         self._ordered = ordered_delivery
         self._niceness = (

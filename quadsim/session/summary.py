@@ -5,12 +5,15 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 from quadsim.core.types import VehicleState
 from quadsim.drivers.subscribed import SubscribedDriver
-from quadsim.sensors.pipeline import CameraPipeline
 from quadsim.sim.drone import Drone
 from quadsim.sim.flight_events import EventKind, FlightEvent
+
+if TYPE_CHECKING:  # the cameras' pipeline imports the imaging libraries: only where there are cameras
+    from quadsim.sensors.pipeline import CameraPipeline
 
 
 def final_pose_text(state: VehicleState) -> str:

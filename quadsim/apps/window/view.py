@@ -217,16 +217,7 @@ class TeleopView:
             (f"{m.fps:4.1f} fps   {m.real_time_factor:4.2f}x real time   sim {m.sim_time_s:7.2f} s   H/F1: help", TEXT),
         ]
         if m.camera_rates:
-            achieved = "  ".join(f"{name} {rate:4.1f}" for name, rate in sorted(m.camera_rates.items()))
-            short = m.camera_rate_hz and min(m.camera_rates.values()) < 0.8 * m.camera_rate_hz
-            lines.append(
-                (
-                    f"cameras {achieved} of {m.camera_rate_hz} frames/s"
-                    + (f", {m.camera_dropped} dropped" if m.camera_dropped else "")
-                    + ("  (the machine is busy: frames are dropped, the flight keeps real time)" if short else ""),
-                    WARN if short else TEXT,
-                )
-            )
+            lines.append(_camera_hud_line(m))
         if m.paused:
             lines.append(("PAUSED (P resumes)", WARN))
         if m.lagging:
@@ -299,3 +290,15 @@ def _arrow(px, x: float, y: float, yaw: float) -> list[tuple[int, int]]:
         px(x + 0.5 * math.cos(yaw + 2.5), y + 0.5 * math.sin(yaw + 2.5)),
         px(x + 0.5 * math.cos(yaw - 2.5), y + 0.5 * math.sin(yaw - 2.5)),
     ]
+
+
+def _camera_hud_line(m: ViewModel) -> tuple[str, tuple[int, int, int]]:
+    """The HUD's line of the cameras' achieved rates (and drops), a warning when they fall short."""
+    achieved = "  ".join(f"{name} {rate:4.1f}" for name, rate in sorted(m.camera_rates.items()))
+    short = bool(m.camera_rate_hz) and min(m.camera_rates.values()) < 0.8 * m.camera_rate_hz
+    return (
+        f"cameras {achieved} of {m.camera_rate_hz} frames/s"
+        + (f", {m.camera_dropped} dropped" if m.camera_dropped else "")
+        + ("  (the machine is busy: frames are dropped, the flight keeps real time)" if short else ""),
+        WARN if short else TEXT,
+    )
