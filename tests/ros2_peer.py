@@ -16,6 +16,7 @@ TOPIC is where the Twists go (default /quad_cmd_twist).
 
 from __future__ import annotations
 
+import itertools
 import json
 import sys
 import time
@@ -170,6 +171,10 @@ def main() -> int:
         "first_clock_wall_s": first_clock_wall_s[0] if first_clock_wall_s else None,
         "clock_ns": clock_ns[:1] + clock_ns[-1:],
         "clock_count": len(clock_ns),
+        # a use_sim_time node's time jumps back (tf2 and RViz clear their buffers) at each of these
+        "clock_backward": sum(b < a for a, b in itertools.pairwise(clock_ns)),
+        "clock_repeated": sum(b == a for a, b in itertools.pairwise(clock_ns)),
+        "clock_smallest_step_ns": min((b - a for a, b in itertools.pairwise(clock_ns)), default=0),
         "odom_count": len(odoms),
         "odom_last": odoms[-1] if odoms else None,
         "odoms": odoms[-50:],

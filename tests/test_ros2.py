@@ -150,9 +150,12 @@ def test_a_ros2_node_flies_quadsim_and_reads_what_it_publishes(ros2_flight: tupl
     image = cv2.imdecode(np.frombuffer(bytes.fromhex(report["image_hex"]), np.uint8), cv2.IMREAD_COLOR)
     assert image is not None and image.shape == (120, 160, 3)
 
-    # /clock advanced with simulation time
+    # /clock advanced with simulation time, at the state rate, never back nor twice the same, though both
+    # cameras' frames arrive after the states that followed them (issue 32: 190 steps back in 49 s)
     first, last = report["clock_ns"]
     assert report["clock_count"] > 100 and last - first > 4_000_000_000
+    assert (report["clock_backward"], report["clock_repeated"]) == (0, 0)
+    assert report["clock_count"] <= report["odom_count"] + 5  # one tick a state (not one a frame as well)
 
     # the graph: a node /quadsim; its /tf, /tf_static (no tf2_msgs wheels: seen here, not read) and odometry
     # writers and its Twist reader, named as quadsim's on Jazzy; Kilted's Fast DDS 3 files them under a
@@ -197,6 +200,7 @@ def test_replay_publishes_the_recording_as_it_plays(ros2_flight: tuple[Path, str
     assert report["image_count"] > 20
     first, last = report["clock_ns"]
     assert last - first > 4_000_000_000  # /clock follows the playback (twice as fast as the wall clock)
+    assert (report["clock_backward"], report["clock_repeated"]) == (0, 0)  # no seek, no loop: never back
 
 
 def test_without_cyclonedds_a_one_line_message_says_how_to_install(tmp_path: Path, monkeypatch) -> None:
@@ -295,6 +299,7 @@ def test_a_ros2_node_flies_one_vehicle_of_a_fleet_by_its_name_while_a_script_fli
     owner = "_CREATED_BY_BARE_DDS_APP_/_CREATED_BY_BARE_DDS_APP_" if distribution == "kilted" else "/quadsim"
     assert twist_readers == [owner], report["graph"]  # as for one vehicle (see the first test)
     assert report["odom_count"] > 100 and report["odom_last"]["frame"] == "world"
+    assert report["clock_backward"] == 0  # one clock for the fleet, ticked by the first vehicle's state
     assert report["others_last"]["bravo"]["child"] == "bravo/base_link"
     with RecordingReader(recording) as reader:
         received = list(reader.commands("alpha"))

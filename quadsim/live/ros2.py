@@ -41,8 +41,6 @@ if TYPE_CHECKING:
     from quadsim.drivers.subscribed import SubscribedDriver
 
 CLOCK = Topic("/clock", "rosgraph_msgs/msg/Clock")
-#: /clock is published with the newest log time seen, at most this often (of simulation time)
-CLOCK_HZ = 100
 #: topics a namespace leaves alone: ROS 2 nodes use them by absolute name (tf2, rcl's logging, use_sim_time)
 GLOBAL_TOPICS = frozenset({"/clock", "/tf", "/tf_static", "/rosout"})
 #: the node this bridge is on the ROS 2 graph (`ros2 node list`)
@@ -240,12 +238,13 @@ class Ros2Bridge:
         self._writers: dict[str, tuple[Any, Any]] = {}  # topic name -> (writer, IDL type)
         self._readers: list[Any] = []
         self._lock = threading.Lock()  # the sim thread and a replay thread may both publish
-        self._clock_period_ns = NS_PER_S // CLOCK_HZ
-        self._clock_ns = -1
+        self._clock_ns = -1  # the last /clock published
+        self.clock_published = 0
         self.published = 0  # messages written
         self.busy_s = 0.0  # time spent writing (for the benchmark)
         self.closed = False
         self._graph_writer = self._discovery_info_writer()
+        self._time_type = idl_type("builtin_interfaces/msg/Time")
         self.add_topic(CLOCK)
 
     def graph_name(self, name: str) -> str:
@@ -349,10 +348,9 @@ class Ros2Bridge:
             return
         started = time.perf_counter()
         with self._lock:
-            newest = max(ns for _, ns, _ in messages)
-            if newest >= self._clock_ns + self._clock_period_ns or newest < self._clock_ns:
-                self._publish_clock(newest)  # before the messages of that time (a jump back: a replay's seek)
             for topic, _ns, data in messages:
+                if topic.name == CLOCK.name:  # a bag's own /clock: this bridge's comes from on_clock alone
+                    continue
                 entry = self._writers.get(topic.name)
                 if entry is None:
                     if topic.name in self.exclude:
@@ -367,11 +365,23 @@ class Ros2Bridge:
     def on_event(self, step: int, kind: str, value: str, vehicle: str = "") -> None:
         """Events reach the graph as their /rosout messages."""
 
-    def _publish_clock(self, ns: int) -> None:
-        writer, kind = self._writers[CLOCK.name]
-        time_type = idl_type("builtin_interfaces/msg/Time")
-        writer.write(kind(clock=time_type(sec=ns // NS_PER_S, nanosec=ns % NS_PER_S)))
-        self._clock_ns = ns
+    def on_clock(self, ns: int, seek: bool = False) -> None:
+        """/clock: simulation time from the fan-out's states (or a replay's playback), at the state
+        rate, strictly increasing; back in time only when told it is a seek (a replay moved back, a
+        window's reset), as `ros2 bag play` does. Never from the messages themselves: camera frames
+        arrive after the states that followed them, stamped with the instant they show."""
+        if self.closed or (ns <= self._clock_ns and not seek):
+            return
+        started = time.perf_counter()
+        with self._lock:
+            entry = self._writers.get(CLOCK.name)
+            if entry is None:  # closed meanwhile
+                return
+            writer, kind = entry
+            writer.write(kind(clock=self._time_type(sec=ns // NS_PER_S, nanosec=ns % NS_PER_S)))
+            self._clock_ns = ns
+            self.clock_published += 1
+        self.busy_s += time.perf_counter() - started
 
     # --- input --------------------------------------------------------------------------------
 
