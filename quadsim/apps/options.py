@@ -277,7 +277,8 @@ def add_live_options(p: argparse.ArgumentParser, what: str = "the run", flown: b
         action="append",
         default=[],
         metavar="FROM:=TO",
-        help=f"{when}: rename a topic, like --ros-args -r FROM:=TO; e.g. "
+        help=f"{when}: rename a topic, like --ros-args -r FROM:=TO (matched as ROS 2 does: under --ros-namespace NS "
+        "a relative FROM, or /NS/..., names quadsim's topics); e.g. "
         + (
             "/quad_cmd_twist:=/cmd_vel lets teleop_twist_keyboard fly it unchanged (repeatable)"
             if flown
@@ -298,6 +299,17 @@ def add_parallel_options(p: argparse.ArgumentParser, jobs_help: str) -> None:
         help="run as Ray tasks: on a local Ray instance (no ADDRESS), or on a cluster "
         "(auto, ray://HOST:10001); needs the ray extra",
     )
+
+
+def live_topic(args: argparse.Namespace, driver: SubscribedDriver) -> str:
+    """The topic a live input's Twists come on, named as its bridge will subscribe to it: on a ROS 2
+    graph in --ros-namespace and remapped by --ros-remap (the rules checked here, before anything
+    starts), as the bridge's start-up line and the summary name it."""
+    if driver.name != "ros2":
+        return driver.topic
+    from quadsim.live.ros2 import graph_names, graph_topic
+
+    return graph_topic(driver.topic, *graph_names(getattr(args, "ros_namespace", ""), getattr(args, "ros_remap", [])))
 
 
 def live_outputs(

@@ -15,6 +15,7 @@ from quadsim.apps.options import (
     camera_options_given,
     camera_specs,
     flight_settings,
+    live_topic,
     output_options,
     program,
     sim_config,
@@ -162,7 +163,7 @@ def subscribed_plan(args: argparse.Namespace, command: str) -> Planned:
         run_info={"command": command, "input": args.input, "duration_s": duration, "realtime": True},
         **flight_settings(args),
     )
-    return Planned(plan, f"the Twists {who} publish on {driver.topic} {until}", (driver,), realtime=True)
+    return Planned(plan, f"the Twists {who} publish on {live_topic(args, driver)} {until}", (driver,), realtime=True)
 
 
 # --- fleets -----------------------------------------------------------------------------------

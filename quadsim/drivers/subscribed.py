@@ -28,7 +28,11 @@ class SubscribedDriver:
 
     def __init__(self, name: str, topic: str = "/quad_cmd_twist") -> None:
         self.name = name
+        #: the contract's name of the topic (what the recording keeps the commands on)
         self.topic = topic
+        #: the name it has where the Twists come from: on a ROS 2 graph, in the bridge's namespace and
+        #: remapped (--ros-namespace, --ros-remap), as the bridge subscribes to it; what lines say
+        self.heard_on = topic
         self.received = 0
         self.dropped = 0
         self.rejected = 0
