@@ -168,7 +168,8 @@ def _add_rate_options(g: argparse._ArgumentGroup) -> None:
         type=number(1e-3, 3600.0, "seconds"),
         default=0.5,
         metavar="S",
-        help="dead-man timeout: hold position after S seconds without a command (default 0.5)",
+        help="dead-man timeout: hold position after S seconds without a command (default 0.5; a live input's "
+        "is --live-timeout's)",
     )
 
 
@@ -264,6 +265,16 @@ def add_live_options(p: argparse.ArgumentParser, what: str = "the run", flown: b
         "topic of the recording with its QoS, plus /clock for use_sim_time; needs the ros2 extra "
         "(Cyclone DDS; no ROS installation)",
     )
+    if flown:
+        g.add_argument(
+            "--live-timeout",
+            type=number(1e-3, 3600.0, "seconds"),
+            default=None,
+            metavar="S",
+            help="dead-man timeout of a live input (--input foxglove or ros2, a fleet vehicle's foxglove or ros2): "
+            "hold position after S seconds without a Twist (default 0.15 for Foxglove, whose Teleop panel sends "
+            "nothing when a button is released; --timeout, 0.5, for ROS 2); recorded with the run",
+        )
     g.add_argument(
         "--ros-namespace",
         default="",
@@ -317,6 +328,9 @@ def live_outputs(
 ) -> list[LiveOutput]:
     """The live bridges the options ask for (--foxglove, --ros2, and the one an input comes from)."""
     from quadsim.session.live import open_live_outputs
+
+    if getattr(args, "live_timeout", None) is not None and not commands:  # nothing would take it
+        raise QuadsimError("--live-timeout is for a live input: fly with --input foxglove or ros2 (or a fleet's)")
 
     return open_live_outputs(
         getattr(args, "foxglove", None),
