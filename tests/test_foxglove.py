@@ -544,7 +544,7 @@ def test_a_client_flies_one_vehicle_of_a_fleet_on_its_topic_while_a_script_flies
     assert {(0.0, 0.0, 1.0, 0.0), (0.0, 1.0, 0.0, 0.0), (1.0, 0.0, 0.0, 0.5)} <= commands  # every field it set
     (x, y, z), (qx, qy, qz, qw) = bravo[-1]
     assert z > 1.0 and x > 0.8 and y > -2.9, (x, y, z)  # climbed, went left, then forward while turning left
-    turn = commanded_motion(received, FOXGLOVE_HOLD_NS)[3]  # bravo holds a Foxglove input's 0.15 s after the last
+    turn = commanded_motion(received, FOXGLOVE_HOLD_NS)[3]  # bravo holds a Foxglove input's 0.2 s after the last
     turned = math.atan2(2 * (qw * qz + qx * qy), 1 - 2 * (qy * qy + qz * qz))
     assert turned > 0.3 and abs(turned - turn) < 0.25, (turned, turn)  # about 1 rad, as received
     assert max(p[0] for p in alpha) > 2.5  # alpha's square went on all the while
@@ -556,7 +556,7 @@ def test_a_client_flies_one_vehicle_of_a_fleet_on_its_topic_while_a_script_flies
 
 
 #: how long a Foxglove input holds its last Twist (drivers/subscribed.py)
-FOXGLOVE_HOLD_NS = 150_000_000
+FOXGLOVE_HOLD_NS = 200_000_000
 
 
 def _yaw(q: tuple[float, float, float, float]) -> float:
@@ -564,16 +564,16 @@ def _yaw(q: tuple[float, float, float, float]) -> float:
     return math.atan2(2 * (w * z + x * y), 1 - 2 * (y * y + z * z))
 
 
-@pytest.mark.parametrize(("hold_s", "option"), [(0.15, ()), (0.3, ("--live-timeout", "0.3"))], ids=["default", "0.3"])
+@pytest.mark.parametrize(("hold_s", "option"), [(0.2, ()), (0.4, ("--live-timeout", "0.4"))], ids=["default", "0.4"])
 def test_a_released_teleop_button_stops_the_turn_within_the_inputs_hold(
     hold_s: float, option: tuple[str, ...], tmp_path: Path
 ) -> None:
-    """Foxglove's Teleop panel sends nothing when a button is released. A client climbs, then turns at
-    0.5 rad/s for 4 s and goes quiet, connected: the turn stops (yaw rate under a tenth of the command)
-    within 0.4 s of its last Twist with the default hold, and the yaw flown is the yaw pressed (the
-    span of Twists received, plus one 20 Hz period) plus what the hold adds; the hold is said at
-    start-up and recorded, so `check` re-flies it. Issue 32 measured 129 degrees for a 115 degree
-    press with the 0.5 s the input had."""
+    """Foxglove's Teleop panel sends nothing when a button is released. A client climbs, then turns
+    at 0.5 rad/s for 4 s and goes quiet, connected: the turn stops (yaw rate under a tenth of the
+    command) within the hold and 0.25 s (the yaw loop's own settling) of its last Twist, and the
+    yaw flown is the yaw pressed (the span of Twists received, plus one 20 Hz period) plus what the
+    hold adds; the hold is said at start-up and recorded, so `check` re-flies it. Issue 32
+    measured 129 degrees for a 115 degree press with the 0.5 s the input had."""
     recording = tmp_path / "release.mcap"
     proc = _quadsim(
         "run", "--input", "foxglove", "--foxglove", "127.0.0.1:0", "--duration", "10", "--cameras", "none",

@@ -85,11 +85,11 @@ def test_the_run_summary_says_what_arrived_live() -> None:
 
 
 def test_each_live_input_holds_after_its_own_timeout_which_the_run_records() -> None:
-    """A Foxglove input holds 0.15 s after its last Twist (the Teleop panel sends nothing on
+    """A Foxglove input holds 0.2 s after its last Twist (the Teleop panel sends nothing on
     release); a ROS 2 input keeps the run's; either can be set. The vehicle's config, which the
     recording keeps, says the one its gate used."""
     cases = [
-        (SubscribedDriver("foxglove"), SimConfig(), 0.15),
+        (SubscribedDriver("foxglove"), SimConfig(), 0.2),
         (SubscribedDriver("ros2"), SimConfig(), 0.5),
         (SubscribedDriver("ros2"), SimConfig(command_timeout_s=0.8), 0.8),
         (SubscribedDriver("foxglove", command_timeout_s=0.3), SimConfig(command_timeout_s=0.8), 0.3),
@@ -102,13 +102,13 @@ def test_each_live_input_holds_after_its_own_timeout_which_the_run_records() -> 
 
 
 def test_a_released_command_holds_after_the_foxglove_timeout() -> None:
-    """The last Twist acts for 0.15 s (36 steps at 240 Hz), then the gate holds."""
+    """The last Twist acts for 0.2 s (48 steps at 240 Hz), then the gate holds."""
     driver = SubscribedDriver("foxglove")
     with Simulator(SimConfig(), driver) as sim:
         driver.deliver((0.0, 0.0, 1.0), 0.0)
         sim.run_for(1.0 / 240)
         sent = sim.step_count - 1
-        sim.run_for(0.14)
+        sim.run_for(0.19)
         assert not sim.gate.active(sim.step_count).hold
         sim.run_for(0.02)
-        assert sim.gate.active(sim.step_count).hold and sim.step_count - sent > 36
+        assert sim.gate.active(sim.step_count).hold and sim.step_count - sent > 48

@@ -272,7 +272,7 @@ def add_live_options(p: argparse.ArgumentParser, what: str = "the run", flown: b
             default=None,
             metavar="S",
             help="dead-man timeout of a live input (--input foxglove or ros2, a fleet vehicle's foxglove or ros2): "
-            "hold position after S seconds without a Twist (default 0.15 for Foxglove, whose Teleop panel sends "
+            "hold position after S seconds without a Twist (default 0.2 for Foxglove, whose Teleop panel sends "
             "nothing when a button is released; --timeout, 0.5, for ROS 2); recorded with the run",
         )
     g.add_argument(

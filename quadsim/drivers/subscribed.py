@@ -8,9 +8,10 @@ when the publisher stops ("if this message is not present the quadcopter won't m
 That timeout is the input's own where its clients call for it: Foxglove's Teleop panel publishes
 while a button is held and sends nothing when it is released (no zero Twist), so the last command
 flies on until the timeout; the run's 0.5 s turned a 4 s press at 0.5 rad/s 129 degrees instead
-of 115. A Foxglove input holds after 0.15 s without a message (three periods of the panel at the
-20 Hz the docs ask for); a ROS 2 input keeps the run's timeout (nodes such as teleop_twist_keyboard
-send a zero Twist to stop). --live-timeout sets either.
+of 115. A Foxglove input holds after 0.2 s without a message (four periods of the panel at the
+20 Hz the docs ask for: shorter, and a stall of the simulation or of the client that delays a
+message that long would already stop the vehicle mid-press); a ROS 2 input keeps the run's
+timeout (nodes such as teleop_twist_keyboard send a zero Twist to stop). --live-timeout sets either.
 """
 
 from __future__ import annotations
@@ -24,7 +25,7 @@ from quadsim.drivers import ASAP, NEVER
 
 #: the dead-man timeout of a live input whose clients send nothing on release, by input name (the
 #: rest keep the run's): a released Teleop button stops the vehicle within about 0.2 s
-RELEASE_TIMEOUT_S = {"foxglove": 0.15}
+RELEASE_TIMEOUT_S = {"foxglove": 0.2}
 
 
 class SubscribedDriver:
