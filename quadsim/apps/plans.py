@@ -15,6 +15,7 @@ from quadsim.apps.options import (
     camera_options_given,
     camera_specs,
     flight_settings,
+    live_topic,
     output_options,
     program,
     sim_config,
@@ -151,7 +152,7 @@ def bag_plan(args: argparse.Namespace, realtime: bool) -> Planned:
 def subscribed_plan(args: argparse.Namespace, command: str) -> Planned:
     """The Twists Foxglove clients or ROS 2 nodes publish (--input), in real time, until Ctrl-C
     or --duration."""
-    driver = SubscribedDriver(args.input)
+    driver = SubscribedDriver(args.input, command_timeout_s=args.live_timeout)
     duration = _duration(args, MAX_DURATION_S)
     until = f"for {duration:.1f} s" if args.duration is not None else "until Ctrl-C"
     who = "Foxglove clients" if args.input == "foxglove" else "ROS 2 nodes"
@@ -164,7 +165,7 @@ def subscribed_plan(args: argparse.Namespace, command: str) -> Planned:
         run_info={"command": command, "input": args.input, "duration_s": duration, "realtime": True},
         **flight_settings(args),
     )
-    return Planned(plan, f"the Twists {who} publish on {driver.topic} {until}", (driver,), realtime=True)
+    return Planned(plan, f"the Twists {who} publish on {live_topic(args, driver)} {until}", (driver,), realtime=True)
 
 
 # --- fleets -----------------------------------------------------------------------------------
@@ -191,9 +192,10 @@ def check_fleet_options(args: argparse.Namespace) -> None:
         raise QuadsimError(f"--renderer {args.renderer} with --fleet: a fleet's cameras render in its one world (tiny)")
 
 
-def fleet_drivers(fleet_file: FleetFile) -> dict[str, InputDriver | None]:
-    """What drives each vehicle (those a person flies: nothing, until the window says)."""
-    return {v.name: _driver(v) for v in fleet_file.vehicles}
+def fleet_drivers(fleet_file: FleetFile, live_timeout_s: float | None = None) -> dict[str, InputDriver | None]:
+    """What drives each vehicle (those a person flies: nothing, until the window says); a live
+    input holds after `live_timeout_s` without a Twist (None: its own default)."""
+    return {v.name: _driver(v, live_timeout_s) for v in fleet_file.vehicles}
 
 
 def fleet_cameras(args: argparse.Namespace, fleet_file: FleetFile) -> dict[str, tuple]:
@@ -202,13 +204,13 @@ def fleet_cameras(args: argparse.Namespace, fleet_file: FleetFile) -> dict[str, 
     return {v.name: tuple(specs[c] for c in v.cameras) for v in fleet_file.vehicles if v.cameras}
 
 
-def _driver(entry: FleetEntry) -> InputDriver | None:
+def _driver(entry: FleetEntry, live_timeout_s: float | None = None) -> InputDriver | None:
     """What drives a vehicle: its script, a subscription on its own Twist topic, or nothing (a
     person's vehicle until the window gives it the keyboard or the pad)."""
     if entry.script is not None:
         return ScriptedDriver(entry.script)
     if entry.input in ("ros2", "foxglove"):
-        return SubscribedDriver(entry.input, Names(entry.name).topic(TWIST).name)
+        return SubscribedDriver(entry.input, Names(entry.name).topic(TWIST).name, live_timeout_s)
     return IdleDriver()  # nothing is sent, unless from Python
 
 
@@ -230,7 +232,7 @@ def fleet_plan(args: argparse.Namespace, command: str) -> Planned:
                 f"{args.fleet}: vehicle {held.name!r} takes input = {device!r}: a person flies it in the window, "
                 f"and `{command}` has none (give it a script, ros2, foxglove or idle)"
             )
-    drivers = fleet_drivers(fleet_file)
+    drivers = fleet_drivers(fleet_file, args.live_timeout)
     live_inputs = tuple(d for d in drivers.values() if isinstance(d, SubscribedDriver))
     if args.duration is not None or live_inputs:
         duration = _duration(args, MAX_DURATION_S)

@@ -91,7 +91,7 @@ def _live_input(driver: object) -> str:
         return ""
     arrived = driver.received + driver.rejected
     return (
-        f"{arrived} arrived on {driver.topic} from {driver.name}: {driver.rejected} rejected (not finite), "
+        f"{arrived} arrived on {driver.heard_on} from {driver.name}: {driver.rejected} rejected (not finite), "
         f"{driver.dropped} superseded before a step took them"
     )
 

@@ -404,7 +404,7 @@ class TeleopApp:
         if driver is self.joystick:
             status = self.joystick.status
         elif isinstance(driver, SubscribedDriver):
-            status = f"{driver.name}: Twists on {driver.topic} ({driver.received} received)"
+            status = f"{driver.name}: Twists on {driver.heard_on} ({driver.received} received)"
         else:
             status = f"keyboard ({self.keyboard.layout.name}, speed x{self.keyboard.scale:.2f})"
         if self.fleet is not None:
