@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import itertools
 import json
+import statistics
 import sys
 import time
 from typing import Any
@@ -98,7 +99,11 @@ def main() -> int:
         stamp = m.header.stamp.sec * 10**9 + m.header.stamp.nanosec
         odoms.append({"ns": stamp, "x": p.x, "y": p.y, "z": p.z, "frame": m.header.frame_id})
 
+    frame_lag_ns: list[int] = []  # how far each front frame's stamp is behind the newest odometry's
+
     def on_image(m: CompressedImage) -> None:
+        if odoms:
+            frame_lag_ns.append(odoms[-1]["ns"] - (m.header.stamp.sec * 10**9 + m.header.stamp.nanosec))
         if not images:
             images.append(bytes(m.data))
             formats.append(m.format)
@@ -183,6 +188,8 @@ def main() -> int:
         "odom_last": odoms[-1] if odoms else None,
         "odoms": odoms[-50:],
         "image_count": len(images),
+        "frame_lag_median_s": statistics.median(frame_lag_ns) / 1e9 if frame_lag_ns else None,
+        "frame_lag_max_s": max(frame_lag_ns) / 1e9 if frame_lag_ns else None,
         "image_format": formats[0] if formats else None,
         "image_hex": images[0].hex() if images else "",
         "counts": counts,

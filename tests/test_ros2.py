@@ -149,6 +149,7 @@ def test_a_ros2_node_flies_quadsim_and_reads_what_it_publishes(ros2_flight: tupl
 
     # a JPEG that decodes to the camera's size
     assert report["image_count"] > 20 and report["image_format"] == "jpeg"
+    assert report["frame_lag_median_s"] is not None  # frames came after odometry: how far behind, measured
     image = cv2.imdecode(np.frombuffer(bytes.fromhex(report["image_hex"]), np.uint8), cv2.IMREAD_COLOR)
     assert image is not None and image.shape == (120, 160, 3)
 
