@@ -50,6 +50,20 @@ WHOLE_MACHINE = frozenset(
 
 def pytest_configure(config):
     config.addinivalue_line("markers", "whole_machine: needs the machine to itself (make test runs these serially)")
+    if not hasattr(config, "workerinput"):  # once, before any worker starts: the compiled flight core
+        _compile_the_flight_core()
+
+
+def _compile_the_flight_core() -> None:
+    """A fresh clone has no compiled flight core cached: build a vehicle once, so that no test's
+    run (in parallel workers, all at once) meets the first compile and its note on stderr."""
+    from quadsim.core.compiled import will_compile
+
+    if will_compile():
+        from quadsim import Simulator
+
+        with Simulator() as sim:
+            sim.step(1)
 
 
 def pytest_collection_modifyitems(config, items):

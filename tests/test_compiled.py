@@ -331,3 +331,31 @@ def test_without_a_working_numba_it_flies_as_python_and_says_why(tmp_path, mode,
     assert done.returncode == 0, done.stderr[-2000:]
     monkeypatch.chdir(ROOT)  # where it ran: the hint is the clone's install command there
     assert done.stdout.strip().splitlines()[-1] == f"False {said.format(install=install_extra('fast'))}"
+
+
+@pytest.mark.skipif(not compiled.COMPILED, reason="numba is not installed: nothing is compiled")
+def test_a_first_compile_is_said_once_before_its_wait_and_never_before_a_bad_file(tmp_path: Path) -> None:
+    """With no cached flight core (a fresh install: an empty NUMBA_CACHE_DIR), a run says on
+    stderr that it compiles, before its headline; a run whose vehicle file is bad says only the
+    file's error (it never reaches the compile); the next run, compiled code cached, says nothing."""
+    env = {**os.environ, "NUMBA_CACHE_DIR": str(tmp_path / "numba-cache")}
+    shipped = ROOT / "quadsim" / "assets" / "urdf"
+    for name in ("quadsim_x.urdf", "quadsim_x.params.toml", "quadsim_x.gains.toml"):
+        shutil.copy(shipped / name, tmp_path / name)
+    bad = tmp_path / "quadsim_x.params.toml"
+    bad.write_text(bad.read_text().replace("max_thrust_n =", "max_thrust_n = 'x' #", 1))
+
+    def run(*args: str) -> subprocess.CompletedProcess[str]:
+        command = [sys.executable, str(ROOT / "main.py"), "run", "--script", "hover", "--duration", "0.5"]
+        return subprocess.run([*command, "--no-record", *args], capture_output=True, text=True, env=env, cwd=tmp_path)
+
+    refused = run("--urdf", str(tmp_path / "quadsim_x.urdf"))
+    assert refused.returncode == 2 and len(refused.stderr.splitlines()) == 1, refused.stderr
+    assert "max_thrust_n must be a number" in refused.stderr
+    first = run()
+    assert first.returncode == 0, first.stderr
+    notes = [line for line in first.stderr.splitlines() if line.startswith("quadsim: compiling the flight core")]
+    assert len(notes) == 1, first.stderr
+    assert first.stdout.startswith("flying 'hover'"), first.stdout  # the note came before the run opened
+    again = run()
+    assert again.returncode == 0 and "compiling" not in again.stderr, again.stderr

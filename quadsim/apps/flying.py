@@ -13,7 +13,7 @@ from collections.abc import Callable
 from dataclasses import replace
 
 from quadsim.apps.options import live_outputs
-from quadsim.apps.plans import Planned, start_up_notes
+from quadsim.apps.plans import Planned
 from quadsim.core.types import ZMode
 from quadsim.errors import ConfigError
 from quadsim.session.outputs import RecordedRun
@@ -42,8 +42,6 @@ class HeadlessFlight:
         planned = self.planned
         live = live_outputs(self.args, planned.live_inputs or None)
         bar = None
-        for note in start_up_notes(planned.plan):  # said before the wait, on stderr beside the progress
-            print(f"quadsim: {note}...", file=sys.stderr, flush=True)
         try:
             with self._open(replace(planned.plan, live=tuple(live))) as run:
                 # said once the world and the vehicles have loaded: a bad file is the only line, not the second
@@ -72,7 +70,7 @@ class HeadlessFlight:
         """The run; a vehicle of a fleet file that cannot fly (two too close, a start on a
         landmark) is said with the file."""
         try:
-            return Run(plan)
+            return Run(plan, say=_say_on_stderr)
         except ConfigError as exc:
             source = self.planned.source
             if source is None:
@@ -170,3 +168,8 @@ def report_end(outputs: RecordedRun | None, sim_time: float, planned_s: float | 
         print("quadsim: error: the flight finished but its recording did not (see above)", file=sys.stderr)
         return 1
     return 0
+
+
+def _say_on_stderr(note: str) -> None:
+    """What the run starts that takes time, said before the wait, on stderr beside the progress."""
+    print(f"quadsim: {note}...", file=sys.stderr, flush=True)

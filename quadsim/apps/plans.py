@@ -21,7 +21,6 @@ from quadsim.apps.options import (
     sim_config,
 )
 from quadsim.assets import shipped_examples
-from quadsim.core.compiled import FIRST_COMPILE, will_compile
 from quadsim.core.types import ZMode
 from quadsim.drivers import InputDriver
 from quadsim.drivers.programmatic import IdleDriver
@@ -255,20 +254,3 @@ def fleet_plan(args: argparse.Namespace, command: str) -> Planned:
     until = f"for {duration:.1f} s" if duration < MAX_DURATION_S else "until Ctrl-C"
     who = ", ".join(f"{v.name} ({v.airframe}, {v.input_text})" for v in fleet_file.vehicles)
     return Planned(plan, f"a fleet of {len(fleet_file.vehicles)} {until}: {who}", live_inputs, realtime, args.fleet)
-
-
-def start_up_notes(plan: RunPlan) -> list[str]:
-    """What opening `plan` spends time on that a person would otherwise wait through in silence:
-    compiling the flight core (the first run after an install), starting the cameras."""
-    notes = []
-    if will_compile():
-        notes.append(f"compiling the flight core (numba; the first run after an install: {FIRST_COMPILE})")
-    cameras = (
-        sum(len(specs) for specs in plan.cameras.values()) if plan.cameras is not None else len(plan.outputs.cameras)
-    )
-    if cameras:
-        notes.append(
-            f"starting {cameras} camera{'s' * (cameras != 1)}"
-            + (f" and {plan.outputs.render_workers} render workers" if plan.outputs.render_workers else "")
-        )
-    return notes

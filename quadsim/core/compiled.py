@@ -93,9 +93,12 @@ def will_compile() -> bool:
     if not COMPILED:
         return False
     digest = flight_core_digest()
-    places = [_PACKAGE / name.rsplit("/", 1)[0] / "__pycache__" for name in FLIGHT_CORE]
-    places += [Path(p) for p in (os.environ.get("NUMBA_CACHE_DIR"),) if p]
-    places.append(Path.home() / ".cache" / "numba")
+    chosen = os.environ.get("NUMBA_CACHE_DIR")
+    if chosen:  # numba then keeps its cache there, and only there
+        places = [Path(chosen)]
+    else:  # next to the sources, or in the user's cache where those cannot be written
+        places = [_PACKAGE / name.rsplit("/", 1)[0] / "__pycache__" for name in FLIGHT_CORE]
+        places.append(Path.home() / ".cache" / "numba")
     for place in places:
         with contextlib.suppress(OSError):
             if next(place.rglob(f"*_{digest}-*.nbi"), None) is not None:

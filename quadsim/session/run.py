@@ -43,14 +43,23 @@ class Run:
     an odometer on every vehicle and the outputs (`outputs`). Use as a context manager: closing
     finishes the recording and closes the live bridges, then the fleet if the run built it."""
 
-    def __init__(self, plan: RunPlan, fleet: Fleet | None = None) -> None:
+    def __init__(self, plan: RunPlan, fleet: Fleet | None = None, say: Callable[[str], None] | None = None) -> None:
+        """`say`: told what opening the run spends time on, as it starts it (a first compile of
+        the flight core, the cameras), once the files it reads have been found good."""
         self.plan = plan
         self._owns_fleet = fleet is None
-        self.fleet = fleet if fleet is not None else _build(plan)
+        self.fleet = fleet if fleet is not None else _build(plan, say)
         try:
             self.odometers = {drone.name: Odometer(drone) for drone in self.fleet.members}
             for drone in self.fleet.members:
                 drone.add_sink(self.odometers[drone.name])
+            cameras = _camera_count(plan)
+            if say is not None and cameras:
+                workers = plan.outputs.render_workers
+                say(
+                    f"starting {cameras} camera{'s' * (cameras != 1)}"
+                    + (f" and {workers} render workers" * bool(workers))
+                )
             self.outputs = RecordedRun(
                 self.fleet, plan.outputs, plan.label, dict(plan.run_info), plan.live, plan.cameras
             )
@@ -162,8 +171,15 @@ class Run:
         self.close()
 
 
-def _build(plan: RunPlan) -> Fleet:
-    return Fleet(plan.vehicles, plan.config, plan.landing, plan.reset_on_crash, plan.texture_required, plan.wind)
+def _build(plan: RunPlan, say: Callable[[str], None] | None) -> Fleet:
+    return Fleet(plan.vehicles, plan.config, plan.landing, plan.reset_on_crash, plan.texture_required, plan.wind, say)
+
+
+def _camera_count(plan: RunPlan) -> int:
+    """How many cameras `plan` flies (a fleet's: every vehicle's)."""
+    if plan.cameras is not None:
+        return sum(len(specs) for specs in plan.cameras.values())
+    return len(plan.outputs.cameras)
 
 
 def fly(

@@ -17,6 +17,7 @@ import numpy as np
 from quadsim.control import Controller, builtin_kind, make_controller
 from quadsim.control.gate import CommandGate
 from quadsim.control.landing import FlightPhase, LandingSettings
+from quadsim.core.compiled import FIRST_COMPILE, will_compile
 from quadsim.core.parts import import_path
 from quadsim.core.types import Twist, VehicleState, ZMode
 from quadsim.drivers import InputDriver
@@ -48,13 +49,15 @@ class Drone:
         index: int = 0,
         controller: Controller | None = None,
         wind_model: WindModel | None = None,
+        say: Callable[[str], None] | None = None,
     ) -> None:
         """`config`: this vehicle's (its airframe, controller, z-mode, start, seed; the rates and
         the world are the run's); `client`: the world it flies in; `name`: what its topics and
         TF frames are prefixed with ("": a run of one vehicle, the contract's names unchanged);
         `index`: its place in the fleet; `controller`: a controller of the user's own (the
         Controller protocol), in place of the config's built-in one; `wind_model`: the run's
-        wind of the user's own, in place of the config's."""
+        wind of the user's own, in place of the config's; `say`: told before a slow part of
+        building it (a first compile of the flight core), for a person waiting."""
         self.name = name
         self.driver: InputDriver = driver if driver is not None else ProgrammaticDriver()
         if config.z_mode is None:  # the driver's wish (a script's z_mode line), else velocity
@@ -65,6 +68,8 @@ class Drone:
         self.config = config
         self.z_mode: ZMode = config.z_mode or ZMode.VELOCITY
         self.vehicle = load_vehicle(config.urdf, config.vehicle_params)
+        if say is not None and will_compile():  # the vehicle's files are good: the wait is the compile's
+            say(f"compiling the flight core (numba; the first run after an install: {FIRST_COMPILE})")
         self.world = client.world
         self._client = client
         rates = config.rates

@@ -18,7 +18,7 @@ topics are the recording contract's, unprefixed, and its random streams are the 
 from __future__ import annotations
 
 import math
-from collections.abc import Iterator, Mapping, Sequence
+from collections.abc import Callable, Iterator, Mapping, Sequence
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -71,12 +71,14 @@ class Fleet:
         reset_on_crash: bool = False,
         texture_required: bool = True,
         wind: WindModel | None = None,
+        say: Callable[[str], None] | None = None,
     ) -> None:
         """`config`: what the vehicles share (world, rates, wind, sensor noise, the run's seed);
         its vehicle, controller, z-mode and start are each vehicle's own. `texture_required`:
         False lets a world whose floor texture is missing load (a re-flight draws nothing).
         `wind`: a wind of your own (the WindModel protocol: the wind at a time and place), for
-        every vehicle, instead of the config's."""
+        every vehicle, instead of the config's. `say`: told before a slow part of building (a
+        first compile of the flight core), for a person waiting."""
         _check(vehicles, config)
         if wind is not None and config.wind.enabled:
             raise ConfigError("a wind model and the config's wind: give one (SimConfig's wind stays off with a model)")
@@ -111,6 +113,7 @@ class Fleet:
                     index,
                     own_controller,
                     wind,
+                    say,
                 )
         except BaseException:
             self.close()

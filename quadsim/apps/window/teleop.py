@@ -31,7 +31,6 @@ from typing import Any
 os.environ.setdefault("PYGAME_HIDE_SUPPORT_PROMPT", "1")
 import pygame
 
-from quadsim.apps.plans import start_up_notes
 from quadsim.apps.window.display import close_display, lost, open_display, run_frames, show_starting
 from quadsim.apps.window.vehicles import WindowVehicles
 from quadsim.apps.window.view import TeleopView, ViewModel
@@ -198,11 +197,15 @@ class TeleopApp:
         self.outputs = replace(outputs, ordered_delivery=False)  # show frames as soon as they are ready
         try:
             plan = self._plan(config, live, fleet)
-            notes = ["loading the world and the vehicles", *start_up_notes(plan)]
-            show_starting(self.screen, ["quadsim is starting", *notes])
-            for note in notes[1:]:  # the slow ones, said in the terminal too
+            said = ["quadsim is starting", "loading the world and the vehicles"]
+            show_starting(self.screen, said)
+
+            def say(note: str) -> None:  # a slow part starts: on the screen, and in the terminal
+                said.append(note)
+                show_starting(self.screen, said)
                 print(f"quadsim: {note}...", file=sys.stderr, flush=True)
-            self.session = Run(plan)
+
+            self.session = Run(plan, say=say)
         except BaseException:
             self.joystick.close()
             raise
