@@ -227,6 +227,7 @@ def test_the_replay_window_hands_the_recording_to_its_feed_as_it_plays(tmp_path:
         app.frame()
         assert sorted(name for name, _ in sink.messages[len(played) :]) == [
             "/robot_description",
+            "/robot_markers",
             "/tf_static",
             "/world/markers",
         ]
@@ -245,25 +246,30 @@ NODE_CACHE = Path.home() / ".cache" / "quadsim-tests" / "foxglove-node"
 
 
 def _node_modules() -> Path:
-    """The npm client's packages, installed once into the tests' cache; skip (saying why) where
+    """The npm client's packages (see npm_packages)."""
+    return npm_packages(NODE_CACHE, NODE_PACKAGES, "the @foxglove/ws-protocol client")
+
+
+def npm_packages(cache: Path, packages: tuple[str, ...], what: str) -> Path:
+    """`packages` installed once into `cache` (its node_modules folder); skip (saying why) where
     node or npm is missing or the registry cannot be reached."""
     node, npm = shutil.which("node"), shutil.which("npm")
     if node is None or npm is None:
-        pytest.skip("node and npm are needed for the @foxglove/ws-protocol client")
-    modules = NODE_CACHE / "node_modules"
-    stamp = NODE_CACHE / ".installed"
-    if stamp.exists() and stamp.read_text() == " ".join(NODE_PACKAGES):
+        pytest.skip(f"node and npm are needed for {what}")
+    modules = cache / "node_modules"
+    stamp = cache / ".installed"
+    if stamp.exists() and stamp.read_text() == " ".join(packages):
         return modules
-    NODE_CACHE.mkdir(parents=True, exist_ok=True)
+    cache.mkdir(parents=True, exist_ok=True)
     done = subprocess.run(
-        [npm, "install", "--no-audit", "--no-fund", "--prefix", str(NODE_CACHE), *NODE_PACKAGES],
+        [npm, "install", "--no-audit", "--no-fund", "--prefix", str(cache), *packages],
         capture_output=True,
         text=True,
         timeout=600,
     )
     if done.returncode != 0:
-        pytest.skip(f"npm could not install {' '.join(NODE_PACKAGES)}: {done.stderr.strip().splitlines()[-1:]}")
-    stamp.write_text(" ".join(NODE_PACKAGES))
+        pytest.skip(f"npm could not install {' '.join(packages)}: {done.stderr.strip().splitlines()[-1:]}")
+    stamp.write_text(" ".join(packages))
     return modules
 
 
