@@ -6,8 +6,8 @@
 //
 //   NODE_PATH=<harness>/node_modules node foxglove_studio_steps.js STUDIO_URL LOG_FILE STEP...
 //
-// STEP: open-file=URL | connect=WS_URL | import-layout=URL | show-all | wait=S | seek=FRACTION |
-// shot=FILE.png | sidebar=KEY. Each step's outcome goes to LOG_FILE; the exit code is 0 when
+// STEP: open-file=URL | connect=WS_URL | import-layout=URL | show-all | hold=N,MS | wait=S |
+// seek=FRACTION | shot=FILE.png | sidebar=KEY. Each step's outcome goes to LOG_FILE; the exit code is 0 when
 // every step was carried out.
 
 "use strict";
@@ -44,12 +44,23 @@ async function run(page, step) {
     // the 3D panel's settings (the gear in its toolbar: the first panel's), then the menu of the
     // Topics node -> Show All
     await page.locator('[data-testid="SettingsIcon"]').first().click();
-    await page.getByText("Topics", { exact: true }).first().waitFor();
-    await page.locator('[data-testid="node-actions-menu-button"]').first().click();
+    const topics = page.getByText("Topics", { exact: true }).first();
+    await topics.waitFor();
+    const row = topics.locator('xpath=ancestor::*[.//button[@data-testid="node-actions-menu-button"]][1]');
+    await row.locator('[data-testid="node-actions-menu-button"]').first().click();
     await page.getByRole("menuitem", { name: "Show All" }).click();
   } else if (name === "sidebar") {
     // open or close a sidebar by its key: connection (Data source), layouts, panel-settings...
     await page.locator(`[data-sidebar-key="${value}"]`).click();
+  } else if (name === "hold") {
+    // hold a Teleop panel's button down: N counts the buttons of every Teleop panel in the layout's
+    // order (each panel's up, down, left, right)
+    const [index, ms] = value.split(",").map(Number);
+    const box = await page.locator('svg[viewBox="0 0 256 256"] g[role=button]').nth(index).locator("path").first().boundingBox();
+    await page.mouse.move(box.x + box.width / 2, box.y + box.height / 2);
+    await page.mouse.down();
+    await page.waitForTimeout(ms);
+    await page.mouse.up();
   } else if (name === "wait") {
     await page.waitForTimeout(Number(value) * 1000);
   } else if (name === "seek") {

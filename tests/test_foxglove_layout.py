@@ -7,9 +7,6 @@ checked by TypeScript), and in a real Foxglove Studio 1.48 following docs/foxglo
 from __future__ import annotations
 
 import json
-import os
-import shutil
-import socket
 import subprocess
 from pathlib import Path
 from xml.etree import ElementTree
@@ -21,7 +18,8 @@ from mcap_ros2.decoder import DecoderFactory
 from quadsim.recording import scene
 from quadsim.recording.contract import typestore
 from quadsim.vehicle.params import SHIPPED_VEHICLES
-from tests.test_cli import ROOT, cli
+from tests import foxglove_studio
+from tests.test_cli import cli
 from tests.test_foxglove import npm_packages
 
 FLEET = """
@@ -184,6 +182,10 @@ def test_the_layout_of_a_live_fleet_has_teleop_on_each_foxglove_vehicles_topic(f
     layout, _ = _layout(str(fleet.parent / "live.toml"), "-o", "live.json", cwd=fleet.parent)
     teleops = _panels(layout, "Teleop")
     assert [t["topic"] for t in teleops] == ["/charlie/quad_cmd_twist"] * 2
+    assert [t["foxglovePanelTitle"] for t in teleops] == [
+        "charlie: forward, back, turn",
+        "charlie: climb, descend, sideways",
+    ]
     buttons = {(b["field"], b["value"]) for t in teleops for k, b in t.items() if k.endswith("Button")}
     assert {("linear-x", 1.0), ("linear-x", -1.0), ("linear-z", 1.0), ("linear-z", -1.0)} <= buttons
     assert {("angular-z", 0.5), ("angular-z", -0.5), ("linear-y", 1.0), ("linear-y", -1.0)} <= buttons
@@ -239,8 +241,10 @@ def _type_check(layout: dict, folder: Path) -> subprocess.CompletedProcess:
     lines = [f'import type {{ {", ".join(sorted(SCHEMA_TYPES.values()))} }} from "@foxglove/embed";']
     for i, (panel, config) in enumerate(layout["configById"].items()):
         kind = SCHEMA_TYPES.get(panel.split("!")[0])
-        if kind is not None:
-            lines.append(f"export const panel{i}: {kind} = {json.dumps(config)};")
+        if kind is not None:  # a title is the panel's, beside its settings in the schema
+            settings = {k: v for k, v in config.items() if k != "foxglovePanelTitle"}
+            assert isinstance(config.get("foxglovePanelTitle", ""), str)
+            lines.append(f"export const panel{i}: {kind} = {json.dumps(settings)};")
     (folder / "layout.ts").write_text("\n".join(lines) + "\n")
     (folder / "node_modules").unlink(missing_ok=True)
     (folder / "node_modules").symlink_to(modules)
@@ -264,98 +268,29 @@ def test_every_layout_matches_the_current_foxglove_apps_layout_schema(fleet, tmp
 
 # --- a real Foxglove Studio 1.48 ------------------------------------------------------------------
 
-HARNESS = Path(os.environ.get("QUADSIM_FOXGLOVE_STUDIO", ROOT.parent / "shared" / "foxglove-studio"))
-STUDIO_DIR = Path.home() / ".cache" / "quadsim-tests" / "foxglove-studio-1.48"
-STEPS = Path(__file__).with_name("foxglove_studio_steps.js")
-
-
-def _studio() -> Path:
-    """Foxglove Studio 1.48 set up by its harness (once), or skip saying what is missing."""
-    if shutil.which("chromium") is None and "CHROMIUM" not in os.environ:
-        pytest.skip("Chromium is needed for Foxglove Studio 1.48 (apt-get install chromium)")
-    if shutil.which("node") is None or shutil.which("npm") is None or not (HARNESS / "setup.sh").is_file():
-        pytest.skip(f"node, npm and the Foxglove Studio harness ({HARNESS}) are needed")
-    if not (STUDIO_DIR / "node_modules" / "@foxglove" / "studio-base").is_dir():
-        done = subprocess.run(["bash", str(HARNESS / "setup.sh"), str(STUDIO_DIR)], capture_output=True, text=True)
-        if done.returncode != 0:
-            pytest.skip(f"the harness could not be set up: {done.stderr.strip().splitlines()[-1:]}")
-    return STUDIO_DIR
-
-
-def _free_port() -> int:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return int(s.getsockname()[1])
-
-
-def _vehicles_drawn(png: Path, box: tuple[int, int, int, int]) -> int:
-    """How many vehicles the screenshot's `box` (left, top, right, bottom) shows: places where the
-    red and the blue of the shipped airframes' rotors meet (a world with no landmarks, the frames'
-    axes hidden, has nothing else of either colour)."""
-    import cv2
-    import numpy as np
-
-    image = cv2.imread(str(png))[box[1] : box[3], box[0] : box[2]].astype(int)
-    b, g, r = image[..., 0], image[..., 1], image[..., 2]
-    red = ((r > 170) & (g < 80) & (b < 80)).astype(np.uint8)
-    blue = ((b > 170) & (r < 100) & (g < 140)).astype(np.uint8)
-    near = np.ones((41, 41), np.uint8)  # a vehicle's rotors, tens of pixels apart, make one place
-    count, labels = cv2.connectedComponents(cv2.dilate(red | blue, near))
-    return sum(1 for i in range(1, count) if (red[labels == i].sum() >= 4 and blue[labels == i].sum() >= 4))
-
 
 @pytest.mark.slow
 def test_studio_148_draws_every_vehicle_of_a_fleet_after_importing_its_layout(tmp_path):
     """docs/foxglove.md's steps in Studio 1.48: open the recording, import the layout quadsim
     wrote for it; the 3D panel draws each vehicle's model (a recording without /NAME/robot_markers
     shows none: Studio 1.48 cannot draw /NAME/robot_description)."""
-    studio = _studio()
+    try:
+        foxglove_studio.studio()
+    except foxglove_studio.NoStudio as exc:
+        pytest.skip(str(exc))
     (tmp_path / "plain.toml").write_text("[floor]\nsize_m = 40.0\n")
-    (tmp_path / "two.toml").write_text(
-        FLEET.split('[[vehicle]]\nname = "charlie"')[0].replace('cameras = ["front"]', "")
-    )
+    two = FLEET.split('[[vehicle]]\nname = "charlie"')[0].replace('cameras = ["front"]', "")
+    (tmp_path / "two.toml").write_text(two)
     fleet = tmp_path / "two.mcap"
-    out = cli(
-        "run",
-        "--fleet",
-        str(tmp_path / "two.toml"),
-        "--world",
-        str(tmp_path / "plain.toml"),
-        "--duration",
-        "2",
-        "--out",
-        str(fleet),
-    )
+    plain = ("--world", str(tmp_path / "plain.toml"), "--duration", "2", "--out", str(fleet))
+    out = cli("run", "--fleet", str(tmp_path / "two.toml"), *plain)
     assert out.returncode == 0, out.stderr
     layout, _ = _layout(str(fleet), cwd=tmp_path)
     layout["configById"]["3D!quadsim"]["transforms"]["frame:world"] = {"visible": False}  # its axes are red and blue
     (tmp_path / "two.layout.json").write_text(json.dumps(layout))
-    port = _free_port()
-    mapped = [f"/data/{name}={tmp_path / name}" for name in ("two.mcap", "two.layout.json")]
-    server = subprocess.Popen(
-        ["node", "server.js", str(port), "www", *mapped], cwd=studio, stdout=subprocess.PIPE, text=True
-    )
-    try:
-        assert server.stdout is not None and "serving" in server.stdout.readline()
-        shot = tmp_path / "after.png"
+    shot = tmp_path / "shot.png"
+    with foxglove_studio.served({"two.mcap": fleet, "two.layout.json": tmp_path / "two.layout.json"}) as url:
         steps = ["open-file=/data/two.mcap", "wait=5", "import-layout=/data/two.layout.json", "sidebar=layouts"]
-        done = subprocess.run(
-            [
-                "node",
-                str(STEPS),
-                f"http://127.0.0.1:{port}/",
-                str(tmp_path / "steps.log"),
-                *steps,
-                "wait=6",
-                f"shot={shot}",
-            ],
-            env={**os.environ, "NODE_PATH": str(studio / "node_modules")},
-            capture_output=True,
-            text=True,
-            timeout=900,
-        )
-        assert done.returncode == 0, (tmp_path / "steps.log").read_text()[:2000]
-    finally:
-        server.terminate()
-        server.wait()
-    assert _vehicles_drawn(shot, (60, 40, 1000, 900)) == 2  # the 3D panel, left of the plot and the log
+        foxglove_studio.follow_steps(url, tmp_path / "steps.log", *steps, "wait=6", f"shot={shot}")
+    panel = (60, 40, 1000, 900)  # the 3D panel, left of the plot and the log
+    assert foxglove_studio.vehicles_drawn(shot, panel) == 2 and foxglove_studio.vehicle_names_drawn(shot, panel) == 2

@@ -12,8 +12,10 @@ The layout is the layout data the apps export and import ("Import from file"): `
 (panel id -> its settings; the id says the panel's type: `3D!quadsim`), the `layout` tree that
 places the panels (a split is {direction, first, second, splitPercentage}), `globalVariables`,
 `userNodes` and `playbackConfig`. Only settings that Studio 1.48 and the current app's published
-layout schema (@foxglove/embed) both know are written; the images use Studio 1.x's image panel
-(`ImageViewPanel`), which later apps turn into their own Image panel when they import it.
+layout schema (@foxglove/embed) both know are written, and a panel's title, which the layout data
+keeps among the panel's settings as `foxglovePanelTitle` (the schema puts it beside them, as
+`title`); the images use Studio 1.x's image panel (`ImageViewPanel`), which later apps turn into
+their own Image panel when they import it.
 """
 
 from __future__ import annotations
@@ -42,6 +44,8 @@ IMAGE_SUFFIX = "/image_raw/compressed"
 #: two cameras each would leave each image a stamp)
 MAX_IMAGES = 4
 MAX_PLOTTED = 8
+#: a panel's title in the layout data, among its settings (the layout schema's `title` of a panel)
+TITLE_KEY = "foxglovePanelTitle"
 #: the Teleop panels' buttons: one panel moves and turns, the other climbs and slides sideways
 TELEOP_RATE_HZ = 20
 TELEOP_SPEED_MPS = 1.0
@@ -124,12 +128,13 @@ def foxglove_layout(vehicles: Sequence[LayoutVehicle], world: bool = True) -> di
         }
         right.append(panel)
     for i, vehicle in enumerate(v for v in vehicles if v.teleop):
-        for kind, buttons in _TELEOP_BUTTONS.items():
+        for kind, (title, buttons) in _TELEOP_BUTTONS.items():
             panel = f"Teleop!{kind}{i}"
             panels[panel] = {
                 "topic": vehicle.names.topic(TWIST).name,
                 "publishRate": TELEOP_RATE_HZ,
                 **{button: {"field": field, "value": value} for button, (field, value) in buttons.items()},
+                TITLE_KEY: f"{vehicle.name or 'Teleop'}: {title}",
             }
             right.append(panel)
     panels["Plot!altitude"] = _altitude_plot(vehicles)
@@ -150,18 +155,24 @@ def layout_json(layout: Mapping[str, Any]) -> str:
 
 
 _TELEOP_BUTTONS = {
-    "move": {
-        "upButton": ("linear-x", TELEOP_SPEED_MPS),
-        "downButton": ("linear-x", -TELEOP_SPEED_MPS),
-        "leftButton": ("angular-z", TELEOP_YAW_RATE_RADPS),
-        "rightButton": ("angular-z", -TELEOP_YAW_RATE_RADPS),
-    },
-    "climb": {
-        "upButton": ("linear-z", TELEOP_SPEED_MPS),
-        "downButton": ("linear-z", -TELEOP_SPEED_MPS),
-        "leftButton": ("linear-y", TELEOP_SPEED_MPS),
-        "rightButton": ("linear-y", -TELEOP_SPEED_MPS),
-    },
+    "move": (
+        "forward, back, turn",
+        {
+            "upButton": ("linear-x", TELEOP_SPEED_MPS),
+            "downButton": ("linear-x", -TELEOP_SPEED_MPS),
+            "leftButton": ("angular-z", TELEOP_YAW_RATE_RADPS),
+            "rightButton": ("angular-z", -TELEOP_YAW_RATE_RADPS),
+        },
+    ),
+    "climb": (
+        "climb, descend, sideways",
+        {
+            "upButton": ("linear-z", TELEOP_SPEED_MPS),
+            "downButton": ("linear-z", -TELEOP_SPEED_MPS),
+            "leftButton": ("linear-y", TELEOP_SPEED_MPS),
+            "rightButton": ("linear-y", -TELEOP_SPEED_MPS),
+        },
+    ),
 }
 
 
@@ -179,7 +190,7 @@ def _three_dee(vehicles: Sequence[LayoutVehicle], world: bool) -> dict[str, Any]
         ys = [v.start_xy_m[1] for v in vehicles] or [0.0]
         target = ((min(xs) + max(xs)) / 2, (min(ys) + max(ys)) / 2)
         spread = math.hypot(max(xs) - min(xs), max(ys) - min(ys))
-        follow, distance = WORLD_FRAME, max(MIN_FLEET_DISTANCE_M, 1.5 * spread)
+        follow, distance = WORLD_FRAME, max(MIN_FLEET_DISTANCE_M, 2.0 * spread)
     return {
         "cameraState": {
             "distance": round(distance, 2),
@@ -215,6 +226,7 @@ def _altitude_plot(vehicles: Sequence[LayoutVehicle]) -> dict[str, Any]:
     ]
     return {
         "paths": paths,
+        TITLE_KEY: "altitude (m)",
         "showLegend": True,
         "legendDisplay": "floating",
         "showPlotValuesInLegend": True,
