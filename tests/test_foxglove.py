@@ -90,7 +90,7 @@ def test_a_client_watches_every_topic_and_flies_it_with_twists(tmp_path: Path) -
     assert set(flown["serverInfo"]["supportedEncodings"]) >= {"json", "cdr"}
     topics = flown["topics"]
     expected = {"/quad_cmd_twist", "/quad/pose", "/quad/odom", "/quad/imu", "/quad/rotor_thrusts", "/tf", "/tf_static"}
-    expected |= {"/robot_description", "/world/markers"}
+    expected |= {"/robot_description", "/robot_markers", "/world/markers"}
     expected |= {*IMAGES, "/quad/front_camera/camera_info", "/quad/floor_camera/camera_info"}
     assert expected <= set(topics), sorted(set(expected) - set(topics))
     assert flown["undecodable"] == 0
@@ -529,6 +529,9 @@ def test_a_client_flies_one_vehicle_of_a_fleet_on_its_topic_while_a_script_flies
         topics
     )
     assert topics["/bravo/quad/odom"]["last"]["child"] == "bravo/base_link"
+    for name in ("alpha", "bravo"):  # each vehicle's model, drawn in its own frames (latched: got on joining)
+        model = topics[f"/{name}/robot_markers"]["last"]
+        assert model["markers"] > 5 and all(f.startswith(f"{name}/") for f in model["frames"]), model
     children = topics["/tf_static"]["first"]["children"]
     assert any(c.startswith("alpha/rotor") for c in children) and any(c.startswith("bravo/rotor") for c in children)
     assert any("takes only geometry_msgs/msg/Twist on /bravo/quad_cmd_twist" in s for s in wrong.get("status", []))
