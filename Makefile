@@ -36,9 +36,15 @@ docs: $(STAMP)
 docs-serve: $(STAMP)
 	NO_MKDOCS_2_WARNING=1 $(VENV)/bin/mkdocs serve
 
-## test: set up, lint, build the docs, then run the whole test suite headless
+## test: set up, lint, build the docs, then run the whole test suite headless: in parallel on every
+## core, then the tests that need the machine to themselves one after another (tests/conftest.py);
+## both parts run, and a failure in either fails
+HEADLESS := SDL_VIDEODRIVER=dummy SDL_AUDIODRIVER=dummy
 test: lint docs
-	SDL_VIDEODRIVER=dummy SDL_AUDIODRIVER=dummy $(PY) -m pytest
+	@status=0; \
+	$(HEADLESS) $(PY) -m pytest -n auto -m "not whole_machine" || status=1; \
+	$(HEADLESS) $(PY) -m pytest -m whole_machine || status=1; \
+	exit $$status
 
 bench: $(RUNTIME)
 	$(PY) main.py bench

@@ -1,4 +1,6 @@
-"""quadsim command-line entry: `python main.py --help`."""
+"""quadsim command-line entry from a clone: `.venv/bin/python main.py --help`. One run, top down:
+quadsim/apps/launch.py, apps/cli.py, apps/commands/run.py, apps/plans.py (the RunPlan), apps/flying.py,
+session/run.py (the Run), sim/fleet.py, sim/drone.py, sim/loop.py, physics/pybullet_world.py."""
 
 # first of all, before any import of quadsim's: hold SIGINT and SIGTERM back until quadsim's
 # entry point takes them (quadsim.apps.launch does the same; its main() lets them through)

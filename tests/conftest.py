@@ -23,3 +23,36 @@ def vehicle():
     from quadsim.vehicle.params import load_vehicle
 
     return load_vehicle()
+
+
+#: Test files that need the machine to themselves: they fly in real time against real peers and
+#: windows, post signals into running flights or load every core (CPU hogs, Ray). `make test` runs
+#: them one after another, after the rest has run in parallel (pytest-xdist).
+WHOLE_MACHINE = frozenset(
+    {
+        "test_camera_accounts.py",
+        "test_check_parallel.py",
+        "test_damaged_corpus.py",
+        "test_foxglove.py",
+        "test_foxglove_front.py",
+        "test_gamepad.py",
+        "test_killed_camera_run.py",
+        "test_recording_safety.py",
+        "test_ros2.py",
+        "test_ros2_bridge.py",
+        "test_signals.py",
+        "test_sweep.py",
+        "test_window_realtime.py",
+        "test_window_x11.py",
+    }
+)
+
+
+def pytest_configure(config):
+    config.addinivalue_line("markers", "whole_machine: needs the machine to itself (make test runs these serially)")
+
+
+def pytest_collection_modifyitems(config, items):
+    for item in items:
+        if item.path.name in WHOLE_MACHINE:
+            item.add_marker(pytest.mark.whole_machine)

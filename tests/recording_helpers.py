@@ -73,17 +73,19 @@ def copy_recording(
 COMMAND_TIMEOUT_NS = 500_000_000
 
 
-def commanded_motion(commands: Sequence[tuple[int, Twist]]) -> tuple[float, float, float, float]:
+def commanded_motion(
+    commands: Sequence[tuple[int, Twist]], timeout_ns: int = COMMAND_TIMEOUT_NS
+) -> tuple[float, float, float, float]:
     """Where velocity-mode commands, as a recording received them, ask the vehicle to go from where
     it started (x, y, z in m, the heading turned in rad): each command holds from its log time
-    until the next, or the dead-man timeout, its linear.x/y along the heading of the moment.
+    until the next, or the dead-man timeout (`timeout_ns`: the input's), its linear.x/y along the heading of the moment.
     Measured against what was received, in simulation time, an outcome does not depend on how a
     loaded machine kept a peer's wall-clock pace (the climb a ROS 2 node sent for 2.5 s of wall
     time once reached quadsim as 1.8 s of simulation time)."""
     x = y = z = yaw = 0.0
-    ends = [ns for ns, _ in commands[1:]] + [commands[-1][0] + COMMAND_TIMEOUT_NS]
+    ends = [ns for ns, _ in commands[1:]] + [commands[-1][0] + timeout_ns]
     for (ns, t), end in zip(commands, ends, strict=True):
-        held_s = min(end - ns, COMMAND_TIMEOUT_NS) / 1e9
+        held_s = min(end - ns, timeout_ns) / 1e9
         c, s = math.cos(yaw), math.sin(yaw)
         x += (c * t.linear_x - s * t.linear_y) * held_s
         y += (s * t.linear_x + c * t.linear_y) * held_s

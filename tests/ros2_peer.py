@@ -2,7 +2,9 @@
 Jazzy or Kilted wheels), as a user's node would be: it flies quadsim with Twists and reads what
 quadsim publishes. Not a test module: tests/test_ros2.py and the benchmark start it.
 
-    python ros2_peer.py fly OUT.json [TOPIC]   climb, forward, left, turn; count every topic; read the graph
+    python ros2_peer.py fly OUT.json [TOPIC [PREFIX]]
+                                               climb, forward, left, turn; count every topic; read the
+                                               graph (odometry on PREFIX/quad/odom: a namespace)
     python ros2_peer.py latency OUT.json       publish a new climb rate every 0.25 s; report when each went out
     python ros2_peer.py program OUT.json PHASES
                                                fly PHASES, JSON [[SECONDS, {"linear_x": V, ...}], ...]
@@ -16,7 +18,9 @@ TOPIC is where the Twists go (default /quad_cmd_twist).
 
 from __future__ import annotations
 
+import itertools
 import json
+import statistics
 import sys
 import time
 from typing import Any
@@ -68,6 +72,8 @@ def main() -> int:
     program = json.loads(sys.argv[3]) if mode == "program" else []
     cmd_topic = sys.argv[3] if len(sys.argv) > 3 and mode != "program" else "/quad_cmd_twist"
     prefix = f"/{sys.argv[3]}" if mode == "fleet" else ""  # a fleet vehicle's topics have its name in front
+    if mode == "fly" and len(sys.argv) > 4:
+        prefix = sys.argv[4]  # quadsim's namespace
     others = sys.argv[4].split(",") if mode == "fleet" else []
     if mode == "fleet":
         cmd_topic = f"{prefix}/quad_cmd_twist"
@@ -93,7 +99,11 @@ def main() -> int:
         stamp = m.header.stamp.sec * 10**9 + m.header.stamp.nanosec
         odoms.append({"ns": stamp, "x": p.x, "y": p.y, "z": p.z, "frame": m.header.frame_id})
 
+    frame_lag_ns: list[int] = []  # how far each front frame's stamp is behind the newest odometry's
+
     def on_image(m: CompressedImage) -> None:
+        if odoms:
+            frame_lag_ns.append(odoms[-1]["ns"] - (m.header.stamp.sec * 10**9 + m.header.stamp.nanosec))
         if not images:
             images.append(bytes(m.data))
             formats.append(m.format)
@@ -170,10 +180,16 @@ def main() -> int:
         "first_clock_wall_s": first_clock_wall_s[0] if first_clock_wall_s else None,
         "clock_ns": clock_ns[:1] + clock_ns[-1:],
         "clock_count": len(clock_ns),
+        # a use_sim_time node's time jumps back (tf2 and RViz clear their buffers) at each of these
+        "clock_backward": sum(b < a for a, b in itertools.pairwise(clock_ns)),
+        "clock_repeated": sum(b == a for a, b in itertools.pairwise(clock_ns)),
+        "clock_smallest_step_ns": min((b - a for a, b in itertools.pairwise(clock_ns)), default=0),
         "odom_count": len(odoms),
         "odom_last": odoms[-1] if odoms else None,
         "odoms": odoms[-50:],
         "image_count": len(images),
+        "frame_lag_median_s": statistics.median(frame_lag_ns) / 1e9 if frame_lag_ns else None,
+        "frame_lag_max_s": max(frame_lag_ns) / 1e9 if frame_lag_ns else None,
         "image_format": formats[0] if formats else None,
         "image_hex": images[0].hex() if images else "",
         "counts": counts,

@@ -63,7 +63,7 @@ def test_sync_images_are_deterministic_and_see_the_tower_with_depth_and_labels()
     assert np.isinf(a.depth_m[a.segmentation == -1]).all()  # sky: nothing drawn
 
 
-def test_pipelined_frames_match_the_synchronous_ones_and_are_recorded(tmp_path):
+def test_pipelined_frames_match_the_synchronous_ones_and_are_recorded(tmp_path, caplog):
     with Simulator(SimConfig(z_mode=ZMode.VELOCITY)) as sim, Cameras(sim, (FRONT,)) as sync_cams:
         _climb(sim, 240)
         reference = sync_cams.latest("front")
@@ -81,7 +81,10 @@ def test_pipelined_frames_match_the_synchronous_ones_and_are_recorded(tmp_path):
             assert np.array_equal(got.rgb, reference.rgb)
     frames = load_flight(out).frames["front"]
     assert frames, "the pipelined frames were recorded"
-    assert round(frames[-1][0] * 240 / 1e9) == got.step
+    last = round(frames[-1][0] * 240 / 1e9)
+    # the newest frame is in the file, unless a busy machine rendered it more than the recorder's
+    # hold after its moment: then it is left out, and the recording says so
+    assert last == got.step or (last < got.step and "were left out of" in caplog.text), (last, got.step)
 
 
 def test_a_recording_with_sync_cameras_holds_the_images_code_saw(tmp_path):

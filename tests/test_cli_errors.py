@@ -355,3 +355,8 @@ def test_what_a_user_trial_found_last_is_refused_in_one_line(capsys, tmp_path):
     code, _, err = run_cli(capsys, "replay", recording, "--headless", "--plot", str(tmp_path / "p.png"))
     assert_one_line_error(code, err, "p.png already exists; choose another --plot")
     assert (tmp_path / "p.png").read_bytes() == b"keep"
+
+
+def test_live_timeout_without_a_live_input_is_one_line(capsys) -> None:
+    code, _, err = run_cli(capsys, "run", "--script", "hover", "--live-timeout", "0.2", "--no-record")
+    assert_one_line_error(code, err, "--live-timeout is for a live input")

@@ -225,7 +225,8 @@ def test_the_scene_is_latched_for_every_consumer_with_its_meshes_inline(tmp_path
     from quadsim.vehicle.params import DEFAULT_URDF, default_params_path, load_vehicle
 
     (tmp_path / "meshes").mkdir()
-    (tmp_path / "meshes" / "arm.stl").write_bytes(b"solid arm\nendsolid arm\n")
+    arm = b"solid arm\nfacet normal 0 0 1\nouter loop\nvertex 0 0 0\nvertex 0.1 0 0\nvertex 0 0.1 0\nendloop\nendfacet\nendsolid arm\n"
+    (tmp_path / "meshes" / "arm.stl").write_bytes(arm)  # one facet: PyBullet gets a binary copy (vehicle/meshes.py)
     urdf = tmp_path / "meshy.urdf"
     mesh_visual = '<visual><geometry><mesh filename="meshes/arm.stl" scale="1 1 1"/></geometry></visual><visual>'
     urdf.write_text(DEFAULT_URDF.read_text().replace("<visual>", mesh_visual, 1))
@@ -238,7 +239,7 @@ def test_the_scene_is_latched_for_every_consumer_with_its_meshes_inline(tmp_path
     decoded = {t.name: (ns, TS.deserialize_cdr(d, t.type_name)) for t, ns, d in late.messages}
     assert {ns for ns, _ in decoded.values()} == {2_000_000_000}
     description = decoded["/robot_description"][1].data
-    inline = base64.b64encode(b"solid arm\nendsolid arm\n").decode()
+    inline = base64.b64encode(arm).decode()  # the file as it is: viewers read ASCII STL
     assert f'filename="data:model/stl;base64,{inline}"' in description
     assert description.count("<link ") == DEFAULT_URDF.read_text().count("<link ")  # the rest as it was
     static = decoded["/tf_static"][1].transforms

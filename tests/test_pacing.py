@@ -118,3 +118,21 @@ def test_a_fixed_step_pacer_steps_the_same_every_frame():
     assert [pacer.steps_for_frame(n) for n in (0, 8, 16)] == [8, 8, 8]
     pacer.rebase(16, speed=0.5)
     assert pacer.steps_for_frame(16) == 4
+
+
+def test_a_paced_run_catches_up_a_chunk_at_a_time():
+    """Behind the wall clock, a paced run steps what is due a chunk (1/60 s) at a time, with its
+    progress, its cameras' frames and a stop request seen between chunks, not in one burst."""
+    clock = FakeClock()
+    plan = RunPlan.alone(SimConfig(), ScriptedDriver(load_script("hover")), duration_s=1.0)
+    flown: list[float] = []
+
+    def stall_once(flown_s: float) -> None:
+        flown.append(flown_s)
+        if len(flown) == 1:
+            clock.now += 0.5  # the machine stalls half a second after the first chunk
+
+    with Run(plan) as run:
+        run.fly(RealTimePacer(240, max_frame_s=None, clock=clock, sleep=clock.sleep), stall_once, stop=lambda: False)
+    steps = [round(b * 240) - round(a * 240) for a, b in zip([0.0, *flown], flown)]
+    assert sum(steps) == 240 and max(steps) == 4  # a chunk at a time, the half second caught up too

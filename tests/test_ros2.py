@@ -45,13 +45,15 @@ def _beside_peer(
     node_env: dict[str, str] | None = None,
     program: str | None = None,
     fleet: tuple[str, str] | None = None,
+    prefix: str = "",
 ) -> tuple[subprocess.CompletedProcess[str], dict]:
     """Run quadsim with `quadsim_args` while the ROS 2 peer flies (it starts publishing once /clock
-    comes): its climb, forward, left and turn on `cmd_topic`, or `program` (JSON phases, see
-    tests/ros2_peer.py), or with `fleet` (NAME, OTHERS) the climb, forward, left and turn of that
-    fleet vehicle; return quadsim's outcome and the peer's report."""
+    comes): its climb, forward, left and turn on `cmd_topic` (reading odometry under `prefix`: a
+    namespace), or `program` (JSON phases, see tests/ros2_peer.py), or with `fleet` (NAME, OTHERS)
+    the climb, forward, left and turn of that fleet vehicle; return quadsim's outcome and the
+    peer's report."""
     report_path = folder / "peer.json"
-    mode = ["fly", str(report_path), cmd_topic] if program is None else ["program", str(report_path), program]
+    mode = ["fly", str(report_path), cmd_topic, prefix] if program is None else ["program", str(report_path), program]
     if fleet is not None:
         mode = ["fleet", str(report_path), *fleet]
     peer = subprocess.Popen(
@@ -147,12 +149,16 @@ def test_a_ros2_node_flies_quadsim_and_reads_what_it_publishes(ros2_flight: tupl
 
     # a JPEG that decodes to the camera's size
     assert report["image_count"] > 20 and report["image_format"] == "jpeg"
+    assert report["frame_lag_median_s"] is not None  # frames came after odometry: how far behind, measured
     image = cv2.imdecode(np.frombuffer(bytes.fromhex(report["image_hex"]), np.uint8), cv2.IMREAD_COLOR)
     assert image is not None and image.shape == (120, 160, 3)
 
-    # /clock advanced with simulation time
+    # /clock advanced with simulation time, at the state rate, never back nor twice the same, though both
+    # cameras' frames arrive after the states that followed them (issue 32: 190 steps back in 49 s)
     first, last = report["clock_ns"]
     assert report["clock_count"] > 100 and last - first > 4_000_000_000
+    assert (report["clock_backward"], report["clock_repeated"]) == (0, 0)
+    assert report["clock_count"] <= report["odom_count"] + 5  # one tick a state (not one a frame as well)
 
     # the graph: a node /quadsim; its /tf, /tf_static (no tf2_msgs wheels: seen here, not read) and odometry
     # writers and its Twist reader, named as quadsim's on Jazzy; Kilted's Fast DDS 3 files them under a
@@ -197,6 +203,7 @@ def test_replay_publishes_the_recording_as_it_plays(ros2_flight: tuple[Path, str
     assert report["image_count"] > 20
     first, last = report["clock_ns"]
     assert last - first > 4_000_000_000  # /clock follows the playback (twice as fast as the wall clock)
+    assert (report["clock_backward"], report["clock_repeated"]) == (0, 0)  # no seek, no loop: never back
 
 
 def test_without_cyclonedds_a_one_line_message_says_how_to_install(tmp_path: Path, monkeypatch) -> None:
@@ -223,24 +230,74 @@ def test_without_cyclonedds_a_one_line_message_says_how_to_install(tmp_path: Pat
 
 
 def test_namespace_and_remapping_name_the_topics_as_ros2_would() -> None:
+    """As rcl expands them: quadsim's topics are relative names (in the namespace) but for the four ROS 2
+    nodes name absolutely; a rule's FROM and TO are expanded in the namespace (a relative one lands there,
+    `~/` in the node's own) and the rule matches the fully qualified name."""
     from quadsim.errors import QuadsimError
-    from quadsim.live.ros2 import Ros2Bridge
+    from quadsim.live.ros2 import Ros2Bridge, graph_names, graph_topic
 
     env = local_env(free_domain(len(CASES) + 1))
-    with Ros2Bridge(env=env, namespace="robot1", remaps=["/quad_cmd_twist:=/cmd_vel", "/quad/imu:=imu_raw"]) as bridge:
+    rules = ["/robot1/quad_cmd_twist:=/cmd_vel", "quad/imu:=imu_raw", "quadsim:quad/pose:=~/pose", "/tf:=tf"]
+    with Ros2Bridge(env=env, namespace="robot1", remaps=rules) as bridge:
         assert bridge.graph_name("/quad/odom") == "/robot1/quad/odom"
-        for name in ("/clock", "/tf", "/tf_static", "/rosout"):  # named absolutely by ROS 2 nodes
+        for name in ("/clock", "/tf_static", "/rosout"):  # named absolutely by ROS 2 nodes
             assert bridge.graph_name(name) == name
-        assert bridge.graph_name("/quad_cmd_twist") == "/cmd_vel"
-        assert bridge.graph_name("/quad/imu") == "/robot1/imu_raw"  # a relative target lands in the namespace
+        assert bridge.graph_name("/quad_cmd_twist") == "/cmd_vel"  # the fully qualified rule (issue 32: ignored)
+        assert bridge.graph_name("/quad/imu") == "/robot1/imu_raw"  # relative on both sides: in the namespace
+        assert bridge.graph_name("/quad/pose") == "/robot1/quadsim/pose"  # for this node only; to its own name
+        assert bridge.graph_name("/tf") == "/robot1/tf"
         (line, warning), *rest = bridge.startup_lines(takes_twist=True)
         assert line.startswith("ROS 2: node /robot1/quadsim on domain ") and "(discovery range LOCALHOST)" in line
+        assert line.endswith("it takes geometry_msgs/Twist on /cmd_vel")
         assert not warning and rest == []  # LOCALHOST: nobody else can fly it
-    for bad in ("/quad_cmd_twist=/cmd_vel", "/quad_cmd_twist:=", "/quad cmd:=/x"):
+    assert graph_topic("/quad_cmd_twist", *graph_names("", ["quad_cmd_twist:=cmd_vel"])) == "/cmd_vel"
+    assert graph_topic("/alpha/quad_cmd_twist", *graph_names("t4ns", ["alpha/quad_cmd_twist:=/a"])) == "/a"
+    for bad in ("/quad_cmd_twist=/cmd_vel", "/quad_cmd_twist:=", "/quad cmd:=/x", "other:/x:=/y"):
         with pytest.raises(QuadsimError, match="a remapping is FROM:=TO"):
             Ros2Bridge(env=env, remaps=[bad])
+    # a rule that cannot match under the namespace is refused, saying what would
+    with pytest.raises(QuadsimError) as refused:
+        graph_names("t4ns", ["/quad_cmd_twist:=/cmd_vel"])
+    assert str(refused.value) == (
+        "--ros-remap /quad_cmd_twist:=/cmd_vel: under --ros-namespace t4ns quadsim's topics are in /t4ns (all but "
+        "/clock, /rosout, /tf, /tf_static), so /quad_cmd_twist names none of them (ROS 2 would ignore the rule); "
+        "write /t4ns/quad_cmd_twist:=/cmd_vel or quad_cmd_twist:=/cmd_vel"
+    )
     with pytest.raises(QuadsimError, match="--ros-namespace must be a ROS 2 name"):
         Ros2Bridge(env=env, namespace="robot 1")
+
+
+NAMESPACED = [
+    ("jazzy", "/t4ns/quad_cmd_twist:=/cmd_vel", "/cmd_vel"),
+    ("kilted", "quad_cmd_twist:=cmd_vel", "/t4ns/cmd_vel"),
+]
+
+
+@pytest.mark.parametrize(("distribution", "rule", "cmd_topic"), NAMESPACED, ids=[d for d, _, _ in NAMESPACED])
+def test_a_ros2_node_flies_a_namespaced_quadsim_on_the_topic_a_remap_rule_names(
+    distribution: str, rule: str, cmd_topic: str, tmp_path: Path
+) -> None:
+    """--ros-namespace t4ns with a fully qualified rule (Jazzy) and a relative one (Kilted): the node
+    publishes on the remapped topic, reads /t4ns/quad/odom and finds /t4ns/quadsim; every line quadsim
+    prints about the command topic names that one."""
+    python = _peer_python(distribution)
+    recording = tmp_path / "ns.mcap"
+    args = ["run", "--input", "ros2", "--duration", "11", "--cameras", "none", "--out", str(recording)]
+    args += ["--ros-namespace", "t4ns", "--ros-remap", rule]
+    env = local_env(free_domain(len(CASES) + 4 + NAMESPACED.index((distribution, rule, cmd_topic))))
+    sim, report = _beside_peer(python, args, tmp_path, env, cmd_topic, prefix="/t4ns")
+    named = [line for line in (sim.stdout + sim.stderr).splitlines() if "Twist" in line or "live input" in line]
+    assert len(named) == 3, named  # the bridge's start-up line, the headline, the summary's live input
+    assert all(f" {cmd_topic}" in line and "quad_cmd_twist" not in line for line in named), named
+    graph = report["graph"]
+    assert "/t4ns/quadsim" in graph["nodes"]
+    owner = "_CREATED_BY_BARE_DDS_APP_/_CREATED_BY_BARE_DDS_APP_" if distribution == "kilted" else "/t4ns/quadsim"
+    assert [s["node"] for s in graph["subscriptions"] if s["type"] == "geometry_msgs/msg/Twist"] == [owner]
+    assert report["odom_count"] > 100  # on /t4ns/quad/odom
+    with RecordingReader(recording) as reader:
+        commands = [twist for _, twist in reader.commands()]
+        top = max(p[2] for _, p, _ in reader.poses())
+    assert sum(c.linear_z == 1.0 for c in commands) >= 20 and top > 1.0  # the climb the node sent flew
 
 
 def test_every_configuration_matches_fast_dds_endpoints_by_type_name(monkeypatch: pytest.MonkeyPatch) -> None:
@@ -295,6 +352,7 @@ def test_a_ros2_node_flies_one_vehicle_of_a_fleet_by_its_name_while_a_script_fli
     owner = "_CREATED_BY_BARE_DDS_APP_/_CREATED_BY_BARE_DDS_APP_" if distribution == "kilted" else "/quadsim"
     assert twist_readers == [owner], report["graph"]  # as for one vehicle (see the first test)
     assert report["odom_count"] > 100 and report["odom_last"]["frame"] == "world"
+    assert report["clock_backward"] == 0  # one clock for the fleet, ticked by the first vehicle's state
     assert report["others_last"]["bravo"]["child"] == "bravo/base_link"
     with RecordingReader(recording) as reader:
         received = list(reader.commands("alpha"))

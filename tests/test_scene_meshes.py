@@ -132,3 +132,130 @@ def test_the_floor_mesh_cache_makes_no_home_folder(tmp_path, monkeypatch):
     monkeypatch.setenv("HOME", str(tmp_path))
     made = scene._floor_obj(*scene._floor_mesh(8.0, 1.0))
     assert made is not None and made.parent == tmp_path / ".cache" / "quadsim" and made.stat().st_size > 100
+
+
+def _box_ascii_stl(low: tuple[float, float, float], high: tuple[float, float, float], name: str = "runner") -> str:
+    """An ASCII STL of a box, its facets counter-clockwise seen from outside (as STL has them)."""
+    corner = {
+        (i, j, k): (high[0] if i else low[0], high[1] if j else low[1], high[2] if k else low[2])
+        for i in (0, 1)
+        for j in (0, 1)
+        for k in (0, 1)
+    }
+    faces = [
+        [(0, 0, 0), (0, 1, 0), (1, 1, 0), (1, 0, 0)],
+        [(0, 0, 1), (1, 0, 1), (1, 1, 1), (0, 1, 1)],
+        [(0, 0, 0), (1, 0, 0), (1, 0, 1), (0, 0, 1)],
+        [(0, 1, 0), (0, 1, 1), (1, 1, 1), (1, 1, 0)],
+        [(0, 0, 0), (0, 0, 1), (0, 1, 1), (0, 1, 0)],
+        [(1, 0, 0), (1, 1, 0), (1, 1, 1), (1, 0, 1)],
+    ]
+    lines = [f"solid {name}"]
+    for a, b, c, d in faces:
+        for triangle in ((a, b, c), (a, c, d)):
+            vertices = [f"      vertex {' '.join(f'{v:.6e}' for v in corner[p])}" for p in triangle]
+            lines += ["  facet normal 0 0 0", "    outer loop", *vertices, "    endloop", "  endfacet"]
+    return "\n".join([*lines, f"endsolid {name}"]) + "\n"
+
+
+def _sled_vehicle(folder: Path, mesh: str | bytes | None = None, mesh_name: str = "meshes/sled.stl") -> Path:
+    """The default airframe on a green sled: two runners 24 cm long, 13 cm below base_link, one ASCII
+    STL for both its look and its collision shape, as a CAD export gives it."""
+    if mesh is None:
+        mesh = _box_ascii_stl((-0.12, 0.04, -0.13), (0.12, 0.07, -0.11))
+        mesh += _box_ascii_stl((-0.12, -0.07, -0.13), (0.12, -0.04, -0.11))
+    (folder / "meshes").mkdir(parents=True, exist_ok=True)
+    path = folder / mesh_name
+    path.write_bytes(mesh.encode() if isinstance(mesh, str) else mesh)
+    part = (
+        f'<visual><geometry><mesh filename="{mesh_name}"/></geometry>'
+        '<material name="sled_green"><color rgba="0.1 0.9 0.1 1"/></material></visual>'
+        f'<collision><geometry><mesh filename="{mesh_name}"/></geometry></collision><visual>'
+    )
+    urdf = folder / "sled.urdf"
+    urdf.write_text(DEFAULT_URDF.read_text().replace("<visual>", part, 1))
+    urdf.with_suffix(".params.toml").write_text(DEFAULT_URDF.with_suffix(".params.toml").read_text())
+    return urdf
+
+
+def test_an_ascii_stl_part_is_in_the_physics_and_in_the_cameras(tmp_path: Path) -> None:
+    """PyBullet reads binary STL only: the sled was missing from the physics (the vehicle rested on
+    its skids, base_link 5 cm up) and from the floor camera. Now it stands on the runners (13 cm)
+    and the floor camera, rendered in a worker process as runs render, sees them left and right."""
+    import cv2
+    import numpy as np
+
+    from quadsim import SimConfig, Simulator
+    from quadsim.sim.cameras import CameraMode, Cameras
+
+    urdf = _sled_vehicle(tmp_path / "vehicle")
+    with Simulator(SimConfig(urdf=urdf)) as sim, Cameras(sim, mode=CameraMode.PIPELINED, render_workers=1) as cams:
+        sim.run_for(0.5)
+        cams.wait()
+        rest_z = sim.state.position_m[2]
+        touching = sim.physics.contacts()
+        floor = cams.latest("floor")
+    assert rest_z == pytest.approx(0.13, abs=0.005)
+    assert [(c.other, round(c.normal_z, 3)) for c in touching] == [("floor", 1.0)]
+    assert floor is not None and floor.rgb is not None
+    rgb = floor.rgb.astype(int)
+    green = (rgb[..., 1] > rgb[..., 0] + 60) & (rgb[..., 1] > rgb[..., 2] + 60)
+    cv2.imwrite(str(tmp_path / "floor.png"), cv2.cvtColor(floor.rgb, cv2.COLOR_RGB2BGR))  # to look at
+    width = green.shape[1]
+    assert green[:, : width // 5].all() and green[:, -width // 5 :].all()  # a runner each side
+    assert green[:, width // 3 : 2 * width // 3].mean() == 0.0  # the floor between them
+    assert np.all(green.any(axis=1))  # along the whole image: 24 cm of runner
+
+
+@pytest.mark.parametrize(
+    ("mesh", "name", "said"),
+    [
+        (
+            "solid sled\n  facet normal 0 0 1\n    outer loop\n      vertex 0 0 0\n      vertex 1 0 0\n"
+            "    endloop\n  endfacet\nendsolid sled\n",
+            "meshes/sled.stl",
+            "line 7: a facet with 2 vertices",
+        ),
+        (
+            "solid sled\n  facet normal 0 0 1\n    outer loop\n      vertex 0 0 zero\n",
+            "meshes/sled.stl",
+            "line 4: a vertex needs three numbers",
+        ),
+        (
+            "solid sled\n  facet normal 0 0 1\n    outer loop\n      vertex 0 0 nan\n",
+            "meshes/sled.stl",
+            "line 4: a vertex that is not a finite number",
+        ),
+        ("solid sled\n" + "x" * 5000 + "\n", "meshes/sled.stl", "line 2 is longer than 1024 bytes"),
+        ("solid sled\nendsolid sled\n", "meshes/sled.stl", "not an ASCII STL with whole facets"),
+        (b"\x00" * 84 + b"\x01" * 20, "meshes/sled.stl", "not an STL PyBullet can read"),  # a binary STL cut short
+        (b"ply\nformat ascii 1.0\n", "meshes/sled.ply", "PyBullet loads STL, OBJ and COLLADA (.dae) meshes, not .ply"),
+    ],
+    ids=["two-vertices", "not-a-number", "nan", "long-line", "no-facets", "cut-short", "ply"],
+)
+def test_a_mesh_pybullet_cannot_load_is_refused_in_one_line_naming_it(
+    capsys: pytest.CaptureFixture[str], tmp_path: Path, mesh: str | bytes, name: str, said: str
+) -> None:
+    urdf = _sled_vehicle(tmp_path / "vehicle", mesh, name)
+    code, _, err = run_cli(capsys, "run", "--script", "hover", "--urdf", str(urdf), "--no-record", "--cameras", "none")
+    lines = err.strip().splitlines()
+    assert code == 2 and len(lines) == 1 and "Traceback" not in err, err
+    assert lines[0].startswith("quadsim: error: ") and said in lines[0] and Path(name).name in lines[0], lines[0]
+
+
+def test_a_huge_stl_is_refused_before_it_is_read(capsys: pytest.CaptureFixture[str], tmp_path: Path) -> None:
+    """Sizes are read from the file system (sparse files here): nothing of them is read."""
+    from quadsim.vehicle import meshes
+
+    urdf = _sled_vehicle(tmp_path / "ascii")
+    with (tmp_path / "ascii" / "meshes" / "sled.stl").open("r+b") as fh:
+        fh.truncate(meshes.MAX_ASCII_STL_BYTES + 8 * 2**20)  # "solid ..." then zeros
+    code, _, err = run_cli(capsys, "run", "--script", "hover", "--urdf", str(urdf), "--no-record", "--cameras", "none")
+    assert code == 2 and err.count("\n") == 1 and "an ASCII STL of 40.0 MiB, more than the 32 MiB" in err, err
+    triangles = meshes.MAX_STL_TRIANGLES + 1
+    binary = tmp_path / "binary"
+    urdf = _sled_vehicle(binary, b"huge".ljust(80, b" ") + struct.pack("<I", triangles))
+    with (binary / "meshes" / "sled.stl").open("r+b") as fh:
+        fh.truncate(84 + 50 * triangles)
+    code, _, err = run_cli(capsys, "run", "--script", "hover", "--urdf", str(urdf), "--no-record", "--cameras", "none")
+    assert code == 2 and err.count("\n") == 1 and f"{triangles} triangles, more than the" in err, err

@@ -82,3 +82,33 @@ def test_the_run_summary_says_what_arrived_live() -> None:
     assert "2 rejected (not finite), 1 clamped to the limits" in lines, lines
     assert "live input      5 arrived on /quad_cmd_twist from ros2: 2 rejected (not finite), 1 superseded" in lines
     assert sim.gate.last_command.linear_y == 0.5
+
+
+def test_each_live_input_holds_after_its_own_timeout_which_the_run_records() -> None:
+    """A Foxglove input holds 0.2 s after its last Twist (the Teleop panel sends nothing on
+    release); a ROS 2 input keeps the run's; either can be set. The vehicle's config, which the
+    recording keeps, says the one its gate used."""
+    cases = [
+        (SubscribedDriver("foxglove"), SimConfig(), 0.2),
+        (SubscribedDriver("ros2"), SimConfig(), 0.5),
+        (SubscribedDriver("ros2"), SimConfig(command_timeout_s=0.8), 0.8),
+        (SubscribedDriver("foxglove", command_timeout_s=0.3), SimConfig(command_timeout_s=0.8), 0.3),
+    ]
+    for driver, config, timeout_s in cases:
+        with Simulator(config, driver) as sim:
+            assert sim.config.command_timeout_s == timeout_s, driver.name
+            assert sim.gate.timeout_steps == round(timeout_s * 240)
+            assert sim.describe()["config"]["command_timeout_s"] == timeout_s
+
+
+def test_a_released_command_holds_after_the_foxglove_timeout() -> None:
+    """The last Twist acts for 0.2 s (48 steps at 240 Hz), then the gate holds."""
+    driver = SubscribedDriver("foxglove")
+    with Simulator(SimConfig(), driver) as sim:
+        driver.deliver((0.0, 0.0, 1.0), 0.0)
+        sim.run_for(1.0 / 240)
+        sent = sim.step_count - 1
+        sim.run_for(0.19)
+        assert not sim.gate.active(sim.step_count).hold
+        sim.run_for(0.02)
+        assert sim.gate.active(sim.step_count).hold and sim.step_count - sent > 48

@@ -678,14 +678,12 @@ def test_a_second_signal_abandons_the_runs_in_flight(tmp_path: Path, signum: int
     os.killpg(proc.pid, signum)
     time.sleep(0.5)
     os.killpg(proc.pid, signum)
-    second = time.monotonic()
+    # the runs in flight had an hour of flight left: ending within the timeout means they were killed
     _, stderr = proc.communicate(timeout=120)
-    took_s = time.monotonic() - second
     assert proc.returncode == 128 + signum, stderr
     assert "Traceback" not in stderr and "Error" not in stderr and "nothing was cut short" not in stderr, stderr
     assert stderr.strip().endswith(f"quadsim: {'interrupted' if signum == signal.SIGINT else 'terminated'}"), stderr
     assert _group_gone(proc.pid), _group_members(proc.pid)
-    assert took_s < 20, took_s  # not the minutes the runs in flight had left: they were killed
 
 
 def test_a_worker_killed_from_outside_ends_the_sweep_with_one_line(tmp_path: Path) -> None:

@@ -240,6 +240,7 @@ def test_the_examples_ship_in_the_wheel_and_copy_out(installed):
     assert [line.split()[0] for line in listed.splitlines()] == [
         "fleet.toml",
         "fly_to_tower.py",
+        "own_controller.py",
         "sweep_controllers.toml",
         "sweep_wind.toml",
     ]
@@ -255,3 +256,27 @@ def test_the_examples_ship_in_the_wheel_and_copy_out(installed):
     ]
     again = installed.quadsim("examples", "--copy", "mine")
     assert again.returncode == 2 and "exists: nothing was copied" in again.stderr
+
+
+def test_your_own_controller_flies_from_the_copied_example_and_check_flies_it_again(installed):
+    """As the docs say: the example flies the square with its own controller and records it;
+    `check` makes the controller again from its class when its module is on the Python path, and
+    says in one line why it cannot when it is not."""
+    check(installed.quadsim("examples", "--copy", "own", "own_controller.py"))
+    own = installed.work / "own"
+    flew = subprocess.run(
+        [str(installed.venv / "bin" / "python"), "own_controller.py"],
+        cwd=own,
+        env=installed.env,
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
+    assert flew.returncode == 0 and "flew the square with SmallAngleController" in flew.stdout, flew.stderr
+    recording = str(own / "own_controller.mcap")
+    on_path = installed.run(
+        "env", f"PYTHONPATH={own}", str(installed.venv / "bin" / "quadsim"), "check", recording, timeout_s=300
+    )
+    assert on_path.returncode == 0 and "flies again identically" in on_path.stdout, on_path.stdout + on_path.stderr
+    off_path = installed.quadsim("check", recording)
+    assert off_path.returncode == 2 and "own_controller:SmallAngleController does not import here" in off_path.stdout

@@ -6,7 +6,10 @@ recording's line and an exit code."""
 from __future__ import annotations
 
 import argparse
+import math
 import sys
+import time
+from collections.abc import Callable
 from dataclasses import replace
 
 from quadsim.apps.options import live_outputs
@@ -53,7 +56,7 @@ class HeadlessFlight:
                 try:
                     # paced, a headless run catches up after a stall (live inputs keep their rate)
                     pacer = RealTimePacer(hz, max_frame_s=None) if planned.realtime else None
-                    self.summaries = run.fly(pacer, bar.update if bar is not None else None)
+                    self.summaries = run.fly(pacer, _progress(bar, pacer, run))
                 finally:
                     self.sim_time = run.fleet.time_s
         except StopRequested:
@@ -93,6 +96,34 @@ class HeadlessFlight:
                     if line.startswith(("crash", "live input")):
                         print(f"{name:<{width}}  {line}")  # under its vehicle, named again
         return report_end(self.outputs, self.sim_time, self.planned.plan.duration_s)
+
+
+#: a paced run says it is behind real time when it is more than this behind, at most every BEHIND_EVERY_S
+BEHIND_S, BEHIND_EVERY_S = 1.0, 10.0
+
+
+def _progress(bar: ProgressBar | None, pacer: RealTimePacer | None, run: Run) -> Callable[[float], None] | None:
+    """What a headless flight does after each chunk: the progress bar, and, paced to the wall
+    clock, a line on stderr while the run falls behind real time (at most every 10 s)."""
+    if pacer is None:
+        return bar.update if bar is not None else None
+    said = [-math.inf]
+
+    def progress(flown_s: float) -> None:
+        if bar is not None:
+            bar.update(flown_s)
+        behind = pacer.behind_s(run.fleet.step_count)
+        now = time.monotonic()
+        if behind > BEHIND_S and now - said[0] >= BEHIND_EVERY_S:
+            said[0] = now
+            print(
+                f"quadsim: {behind:.1f} s behind real time at sim time {flown_s:.1f} s: the machine cannot keep up "
+                "(fewer cameras, smaller images or a quieter machine help)",
+                file=sys.stderr,
+                flush=True,
+            )
+
+    return progress
 
 
 def headline(run: Run, what: str) -> str:

@@ -168,7 +168,8 @@ def _add_rate_options(g: argparse._ArgumentGroup) -> None:
         type=number(1e-3, 3600.0, "seconds"),
         default=0.5,
         metavar="S",
-        help="dead-man timeout: hold position after S seconds without a command (default 0.5)",
+        help="dead-man timeout: hold position after S seconds without a command (default 0.5; a live input's "
+        "is --live-timeout's)",
     )
 
 
@@ -264,6 +265,16 @@ def add_live_options(p: argparse.ArgumentParser, what: str = "the run", flown: b
         "topic of the recording with its QoS, plus /clock for use_sim_time; needs the ros2 extra "
         "(Cyclone DDS; no ROS installation)",
     )
+    if flown:
+        g.add_argument(
+            "--live-timeout",
+            type=number(1e-3, 3600.0, "seconds"),
+            default=None,
+            metavar="S",
+            help="dead-man timeout of a live input (--input foxglove or ros2, a fleet vehicle's foxglove or ros2): "
+            "hold position after S seconds without a Twist (default 0.2 for Foxglove, whose Teleop panel sends "
+            "nothing when a button is released; --timeout, 0.5, for ROS 2); recorded with the run",
+        )
     g.add_argument(
         "--ros-namespace",
         default="",
@@ -277,7 +288,8 @@ def add_live_options(p: argparse.ArgumentParser, what: str = "the run", flown: b
         action="append",
         default=[],
         metavar="FROM:=TO",
-        help=f"{when}: rename a topic, like --ros-args -r FROM:=TO; e.g. "
+        help=f"{when}: rename a topic, like --ros-args -r FROM:=TO (matched as ROS 2 does: under --ros-namespace NS "
+        "a relative FROM, or /NS/..., names quadsim's topics); e.g. "
         + (
             "/quad_cmd_twist:=/cmd_vel lets teleop_twist_keyboard fly it unchanged (repeatable)"
             if flown
@@ -300,11 +312,25 @@ def add_parallel_options(p: argparse.ArgumentParser, jobs_help: str) -> None:
     )
 
 
+def live_topic(args: argparse.Namespace, driver: SubscribedDriver) -> str:
+    """The topic a live input's Twists come on, named as its bridge will subscribe to it: on a ROS 2
+    graph in --ros-namespace and remapped by --ros-remap (the rules checked here, before anything
+    starts), as the bridge's start-up line and the summary name it."""
+    if driver.name != "ros2":
+        return driver.topic
+    from quadsim.live.ros2 import graph_names, graph_topic
+
+    return graph_topic(driver.topic, *graph_names(getattr(args, "ros_namespace", ""), getattr(args, "ros_remap", [])))
+
+
 def live_outputs(
     args: argparse.Namespace, commands: SubscribedDriver | Sequence[SubscribedDriver] | None = None
 ) -> list[LiveOutput]:
     """The live bridges the options ask for (--foxglove, --ros2, and the one an input comes from)."""
     from quadsim.session.live import open_live_outputs
+
+    if getattr(args, "live_timeout", None) is not None and not commands:  # nothing would take it
+        raise QuadsimError("--live-timeout is for a live input: fly with --input foxglove or ros2 (or a fleet's)")
 
     return open_live_outputs(
         getattr(args, "foxglove", None),

@@ -15,6 +15,7 @@ from quadsim.apps.options import (
     camera_options_given,
     camera_specs,
     flight_settings,
+    live_topic,
     output_options,
     program,
     sim_config,
@@ -77,9 +78,10 @@ def _duration(args: argparse.Namespace, default_s: float) -> float:
     return duration
 
 
-def _outputs(args: argparse.Namespace, live: bool) -> OutputOptions:
+def _outputs(args: argparse.Namespace, live: bool, paced: bool) -> OutputOptions:
     """The recording and cameras of a run of one vehicle, refused where no one would see the
-    frames asked for; flown live, the cameras drop frames rather than hold the flight back."""
+    frames asked for; flown live or in real time, the cameras drop frames rather than hold the
+    flight back (a run that is not real-time keeps every frame)."""
     outputs = output_options(args)
     live_wanted = args.foxglove is not None or args.ros2 or live
     if not outputs.record and outputs.cameras and not live_wanted:  # nobody would see a frame
@@ -90,7 +92,7 @@ def _outputs(args: argparse.Namespace, live: bool) -> OutputOptions:
                 "with --foxglove or --ros2, or leave the camera options out)"
             )
         outputs = replace(outputs, cameras=())
-    return replace(outputs, ordered_delivery=False) if live else outputs
+    return replace(outputs, ordered_delivery=False) if paced else outputs
 
 
 def script_plan(args: argparse.Namespace, script_name: str, realtime: bool, command: str = "run") -> Planned:
@@ -103,7 +105,7 @@ def script_plan(args: argparse.Namespace, script_name: str, realtime: bool, comm
         config,
         ScriptedDriver(script),
         duration_s=duration,
-        outputs=_outputs(args, live=False),
+        outputs=_outputs(args, live=False, paced=realtime),
         label=f"{Path(script.name).stem}_{args.controller}",
         run_info={"command": command, "script": script.name, "duration_s": duration, "realtime": realtime},
         **flight_settings(args),
@@ -139,7 +141,7 @@ def bag_plan(args: argparse.Namespace, realtime: bool) -> Planned:
         config,
         driver,
         duration_s=duration,
-        outputs=_outputs(args, live=False),
+        outputs=_outputs(args, live=False, paced=realtime),
         label=f"{bag.path.stem}_{config.controller.value}",
         run_info={"command": "run", "commands_from": str(bag.path), "duration_s": duration, "realtime": realtime},
         **flight_settings(args),
@@ -150,7 +152,7 @@ def bag_plan(args: argparse.Namespace, realtime: bool) -> Planned:
 def subscribed_plan(args: argparse.Namespace, command: str) -> Planned:
     """The Twists Foxglove clients or ROS 2 nodes publish (--input), in real time, until Ctrl-C
     or --duration."""
-    driver = SubscribedDriver(args.input)
+    driver = SubscribedDriver(args.input, command_timeout_s=args.live_timeout)
     duration = _duration(args, MAX_DURATION_S)
     until = f"for {duration:.1f} s" if args.duration is not None else "until Ctrl-C"
     who = "Foxglove clients" if args.input == "foxglove" else "ROS 2 nodes"
@@ -158,12 +160,12 @@ def subscribed_plan(args: argparse.Namespace, command: str) -> Planned:
         sim_config(args, None),
         driver,
         duration_s=duration,
-        outputs=_outputs(args, live=True),
+        outputs=_outputs(args, live=True, paced=True),
         label=f"{args.input}_{args.controller}",
         run_info={"command": command, "input": args.input, "duration_s": duration, "realtime": True},
         **flight_settings(args),
     )
-    return Planned(plan, f"the Twists {who} publish on {driver.topic} {until}", (driver,), realtime=True)
+    return Planned(plan, f"the Twists {who} publish on {live_topic(args, driver)} {until}", (driver,), realtime=True)
 
 
 # --- fleets -----------------------------------------------------------------------------------
@@ -190,9 +192,10 @@ def check_fleet_options(args: argparse.Namespace) -> None:
         raise QuadsimError(f"--renderer {args.renderer} with --fleet: a fleet's cameras render in its one world (tiny)")
 
 
-def fleet_drivers(fleet_file: FleetFile) -> dict[str, InputDriver | None]:
-    """What drives each vehicle (those a person flies: nothing, until the window says)."""
-    return {v.name: _driver(v) for v in fleet_file.vehicles}
+def fleet_drivers(fleet_file: FleetFile, live_timeout_s: float | None = None) -> dict[str, InputDriver | None]:
+    """What drives each vehicle (those a person flies: nothing, until the window says); a live
+    input holds after `live_timeout_s` without a Twist (None: its own default)."""
+    return {v.name: _driver(v, live_timeout_s) for v in fleet_file.vehicles}
 
 
 def fleet_cameras(args: argparse.Namespace, fleet_file: FleetFile) -> dict[str, tuple]:
@@ -201,13 +204,13 @@ def fleet_cameras(args: argparse.Namespace, fleet_file: FleetFile) -> dict[str, 
     return {v.name: tuple(specs[c] for c in v.cameras) for v in fleet_file.vehicles if v.cameras}
 
 
-def _driver(entry: FleetEntry) -> InputDriver | None:
+def _driver(entry: FleetEntry, live_timeout_s: float | None = None) -> InputDriver | None:
     """What drives a vehicle: its script, a subscription on its own Twist topic, or nothing (a
     person's vehicle until the window gives it the keyboard or the pad)."""
     if entry.script is not None:
         return ScriptedDriver(entry.script)
     if entry.input in ("ros2", "foxglove"):
-        return SubscribedDriver(entry.input, Names(entry.name).topic(TWIST).name)
+        return SubscribedDriver(entry.input, Names(entry.name).topic(TWIST).name, live_timeout_s)
     return IdleDriver()  # nothing is sent, unless from Python
 
 
@@ -229,7 +232,7 @@ def fleet_plan(args: argparse.Namespace, command: str) -> Planned:
                 f"{args.fleet}: vehicle {held.name!r} takes input = {device!r}: a person flies it in the window, "
                 f"and `{command}` has none (give it a script, ros2, foxglove or idle)"
             )
-    drivers = fleet_drivers(fleet_file)
+    drivers = fleet_drivers(fleet_file, args.live_timeout)
     live_inputs = tuple(d for d in drivers.values() if isinstance(d, SubscribedDriver))
     if args.duration is not None or live_inputs:
         duration = _duration(args, MAX_DURATION_S)
@@ -238,7 +241,7 @@ def fleet_plan(args: argparse.Namespace, command: str) -> Planned:
     else:
         duration = fleet_file.longest_script_s
     realtime = bool(live_inputs) or args.realtime
-    outputs = replace(output_options(args), cameras=(), ordered_delivery=not live_inputs)
+    outputs = replace(output_options(args), cameras=(), ordered_delivery=not realtime)
     plan = RunPlan(
         sim_config(args, None),
         tuple(fleet_file.fleet_vehicles(drivers)),

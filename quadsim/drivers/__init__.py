@@ -39,3 +39,7 @@ class InputDriver(Protocol):
     # for (a script's `z_mode` line). A SimConfig without a z_mode takes it.
     # Optional: `rewind()`, start over from the beginning: a Simulator's reset calls it (a script
     # plays again from its start when the clock does).
+    # Optional: `command_timeout_s: float | None`, how long the gate holds the driver's last
+    # command without a new one (the dead-man timeout) when the driver knows better than the run's
+    # default: a live input whose clients send nothing on release (subscribed.py), recorded
+    # commands re-flown under the timeout they were flown with (replay.py). None: the config's.

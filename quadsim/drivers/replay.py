@@ -17,7 +17,16 @@ class ReplayDriver:
 
     name = "replay"
 
-    def __init__(self, commands: Iterable[tuple[int, Twist]], source: str = "", count: int | None = None) -> None:
+    def __init__(
+        self,
+        commands: Iterable[tuple[int, Twist]],
+        source: str = "",
+        count: int | None = None,
+        command_timeout_s: float | None = None,
+    ) -> None:
+        """`command_timeout_s`: the dead-man timeout the commands were flown under, where it was the
+        vehicle's own (a fleet vehicle flown from Foxglove); None: the run's."""
+        self.command_timeout_s = command_timeout_s
         self._pending = iter(commands)
         self._next = next(self._pending, None)
         self.source = source

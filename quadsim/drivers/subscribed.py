@@ -4,6 +4,14 @@ Foxglove client publishing on /quad_cmd_twist), handed in from any thread.
 Like a ROS subscriber feeding the original's controller: a message that arrived since the last
 poll is published once; no message, no command, so the gate's dead-man timeout holds the vehicle
 when the publisher stops ("if this message is not present the quadcopter won't move").
+
+That timeout is the input's own where its clients call for it: Foxglove's Teleop panel publishes
+while a button is held and sends nothing when it is released (no zero Twist), so the last command
+flies on until the timeout; the run's 0.5 s turned a 4 s press at 0.5 rad/s 129 degrees instead
+of 115. A Foxglove input holds after 0.2 s without a message (four periods of the panel at the
+20 Hz the docs ask for: shorter, and a stall of the simulation or of the client that delays a
+message that long would already stop the vehicle mid-press); a ROS 2 input keeps the run's
+timeout (nodes such as teleop_twist_keyboard send a zero Twist to stop). --live-timeout sets either.
 """
 
 from __future__ import annotations
@@ -14,6 +22,10 @@ from typing import Any
 
 from quadsim.core.types import Twist
 from quadsim.drivers import ASAP, NEVER
+
+#: the dead-man timeout of a live input whose clients send nothing on release, by input name (the
+#: rest keep the run's): a released Teleop button stops the vehicle within about 0.2 s
+RELEASE_TIMEOUT_S = {"foxglove": 0.2}
 
 
 class SubscribedDriver:
@@ -26,9 +38,16 @@ class SubscribedDriver:
 
     next_poll_step = NEVER
 
-    def __init__(self, name: str, topic: str = "/quad_cmd_twist") -> None:
+    def __init__(self, name: str, topic: str = "/quad_cmd_twist", command_timeout_s: float | None = None) -> None:
+        """`command_timeout_s`: hold after this long without a message (None: the input's own,
+        RELEASE_TIMEOUT_S, else the run's)."""
         self.name = name
+        self.command_timeout_s = command_timeout_s if command_timeout_s is not None else RELEASE_TIMEOUT_S.get(name)
+        #: the contract's name of the topic (what the recording keeps the commands on)
         self.topic = topic
+        #: the name it has where the Twists come from: on a ROS 2 graph, in the bridge's namespace and
+        #: remapped (--ros-namespace, --ros-remap), as the bridge subscribes to it; what lines say
+        self.heard_on = topic
         self.received = 0
         self.dropped = 0
         self.rejected = 0

@@ -4,6 +4,10 @@ over as playback time passes them, so `replay --foxglove` shows in Foxglove what
 Only the channels a live bridge can serve are played: CDR with a `ros2msg` schema (every topic of
 a quadsim recording, and of ROS 2 bags). Seeking back plays again from the start of the file up
 to the new time the latched topics' last messages only, as a late joiner would get them.
+
+A consumer that follows the clock (the ROS 2 bridge's /clock, `on_clock`) hears the playback time
+at each recorded log time, before that time's messages, strictly increasing; a seek back or a loop
+restarting is told as a seek (time jumps back there, as `ros2 bag play` does).
 """
 
 from __future__ import annotations
@@ -13,7 +17,7 @@ from collections.abc import Sequence
 from pathlib import Path
 
 from quadsim.recording.contract import QOS_LATCHED, QOS_VOLATILE, Topic
-from quadsim.recording.fanout import Message, TopicConsumer
+from quadsim.recording.fanout import ClockConsumer, Message, TopicConsumer
 from quadsim.recording.reader import RecordingReader
 
 
@@ -44,6 +48,7 @@ class RecordingFeed:
                 consumer.add_topic(topic)
         self._next = 0  # index of the next message to hand over
         self.played = 0
+        self._clocks: list[ClockConsumer] = [c for c in self.consumers if callable(getattr(c, "on_clock", None))]  # type: ignore[misc]
 
     @property
     def end_ns(self) -> int:
@@ -53,12 +58,23 @@ class RecordingFeed:
         """Hand over every message up to `t_ns`; back in time, start again there (latched first)."""
         end = bisect_right(self._times, t_ns)
         if end < self._next:
+            for consumer in self._clocks:
+                consumer.on_clock(self._times[end - 1] if end else 0, seek=True)
             latched = {m[0].name: m for m in self.messages[:end] if m[0].qos == QOS_LATCHED}
             self._send(list(latched.values()))
             self._next = end
             return
-        self._send(self.messages[self._next : end])
-        self._next = end
+        start, self._next = self._next, end
+        if not self._clocks:
+            self._send(self.messages[start:end])
+            return
+        times = self._times
+        while start < end:  # each log time: the clock, then its messages
+            same = bisect_right(times, times[start], start, end)
+            for consumer in self._clocks:
+                consumer.on_clock(times[start])
+            self._send(self.messages[start:same])
+            start = same
 
     def _send(self, messages: list[Message]) -> None:
         if not messages:

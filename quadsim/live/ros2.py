@@ -41,8 +41,6 @@ if TYPE_CHECKING:
     from quadsim.drivers.subscribed import SubscribedDriver
 
 CLOCK = Topic("/clock", "rosgraph_msgs/msg/Clock")
-#: /clock is published with the newest log time seen, at most this often (of simulation time)
-CLOCK_HZ = 100
 #: topics a namespace leaves alone: ROS 2 nodes use them by absolute name (tf2, rcl's logging, use_sim_time)
 GLOBAL_TOPICS = frozenset({"/clock", "/tf", "/tf_static", "/rosout"})
 #: the node this bridge is on the ROS 2 graph (`ros2 node list`)
@@ -159,20 +157,47 @@ def discovery_range(env: Mapping[str, str]) -> str:
 
 def graph_names(namespace: str = "", remaps: Sequence[str] = ()) -> tuple[str, dict[str, str]]:
     """The node's namespace (`/` when none) and the remapping rules `FROM:=TO` as ROS 2's
-    `--ros-args -r` reads them, checked; a relative TO lands in the namespace."""
+    `--ros-args -r` reads them, each side expanded to a fully qualified name as rcl does: a
+    relative name lands in the namespace, `~/x` in the node's own (/NS/quadsim/x); a rule may
+    name the node first (`quadsim:FROM:=TO`). quadsim's topics are relative names (in the
+    namespace) but for /clock, /tf, /tf_static and /rosout, so under a namespace a rule whose
+    FROM is neither in it nor one of those could never match: refused, with the rule that would."""
     ns = "/" + namespace.strip("/") if namespace.strip("/") else "/"
     if not _NAME.fullmatch(ns):
         raise QuadsimError(f"--ros-namespace must be a ROS 2 name like /robot1, got {namespace!r}")
     rules: dict[str, str] = {}
     for rule in remaps:
-        source, sep, target = rule.partition(":=")
-        source = "/" + source.lstrip("/")
-        if not sep or not _NAME.fullmatch(source) or not target or not _NAME.fullmatch("/" + target.lstrip("/")):
+        source, sep, target = rule.removeprefix(f"{NODE_NAME}:").partition(":=")
+        fqn_source, fqn_target = _expanded(source, ns), _expanded(target, ns)
+        if not sep or fqn_source is None or fqn_target is None:
             raise QuadsimError(
                 f"a remapping is FROM:=TO with ROS 2 topic names, like /quad_cmd_twist:=/cmd_vel; got {rule!r}"
             )
-        rules[source] = target if target.startswith("/") else ns.rstrip("/") + "/" + target
+        if ns != "/" and fqn_source not in GLOBAL_TOPICS and not fqn_source.startswith(ns + "/"):
+            raise QuadsimError(
+                f"--ros-remap {rule}: under --ros-namespace {ns.lstrip('/')} quadsim's topics are in {ns} (all but "
+                f"{', '.join(sorted(GLOBAL_TOPICS))}), so {fqn_source} names none of them (ROS 2 would ignore the "
+                f"rule); write {ns}{fqn_source}:={target} or {fqn_source.lstrip('/')}:={target}"
+            )
+        rules[fqn_source] = fqn_target
     return ns, rules
+
+
+def _expanded(name: str, ns: str) -> str | None:
+    """A topic name made fully qualified in namespace `ns` (None: not a ROS 2 topic name)."""
+    if name.startswith("~"):
+        name = f"{ns.rstrip('/')}/{NODE_NAME}{name[1:]}"
+    elif not name.startswith("/"):
+        name = f"{ns.rstrip('/')}/{name}"
+    return name if _NAME.fullmatch(name) and name != "/" else None
+
+
+def graph_topic(name: str, namespace: str, rules: Mapping[str, str]) -> str:
+    """A contract topic's name on the graph (namespace and rules from `graph_names`): its fully
+    qualified name, in the namespace (but for /clock, /tf, /tf_static and /rosout, which ROS 2
+    nodes name absolutely), then remapped if a rule matches that name."""
+    fqn = name if namespace == "/" or name in GLOBAL_TOPICS else namespace + name
+    return rules.get(fqn, fqn)
 
 
 _NAME = re.compile(r"/|(/[A-Za-z_][A-Za-z0-9_]*)+")
@@ -240,22 +265,18 @@ class Ros2Bridge:
         self._writers: dict[str, tuple[Any, Any]] = {}  # topic name -> (writer, IDL type)
         self._readers: list[Any] = []
         self._lock = threading.Lock()  # the sim thread and a replay thread may both publish
-        self._clock_period_ns = NS_PER_S // CLOCK_HZ
-        self._clock_ns = -1
+        self._clock_ns = -1  # the last /clock published
+        self.clock_published = 0
         self.published = 0  # messages written
         self.busy_s = 0.0  # time spent writing (for the benchmark)
         self.closed = False
         self._graph_writer = self._discovery_info_writer()
+        self._time_type = idl_type("builtin_interfaces/msg/Time")
         self.add_topic(CLOCK)
 
     def graph_name(self, name: str) -> str:
-        """A contract topic's name on the graph: remapped, or in the namespace (but for the topics ROS 2
-        nodes name absolutely: /clock, /tf, /tf_static, /rosout)."""
-        if name in self._remaps:
-            return self._remaps[name]
-        if self.namespace == "/" or name in GLOBAL_TOPICS:
-            return name
-        return self.namespace + name
+        """A contract topic's name on the graph (graph_topic): in the namespace, then remapped."""
+        return graph_topic(name, self.namespace, self._remaps)
 
     def startup_lines(self, takes_twist: bool | Sequence[str]) -> list[tuple[str, bool]]:
         """What to say at start-up: (line, is a warning). The node, its domain and discovery range;
@@ -305,10 +326,13 @@ class Ros2Bridge:
         """Publish this participant's node and its endpoints (after each new endpoint).
 
         Fast DDS 2 (Jazzy) files a remote endpoint under its participant's GUID, so `ros2 topic info
-        -v` names quadsim's. Fast DDS 3 (Kilted) files it under the participant key of the endpoint's
-        announcement, which Cyclone does not send (PID_PARTICIPANT_GUID is optional in SEDP), so
-        there every endpoint is under key zero and shows as "_CREATED_BY_BARE_DDS_APP_"; announcing
-        the node under key zero as well would list it twice on Jazzy."""
+        -v` names quadsim's. Fast DDS 3 (Kilted) files it under the participant GUID its SEDP
+        announcement carries (PID_PARTICIPANT_GUID, an optional parameter), which Cyclone never
+        sends (its SEDP writes the endpoint GUID alone, with no setting to add it), so there every
+        endpoint is under GUID zero and shows as "_CREATED_BY_BARE_DDS_APP_". Announcing the node
+        under GUID zero as well was tried: Kilted then names /quadsim, but both distributions list
+        /quadsim twice, and the entry stays in every node's graph after quadsim exits (a graph
+        cache drops a participant's entry when that participant leaves; GUID zero never does)."""
         gid_type, node_type, info_type = _graph_types()
         endpoints = [w for w, _ in self._writers.values()]
         info = info_type(
@@ -349,10 +373,9 @@ class Ros2Bridge:
             return
         started = time.perf_counter()
         with self._lock:
-            newest = max(ns for _, ns, _ in messages)
-            if newest >= self._clock_ns + self._clock_period_ns or newest < self._clock_ns:
-                self._publish_clock(newest)  # before the messages of that time (a jump back: a replay's seek)
             for topic, _ns, data in messages:
+                if topic.name == CLOCK.name:  # a bag's own /clock: this bridge's comes from on_clock alone
+                    continue
                 entry = self._writers.get(topic.name)
                 if entry is None:
                     if topic.name in self.exclude:
@@ -367,11 +390,23 @@ class Ros2Bridge:
     def on_event(self, step: int, kind: str, value: str, vehicle: str = "") -> None:
         """Events reach the graph as their /rosout messages."""
 
-    def _publish_clock(self, ns: int) -> None:
-        writer, kind = self._writers[CLOCK.name]
-        time_type = idl_type("builtin_interfaces/msg/Time")
-        writer.write(kind(clock=time_type(sec=ns // NS_PER_S, nanosec=ns % NS_PER_S)))
-        self._clock_ns = ns
+    def on_clock(self, ns: int, seek: bool = False) -> None:
+        """/clock: simulation time from the fan-out's states (or a replay's playback), at the state
+        rate, strictly increasing; back in time only when told it is a seek (a replay moved back, a
+        window's reset), as `ros2 bag play` does. Never from the messages themselves: camera frames
+        arrive after the states that followed them, stamped with the instant they show."""
+        if self.closed or (ns <= self._clock_ns and not seek):
+            return
+        started = time.perf_counter()
+        with self._lock:
+            entry = self._writers.get(CLOCK.name)
+            if entry is None:  # closed meanwhile
+                return
+            writer, kind = entry
+            writer.write(kind(clock=self._time_type(sec=ns // NS_PER_S, nanosec=ns % NS_PER_S)))
+            self._clock_ns = ns
+            self.clock_published += 1
+        self.busy_s += time.perf_counter() - started
 
     # --- input --------------------------------------------------------------------------------
 
@@ -394,7 +429,8 @@ class Ros2Bridge:
 
         Policy = self._Policy
         qos = self._Qos(Policy.Reliability.BestEffort, Policy.History.KeepLast(10))
-        dds_topic = DdsTopic(self._participant, dds_topic_name(self.graph_name(driver.topic)), kind)
+        driver.heard_on = self.graph_name(driver.topic)
+        dds_topic = DdsTopic(self._participant, dds_topic_name(driver.heard_on), kind)
         self._readers.append(
             DataReader(self._participant, dds_topic, qos=qos, listener=Listener(on_data_available=on_data_available))
         )

@@ -154,7 +154,7 @@ class PhysicsWorld:
     def _resting_height(self) -> float:
         """Height of base_link above the floor when the vehicle rests on its collision shape."""
         if not hasattr(self, "_rest_z"):
-            probe = pb.loadURDF(str(self.vehicle.urdf_path), (0, 0, 10.0), physicsClientId=self._cid)
+            probe = pb.loadURDF(str(self.vehicle.pybullet_urdf_path), (0, 0, 10.0), physicsClientId=self._cid)
             lo = min(
                 pb.getAABB(probe, i, physicsClientId=self._cid)[0][2]
                 for i in range(-1, pb.getNumJoints(probe, physicsClientId=self._cid))

@@ -13,6 +13,7 @@ from pathlib import Path
 from quadsim.errors import ConfigError
 from quadsim.physics.pybullet_quiet import c_output_silenced, pb
 from quadsim.physics.world_spec import Shape, WorldSpec
+from quadsim.vehicle.meshes import cache_dir
 from quadsim.vehicle.params import VehicleParams
 
 
@@ -45,18 +46,13 @@ def _obj_text(vertices: list, uvs: list, indices: list) -> str:
     return "\n".join(lines) + "\n"
 
 
-def _cache_dir() -> Path:
-    base = os.environ.get("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"), ".cache")
-    return Path(base) / "quadsim"
-
-
 def _floor_obj(vertices: list, uvs: list, indices: list) -> Path | None:
     """The floor mesh as an OBJ file in the user's cache, written once and shared by every
     process (named by its content). PyBullet keeps a mesh given as arrays for the life of the
     process (~160 kB per client created), but not one loaded from a file. None if the cache
     cannot be written."""
     text = _obj_text(vertices, uvs, indices)
-    folder = _cache_dir()
+    folder = cache_dir()
     path = folder / f"floor-{hashlib.sha256(text.encode()).hexdigest()[:16]}.obj"
     if path.is_file():
         return path
@@ -138,7 +134,7 @@ def load_vehicle_body(
     flags = pb.URDF_USE_INERTIA_FROM_FILE | (pb.URDF_MERGE_FIXED_LINKS if merged else 0)
     try:
         with c_output_silenced():  # the merge prints a line for each link it merges
-            body = pb.loadURDF(str(vehicle.urdf_path), position, orientation, flags=flags, physicsClientId=cid)
+            body = pb.loadURDF(str(vehicle.pybullet_urdf_path), position, orientation, flags=flags, physicsClientId=cid)
     except pb.error as exc:
         raise ConfigError(f"PyBullet could not load {vehicle.urdf_path}: {exc}") from None
     # PyBullet damps every link a little by default (0.04); the parameter file's drag is the

@@ -74,6 +74,16 @@ class TopicConsumer(Protocol):
         of `vehicle` in a fleet. Its /rosout message comes through `on_messages` as well."""
 
 
+class ClockConsumer(TopicConsumer, Protocol):
+    """A consumer that also follows the simulation clock (the ROS 2 bridge's /clock): a
+    TopicConsumer with `on_clock`, which the fan-out calls when it has one."""
+
+    def on_clock(self, ns: int, seek: bool = False) -> None:
+        """Simulation time is now `ns`: called at the state rate, before that state's messages,
+        strictly increasing. Camera frames are not ticks (they arrive late, stamped with the
+        instant they show). `seek`: a replay moved back (or looped); time starts again at `ns`."""
+
+
 @lru_cache(maxsize=16)
 def _thrusts_encoder(rotors: int) -> Callable[[Sequence[float]], bytes]:
     """/quad/rotor_thrusts: one value per rotor, labelled."""
@@ -104,6 +114,9 @@ class TopicFanout:
         self.vehicles: list[VehicleTopics] = []
         self._announced: list[Topic] = []  # what producers declared since they were made
         self._known: set[str] = {WORLD_MARKERS.name} if world is not None else set()  # every topic's name so far
+        self._clocks: list[ClockConsumer] = []  # the consumers that follow the clock
+        #: the simulation time of the newest state handed over, in ns (-1: none yet)
+        self.clock_ns = -1
 
     def add_vehicle(
         self,
@@ -157,10 +170,14 @@ class TopicFanout:
             consumer.add_topic(topic)
         consumer.on_messages(self.latched(step, getattr(consumer, "reads_local_files", False)))
         self.consumers.append(consumer)
+        if callable(getattr(consumer, "on_clock", None)):
+            self._clocks.append(consumer)  # type: ignore[arg-type]  # it has on_clock: a ClockConsumer
 
     def remove_consumer(self, consumer: TopicConsumer) -> None:
         if consumer in self.consumers:
             self.consumers.remove(consumer)
+        if consumer in self._clocks:
+            self._clocks.remove(consumer)
 
     def declare(self, topic: Topic) -> None:
         """Announce a topic that not every run has (/joy when a joystick drives, /wind, /rosout)."""
@@ -173,6 +190,18 @@ class TopicFanout:
     def ns(self, step: int) -> int:
         """Log time of a physics step: floor(step * 1e9 / physics_hz)."""
         return step * NS_PER_S // self.physics_hz
+
+    def tick(self, ns: int) -> None:
+        """The simulation clock reached `ns` (a state's time): the clock's consumers hear of it
+        once, when it moves forward. In a fleet every vehicle's state of a step ticks; the first
+        one counts. A state older than the clock only comes after a reset to step 0 (the
+        window's R), which is said as a seek."""
+        if ns == self.clock_ns:
+            return
+        seek = ns < self.clock_ns
+        self.clock_ns = ns
+        for consumer in self._clocks:
+            consumer.on_clock(ns, seek)
 
     def publish(self, messages: Sequence[Message]) -> None:
         """Hand `messages` (in log-time order) to every consumer."""
@@ -297,6 +326,7 @@ class VehicleTopics:
         if state.wind_mps is not None:
             fanout.declare(self._wind)
             messages.append((self._wind, ns, cdr.vector3_stamped(ns, WORLD_FRAME, state.wind_mps)))
+        fanout.tick(ns)  # the clock comes from states alone: a frame that arrives late never turns it back
         fanout.publish(messages)
 
     def on_camera_frame(self, frame: CameraFrame) -> None:

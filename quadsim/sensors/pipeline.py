@@ -79,6 +79,46 @@ class Companions:
     poses: Callable[[], tuple[tuple[tuple[float, float, float], tuple[float, float, float, float]], ...]]
 
 
+class CameraAccount:
+    """What one camera gave in a run: frames delivered, captures dropped, frames late (handed on
+    more than LATE_S of simulation time after their capture), and the median age of the last
+    frames (`median_age_s`)."""
+
+    #: a frame handed on later than this after its capture is late (real-time runs)
+    LATE_S = 0.25
+
+    def __init__(self, physics_hz: int) -> None:
+        self.physics_hz = physics_hz
+        self.delivered = 0
+        self.dropped = 0
+        self.late = 0
+        self._ages: deque[int] = deque(maxlen=1000)  # in steps, of the last frames
+
+    def delivered_at(self, age_steps: int, late: bool) -> None:
+        """A frame handed on `age_steps` after its capture (`late`: count it late if it is)."""
+        self.delivered += 1
+        self._ages.append(age_steps)
+        if late and age_steps > self.LATE_S * self.physics_hz:
+            self.late += 1
+
+    @property
+    def median_age_s(self) -> float:
+        ages = sorted(self._ages)
+        return ages[len(ages) // 2] / self.physics_hz if ages else 0.0
+
+
+def _steps_between_frames(specs: tuple[CameraSpec, ...], physics_hz: int) -> dict[str, int]:
+    """Each camera's physics steps between two frames (its rate must divide the physics rate)."""
+    every = {}
+    for spec in specs:
+        if physics_hz % spec.rate_hz:
+            raise ConfigError(
+                f"camera {spec.name}: rate {spec.rate_hz} Hz does not divide the physics rate {physics_hz} Hz"
+            )
+        every[spec.name] = physics_hz // spec.rate_hz
+    return every
+
+
 class CameraPipeline:
     """Renders `specs` of `vehicle` in `world`; it knows nothing of the simulator.
 
@@ -109,13 +149,7 @@ class CameraPipeline:
         self.renderer = renderer
         self.sinks: list[FrameSink] = []
         self.kinds: frozenset[ImageKind] = JPEG_ONLY
-        self._every = {}
-        for spec in specs:
-            if physics_hz % spec.rate_hz:
-                raise ConfigError(
-                    f"camera {spec.name}: rate {spec.rate_hz} Hz does not divide the physics rate {physics_hz} Hz"
-                )
-            self._every[spec.name] = physics_hz // spec.rate_hz
+        self._every = _steps_between_frames(specs, physics_hz)
         self._tick = math.gcd(*self._every.values()) if specs else 1
         self._ordered = ordered_delivery
         self._niceness = (
@@ -127,8 +161,11 @@ class CameraPipeline:
         self._procs: list = []
         self._conns: list = []
         self._rig: CameraRig | None = None
-        self.frames_delivered = 0
-        self.frames_dropped: dict[str, int] = {}  # camera -> captures skipped (unordered mode only)
+        #: what each camera gave (CameraAccount): frames delivered, captures dropped (unordered
+        #: mode only: the workers were busy), frames late (unordered: older than LATE_S when
+        #: handed on), and how old they were
+        self.accounts: dict[str, CameraAccount] = {spec.name: CameraAccount(physics_hz) for spec in specs}
+        self._newest_step = 0  # the step of the newest capture: "now", for a frame's age
         self._companions = companions
         if not specs:
             return
@@ -234,10 +271,16 @@ class CameraPipeline:
         """Render every camera at `state`, due or not (a first image, or one after a reset)."""
         self._submit(tuple(s.name for s in self.specs), state)
 
+    @property
+    def frames_dropped(self) -> dict[str, int]:
+        """Each camera's captures dropped because every render worker was busy."""
+        return {name: a.dropped for name, a in self.accounts.items() if a.dropped}
+
     def _submit(self, names: tuple[str, ...], state: VehicleState) -> None:
         if not names:
             return
         step = state.step
+        self._newest_step = max(self._newest_step, step)
         if self._rig is not None:
             self._deliver(self._rig.render(names, step, state.position_m, state.orientation_xyzw, self.kinds))
             return
@@ -247,7 +290,7 @@ class CameraPipeline:
                 # the workers are behind (a busy machine): drop this capture rather than make
                 # the window and the flight wait; what is recorded are the frames rendered
                 for name in names:
-                    self.frames_dropped[name] = self.frames_dropped.get(name, 0) + 1
+                    self.accounts[name].dropped += 1
                 return
         index = self._seq % len(self._conns)
         companions = self._companions.poses() if self._companions is not None else ()
@@ -260,7 +303,10 @@ class CameraPipeline:
                 self._receive_oldest()
 
     def poll(self) -> None:
-        """Hand on every frame that is ready, without waiting (for live viewers)."""
+        """Hand on every frame that is ready, without waiting (for live viewers). Ordered, the
+        frames come at their fixed points instead: nothing to do."""
+        if self._ordered:
+            return
         while self._pending and self._conns[self._pending[0][1]].poll():
             self._receive_oldest()
 
@@ -271,7 +317,9 @@ class CameraPipeline:
 
     def _deliver(self, frames: list[CameraFrame]) -> None:
         for frame in frames:
-            self.frames_delivered += 1
+            account = self.accounts.get(frame.camera)
+            if account is not None:
+                account.delivered_at(self._newest_step - frame.step, late=not self._ordered)
             for sink in self.sinks:
                 sink.on_camera_frame(frame)
 

@@ -48,7 +48,9 @@ def open_live_outputs(
             host, port = parse_endpoint(foxglove or FOXGLOVE_DEFAULT_ENDPOINT)
             bridge = FoxgloveBridge(host, port, from_foxglove)
             topics = " and ".join(d.topic for d in from_foxglove)
-            takes = f"; it takes Twists on {topics} (Teleop panel)" if from_foxglove else ""
+            holds = {d.command_timeout_s for d in from_foxglove if d.command_timeout_s is not None}
+            held = f", holding {min(holds):g} s after the last" if len(holds) == 1 else ""
+            takes = f"; it takes Twists on {topics} (Teleop panel{held})" if from_foxglove else ""
             print(f"Foxglove: serving {bridge.url} (Open connection -> Foxglove WebSocket){takes}", flush=True)
             if bridge.exposed:  # said as the ROS 2 bridge says an unlimited discovery range
                 can = "watch this run and fly the vehicle" if from_foxglove else "watch this run"

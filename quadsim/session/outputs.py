@@ -95,6 +95,7 @@ class RecordedRun:
             self.topics[drone.name] = self.fanout.add_vehicle(Names(drone.name), mounts, drone.vehicle)
         #: each vehicle's camera pipeline, by name (those with cameras)
         self.pipelines: dict[str, CameraPipeline] = {}
+        self._said_dropping: set[str] = set()  # the vehicles whose dropped frames /rosout has heard of
         self._own_pipelines = pipeline is None
         self._listening = False
         try:
@@ -235,17 +236,46 @@ class RecordedRun:
         if rec is None or rec.closed:
             return
         with shielded_from_signals():  # a signal now must not cut the file short
-            self._drain()
+            self.drain()
             self._finish(rec)
 
-    def _drain(self) -> None:
+    def poll(self) -> None:
+        """Hand on the camera frames that are ready (real-time runs: as soon as they are in), and
+        say on /rosout, once for each vehicle, that its cameras drop frames."""
+        for name, pipeline in self.pipelines.items():
+            pipeline.poll()
+            if name not in self._said_dropping and any(a.dropped for a in pipeline.accounts.values()):
+                self._said_dropping.add(name)
+                self.note_event(
+                    self.fleet.step_count,
+                    "cameras",
+                    "dropping frames: the render workers cannot keep up with the cameras' rate (a busy "
+                    "machine, or too many pixels); the run's summary counts them",
+                    vehicle=name,
+                )
+
+    def _say_camera_counts(self) -> None:
+        """What each vehicle's cameras delivered, on /rosout, as a recording ends, where some
+        dropped or were late (a headless run that is not real-time keeps every frame: nothing to say)."""
+        for name, pipeline in self.pipelines.items():
+            if not any(a.dropped or a.late for a in pipeline.accounts.values()):
+                continue
+            counts = ", ".join(
+                f"{camera} {a.delivered} delivered, {a.dropped} dropped, {a.late} late"
+                for camera, a in pipeline.accounts.items()
+            )
+            self.note_event(self.fleet.step_count, "cameras", counts, vehicle=name)
+
+    def drain(self) -> None:
         """Wait for what is still being made for the recording (camera frames)."""
         for pipeline in self.pipelines.values():
             pipeline.drain()
 
     def _finish(self, rec: McapRecorder) -> None:
-        """Say in the file that recording stops, and close it."""
+        """Say in the file what the cameras delivered (where they fell short) and that recording
+        stops, and close it."""
         if not rec.closed:
+            self._say_camera_counts()
             self.note_event(self.fleet.step_count, RECORDING_EVENT, "stopped")
         self.fanout.remove_consumer(rec)
         if not self.fanout.consumers:

@@ -73,6 +73,10 @@ class RealTimePacer:
         self.lagging = now - self._last_behind_wall < self._lag_hold_s
         return max(0, wanted)
 
+    def behind_s(self, steps_done: int) -> float:
+        """How far behind the wall clock the run is, in wall seconds (0 when it keeps up)."""
+        return max(0.0, (self._due(self._clock()) - steps_done) / (self.rate_hz * self.speed))
+
     def wait(self, due_steps: int, stop: Callable[[], bool] = lambda: False) -> None:
         """Sleep until `due_steps` ticks are due by the wall clock, or `stop()` says so (asked
         at least every 50 ms)."""

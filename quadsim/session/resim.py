@@ -265,7 +265,9 @@ def _plan(flights: Mapping[str, RecordedFlight], folder: Path, outputs: OutputOp
         own, gains = rebuild_config(flight, folder)
         config = config or own
         label = f"{flight.path} ({name})" if name else str(flight.path)
-        driver = ReplayDriver(sorted(flight.command_steps(), key=lambda c: c[0]), label)
+        commands = sorted(flight.command_steps(), key=lambda c: c[0])
+        # each vehicle's own dead-man timeout (a fleet's Foxglove vehicle had its input's, not the fleet's)
+        driver = ReplayDriver(commands, label, command_timeout_s=own.command_timeout_s)
         vehicles.append(
             FleetVehicle(
                 name, own.start, own.urdf, own.vehicle_params, _controller(flight, own), own.z_mode, driver, gains

@@ -22,7 +22,7 @@ from quadsim.session.outputs import RecordedRun
 from quadsim.session.pacing import Pacer, collect_start_up_garbage
 from quadsim.session.plan import RunPlan
 from quadsim.session.stopping import stop_requested
-from quadsim.session.summary import Odometer, RunSummary
+from quadsim.session.summary import Odometer, RunSummary, camera_line
 from quadsim.sim.config import steps_of
 from quadsim.sim.fleet import Fleet
 
@@ -61,6 +61,7 @@ class Run:
         self._switches = sorted(plan.z_switches, key=lambda s: s[0])
         self.wall_s = 0.0  # wall time spent stepping
         self.stopped_early = False
+        self.paced = False  # flown paced to the wall clock (its cameras then drop frames rather than wait)
 
     @property
     def end_step(self) -> int:
@@ -103,6 +104,7 @@ class Run:
         start, end = fleet.step_count, self.end_step
         chunk = max(1, round((PACED_CHUNK_S if pacer is not None else PROGRESS_EVERY_S) * hz))
         if pacer is not None:
+            self.paced = True
             collect_start_up_garbage()
             pacer.rebase(start)
         t0 = time.perf_counter()
@@ -110,21 +112,34 @@ class Run:
             done = fleet.step_count
             if pacer is None:
                 steps = chunk
-            else:
+            else:  # a chunk at a time, catching up too: between chunks, progress, frames and a stop are seen
                 pacer.wait(done + chunk, stop)
-                steps = pacer.steps_for_frame(done)
+                steps = min(pacer.steps_for_frame(done), chunk)
             steps = min(steps, end - done)
             if steps > 0:
                 self.step(steps)
+                if pacer is not None:  # real time: frames are handed on as soon as they are in
+                    self.outputs.poll()
                 if progress is not None:
                     progress((fleet.step_count - start) / hz)
         self.wall_s += time.perf_counter() - t0
         self.stopped_early = fleet.step_count < end
+        self.outputs.drain()  # the frames still being rendered count in the summary (and go in the file)
         return self.summaries()
 
     def summaries(self) -> dict[str, RunSummary]:
-        """What each vehicle did so far, by name."""
-        return {name: odometer.summary(self.wall_s, self.stopped_early) for name, odometer in self.odometers.items()}
+        """What each vehicle did so far, by name (with what its cameras delivered)."""
+        hz = self.fleet.config.rates.physics_hz
+        flown_s = (self.fleet.step_count - self._start_step) / hz
+        pipelines = self.outputs.pipelines
+        return {
+            name: odometer.summary(
+                self.wall_s,
+                self.stopped_early,
+                camera_line(pipelines[name], flown_s, self.paced) if name in pipelines else "",
+            )
+            for name, odometer in self.odometers.items()
+        }
 
     # --- lifetime -------------------------------------------------------------------------------
 

@@ -5,11 +5,15 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 from quadsim.core.types import VehicleState
 from quadsim.drivers.subscribed import SubscribedDriver
 from quadsim.sim.drone import Drone
 from quadsim.sim.flight_events import EventKind, FlightEvent
+
+if TYPE_CHECKING:  # the cameras' pipeline imports the imaging libraries: only where there are cameras
+    from quadsim.sensors.pipeline import CameraPipeline
 
 
 def final_pose_text(state: VehicleState) -> str:
@@ -32,6 +36,7 @@ class RunSummary:
     stopped_early: bool = False  # a signal asked the run to stop before its end
     events: tuple[FlightEvent, ...] = ()  # take-off, touchdown, landed, crash, reset
     physics_hz: int = 240  # the events' steps -> seconds
+    cameras: str = ""  # what its cameras delivered (camera_line), when it has some
 
     @property
     def real_time_factor(self) -> float:
@@ -58,6 +63,7 @@ class RunSummary:
             f"commands        {self.commands_received} received, {self.commands_rejected} rejected (not finite), "
             f"{self.commands_clamped} clamped to the limits",
             *([f"live input      {self.live_input}"] if self.live_input else []),
+            *([f"cameras         {self.cameras}"] if self.cameras else []),
             f"flight events   {self.events_line()}",
             *(
                 f"crash           at t={e.step / self.physics_hz:.2f} s: {e.value}"
@@ -85,7 +91,7 @@ def _live_input(driver: object) -> str:
         return ""
     arrived = driver.received + driver.rejected
     return (
-        f"{arrived} arrived on {driver.topic} from {driver.name}: {driver.rejected} rejected (not finite), "
+        f"{arrived} arrived on {driver.heard_on} from {driver.name}: {driver.rejected} rejected (not finite), "
         f"{driver.dropped} superseded before a step took them"
     )
 
@@ -114,8 +120,9 @@ class Odometer:
         self._last, self._last_step = p, state.step
         self.max_z_m = max(self.max_z_m, p[2])
 
-    def summary(self, wall_s: float, stopped_early: bool) -> RunSummary:
-        """What the vehicle did since this odometer was attached, flown in `wall_s` of wall time."""
+    def summary(self, wall_s: float, stopped_early: bool, cameras: str = "") -> RunSummary:
+        """What the vehicle did since this odometer was attached, flown in `wall_s` of wall time
+        (`cameras`: what its cameras delivered, camera_line)."""
         drone = self.drone
         hz = drone.config.rates.physics_hz
         state = drone.state
@@ -133,4 +140,22 @@ class Odometer:
             stopped_early=stopped_early,
             events=tuple(drone.events[self.first_event :]),
             physics_hz=hz,
+            cameras=cameras,
         )
+
+
+def camera_line(pipeline: CameraPipeline, sim_time_s: float, paced: bool) -> str:
+    """What a vehicle's cameras delivered: each one's rate of the rate asked, and, paced to the
+    wall clock, the captures dropped (every render worker busy), the frames late, and how long
+    after their capture frames were handed on (a run that is not paced keeps every frame)."""
+    accounts = pipeline.accounts
+    rates = ", ".join(
+        f"{spec.name} {accounts[spec.name].delivered / max(sim_time_s, 1e-9):.1f} of {spec.rate_hz} Hz"
+        for spec in pipeline.specs
+    )
+    if not paced:
+        return rates
+    dropped = sum(a.dropped for a in accounts.values())
+    late = sum(a.late for a in accounts.values())
+    age = max((a.median_age_s for a in accounts.values()), default=0.0)
+    return f"{rates}; {dropped} dropped, {late} late; frames {age:.2f} s after their capture (median)"

@@ -13,7 +13,7 @@ its capture step (a loop tap, as recordings do). Two modes:
 - PIPELINED: rendered by worker processes on the other cores while the simulation steps on;
   `latest()` gives the newest frame that has arrived, which is a few captures old (its `step`
   says which). A capture that finds every worker busy is dropped.
-A recording of the run (quadsim.RecordedRun with `cameras=`) records the same frames.
+A recording of the run (`quadsim.record(sim, path, cameras)`) records the same frames.
 """
 
 from __future__ import annotations

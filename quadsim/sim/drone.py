@@ -59,6 +59,9 @@ class Drone:
         self.driver: InputDriver = driver if driver is not None else ProgrammaticDriver()
         if config.z_mode is None:  # the driver's wish (a script's z_mode line), else velocity
             config = replace(config, z_mode=getattr(self.driver, "preferred_z_mode", None) or ZMode.VELOCITY)
+        timeout_s = getattr(self.driver, "command_timeout_s", None)
+        if timeout_s is not None:  # the input's own dead-man timeout (a Foxglove input's), recorded as the run's
+            config = replace(config, command_timeout_s=timeout_s)
         self.config = config
         self.z_mode: ZMode = config.z_mode or ZMode.VELOCITY
         self.vehicle = load_vehicle(config.urdf, config.vehicle_params)

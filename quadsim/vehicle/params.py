@@ -8,7 +8,7 @@ import enum
 import math
 import re
 import xml.etree.ElementTree as ET
-from dataclasses import dataclass, fields
+from dataclasses import dataclass, field, fields
 from pathlib import Path
 from typing import Any
 
@@ -16,6 +16,7 @@ from quadsim.assets import asset_path
 from quadsim.core.kinematics import IDENTITY, Mat3, Vec3, mat_mul, matrix_from_rpy, rotate, transpose
 from quadsim.core.toml_files import read_toml, refuse_unknown_keys
 from quadsim.errors import ConfigError
+from quadsim.vehicle.meshes import pybullet_urdf
 
 #: The airframes the project ships, by the names `--vehicle` takes (each URDF has its
 #: NAME.params.toml beside it).
@@ -152,6 +153,14 @@ class VehicleParams:
     gravity_mps2: float = 9.81
     #: every link but base_link, in the URDF's order
     link_frames: tuple[LinkFrame, ...] = ()
+    #: the URDF PyBullet loads, when it is not urdf_path: a copy naming binary STL versions of its
+    #: ASCII STL meshes (vehicle/meshes.py)
+    pybullet_copy: Path | None = field(default=None, compare=False)
+
+    @property
+    def pybullet_urdf_path(self) -> Path:
+        """The URDF to give PyBullet: urdf_path, or the copy PyBullet can read all of."""
+        return self.pybullet_copy or self.urdf_path
 
     @property
     def camera_links(self) -> tuple[str, ...]:
@@ -608,4 +617,5 @@ def _build(urdf: Path, params: Path, links: dict[str, _Link], table: dict[str, A
         link_frames=tuple(
             LinkFrame(n, link.origin_in_base_m, link.rotation_in_base) for n, link in links.items() if n != "base_link"
         ),
+        pybullet_copy=None if (readable := pybullet_urdf(urdf)) == urdf else readable,
     )

@@ -141,7 +141,7 @@ def _fly_window(
     )
     config, outputs, commands = sim_config(args, None), output_options(args), None
     if args.input in ("foxglove", "ros2"):
-        commands = SubscribedDriver(args.input)
+        commands = SubscribedDriver(args.input, command_timeout_s=args.live_timeout)
     live = live_outputs(args, fleet_inputs or commands)
     flown, recordings, lost, finals = 0.0, [], None, []
     try:
@@ -181,7 +181,7 @@ def _fly_fleet(args: argparse.Namespace) -> int:
     fleet_file = read_fleet_file(args.fleet)
     hands = fleet_file.held
     args.input = "joystick" if hands and hands[0].input == "gamepad" else "keyboard"
-    drivers = fleet_drivers(fleet_file)
+    drivers = fleet_drivers(fleet_file, args.live_timeout)
     setup = FleetSetup(fleet_file, drivers, fleet_cameras(args, fleet_file))
     return _fly_window(args, setup, [d for d in drivers.values() if isinstance(d, SubscribedDriver)])
 

@@ -219,6 +219,7 @@ class TeleopApp:
         self._hook_joy()
         collect_start_up_garbage()
         self._init_window_state(pacer or RealTimePacer(config.rates.physics_hz))
+        self.session.paced = isinstance(self.pacer, RealTimePacer)  # its cameras drop frames rather than wait
         self.recordings: list[Path] = [self.session.outputs.path] if self.session.outputs.path else []
         # last, so nothing after it can fail with the handlers installed
         self._x11 = X11Guard.install(on_fatal=self._finish_after_fatal_loss)
@@ -403,7 +404,7 @@ class TeleopApp:
         if driver is self.joystick:
             status = self.joystick.status
         elif isinstance(driver, SubscribedDriver):
-            status = f"{driver.name}: Twists on {driver.topic} ({driver.received} received)"
+            status = f"{driver.name}: Twists on {driver.heard_on} ({driver.received} received)"
         else:
             status = f"keyboard ({self.keyboard.layout.name}, speed x{self.keyboard.scale:.2f})"
         if self.fleet is not None:
@@ -525,8 +526,7 @@ class TeleopApp:
             steps = self.pacer.steps_for_frame(self.sim.step_count)
             if steps:
                 self.session.step(steps)
-        for pipeline in self._pipelines():
-            pipeline.poll()
+        self.session.outputs.poll()  # the frames that are in (and /rosout told of dropped ones)
         self.view.draw(self.screen, self._model())
         pygame.display.flip()
         if self._display_gone():
@@ -605,6 +605,7 @@ class TeleopApp:
             warnings=warnings,
             camera_rates=self.camera_rates() if self._pipelines() else {},
             camera_rate_hz=max((c.rate_hz for p in self._pipelines() for c in p.specs), default=0),
+            camera_dropped=sum(sum(p.frames_dropped.values()) for p in self._pipelines()),
             others=self.fleet.others() if self.fleet is not None else [],
             cameras_of=(self.fleet.shown or self.fleet.flown) if self.fleet is not None else "",
             camera_names=self.fleet.camera_names() if self.fleet is not None else None,

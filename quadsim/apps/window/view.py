@@ -50,6 +50,7 @@ class ViewModel:
     warnings: list[str] = field(default_factory=list)
     camera_rates: dict[str, float] = field(default_factory=dict)  # frames/s each camera delivered
     camera_rate_hz: int = 0  # the rate the cameras were asked for
+    camera_dropped: int = 0  # captures dropped so far, every render worker busy
     playback: str | None = None  # replay: shown instead of the recording state
     timeline: tuple[float, float] | None = None  # replay: (time, duration) s, drawn as a clickable bar
     phase: str = ""  # landed / flying (empty: not known, as in replay)
@@ -216,15 +217,7 @@ class TeleopView:
             (f"{m.fps:4.1f} fps   {m.real_time_factor:4.2f}x real time   sim {m.sim_time_s:7.2f} s   H/F1: help", TEXT),
         ]
         if m.camera_rates:
-            achieved = "  ".join(f"{name} {rate:4.1f}" for name, rate in sorted(m.camera_rates.items()))
-            short = m.camera_rate_hz and min(m.camera_rates.values()) < 0.8 * m.camera_rate_hz
-            lines.append(
-                (
-                    f"cameras {achieved} of {m.camera_rate_hz} frames/s"
-                    + ("  (the machine is busy: frames are dropped, the flight keeps real time)" if short else ""),
-                    WARN if short else TEXT,
-                )
-            )
+            lines.append(_camera_hud_line(m))
         if m.paused:
             lines.append(("PAUSED (P resumes)", WARN))
         if m.lagging:
@@ -297,3 +290,15 @@ def _arrow(px, x: float, y: float, yaw: float) -> list[tuple[int, int]]:
         px(x + 0.5 * math.cos(yaw + 2.5), y + 0.5 * math.sin(yaw + 2.5)),
         px(x + 0.5 * math.cos(yaw - 2.5), y + 0.5 * math.sin(yaw - 2.5)),
     ]
+
+
+def _camera_hud_line(m: ViewModel) -> tuple[str, tuple[int, int, int]]:
+    """The HUD's line of the cameras' achieved rates (and drops), a warning when they fall short."""
+    achieved = "  ".join(f"{name} {rate:4.1f}" for name, rate in sorted(m.camera_rates.items()))
+    short = bool(m.camera_rate_hz) and min(m.camera_rates.values()) < 0.8 * m.camera_rate_hz
+    return (
+        f"cameras {achieved} of {m.camera_rate_hz} frames/s"
+        + (f", {m.camera_dropped} dropped" if m.camera_dropped else "")
+        + ("  (the machine is busy: frames are dropped, the flight keeps real time)" if short else ""),
+        WARN if short else TEXT,
+    )
