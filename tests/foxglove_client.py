@@ -57,7 +57,7 @@ def summarise(type_name: str, msg: Any) -> dict[str, Any]:
     if type_name == "std_msgs/msg/String":
         return {"length": len(msg.data)}
     if type_name == "visualization_msgs/msg/MarkerArray":
-        return {"markers": len(msg.markers)}
+        return {"markers": len(msg.markers), "frames": sorted({m.header.frame_id for m in msg.markers})}
     return {}
 
 

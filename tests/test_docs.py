@@ -111,6 +111,18 @@ def test_the_fleet_picture_shows_every_vehicles_track():
     assert red.sum() > 800 and grey.sum() > 500, (red.sum(), grey.sum())  # a landmark alone is ~100 px
 
 
+@pytest.mark.parametrize("picture", ["foxglove_fleet.png", "foxglove_live.png"])
+def test_the_foxglove_pictures_show_every_vehicle_of_the_example_fleet(picture):
+    """docs/img/foxglove_*.png: Foxglove Studio 1.48 after docs/foxglove.md's steps: the four
+    vehicles' names over their models, the rotors of at least the three larger ones (the
+    Crazyflie's are a few pixels)."""
+    from tests.foxglove_studio import vehicle_names_drawn, vehicles_drawn
+
+    panel = (40, 25, 755, 690)  # the 3D panel of a 1200 x 750 picture
+    assert vehicle_names_drawn(DOCS / "img" / picture, panel) == 4
+    assert vehicles_drawn(DOCS / "img" / picture, panel) >= 3
+
+
 def test_the_fleet_window_picture_shows_the_other_vehicles():
     """docs/img/fleet_window.png: the real fly --fleet window: the red tower in the front camera,
     the other vehicles in blue on the dark map, the HUD's text."""

@@ -235,7 +235,7 @@ def test_the_scene_is_latched_for_every_consumer_with_its_meshes_inline(tmp_path
     fanout, late = TopicFanout(240, world), Consumer()
     fanout.add_vehicle(vehicle=vehicle)
     fanout.add_consumer(late, 480)
-    assert late.topics[-2:] == ["/robot_description", "/world/markers"]
+    assert late.topics[-3:] == ["/robot_description", "/robot_markers", "/world/markers"]
     decoded = {t.name: (ns, TS.deserialize_cdr(d, t.type_name)) for t, ns, d in late.messages}
     assert {ns for ns, _ in decoded.values()} == {2_000_000_000}
     description = decoded["/robot_description"][1].data
@@ -247,3 +247,6 @@ def test_the_scene_is_latched_for_every_consumer_with_its_meshes_inline(tmp_path
     assert static[0].header.stamp.sec == 2
     markers = decoded["/world/markers"][1].markers
     assert len(markers) == 1 + len(world.landmarks) and markers[-1].header.stamp.sec == 2
+    model = decoded["/robot_markers"][1].markers  # the mesh too, by the same URL, in its link's frame
+    assert model[0].type == 10 and model[0].mesh_resource == f"data:model/stl;base64,{inline}"
+    assert model[0].header.frame_id == "base_link" and model[0].header.stamp.sec == 2

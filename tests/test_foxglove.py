@@ -97,7 +97,7 @@ def test_a_client_watches_every_topic_and_flies_it_with_twists(tmp_path: Path) -
     assert set(flown["serverInfo"]["supportedEncodings"]) >= {"json", "cdr"}
     topics = flown["topics"]
     expected = {"/quad_cmd_twist", "/quad/pose", "/quad/odom", "/quad/imu", "/quad/rotor_thrusts", "/tf", "/tf_static"}
-    expected |= {"/robot_description", "/world/markers"}
+    expected |= {"/robot_description", "/robot_markers", "/world/markers"}
     expected |= {*IMAGES, "/quad/front_camera/camera_info", "/quad/floor_camera/camera_info"}
     assert expected <= set(topics), sorted(set(expected) - set(topics))
     assert flown["undecodable"] == 0
@@ -234,6 +234,7 @@ def test_the_replay_window_hands_the_recording_to_its_feed_as_it_plays(tmp_path:
         app.frame()
         assert sorted(name for name, _ in sink.messages[len(played) :]) == [
             "/robot_description",
+            "/robot_markers",
             "/tf_static",
             "/world/markers",
         ]
@@ -252,25 +253,30 @@ NODE_CACHE = Path.home() / ".cache" / "quadsim-tests" / "foxglove-node"
 
 
 def _node_modules() -> Path:
-    """The npm client's packages, installed once into the tests' cache; skip (saying why) where
+    """The npm client's packages (see npm_packages)."""
+    return npm_packages(NODE_CACHE, NODE_PACKAGES, "the @foxglove/ws-protocol client")
+
+
+def npm_packages(cache: Path, packages: tuple[str, ...], what: str) -> Path:
+    """`packages` installed once into `cache` (its node_modules folder); skip (saying why) where
     node or npm is missing or the registry cannot be reached."""
     node, npm = shutil.which("node"), shutil.which("npm")
     if node is None or npm is None:
-        pytest.skip("node and npm are needed for the @foxglove/ws-protocol client")
-    modules = NODE_CACHE / "node_modules"
-    stamp = NODE_CACHE / ".installed"
-    if stamp.exists() and stamp.read_text() == " ".join(NODE_PACKAGES):
+        pytest.skip(f"node and npm are needed for {what}")
+    modules = cache / "node_modules"
+    stamp = cache / ".installed"
+    if stamp.exists() and stamp.read_text() == " ".join(packages):
         return modules
-    NODE_CACHE.mkdir(parents=True, exist_ok=True)
+    cache.mkdir(parents=True, exist_ok=True)
     done = subprocess.run(
-        [npm, "install", "--no-audit", "--no-fund", "--prefix", str(NODE_CACHE), *NODE_PACKAGES],
+        [npm, "install", "--no-audit", "--no-fund", "--prefix", str(cache), *packages],
         capture_output=True,
         text=True,
         timeout=600,
     )
     if done.returncode != 0:
-        pytest.skip(f"npm could not install {' '.join(NODE_PACKAGES)}: {done.stderr.strip().splitlines()[-1:]}")
-    stamp.write_text(" ".join(NODE_PACKAGES))
+        pytest.skip(f"npm could not install {' '.join(packages)}: {done.stderr.strip().splitlines()[-1:]}")
+    stamp.write_text(" ".join(packages))
     return modules
 
 
@@ -527,6 +533,9 @@ def test_a_client_flies_one_vehicle_of_a_fleet_on_its_topic_while_a_script_flies
         topics
     )
     assert topics["/bravo/quad/odom"]["last"]["child"] == "bravo/base_link"
+    for name in ("alpha", "bravo"):  # each vehicle's model, drawn in its own frames (latched: got on joining)
+        model = topics[f"/{name}/robot_markers"]["last"]
+        assert model["markers"] > 5 and all(f.startswith(f"{name}/") for f in model["frames"]), model
     children = topics["/tf_static"]["first"]["children"]
     assert any(c.startswith("alpha/rotor") for c in children) and any(c.startswith("bravo/rotor") for c in children)
     assert any("takes only geometry_msgs/msg/Twist on /bravo/quad_cmd_twist" in s for s in wrong.get("status", []))

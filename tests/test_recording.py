@@ -22,6 +22,7 @@ CONTRACT = {
     "/tf": ("tf2_msgs/msg/TFMessage", 60),
     "/tf_static": ("tf2_msgs/msg/TFMessage", None),
     "/robot_description": ("std_msgs/msg/String", None),
+    "/robot_markers": ("visualization_msgs/msg/MarkerArray", None),
     "/world/markers": ("visualization_msgs/msg/MarkerArray", None),
     "/rosout": ("rcl_interfaces/msg/Log", None),  # recording started and stopped, the take-off
     "/quad/front_camera/image_raw/compressed": ("sensor_msgs/msg/CompressedImage", 30),
@@ -56,7 +57,7 @@ def test_profile_schemas_encodings_and_qos(recorded):
         assert (schema.name, schema.encoding, ch.message_encoding) == (type_name, "ros2msg", "cdr")
         assert "offered_qos_profiles" in ch.metadata
     assert len(summary.schemas) == len({t for t, _ in CONTRACT.values()})  # one schema per type
-    for latched in ("/tf_static", "/robot_description", "/world/markers", "/rosout"):  # transient local
+    for latched in ("/tf_static", "/robot_description", "/robot_markers", "/world/markers", "/rosout"):
         assert "durability: 1" in channels[latched].metadata["offered_qos_profiles"], latched
     assert "durability: 2" in channels["/quad/pose"].metadata["offered_qos_profiles"]
     # dependencies concatenated the rosbag2 way
@@ -85,7 +86,7 @@ def test_stamps_equal_log_time_and_frames(recorded):
             [t.header for t in dec.transforms]
             if topic.startswith("/tf")
             else [m.header for m in dec.markers]
-            if topic == "/world/markers"
+            if topic.endswith("markers")
             else ([dec.header] if hasattr(dec, "header") else [])
         )
         for h in headers:
@@ -93,7 +94,7 @@ def test_stamps_equal_log_time_and_frames(recorded):
         if topic.startswith("/tf"):
             frames[topic] = {(t.header.frame_id, t.child_frame_id) for t in dec.transforms}
         elif headers:
-            frames.setdefault(topic, set()).add(headers[0].frame_id)
+            frames.setdefault(topic, set()).update(h.frame_id for h in headers)
         if topic == "/quad/odom":
             assert dec.child_frame_id == "base_link"
     assert frames["/tf"] == {("world", "base_link")}
@@ -101,6 +102,7 @@ def test_stamps_equal_log_time_and_frames(recorded):
     optical = {"front_camera_optical", "floor_camera_optical"}
     assert frames["/tf_static"] == {("base_link", child) for child in links | optical}
     assert frames["/world/markers"] == {"world"}
+    assert frames["/robot_markers"] == {"base_link"} | links  # each shape in its own link's frame
     assert (
         frames["/quad/pose"] == {"world"} and frames["/quad/odom"] == {"world"} and frames["/quad/imu"] == {"base_link"}
     )

@@ -86,7 +86,7 @@ def record(out: Path, *extra: str) -> Path:
 
 def test_a_recording_of_one_vehicle_is_the_stored_one_record_for_record(tmp_path):
     golden, again = records_of(GOLDEN), records_of(record(tmp_path / "again.mcap"))
-    assert sum(r[0] == "message" for r in golden) == 1266  # states, commands, both cameras, /rosout
+    assert sum(r[0] == "message" for r in golden) == 1267  # states, commands, both cameras, /rosout, the latched scene
     assert len(again) == len(golden)
     different = [i for i, (a, b) in enumerate(zip(golden, again)) if a != b]
     assert not different, (

@@ -1,6 +1,6 @@
 """The documentation's pictures, made from the simulator itself. Run from the clone:
-`python tools/make_doc_pictures.py [cameras|window|fleet|fleet_window]`; tests/test_docs.py checks each is
-there and shows what it should.
+`python tools/make_doc_pictures.py [cameras|window|fleet|fleet_window|foxglove]`; tests/test_docs.py checks each
+is there and shows what it should.
 
 - docs/img/cameras.png: what the two onboard cameras see a few seconds into a flight toward the
   red tower, side by side;
@@ -10,6 +10,10 @@ there and shows what it should.
   Crazyflie's figure eight in red among the other vehicles' tracks;
 - docs/img/fleet_window.png: the real `fly --fleet` window under Xvfb, alpha climbed with a real W
   key press (xdotool); its front camera sees bravo and charlie flying ahead; the fleet on the map.
+- docs/img/foxglove_fleet.png and foxglove_live.png: a real Foxglove Studio 1.48 (the harness in
+  ../shared/foxglove-studio, tests/foxglove_studio.py) following docs/foxglove.md's steps: the
+  example fleet's recording opened and its `quadsim layout` imported; then the fleet flown live
+  with delta on Foxglove, connected, its layout imported and delta climbing on its Teleop panel.
 
 (The sweep plot in docs/sweeps.md is the one the wind example's sweep draws.)
 """
@@ -19,6 +23,8 @@ from __future__ import annotations
 import os
 import select
 import shutil
+import signal
+import socket
 import subprocess
 import sys
 import tempfile
@@ -187,7 +193,52 @@ def fleet_window() -> None:
     print(f"wrote {out}")
 
 
-PICTURES = {"cameras": cameras, "window": window, "fleet": fleet, "fleet_window": fleet_window}
+def _small_png(shot: Path, out: Path) -> None:
+    """A screenshot as a docs picture: 1200 pixels wide, 128 colours."""
+    from PIL import Image
+
+    with Image.open(shot) as image:
+        small = image.convert("RGB").resize((1200, 750), Image.Resampling.LANCZOS)
+        small.quantize(128, dither=Image.Dither.NONE).save(out, optimize=True)
+    print(f"wrote {out}")
+
+
+def foxglove() -> None:
+    sys.path.insert(0, str(ROOT))
+    from tests import foxglove_studio
+
+    main_py = [sys.executable, str(ROOT / "main.py")]
+    example = ROOT / "examples" / "fleet.toml"
+    with tempfile.TemporaryDirectory(prefix="quadsim-doc-") as folder:
+        tmp = Path(folder)
+        recording, live = tmp / "fleet.mcap", tmp / "live_fleet.toml"
+        run = [*main_py, "run", "--fleet", str(example), "--duration", "8", "--out", str(recording)]
+        subprocess.run(run, check=True, capture_output=True)
+        subprocess.run([*main_py, "layout", str(recording)], check=True, capture_output=True)
+        live.write_text(example.read_text().replace('input = "idle"', 'input = "foxglove"'))
+        subprocess.run([*main_py, "layout", str(live)], check=True, capture_output=True)
+        files = {p.name: p for p in (recording, tmp / "fleet.layout.json", tmp / "live_fleet.layout.json")}
+        with foxglove_studio.served(files) as url:
+            steps = ["open-file=/data/fleet.mcap", "wait=5", "import-layout=/data/fleet.layout.json"]
+            steps += ["sidebar=layouts", "seek=0.75", "wait=8", f"shot={tmp / 'recording.png'}"]
+            foxglove_studio.follow_steps(url, tmp / "recording.log", *steps)
+            with socket.socket() as s:
+                s.bind(("127.0.0.1", 0))
+                port = s.getsockname()[1]
+            flying = _quadsim("run", "--fleet", str(live), "--foxglove", f"127.0.0.1:{port}", "--out", str(tmp))
+            try:
+                time.sleep(8.0)  # the server up and the scripted vehicles climbing
+                steps = [f"connect=ws://127.0.0.1:{port}", "wait=5", "import-layout=/data/live_fleet.layout.json"]
+                steps += ["sidebar=layouts", "wait=3", "hold=4,3000", "wait=3", f"shot={tmp / 'live.png'}"]
+                foxglove_studio.follow_steps(url, tmp / "live.log", *steps)
+            finally:
+                flying.send_signal(signal.SIGINT)
+                flying.wait(timeout=60)
+        _small_png(tmp / "recording.png", IMG / "foxglove_fleet.png")
+        _small_png(tmp / "live.png", IMG / "foxglove_live.png")
+
+
+PICTURES = {"cameras": cameras, "window": window, "fleet": fleet, "fleet_window": fleet_window, "foxglove": foxglove}
 
 
 def main(names: list[str]) -> None:

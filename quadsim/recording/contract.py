@@ -33,7 +33,7 @@ def _qos(durability: int, depth: int) -> str:
 
 
 QOS_VOLATILE = _qos(2, 10)
-QOS_LATCHED = _qos(1, 1)  # /tf_static, /robot_description, /world/markers: late joiners still get them
+QOS_LATCHED = _qos(1, 1)  # /tf_static, /robot_description, the markers: late joiners still get them
 QOS_ROSOUT = _qos(1, 1000)  # as rcl offers /rosout: transient local, the last 1000
 
 
@@ -56,6 +56,9 @@ TF = Topic("/tf", "tf2_msgs/msg/TFMessage")
 TF_STATIC = Topic("/tf_static", "tf2_msgs/msg/TFMessage", QOS_LATCHED)
 ROSOUT = Topic("/rosout", "rcl_interfaces/msg/Log", QOS_ROSOUT)
 ROBOT_DESCRIPTION = Topic("/robot_description", "std_msgs/msg/String", QOS_LATCHED)
+#: the vehicle's model as markers in its own link frames (scene.robot_markers): drawn by every
+#: viewer that draws markers, where a URDF from a topic under a fleet's name is not
+ROBOT_MARKERS = Topic("/robot_markers", "visualization_msgs/msg/MarkerArray", QOS_LATCHED)
 WORLD_MARKERS = Topic("/world/markers", "visualization_msgs/msg/MarkerArray", QOS_LATCHED)
 #: the wind at the vehicle, `world` frame, in runs with wind (a state's sixth message)
 WIND = Topic("/wind", "geometry_msgs/msg/Vector3Stamped")

@@ -25,6 +25,7 @@ from quadsim.recording.contract import (
     BODY_FRAME,
     JOY,
     ROBOT_DESCRIPTION,
+    ROBOT_MARKERS,
     ROSOUT,
     STATE_TOPICS,
     TF_STATIC,
@@ -38,7 +39,7 @@ from quadsim.recording.contract import (
     image_topic,
     optical_rotation,
 )
-from quadsim.recording.scene import link_transforms, robot_description, world_markers
+from quadsim.recording.scene import link_transforms, robot_description, robot_markers, world_markers
 from quadsim.sensors.camera import CameraFrame, CameraSpec
 from quadsim.vehicle.params import CameraMount, VehicleParams
 
@@ -98,7 +99,8 @@ class _Camera(NamedTuple):
 
 class TopicFanout:
     """A run's fan-out: its consumers, the topics announced so far and the latched messages (one
-    /tf_static with every vehicle's links, each vehicle's robot description, the world's markers),
+    /tf_static with every vehicle's links, each vehicle's robot description and model markers,
+    the world's markers),
     fed by each vehicle's producer (`add_vehicle`). With no consumer it does nothing.
 
     A consumer added at any time gets every topic announced so far, then the latched messages, as
@@ -148,8 +150,8 @@ class TopicFanout:
 
     def latched(self, step: int = 0, local_files: bool = False) -> tuple[Message, ...]:
         """The latched messages (transient local), stamped at `step`: every consumer gets them
-        first, whenever it joins. `local_files`: the URDF names its meshes by file:// URLs (for
-        a consumer whose readers read files, as RViz does), not data: URLs (scene.py)."""
+        first, whenever it joins. `local_files`: the URDF and the markers name meshes by file://
+        URLs (for a consumer whose readers read files, as RViz does), not data: URLs (scene.py)."""
         ns = self.ns(step)
         static = [t._replace(ns=ns) for vehicle in self.vehicles for t in vehicle.static_transforms]
         messages: list[Message] = [(TF_STATIC, ns, cdr.tf_message(static))]
@@ -240,7 +242,8 @@ class VehicleTopics:
         self.fanout = fanout
         self.names = names
         t, body = names.topic, names.frame(BODY_FRAME)
-        self._twist, self._joy, self._wind, self._description = t(TWIST), t(JOY), t(WIND), t(ROBOT_DESCRIPTION)
+        self._twist, self._joy, self._wind = t(TWIST), t(JOY), t(WIND)
+        self._description, self._markers = t(ROBOT_DESCRIPTION), t(ROBOT_MARKERS)
         self._state_topics = tuple(t(topic) for topic in STATE_TOPICS)
         self._logger = f"{names.vehicle}.{LOGGER_NAME}" if names.vehicle else LOGGER_NAME
         self._joy_frame = names.frame(JOY_FRAME)
@@ -270,17 +273,25 @@ class VehicleTopics:
             s._replace(frame_id=names.frame(s.frame_id), child_frame_id=names.frame(s.child_frame_id)) for s in static
         ]
         self._urdf_path = vehicle.urdf_path if vehicle is not None else None
-        self._robot_description: dict[bool, bytes] = {}  # by local_files: made when first asked for
-        self.topics += [self._description] if vehicle is not None else []
+        # by local_files, made when first asked for: the description's bytes, the unstamped markers
+        self._robot_description: dict[bool, bytes] = {}
+        self._robot_markers: dict[bool, list[cdr.Marker]] = {}
+        self.topics += [self._description, self._markers] if vehicle is not None else []
 
     def own_latched(self, step: int, local_files: bool = False) -> tuple[Message, ...]:
-        """The latched messages that are this vehicle's alone (its robot description)."""
+        """The latched messages that are this vehicle's alone: its robot description and its
+        model as markers in its own frames (in a fleet, with its name over it)."""
         if self._urdf_path is None:
             return ()
         if local_files not in self._robot_description:
             text = robot_description(self._urdf_path, inline_meshes=not local_files)
             self._robot_description[local_files] = cdr.string(text)
-        return ((self._description, self.fanout.ns(step), self._robot_description[local_files]),)
+            self._robot_markers[local_files] = robot_markers(
+                self._urdf_path, self.names.frame, not local_files, label=self.names.vehicle
+            )
+        ns = self.fanout.ns(step)
+        markers = cdr.marker_array([m._replace(ns=ns) for m in self._robot_markers[local_files]])
+        return ((self._description, ns, self._robot_description[local_files]), (self._markers, ns, markers))
 
     # --- producers ----------------------------------------------------------------------------
 

@@ -67,6 +67,7 @@ def _own_type(topic: str) -> str | None:
         rm.WIND,
         rm.TF_STATIC,
         rm.ROBOT_DESCRIPTION,
+        rm.ROBOT_MARKERS,
         rm.WORLD_MARKERS,
         rm.ROSOUT,
     ):

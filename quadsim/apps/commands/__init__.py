@@ -41,6 +41,10 @@ COMMANDS = (
     Command("scenarios", "list the built-in scripted scenarios"),
     Command("evaluate", "fly the scenarios with each controller and print the flight-quality table"),
     Command("info", "describe a recording: duration, topics, rates, run parameters"),
+    Command(
+        "layout",
+        "write a Foxglove layout that shows every vehicle, its cameras and plots, for a recording or a live run",
+    ),
     Command("recover", "salvage a recording cut short (killed process, power loss)"),
     Command("replay", "play a recording back (window, or --headless summary, MP4, plot), or fly it again (--resim)"),
     Command("check", "re-fly recordings as regression tests (exit 1 when one changed)"),
