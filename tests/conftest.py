@@ -35,6 +35,7 @@ WHOLE_MACHINE = frozenset(
         "test_damaged_corpus.py",
         "test_foxglove.py",
         "test_foxglove_front.py",
+        "test_foxglove_layout.py",
         "test_gamepad.py",
         "test_killed_camera_run.py",
         "test_recording_safety.py",

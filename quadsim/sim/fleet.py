@@ -90,15 +90,7 @@ class Fleet:
         self.vehicles: dict[str, Drone] = {}
         try:
             for index, v in enumerate(vehicles):
-                own = replace(
-                    config,
-                    urdf=v.urdf if v.urdf is not None else config.urdf,
-                    vehicle_params=v.vehicle_params if v.urdf is not None else config.vehicle_params,
-                    controller=v.controller if isinstance(v.controller, ControllerKind) else config.controller,
-                    z_mode=v.z_mode if v.z_mode is not None else config.z_mode,
-                    start=v.start,
-                    seed=_vehicle_seed(config.seed, index, v.name),
-                )
+                own = _own_config(config, v, index)
                 own_controller = (
                     None if v.controller is None or isinstance(v.controller, ControllerKind) else v.controller
                 )
@@ -248,6 +240,19 @@ class Fleet:
 
     def __exit__(self, *exc: object) -> None:
         self.close()
+
+
+def _own_config(config: SimConfig, v: FleetVehicle, index: int) -> SimConfig:
+    """Vehicle `v`'s settings: the run's, with its own airframe, controller, z-mode, start and seed."""
+    return replace(
+        config,
+        urdf=v.urdf if v.urdf is not None else config.urdf,
+        vehicle_params=v.vehicle_params if v.urdf is not None else config.vehicle_params,
+        controller=v.controller if isinstance(v.controller, ControllerKind) else config.controller,
+        z_mode=v.z_mode if v.z_mode is not None else config.z_mode,
+        start=v.start,
+        seed=_vehicle_seed(config.seed, index, v.name),
+    )
 
 
 def _vehicle_seed(seed: int, index: int, name: str) -> int:
