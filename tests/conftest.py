@@ -32,7 +32,6 @@ WHOLE_MACHINE = frozenset(
     {
         "test_camera_accounts.py",
         "test_check_parallel.py",
-        "test_damaged_corpus.py",
         "test_foxglove.py",
         "test_foxglove_front.py",
         "test_foxglove_layout.py",

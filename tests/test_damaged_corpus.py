@@ -184,10 +184,7 @@ def sources(tmp_path_factory):
 @pytest.fixture(scope="module")
 def corpus(sources, tmp_path_factory):
     folder = tmp_path_factory.mktemp("corpus")
-    t0 = time.perf_counter()
-    files = make_corpus(sources, folder)
-    assert time.perf_counter() - t0 < 30.0  # generation stays fast
-    return files
+    return make_corpus(sources, folder)
 
 
 def _table(runs: list[Run]) -> str:

@@ -284,11 +284,12 @@ def test_the_npm_ws_protocol_client_watches_and_flies_with_its_default_subprotoc
     """The client JavaScript apps build on (as Foxglove Studio 1.x and Lichtblick did), with the
     name it offers by default: it decodes odometry and a camera frame and its Twists fly."""
     modules = _node_modules()
-    proc = _quadsim("run", "--input", "foxglove", "--foxglove", "127.0.0.1:0", "--duration", "7", "--no-record")
+    proc = _quadsim("run", "--input", "foxglove", "--foxglove", "127.0.0.1:0", "--duration", "9", "--no-record")
     try:
         url = _served_url(proc)
         done = subprocess.run(
-            ["node", str(NODE_CLIENT), url, "3.5", "2", "-1,0,0.5,0"],  # backwards and up for 2 s (it starts landed)
+            # backwards and up for 3 s (it starts landed: 1.5 m up asked, half of it is plenty on a busy machine)
+            ["node", str(NODE_CLIENT), url, "4.5", "3", "-1,0,0.5,0"],
             env={**ENV, "NODE_PATH": str(modules)},
             capture_output=True,
             text=True,
