@@ -279,15 +279,20 @@ def test_the_window_says_what_it_is_doing_before_it_flies(tmp_path, monkeypatch,
     seen: list[np.ndarray] = []
     real_run = teleop.Run
 
-    def run_seen(plan):
+    def run_seen(plan, say):
         seen.append(pygame.surfarray.array3d(pygame.display.get_surface()).copy())
-        return real_run(plan)
+        said: list[str] = []
+        run = real_run(plan, say=lambda note: (said.append(note), say(note)))
+        seen.append(pygame.surfarray.array3d(pygame.display.get_surface()).copy())
+        assert said == ["starting 2 cameras"]  # the compile is cached: the cameras are the slow part
+        return run
 
     monkeypatch.setattr(teleop, "Run", run_seen)
     app = make_app(tmp_path, cameras=default_cameras())
     app.close()
-    (screen,) = seen
-    assert (screen.max(axis=2) > 200).sum() > 500  # light text on the dark start-up screen
+    before, after = seen
+    assert (before.max(axis=2) > 200).sum() > 500  # light text on the dark start-up screen
+    assert (after.max(axis=2) > 200).sum() > (before.max(axis=2) > 200).sum()  # and a line more: the cameras
     assert "quadsim: starting 2 cameras..." in capsys.readouterr().err
 
 
