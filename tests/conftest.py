@@ -25,27 +25,41 @@ def vehicle():
     return load_vehicle()
 
 
-#: Test files that need the machine to themselves: they fly in real time against real peers and
+#: Tests that need the machine to themselves: they fly in real time against real peers and
 #: windows, post signals into running flights or load every core (CPU hogs, Ray). `make test` runs
-#: them one after another, after the rest has run in parallel (pytest-xdist).
+#: them one after another, after the rest has run in parallel (pytest-xdist). A file's name takes
+#: all its tests; "file.py::name" the tests whose name starts so.
 WHOLE_MACHINE = frozenset(
     {
         "test_camera_accounts.py",
         "test_check_parallel.py",
         "test_foxglove.py",
         "test_foxglove_front.py",
-        "test_foxglove_layout.py",
-        "test_gamepad.py",
+        "test_foxglove_layout.py::test_studio_148",
         "test_killed_camera_run.py",
         "test_recording_safety.py",
         "test_ros2.py",
         "test_ros2_bridge.py",
         "test_signals.py",
-        "test_sweep.py",
+        "test_sweep.py::test_the_wind_example_on_ray",
+        "test_sweep.py::test_ctrl_c_at_random_moments",
+        "test_sweep.py::test_a_second_signal",
+        "test_sweep.py::test_a_worker_killed_from_outside",
+        "test_sweep.py::test_pool_workers_fork",
+        "test_sweep.py::test_without_numba_a_long_sweep",
         "test_window_realtime.py",
         "test_window_x11.py",
     }
 )
+
+
+def _needs_the_whole_machine(item: pytest.Item) -> bool:
+    if item.path.name in WHOLE_MACHINE:
+        return True
+    return any(
+        entry.startswith(f"{item.path.name}::") and item.name.startswith(entry.split("::", 1)[1])
+        for entry in WHOLE_MACHINE
+    )
 
 
 def pytest_configure(config):
@@ -68,5 +82,5 @@ def _compile_the_flight_core() -> None:
 
 def pytest_collection_modifyitems(config, items):
     for item in items:
-        if item.path.name in WHOLE_MACHINE:
+        if _needs_the_whole_machine(item):
             item.add_marker(pytest.mark.whole_machine)
