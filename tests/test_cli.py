@@ -83,6 +83,14 @@ def test_fly_without_display_flies_demo_and_says_so():
     assert "No display found" in out.stdout and "sim time        3.00 s" in out.stdout
 
 
+def test_fly_without_display_keeps_no_demo_under_a_name_meant_for_a_flight_by_hand(tmp_path):
+    """`fly --out my_flights/by_hand.mcap` with no display recorded the scripted demo there, which
+    then passed `check` as a flight by hand; it now refuses and says how to record a script."""
+    out = cli("fly", "--cameras", "none", "--out", str(tmp_path / "by_hand.mcap"))
+    _one_line_error(out, "would hold the scripted demo")
+    assert "run --script NAME --out" in out.stderr and not (tmp_path / "by_hand.mcap").exists()
+
+
 def test_scenarios_lists_builtins():
     out = cli("scenarios")
     assert out.returncode == 0 and "figure8" in out.stdout and "hover" in out.stdout

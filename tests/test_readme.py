@@ -36,28 +36,24 @@ def _block_after(text: str, marker: str) -> str:
     return text[start : text.index("\n```", start)]
 
 
+FLEETS_PAGE = (ROOT / "docs" / "fleets.md").read_text()
+SQUARE = ("run", "--script", "square", "--cameras", "none")
+FLEET = ("run", "--fleet", "examples/fleet.toml")
+
+
 @pytest.mark.parametrize(
-    ("text", "marker"),
+    ("text", "marker", "command"),
     [
-        (README, "```sh\n.venv/bin/python main.py run --script square --cameras none\n```"),
-        (COMMAND_LINE_PAGE, "`.venv/bin/python main.py run --script square\n--cameras none` prints"),
+        (README, "```sh\n.venv/bin/python main.py run --script square --cameras none\n```", SQUARE),
+        (COMMAND_LINE_PAGE, "`.venv/bin/python main.py run --script square\n--cameras none` prints", SQUARE),
+        (FLEETS_PAGE, "```sh\n.venv/bin/python main.py run --fleet examples/fleet.toml\n```", FLEET),
     ],
-    ids=["README", "docs/command-line.md"],
+    ids=["README", "docs/command-line.md", "docs/fleets.md"],
 )
-def test_the_run_example_is_what_run_prints(tmp_path, text, marker):
+def test_the_run_example_is_what_run_prints(tmp_path, text, marker, command):
     block = _block_after(text, marker)
     result = subprocess.run(
-        [
-            sys.executable,
-            str(ROOT / "main.py"),
-            "run",
-            "--script",
-            "square",
-            "--cameras",
-            "none",
-            "--out",
-            str(tmp_path),
-        ],
+        [sys.executable, str(ROOT / "main.py"), *command, "--out", str(tmp_path)],
         capture_output=True,
         text=True,
         cwd=ROOT,
@@ -78,3 +74,17 @@ def test_what_the_readme_says_of_the_example_fleet_holds():
     said = " ".join(README.split("`fly --fleet", 1)[1].split("\n\n", 1)[0].split())
     assert 'whose input is `"keyboard"` or `"gamepad"`' in said
     assert 'set `delta`\'s input to `"keyboard"`' in said and inputs["delta"] == "idle"
+
+
+def test_the_readmes_code_runs_twice_in_a_row(tmp_path):
+    """The README's "In your code" example, run twice in the same folder as a newcomer would: each
+    run records a new file (it recorded to a fixed name, and the second run stopped on it)."""
+    code = README.split("## In your code", 1)[1].split("```python\n", 1)[1].split("```", 1)[0]
+    runs = [
+        subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd=tmp_path, timeout=300)
+        for _ in range(2)
+    ]
+    assert all(run.returncode == 0 for run in runs), runs[-1].stderr
+    paths = [Path(run.stdout.splitlines()[-1]) for run in runs]
+    assert paths[0] != paths[1] and all(p.is_file() and p.suffix == ".mcap" for p in paths), paths
+    assert float(runs[0].stdout.splitlines()[0].strip("()").split(",")[2]) > 1.5  # it climbed

@@ -109,6 +109,11 @@ def main(args: argparse.Namespace) -> int:
         print(f"No display found: flying headless, in real time, what {who} publish.")
         args.gui = False
         return HeadlessFlight(args, subscribed_plan(args, "fly")).fly()
+    if not has_display() and args.out is not None:  # a flight by hand was to be kept there, not the demo
+        raise QuadsimError(
+            f"no display: the teleop window cannot open, and {args.out} would hold the scripted demo instead of "
+            f"a flight by hand; record a scripted flight there with: {program()} run --script NAME --out {args.out}"
+        )
     if not has_display():
         cameras = (
             ""
