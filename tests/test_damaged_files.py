@@ -308,3 +308,20 @@ def test_recover_onto_a_full_disk_says_so_and_leaves_nothing(tmp_path, good, mon
             f"quadsim: error: cannot write {disk / 'saved.mcap'}: No space left on device; nothing was written"
         ]
         assert list(disk.iterdir()) == []  # no partial file, no temporary file
+
+
+@pytest.mark.parametrize(("kept_bytes", "recoverable"), [(6000, False), (20000, True)])
+def test_check_names_recover_only_where_recover_saves_something(tmp_path, kept_bytes, recoverable):
+    """A recording cut short: check's refusal named `recover` even where not one message could be
+    read, and recover then said there was nothing to recover."""
+    cut = tmp_path / "cut.mcap"
+    cut.write_bytes((ROOT / "tests" / "recordings" / "climb_cascade.mcap").read_bytes()[:kept_bytes])
+
+    def cli(*args: str) -> subprocess.CompletedProcess[str]:
+        return subprocess.run([sys.executable, str(ROOT / "main.py"), *args], capture_output=True, text=True)
+
+    checked, recovered = cli("check", str(cut)), cli("recover", str(cut))
+    assert checked.returncode == 2 and "cut short" in checked.stdout
+    assert ("main.py recover" in checked.stdout) == recoverable, checked.stdout
+    assert ("nothing to recover" in checked.stdout) != recoverable, checked.stdout
+    assert recovered.returncode == (0 if recoverable else 2), recovered.stderr

@@ -130,9 +130,14 @@ def rebuild_config(flight: RecordedFlight, folder: Path) -> tuple[SimConfig, dic
         raise QuadsimError(f"{flight.path}: not a quadsim recording (no quadsim metadata): it cannot be re-flown")
     lost = flight.lost_for_resim()
     if lost is not None:
+        then = (
+            f"'{program()} recover {flight.path}' saves what is readable"
+            if any(flight.topics.values())
+            else "no message in it is readable, so there is nothing to recover"
+        )
         raise QuadsimError(
             f"{flight.path}: damaged: {lost}. The recorded flight is incomplete, so it cannot be re-flown "
-            f"faithfully; '{program()} recover {flight.path}' saves what is readable"
+            f"faithfully; {then}"
         )
     unreadable = flight.unreadable_for_resim()
     if unreadable is not None:
