@@ -47,6 +47,8 @@ WHOLE_MACHINE = frozenset(
         "test_sweep.py::test_a_worker_killed_from_outside",
         "test_sweep.py::test_pool_workers_fork",
         "test_sweep.py::test_without_numba_a_long_sweep",
+        "test_twist_matrix.py::test_every_path_flies_every_field[ros2",
+        "test_twist_matrix.py::test_every_path_flies_every_field[foxglove",
         "test_window_realtime.py",
         "test_window_x11.py",
     }
