@@ -308,9 +308,11 @@ def test_the_npm_ws_protocol_client_watches_and_flies_with_its_default_subprotoc
     assert image["format"] == "jpeg" and (image["width"], image["height"]) == (320, 240) and image["mean"] > 20.0
     odom = report["odom"]
     assert len(odom) > 50
-    assert odom[-1][1] - odom[0][1] < -0.7  # backwards: x fell
-    assert odom[-1][3] - odom[0][3] > 0.5  # and it climbed
-    assert abs(odom[-1][2] - odom[0][2]) < 0.2  # not sideways
+    # 3 s of backwards-and-up, taken as they come in wall time: on a busy machine the simulation
+    # falls behind and flies less of them, so the direction is judged, with a floor on the size
+    dx, dy, dz = (odom[-1][i] - odom[0][i] for i in (1, 2, 3))
+    assert dx < -0.3 and dz > 0.2, (dx, dz)  # backwards: x fell, and it climbed
+    assert abs(dy) < 0.2 and abs(dy) < abs(dx) / 3, (dx, dy)  # not sideways
 
 
 HOSTILE_CLIENT = Path(__file__).with_name("foxglove_hostile_client.py")
