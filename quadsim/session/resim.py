@@ -120,6 +120,19 @@ def _plain_name(name: str) -> bool:
     return bool(name) and name == Path(name).name and not name.startswith(".") and "\0" not in name
 
 
+def _damaged(flight: RecordedFlight, lost: str) -> str:
+    """Why a damaged recording cannot be re-flown, and whether `recover` can save any of it."""
+    then = (
+        f"'{program()} recover {flight.path}' saves what is readable"
+        if any(flight.topics.values())
+        else "no message in it is readable, so there is nothing to recover"
+    )
+    return (
+        f"{flight.path}: damaged: {lost}. The recorded flight is incomplete, so it cannot be re-flown "
+        f"faithfully; {then}"
+    )
+
+
 def rebuild_config(flight: RecordedFlight, folder: Path) -> tuple[SimConfig, dict[str, float]]:
     """The run's config and gains, with its files written from the attachments to `folder`;
     refuses a recording that cannot be re-flown faithfully, saying why."""
@@ -130,15 +143,7 @@ def rebuild_config(flight: RecordedFlight, folder: Path) -> tuple[SimConfig, dic
         raise QuadsimError(f"{flight.path}: not a quadsim recording (no quadsim metadata): it cannot be re-flown")
     lost = flight.lost_for_resim()
     if lost is not None:
-        then = (
-            f"'{program()} recover {flight.path}' saves what is readable"
-            if any(flight.topics.values())
-            else "no message in it is readable, so there is nothing to recover"
-        )
-        raise QuadsimError(
-            f"{flight.path}: damaged: {lost}. The recorded flight is incomplete, so it cannot be re-flown "
-            f"faithfully; {then}"
-        )
+        raise QuadsimError(_damaged(flight, lost))
     unreadable = flight.unreadable_for_resim()
     if unreadable is not None:
         raise QuadsimError(f"{flight.path}: {unreadable}, so the flight cannot be re-flown faithfully")
