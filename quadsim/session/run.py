@@ -58,7 +58,7 @@ class Run:
                 workers = plan.outputs.render_workers
                 say(
                     f"starting {cameras} camera{'s' * (cameras != 1)}"
-                    + (f" and {workers} render workers" * bool(workers))
+                    + (f" and {workers} render workers" if workers else "")
                 )
             self.outputs = RecordedRun(
                 self.fleet, plan.outputs, plan.label, dict(plan.run_info), plan.live, plan.cameras

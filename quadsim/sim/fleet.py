@@ -105,7 +105,7 @@ class Fleet:
                     index,
                     own_controller,
                     wind,
-                    say,
+                    say if index == 0 else None,  # the flight core compiles with the first vehicle, once
                 )
         except BaseException:
             self.close()
