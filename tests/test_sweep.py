@@ -645,7 +645,8 @@ def test_resume_flies_a_fleet_again_when_its_own_airframe_files_change(tmp_path:
 def _workers_of(pid: int) -> list[int]:
     """The pool's worker processes: the children of `pid` running Python (not the resource tracker)."""
     out = subprocess.run(["ps", "-o", "pid=,args=", "--ppid", str(pid)], capture_output=True, text=True).stdout
-    return [int(line.split()[0]) for line in out.splitlines() if "resource_tracker" not in line]
+    lines = [line.split(maxsplit=1) for line in out.splitlines()]
+    return [int(pid) for pid, args in lines if "resource_tracker" not in args and not args.startswith("ps ")]
 
 
 def _long_sweep(tmp_path: Path) -> subprocess.Popen:
@@ -703,10 +704,11 @@ def test_a_pool_whose_reader_stops_early_kills_its_workers() -> None:
     workers are killed at once, not waited for, and no error comes out of closing it."""
     from quadsim.apps.sweep.backends import run_pool
 
+    earlier = set(_workers_of(os.getpid()))  # what earlier tests in this process left running
     results = run_pool(time.sleep, [0.0, 0.0, 600.0, 600.0, 600.0], 2)
     assert next(results) is None
-    children = _workers_of(os.getpid())
-    assert children
+    children = [pid for pid in _workers_of(os.getpid()) if pid not in earlier]
+    assert len(children) == 2, children
     results.close()  # GeneratorExit inside the pool (it raised AttributeError)
     for pid in children:
         deadline = time.monotonic() + 30
