@@ -243,7 +243,9 @@ def test_a_renderer_that_draws_nothing_is_refused(monkeypatch):
 
     monkeypatch.setattr(rig_module, "render_raw", blank)
     with Simulator(SimConfig()) as sim:
-        rig = CameraRig(sim.vehicle, default_cameras(), RendererKind.EGL, sim.scene_client, None)
+        rig = CameraRig(
+            sim.vehicle, default_cameras(), RendererKind.EGL, sim.scene_client.cid, None, scene=sim.scene_client
+        )
         state = sim.state
         with pytest.raises(ConfigError, match="drew nothing in the front camera"):
             rig.render(("front",), 0, state.position_m, state.orientation_xyzw)

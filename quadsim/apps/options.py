@@ -15,7 +15,7 @@ from typing import TYPE_CHECKING, Any
 
 from quadsim.control import ControllerKind
 from quadsim.core.invocation import program
-from quadsim.core.types import StartPose, ZMode
+from quadsim.core.types import StartPose, Stepping, ZMode
 from quadsim.errors import QuadsimError
 from quadsim.live import FOXGLOVE_DEFAULT_ENDPOINT
 from quadsim.physics.wind import Turbulence, wind_from_text
@@ -203,6 +203,14 @@ def _add_wind_options(w: argparse._ArgumentGroup) -> None:
         help="the run's random seed: turbulence and sensor noise derive from it, and it is recorded, "
         "so a run re-flies bit for bit (default 0)",
     )
+    w.add_argument(
+        "--physics",
+        choices=[s.value for s in Stepping],
+        default=Stepping.QUADSIM.value,
+        help="who steps a vehicle while it touches nothing: quadsim (its own compiled copy of PyBullet's "
+        "step, about twice as fast; PyBullet steps it near anything it could touch) or pybullet (PyBullet "
+        "every step, to check against) (default quadsim; recorded with the run)",
+    )
 
 
 def _add_recording_options(o: argparse._ArgumentGroup) -> None:
@@ -381,6 +389,7 @@ def sim_config(args: argparse.Namespace, script_z_mode: ZMode | None) -> SimConf
         wind=wind_from_text(args.wind, args.turbulence),
         sensor_noise=not args.no_sensor_noise,
         seed=args.seed,
+        physics=args.physics,
     )
 
 

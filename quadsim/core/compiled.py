@@ -60,6 +60,8 @@ def status() -> str:
 #: every module of the package with compiled functions (tests/test_compiled.py checks the list)
 FLIGHT_CORE = (
     "core/rigid_body.py",
+    "physics/base_link.py",
+    "physics/free_flight.py",
     "vehicle/aero.py",
     "vehicle/motors.py",
     "vehicle/mixer.py",

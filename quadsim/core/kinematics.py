@@ -45,6 +45,13 @@ def matrix_from_quaternion(q: Quat) -> Mat3:
     return m
 
 
+def known_matrix(q: Quat, m: Mat3) -> None:
+    """Tell `matrix_from_quaternion` that `m` is the matrix of the tuple `q` (the physics, which
+    computed both in its compiled step, so that the controller's call for the same tuple finds it)."""
+    global _last
+    _last = (q, m)
+
+
 def quaternion_from_matrix(m: Mat3) -> Quat:
     """(x, y, z, w) of a rotation matrix (Shepperd's method, numerically safe)."""
     tr = m[0][0] + m[1][1] + m[2][2]

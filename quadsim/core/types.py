@@ -106,3 +106,13 @@ class StartPose:
     x_m: float = 0.0
     y_m: float = 0.0
     yaw_rad: float = 0.0
+
+
+class Stepping(enum.Enum):
+    """Who steps a vehicle that touches nothing (a run's `physics` setting, recorded with it)."""
+
+    #: quadsim's own copy of PyBullet's step while the vehicle is clear of everything (about twice
+    #: as fast), PyBullet's near anything it could touch
+    QUADSIM = "quadsim"
+    #: PyBullet every step (how runs were flown before quadsim had its own step; for checking)
+    PYBULLET = "pybullet"

@@ -5,6 +5,7 @@ fleet). Stepping it advances every body at once."""
 from __future__ import annotations
 
 import os
+from typing import Any
 
 from quadsim.core.kinematics import Vec3
 from quadsim.errors import QuadsimError
@@ -45,6 +46,18 @@ class WorldClient:
         self.scenery = self._scenery_geometry()
         #: the world's contacts after the last step by body, asked when first wanted (touching)
         self._touching: dict[int, tuple[tuple[int, float], ...]] | None = None
+        #: the vehicles flying in this world (quadsim.physics.pybullet_world.PhysicsWorld)
+        self.bodies: list[Any] = []
+
+    def posed(self) -> int:
+        """The client, once every vehicle in it is where it flew to: a vehicle clear of
+        everything is stepped by quadsim itself, and PyBullet's copy of it is posed only when
+        something reads the scene (cameras, a caller's own PyBullet queries). Call it before
+        reading the scene from PyBullet."""
+        for body in self.bodies:
+            if body._stale:
+                body._pose_pybullet()
+        return self.cid
 
     def _scenery_geometry(self) -> tuple[tuple[float, ...], dict[str, tuple[Vec3, Vec3]]] | None:
         cid = self.cid
@@ -68,8 +81,10 @@ class WorldClient:
         return tuple(planes), boxes
 
     def step(self) -> None:
-        """One physics step of every body in the world."""
-        pb.stepSimulation(self.cid)
+        """One physics step of every body in the world (a vehicle that quadsim stepped itself this
+        step is posed where it was first: PyBullet's step then moves only a copy of it, far from
+        anything it could touch)."""
+        pb.stepSimulation(self.posed())
         self._touching = None
 
     def touching(self, body: int) -> tuple[tuple[int, float], ...]:

@@ -7,15 +7,17 @@ the vehicle's state. It is the only flight module that imports pybullet.
 from __future__ import annotations
 
 import math
-from typing import NamedTuple
+from typing import Any, NamedTuple
 
 import numpy as np
 
 from quadsim.core.compiled import float_tuple, floats, specialize, table
-from quadsim.core.kinematics import Vec3, matrix_from_quaternion
-from quadsim.core.types import RotorForces, StartPose, VehicleState
+from quadsim.core.kinematics import Vec3, known_matrix, matrix_from_quaternion
+from quadsim.core.types import RotorForces, StartPose, Stepping, VehicleState
 from quadsim.errors import ConfigError
+from quadsim.physics.base_link import base_link_state
 from quadsim.physics.client import WorldClient
+from quadsim.physics.free_flight import STATE_SIZE, clear_step
 from quadsim.physics.pybullet_quiet import pb
 from quadsim.physics.scene import inertial_offset, load_vehicle_body
 from quadsim.physics.wind import ModelWind, WindField, WindModel, WindSettings
@@ -63,6 +65,15 @@ class PhysicsWorld:
     `_step` and owns the step count, which it hands to `state`.
     """
 
+    # base_link's state after the last step (quadsim.physics.base_link), set by every read
+    _position: Vec3
+    _orientation: tuple[float, float, float, float]
+    _linear_velocity: Vec3
+    _angular_velocity: Vec3
+    _rotation: tuple[Vec3, Vec3, Vec3]
+    _body_rates: Vec3
+    _specific_force: Vec3
+
     def __init__(
         self,
         vehicle: VehicleParams,
@@ -73,11 +84,13 @@ class PhysicsWorld:
         name: str = "vehicle",
         far_index: int = 0,
         wind_model: WindModel | None = None,
+        stepping: Stepping = Stepping.QUADSIM,
     ) -> None:
         """`client`: the world to fly in, which every vehicle of the run shares (its owner
         closes it); `name`: what other vehicles' contacts call this one; `far_index`: where
         `reset` parks the body for a moment, apart from the others'; `wind_model`: a wind of
-        the user's own, in place of `wind`'s."""
+        the user's own, in place of `wind`'s; `stepping`: who steps the body while it touches
+        nothing."""
         self.vehicle = vehicle
         self.dt_s = client.dt_s
         self._inv_dt = 1.0 / self.dt_s
@@ -89,11 +102,22 @@ class PhysicsWorld:
         self._body_names = client.body_names
         self._far = (100.0 * far_index, 0.0, 1e4)
         self.start = start
+        #: the base's state (quadsim.physics.free_flight: its inertial frame, world frame), as
+        #: PyBullet last reported it or as quadsim's own step left it
+        self._body = floats([0.0] * STATE_SIZE)
+        #: the base's state as PyBullet last reported it, when that is newer than `_body`
+        self._from_pybullet: tuple[Vec3, tuple[float, float, float, float], Vec3, Vec3] | None = None
+        self._gravity = client.gravity_mps2
+        self._previous_velocity: Vec3 = (0.0, 0.0, 0.0)
+        self._base_link_state: Any = specialize(base_link_state, *[0.0] * 19, True, 0.0, 0.0)
         self._load_body(name)
+        self.stepping = stepping
+        client.bodies.append(self)
         #: the static scenery's planes and boxes, found at the first contact query (once every
         #: vehicle of a fleet is in the world); None: something else can move, always ask
         self._scenery: tuple[tuple[float, ...], tuple[tuple[Vec3, Vec3], ...]] | bool | None = False
         self._clear_from: Vec3 = (math.inf, math.inf, math.inf)
+        self._others: tuple[PhysicsWorld, ...] = ()
         self._clear_slack_m = 0.0
         self.wind_settings = wind
         self._wind_model = wind_model
@@ -102,8 +126,36 @@ class PhysicsWorld:
         self._reset_wind()
         self.motors = MotorBank(len(vehicle.rotors), vehicle.motor_time_constant_s, vehicle.max_thrust_n, self.dt_s)
         self._prepare_wrench()
+        self._prepare_free_flight()
         self._read_kinematics()
         self._previous_velocity = self._linear_velocity
+
+    def _prepare_free_flight(self) -> None:
+        """What quadsim's own step of the body takes (quadsim.physics.free_flight), and whether it
+        may take it: one rigid body (no joints), no PyBullet window showing it; and the step
+        itself made for its arguments (quadsim.core.compiled.specialize)."""
+        mass, _, inertia = pb.getDynamicsInfo(self.body_id, -1, physicsClientId=self._cid)[:3]
+        self._mass_kg, self._inertia = float(mass), floats(inertia)
+        self._free = (
+            self.stepping is Stepping.QUADSIM
+            and self.merged
+            and not self.client.gui
+            and pb.getNumJoints(self.body_id, physicsClientId=self._cid) == 0
+        )
+        #: the last step was quadsim's own: PyBullet neither moved the body nor found its contacts
+        self._flew_free = False
+        #: PyBullet's copy of the body is older than `_body` (posed again when the scene is read)
+        self._stale = False
+        xyz = (0.0, 0.0, 0.0)
+        #: what quadsim's step takes that stays the same from step to step
+        self._clear_constants = (
+            self._airframe, self._hub_table, self.motors.thrusts, self._wrench, self._body, self._mass_kg,
+            self._inertia, self._gravity, self.dt_s, self._inv_dt, self._offset,
+        )  # fmt: skip
+        self._clear_step: Any = specialize(
+            clear_step, *self._clear_constants, (0.0,) * len(self.vehicle.rotors), (xyz, xyz, xyz), xyz, xyz, xyz, xyz
+        )
+        self._after_step: Any = None
 
     def _prepare_wrench(self) -> None:
         """The constants, rotor table and output `airframe_wrench` takes each step, and the
@@ -228,12 +280,14 @@ class PhysicsWorld:
 
     def _static_scenery(self) -> tuple[tuple[float, ...], tuple[tuple[Vec3, Vec3], ...]] | None:
         """The heights of the horizontal planes and the boxes of the scenery, or None when some
-        other body that can touch the vehicle is in the world (another vehicle, or a body added
-        from outside: it may move; then the contacts are always asked)."""
+        other body that can touch the vehicle is in the world and is neither scenery nor one
+        of the run's vehicles (a body added from outside: it may move; then the contacts are
+        always asked). The other vehicles are kept, to keep clear of (`_clear_of_others`)."""
         cid, scenery = self._cid, self.client.scenery
         if scenery is None:
             return None
-        known = {*self.landmark_ids.values(), self.body_id}
+        self._others = tuple(body for body in self.client.bodies if body is not self)
+        known = {*self.landmark_ids.values(), *(body.body_id for body in self.client.bodies)}
         for index in range(pb.getNumBodies(physicsClientId=cid)):
             other = pb.getBodyUniqueId(index, physicsClientId=cid)
             if other not in known and pb.getCollisionShapeData(other, -1, physicsClientId=cid):
@@ -266,11 +320,27 @@ class PhysicsWorld:
         self._clear_slack_m = nearest - self.reach_m - _CONTACT_CLEARANCE_M
         return ahead < self._clear_slack_m
 
+    def _clear_of_others(self) -> bool:
+        """True when no other vehicle of the world can reach this one within two steps: their
+        bounding spheres, at their speeds, stay more than the clearance apart."""
+        (x, y, z), (vx, vy, vz) = self._position, self._linear_velocity
+        speed, two_steps = abs(vx) + abs(vy) + abs(vz), 2.0 * self.dt_s
+        for other in self._others:
+            (ox, oy, oz), (ux, uy, uz) = other._position, other._linear_velocity
+            apart = (
+                self.reach_m + other.reach_m + _CONTACT_CLEARANCE_M + two_steps * (speed + abs(ux) + abs(uy) + abs(uz))
+            )
+            dx, dy, dz = x - ox, y - oy, z - oz
+            if dx * dx + dy * dy + dz * dz <= apart * apart:
+                return False
+        return True
+
     def contacts(self) -> tuple[Contact, ...]:
         """What the vehicle touches after the last physics step, one entry per other body (with
         the most upward of its contact normals). Not asked of PyBullet while the vehicle is clear
-        of all the scenery (the query costs about a tenth of a step)."""
-        if self._clear_of_scenery():
+        of all the scenery (the query costs about a tenth of a step), nor after a step quadsim
+        took itself (it was clear when the step began, by far more than the step's travel)."""
+        if self._flew_free or (not self._others and self._clear_of_scenery()):
             return ()
         points = self.client.touching(self.body_id)  # asked of PyBullet once a step for every vehicle
         if not points:
@@ -326,13 +396,17 @@ class PhysicsWorld:
 
         Private to the simulation loop, which counts the steps: stepping from anywhere else
         would move the vehicle without moving the clock. (A fleet steps its world once for
-        every vehicle: `_apply` for each, one world step, then `_finish_step` for each.)"""
-        self._apply(command_n)
-        self.client.step()
+        every vehicle: `_apply` for each, one world step if any of them needs it, then
+        `_finish_step` for each.)"""
+        if not self._apply(command_n):
+            self.client.step()
         self._finish_step()
 
-    def _apply(self, command_n: RotorForces) -> None:
-        """The motors move toward `command_n`; this step's force and torque are applied."""
+    def _apply(self, command_n: RotorForces) -> bool:
+        """The motors move toward `command_n`, and this step's force and torque act on the body:
+        stepped at once by quadsim's own copy of PyBullet's step (quadsim.physics.free_flight)
+        when the body is clear of everything (True), or applied in PyBullet for the world's next
+        step (False)."""
         # the hot path: the arithmetic is one function (quadsim.vehicle.wrench), and PyBullet's
         # calls get positional arguments (parsing the keyword physicsClientId costs about a
         # quarter of a microsecond a call). The force and torque are turned into the world frame
@@ -345,29 +419,59 @@ class PhysicsWorld:
         if self._wind is not None:  # drag acts through the airspeed: velocity minus wind
             (vx, vy, vz), (wx, wy, wz) = air, self._wind.advance(self._position)
             air = (vx - wx, vy - wy, vz - wz)
-        out = self._wrench
-        constants, hubs, thrusts, rotation, z, spin = (
+        rotation, spin = self._rotation, self._angular_velocity
+        if self._free and self._clear_of_scenery() and (not self._others or self._clear_of_others()):
+            if self._from_pybullet is not None:  # PyBullet stepped it last: its state is the newer
+                position, orientation, velocity, turn = self._from_pybullet
+                self._body[0:STATE_SIZE] = (*position, *orientation, *velocity, *turn)
+                self._from_pybullet = None
+            try:
+                self._after_step = self._clear_step(
+                    *self._clear_constants, command_n, rotation, air, spin, self._position, self._linear_velocity
+                )
+            except (TypeError, ValueError):  # forces given as a list, or as integers: as a tuple of floats
+                forces = float_tuple(command_n)
+                self._after_step = self._clear_step(
+                    *self._clear_constants, forces, rotation, air, spin, self._position, self._linear_velocity
+                )
+            self._flew_free = self._stale = True
+            return True
+        out, constants, hubs, thrusts, z = (
+            self._wrench,
             self._airframe,
             self._hub_table,
             motors.thrusts,
-            self._rotation,
             self._position[2],
-            self._angular_velocity,
         )
         try:
             self._airframe_wrench(constants, hubs, thrusts, command_n, rotation, z, air, spin, out)
         except (TypeError, ValueError):  # forces given as a list, or as integers: as a tuple of floats
             forces = float_tuple(command_n)
             self._airframe_wrench(constants, hubs, thrusts, forces, rotation, z, air, spin, out)
+        self._flew_free = False
+        if self._stale:
+            self._pose_pybullet()
         fx, fy, fz, tx, ty, tz = out
         world, body, cid = pb.WORLD_FRAME, self.body_id, self._cid
         pb.applyExternalForce(body, -1, (fx, fy, fz), self._position, world, cid)
         pb.applyExternalTorque(body, -1, (tx, ty, tz), world, cid)
+        return False
 
     def _finish_step(self) -> None:
-        """After the world stepped: the vehicle's new pose and velocities."""
+        """After the step: the vehicle's new pose and velocities."""
         self._previous_velocity = self._linear_velocity
-        self._read_kinematics()
+        if self._flew_free:  # (a world step for the others may have moved PyBullet's copy)
+            self._stale = True
+            self._take_kinematics(self._after_step)
+        else:
+            self._read_kinematics(at_rest_before=False)
+
+    def _pose_pybullet(self) -> None:
+        """PyBullet's copy of the body brought up to quadsim's own steps (pose and velocities)."""
+        b, body, cid = self._body, self.body_id, self._cid
+        pb.resetBasePositionAndOrientation(body, (b[0], b[1], b[2]), (b[3], b[4], b[5], b[6]), cid)
+        pb.resetBaseVelocity(body, (b[7], b[8], b[9]), (b[10], b[11], b[12]), cid)
+        self._stale = False
 
     def _put(self, position_m: Vec3, orientation_xyzw: tuple[float, float, float, float]) -> None:
         """base_link's origin at `position_m`, in `orientation_xyzw` (PyBullet sets the base's
@@ -383,19 +487,38 @@ class PhysicsWorld:
         )
         pb.resetBasePositionAndOrientation(self.body_id, at, orientation_xyzw, physicsClientId=self._cid)
 
-    def _read_kinematics(self) -> None:
-        """The pose and velocity of base_link's origin, from those of the base's inertial frame."""
+    def _read_kinematics(self, at_rest_before: bool = True) -> None:
+        """The body's state as PyBullet has it (newer than `_body`, which takes it if quadsim
+        steps the body next), then base_link's origin's from it."""
         body, cid = self.body_id, self._cid
-        (x, y, z), self._orientation = pb.getBasePositionAndOrientation(body, cid)
-        (vx, vy, vz), w = pb.getBaseVelocity(body, cid)
-        self._angular_velocity = w
-        self._rotation = (m00, m01, m02), (m10, m11, m12), (m20, m21, m22) = matrix_from_quaternion(self._orientation)
+        position, orientation = pb.getBasePositionAndOrientation(body, cid)
+        velocity, spin = pb.getBaseVelocity(body, cid)
+        self._from_pybullet = (position, orientation, velocity, spin)
+        self._stale = False
+        self._derive_kinematics((*position, *orientation, *velocity, *spin), at_rest_before)
+
+    def _derive_kinematics(self, base: tuple[float, ...] | list[float], at_rest_before: bool) -> None:
+        """base_link's pose and velocity, the attitude's matrix and the state's body rates and
+        specific force (quadsim.physics.base_link), from the base's state (`_body`'s layout) and
+        the velocity before the step (`at_rest_before`: none, as after a reset or a placing)."""
+        ux, uy, uz = self._previous_velocity
         ox, oy, oz = self._offset
-        dx, dy, dz = m00 * ox + m01 * oy + m02 * oz, m10 * ox + m11 * oy + m12 * oz, m20 * ox + m21 * oy + m22 * oz
-        wx, wy, wz = w
-        self._position = (x - dx, y - dy, z - dz)
-        # the origin moves with the inertial frame's velocity, less the turn about it: w x d
-        self._linear_velocity = (vx - (wy * dz - wz * dy), vy - (wz * dx - wx * dz), vz - (wx * dy - wy * dx))
+        self._take_kinematics(
+            self._base_link_state(*base, ox, oy, oz, ux, uy, uz, at_rest_before, self._gravity, self._inv_dt)
+        )
+
+    def _take_kinematics(self, kinematics: Any) -> None:
+        """base_link's state as quadsim.physics.base_link.base_link_state gives it."""
+        (
+            self._position,
+            self._orientation,
+            self._linear_velocity,
+            self._angular_velocity,
+            self._rotation,
+            self._body_rates,
+            self._specific_force,
+        ) = kinematics
+        known_matrix(self._orientation, self._rotation)  # the controller turns the same tuple
 
     @property
     def pose(self) -> tuple[Vec3, tuple[float, float, float, float]]:
@@ -405,20 +528,14 @@ class PhysicsWorld:
     def state(self, step: int) -> VehicleState:
         """The vehicle's state after the last physics step, which the loop counts as `step`
         (body rates in base_link)."""
-        (m00, m01, m02), (m10, m11, m12), (m20, m21, m22) = self._rotation
-        wx, wy, wz = self._angular_velocity
-        (vx, vy, vz), (ux, uy, uz) = self._linear_velocity, self._previous_velocity
-        inv_dt = self._inv_dt
-        # specific force: (dv/dt - gravity) in world, then into base_link
-        fx, fy, fz = (vx - ux) * inv_dt, (vy - uy) * inv_dt, (vz - uz) * inv_dt + self.vehicle.gravity_mps2
         return VehicleState(
             step,
             self._position,
             self._orientation,
             self._linear_velocity,
-            (m00 * wx + m10 * wy + m20 * wz, m01 * wx + m11 * wy + m21 * wz, m02 * wx + m12 * wy + m22 * wz),
+            self._body_rates,
             self.motors.thrusts_n,
-            (m00 * fx + m10 * fy + m20 * fz, m01 * fx + m11 * fy + m21 * fz, m02 * fx + m12 * fy + m22 * fz),
+            self._specific_force,
             None if self._wind is None else self._wind.wind_mps,
         )
 
@@ -426,8 +543,14 @@ class PhysicsWorld:
 
     @property
     def client_id(self) -> int:
-        """The PyBullet client, for components that render from it (cameras)."""
-        return self._cid
+        """The PyBullet client, for components that render from it or ask it about the scene,
+        with every vehicle in it posed where it flew to (quadsim.physics.client.WorldClient.posed)."""
+        return self.client.posed() if self._cid >= 0 else self._cid
+
+    @property
+    def closed(self) -> bool:
+        """Whether `close` was called."""
+        return self._cid < 0
 
     def close(self) -> None:
         """Forget the world (its owner, the run's fleet, disconnects it)."""

@@ -31,6 +31,7 @@ from typing import Protocol
 import quadsim
 from quadsim.core.types import VehicleState
 from quadsim.errors import ConfigError, QuadsimError
+from quadsim.physics.client import WorldClient
 from quadsim.physics.world_spec import WorldSpec
 from quadsim.sensors.camera import CameraFrame, CameraSpec, ImageKind, RendererKind
 from quadsim.sensors.rig import JPEG_ONLY, CameraRig
@@ -137,7 +138,7 @@ class CameraPipeline:
         workers: int = 2,
         ordered_delivery: bool = True,
         worker_start_timeout_s: float = 60.0,
-        scene_client: int | None = None,
+        scene_client: WorldClient | None = None,
         worker_niceness: int | None = None,
         companions: Companions | None = None,
     ) -> None:
@@ -176,7 +177,7 @@ class CameraPipeline:
                 # the EGL plugin draws only what is created after it is loaded: a client of its own
                 self._rig = CameraRig.standalone(vehicle, world, specs, renderer)
             else:
-                self._rig = CameraRig(vehicle, specs, renderer, scene_client, None)
+                self._rig = CameraRig(vehicle, specs, renderer, scene_client.cid, None, scene=scene_client)
         else:
             self._start_workers(vehicle, world, workers, worker_start_timeout_s)
         most = 2 * max(1, workers)

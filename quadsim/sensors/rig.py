@@ -10,6 +10,7 @@ from __future__ import annotations
 import numpy as np
 
 from quadsim.errors import ConfigError
+from quadsim.physics.client import WorldClient
 from quadsim.physics.pybullet_quiet import c_output_silenced, pb
 from quadsim.physics.scene import build_world, load_vehicle_body
 from quadsim.physics.world_spec import WorldSpec
@@ -38,10 +39,12 @@ class CameraRig:
         cid: int,
         body_id: int | None,
         companion_ids: tuple[int, ...] = (),
+        scene: WorldClient | None = None,
     ) -> None:
         """Render in client `cid`. With `body_id`, the rig moves that body to each pose it is
         given (a client of its own), and the `companion_ids` (a fleet's other vehicles) to theirs;
-        without, the bodies are where physics put them."""
+        without, the bodies are where physics put them: `scene`, the physics world's client, is
+        asked to pose them before each render (quadsim.physics.client.WorldClient.posed)."""
         self.specs = {s.name: s for s in specs}
         self._mounts = {s.name: vehicle.camera_mount(s.link_name) for s in specs}
         self._projections = {s.name: projection_matrix(s) for s in specs}
@@ -52,6 +55,7 @@ class CameraRig:
         self._cid = cid
         self._body = body_id
         self._companions = companion_ids
+        self._scene = scene
 
     @classmethod
     def standalone(
@@ -83,6 +87,8 @@ class CameraRig:
         kinds: frozenset[ImageKind] = JPEG_ONLY,
         companion_poses: tuple[tuple[tuple[float, float, float], tuple[float, float, float, float]], ...] = (),
     ) -> list[CameraFrame]:
+        if self._scene is not None:
+            self._scene.posed()
         if self._body is not None:
             pb.resetBasePositionAndOrientation(self._body, position, orientation, physicsClientId=self._cid)
         for companion, (at, facing) in zip(self._companions, companion_poses):

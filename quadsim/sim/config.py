@@ -11,7 +11,7 @@ from pathlib import Path
 from typing import Any, TypeVar
 
 from quadsim.control import ControllerKind
-from quadsim.core.types import StartPose, ZMode
+from quadsim.core.types import StartPose, Stepping, ZMode
 from quadsim.errors import ConfigError
 from quadsim.physics.wind import WindSettings
 
@@ -76,10 +76,15 @@ class SimConfig:
     sensor_noise: bool = True  # IMU noise on /quad/imu (the vehicle parameter file's [imu])
     #: the run's one random seed: every random stream (turbulence, sensor noise) derives from it
     seed: int = 0
+    #: who steps a vehicle that touches nothing: quadsim's own copy of PyBullet's step (the
+    #: default, about twice as fast) or PyBullet itself (for checking; recordings made before
+    #: quadsim had its own step re-fly this way)
+    physics: Stepping = Stepping.QUADSIM
 
     def __post_init__(self) -> None:
         # the names the command line takes are accepted for the enumerations ("height", "seed")
         object.__setattr__(self, "controller", enum_choice(ControllerKind, self.controller, "controller"))
+        object.__setattr__(self, "physics", enum_choice(Stepping, self.physics, "physics"))
         if self.z_mode is not None:
             object.__setattr__(self, "z_mode", enum_choice(ZMode, self.z_mode, "z_mode"))
         seed = self.seed
@@ -129,6 +134,7 @@ class SimConfig:
             "wind": self.wind.to_dict(),
             "sensor_noise": self.sensor_noise,
             "seed": self.seed,
+            "physics": self.physics.value,
         }
 
 

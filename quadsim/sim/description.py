@@ -24,7 +24,7 @@ from typing import Any
 
 from quadsim.control import ControllerKind
 from quadsim.core.parts import IMPORT_PATH, import_path
-from quadsim.core.types import StartPose, ZMode
+from quadsim.core.types import StartPose, Stepping, ZMode
 from quadsim.errors import QuadsimError
 from quadsim.physics.wind import Turbulence, WindSettings
 from quadsim.physics.world_spec import WorldSpec
@@ -291,6 +291,8 @@ def _config(cfg: _Fields, version: int) -> SimConfig:
         wind=wind,
         sensor_noise=noise,
         seed=cfg.integer("seed", default=0, low=0, high=MAX_SEED),
+        # a recording made before quadsim had its own step was flown by PyBullet's alone
+        physics=cfg.choice("physics", Stepping) if cfg.raw("physics") is not None else Stepping.PYBULLET,
     )
 
 

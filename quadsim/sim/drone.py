@@ -60,29 +60,30 @@ class Drone:
         building it (a first compile of the flight core), for a person waiting."""
         self.name = name
         self.driver: InputDriver = driver if driver is not None else ProgrammaticDriver()
-        if config.z_mode is None:  # the driver's wish (a script's z_mode line), else velocity
-            config = replace(config, z_mode=getattr(self.driver, "preferred_z_mode", None) or ZMode.VELOCITY)
-        timeout_s = getattr(self.driver, "command_timeout_s", None)
-        if timeout_s is not None:  # the input's own dead-man timeout (a Foxglove input's), recorded as the run's
-            config = replace(config, command_timeout_s=timeout_s)
-        self.config = config
+        self.config = config = _as_driven(config, self.driver)
         self.z_mode: ZMode = config.z_mode or ZMode.VELOCITY
         self.vehicle = load_vehicle(config.urdf, config.vehicle_params)
         if say is not None and will_compile():  # the vehicle's files are good: the wait is the compile's
             say(f"compiling the flight core (numba; the first run after an install: {FIRST_COMPILE})")
         self.world = client.world
         self._client = client
-        rates = config.rates
-        timeout = config.command_timeout_s
+        rates, timeout = config.rates, config.command_timeout_s
         self.controller: Controller = (
             controller if controller is not None else make_controller(config.controller, self.vehicle, controller_gains)
         )
-        self.gate = CommandGate(
-            self.vehicle.limits, self.z_mode, None if timeout is None else round(timeout * rates.physics_hz)
-        )
+        timeout_steps = None if timeout is None else round(timeout * rates.physics_hz)
+        self.gate = CommandGate(self.vehicle.limits, self.z_mode, timeout_steps)
         wind_seed, imu_seed = _streams(config.seed)
         self.physics = PhysicsWorld(
-            self.vehicle, client, config.start, config.wind, wind_seed, name or "vehicle", index, wind_model
+            self.vehicle,
+            client,
+            config.start,
+            config.wind,
+            wind_seed,
+            name or "vehicle",
+            index,
+            wind_model,
+            config.physics,
         )
         imu = ImuNoise(self.vehicle.imu_noise, rates.state_hz, imu_seed) if config.sensor_noise else None
         self.loop = SimLoop(
@@ -135,9 +136,10 @@ class Drone:
         self.loop.remove_tap(callback)
 
     @property
-    def scene_client(self) -> int | None:
-        """The PyBullet client holding the world this vehicle flies in (in-process rendering)."""
-        return self.physics.client_id
+    def scene_client(self) -> WorldClient:
+        """The PyBullet client holding the world this vehicle flies in, for rendering in-process
+        (its `posed()` gives its id with every vehicle where it flew to)."""
+        return self.physics.client
 
     # --- flight events ------------------------------------------------------------------------
 
@@ -240,11 +242,23 @@ class Drone:
     @property
     def closed(self) -> bool:
         """Whether the run was closed (stepping or resetting then raises QuadsimError)."""
-        return self._client.cid < 0 or self.physics.client_id < 0
+        return self._client.cid < 0 or self.physics.closed
 
     def _check_open(self) -> None:
         if self.closed:
             raise QuadsimError("this Simulator is closed (close() or the end of its with-block): make a new one")
+
+
+def _as_driven(config: SimConfig, driver: InputDriver) -> SimConfig:
+    """`config` with what its driver asks for: its z-mode where the config leaves it open (a
+    script's z_mode line; else velocity), and its own dead-man timeout (a Foxglove input's),
+    recorded as the run's."""
+    if config.z_mode is None:
+        config = replace(config, z_mode=getattr(driver, "preferred_z_mode", None) or ZMode.VELOCITY)
+    timeout_s = getattr(driver, "command_timeout_s", None)
+    if timeout_s is not None:
+        config = replace(config, command_timeout_s=timeout_s)
+    return config
 
 
 def _streams(seed: int) -> tuple[np.random.SeedSequence, np.random.SeedSequence]:

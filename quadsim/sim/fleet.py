@@ -148,9 +148,10 @@ class Fleet:
         return self.client.world
 
     @property
-    def scene_client(self) -> int | None:
-        """The PyBullet client holding the world, for rendering in-process."""
-        return self.client.cid
+    def scene_client(self) -> WorldClient:
+        """The PyBullet client holding the world, for rendering in-process (its `posed()` gives
+        its id with every vehicle where it flew to)."""
+        return self.client
 
     # --- stepping ---------------------------------------------------------------------------
 
@@ -167,9 +168,9 @@ class Fleet:
         world_step, states = self.client.step, self._states
         for _ in range(steps):
             commands = [loop.before_physics(state) for loop, state in zip(loops, states)]
-            for body, command in zip(bodies, commands):
-                body._apply(command)
-            world_step()
+            stepped = [body._apply(command) for body, command in zip(bodies, commands)]
+            if not all(stepped):
+                world_step()
             for body in bodies:
                 body._finish_step()
             states = [loop.after_physics() for loop in loops]

@@ -62,7 +62,7 @@ def sync_cost_per_frame(frames: int = 60, repeats: int = 3) -> tuple[float, floa
         steps = frames * (sim.config.rates.physics_hz // FRONT.rate_hz)
         state = sim.state
         pose = camera_pose(sim.vehicle.camera_mount(FRONT.link_name), state.position_m, state.orientation_xyzw)
-        view, proj, cid = view_matrix(pose), projection_matrix(FRONT), sim.scene_client
+        view, proj, cid = view_matrix(pose), projection_matrix(FRONT), sim.scene_client.posed()
 
         def bare() -> None:
             for _ in range(frames):

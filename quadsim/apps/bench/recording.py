@@ -47,7 +47,7 @@ def camera_costs(frames: int, repeats: int, out: Callable[[str], None]) -> dict[
     cid = sim.physics.client_id
     results: dict[str, float] = {}
     state = sim.state
-    rig = CameraRig(sim.vehicle, cams, RendererKind.TINY, cid, None)
+    rig = CameraRig(sim.vehicle, cams, RendererKind.TINY, cid, None, scene=sim.scene_client)
     with tempfile.TemporaryDirectory() as tmp:
         rec = McapRecorder(Path(tmp) / "bench.mcap", sim.description().with_outputs(cams, 0))
         mounts = tuple((c, sim.vehicle.camera_mount(c.link_name)) for c in cams)
