@@ -48,6 +48,8 @@ class WorldClient:
         self._touching: dict[int, tuple[tuple[int, float], ...]] | None = None
         #: the vehicles flying in this world (quadsim.physics.pybullet_world.PhysicsWorld)
         self.bodies: list[Any] = []
+        #: the vehicles near another one this step, measured once for all at the first asking
+        self.near_others: set[Any] | None = None
 
     def posed(self) -> int:
         """The client, once every vehicle in it is where it flew to: a vehicle clear of

@@ -40,6 +40,24 @@ class Contact(NamedTuple):
     normal_z: float  # world z of the contact normal, pointing at the vehicle (1: resting on it; 0: a wall)
 
 
+def _near_others(bodies: list[PhysicsWorld]) -> set[PhysicsWorld]:
+    """The vehicles among `bodies` that another one could reach within two steps: the bounding
+    spheres of the pair, at their speeds, less than the clearance apart (each pair once)."""
+    near: set[PhysicsWorld] = set()
+    reach = [
+        (b, b._position, abs(v[0]) + abs(v[1]) + abs(v[2]), b.reach_m) for b in bodies for v in [b._linear_velocity]
+    ]
+    for i, (a, (x, y, z), speed, radius) in enumerate(reach):
+        two_steps = 2.0 * a.dt_s
+        for b, (ox, oy, oz), other_speed, other_radius in reach[i + 1 :]:
+            apart = radius + other_radius + _CONTACT_CLEARANCE_M + two_steps * (speed + other_speed)
+            dx, dy, dz = x - ox, y - oy, z - oz
+            if dx * dx + dy * dy + dz * dz <= apart * apart:
+                near.add(a)
+                near.add(b)
+    return near
+
+
 class PhysicsWorld:
     """One vehicle's body in a PyBullet world (a WorldClient, shared by every vehicle of the run).
     Composition, not inheritance: the client is private, and only what the simulator needs is
@@ -322,18 +340,12 @@ class PhysicsWorld:
 
     def _clear_of_others(self) -> bool:
         """True when no other vehicle of the world can reach this one within two steps: their
-        bounding spheres, at their speeds, stay more than the clearance apart."""
-        (x, y, z), (vx, vy, vz) = self._position, self._linear_velocity
-        speed, two_steps = abs(vx) + abs(vy) + abs(vz), 2.0 * self.dt_s
-        for other in self._others:
-            (ox, oy, oz), (ux, uy, uz) = other._position, other._linear_velocity
-            apart = (
-                self.reach_m + other.reach_m + _CONTACT_CLEARANCE_M + two_steps * (speed + abs(ux) + abs(uy) + abs(uz))
-            )
-            dx, dy, dz = x - ox, y - oy, z - oz
-            if dx * dx + dy * dy + dz * dz <= apart * apart:
-                return False
-        return True
+        bounding spheres, at their speeds, stay more than the clearance apart. Every pair of the
+        world's vehicles is measured once a step, at the first vehicle's asking (`_near_others`)."""
+        near = self.client.near_others
+        if near is None:
+            near = self.client.near_others = _near_others(self.client.bodies)
+        return self not in near
 
     def contacts(self) -> tuple[Contact, ...]:
         """What the vehicle touches after the last physics step, one entry per other body (with
@@ -459,6 +471,7 @@ class PhysicsWorld:
 
     def _finish_step(self) -> None:
         """After the step: the vehicle's new pose and velocities."""
+        self.client.near_others = None  # measured again for the next step
         self._previous_velocity = self._linear_velocity
         if self._flew_free:  # (a world step for the others may have moved PyBullet's copy)
             self._stale = True
