@@ -17,11 +17,13 @@ from quadsim.drivers.scripted import ScriptedDriver, load_script
 from quadsim.physics.client import WorldClient
 from quadsim.physics.free_flight import free_flight_step
 from quadsim.physics.wind import Turbulence, WindSettings
+from quadsim.recording.flight import load_flights
 from quadsim.sensors.camera import default_cameras
 from quadsim.sim.cameras import Cameras
 from quadsim.sim.description import RunDescription
 from quadsim.sim.fleet import FleetVehicle
 from quadsim.sim.loop import StateLog
+from tests.test_cli import cli
 
 
 def _base(physics) -> np.ndarray:
@@ -221,3 +223,21 @@ def test_a_run_records_how_it_was_stepped_and_older_runs_re_fly_with_pybullet():
     assert SimConfig().physics is Stepping.QUADSIM
     with pytest.raises(Exception, match="'quadsim', 'pybullet'"):
         SimConfig(physics="bullet")
+
+
+@pytest.mark.parametrize("physics", ["quadsim", "pybullet"])
+def test_the_command_line_records_the_stepping_and_check_re_flies_it_at_zero(tmp_path, physics):
+    """`run --physics X` records X (the default: quadsim); `check` re-flies the recording the way it
+    was flown, at zero error; and a wrong value is refused in one line naming the choices."""
+    out = tmp_path / "flight.mcap"
+    extra = () if physics == "quadsim" else ("--physics", physics)
+    done = cli("run", "--script", "takeoff", "--duration", "3", "--cameras", "none", *extra, "--out", str(out))
+    assert done.returncode == 0, done.stderr
+    (flight,) = load_flights(out).values()
+    assert flight.description is not None and flight.description.config.physics is Stepping(physics)
+    assert max(s.position_m[2] for s in flight.states) > 0.5  # it flew
+    check = cli("check", str(out), "--tolerance-m", "0", "--tolerance-rad", "0")
+    assert check.returncode == 0, check.stdout + check.stderr
+    wrong = cli("run", "--script", "takeoff", "--physics", "bullet", "--no-record")
+    assert wrong.returncode == 2 and "Traceback" not in wrong.stderr
+    assert "invalid choice: 'bullet' (choose from 'quadsim', 'pybullet')" in wrong.stderr, wrong.stderr
