@@ -241,3 +241,22 @@ def test_the_command_line_records_the_stepping_and_check_re_flies_it_at_zero(tmp
     wrong = cli("run", "--script", "takeoff", "--physics", "bullet", "--no-record")
     assert wrong.returncode == 2 and "Traceback" not in wrong.stderr
     assert "invalid choice: 'bullet' (choose from 'quadsim', 'pybullet')" in wrong.stderr, wrong.stderr
+
+
+def test_a_body_added_from_outside_mid_flight_is_hit_not_flown_through():
+    """Code of the user's own adds a box in the vehicle's path after it has flown clear for a
+    while (through `physics.client_id`): the vehicle hits it, as with PyBullet stepping."""
+    hits = {}
+    for physics in ("quadsim", "pybullet"):
+        with Simulator(SimConfig(physics=physics, z_mode=ZMode.HEIGHT)) as sim:
+            sim.send(Twist())
+            sim.run_for(3.0)  # up at 2 m, clear of everything
+            x, y, z = sim.state.position_m
+            cid = sim.physics.client_id
+            wall = pb.createCollisionShape(pb.GEOM_BOX, halfExtents=(0.1, 2.0, 2.0), physicsClientId=cid)
+            pb.createMultiBody(0.0, wall, -1, basePosition=(x + 2.0, y, z), physicsClientId=cid)
+            sim.send(Twist(linear_x=2.0))
+            sim.run_for(3.0)
+            hits[physics] = [(e.step, e.kind.value) for e in sim.events if e.kind.value == "crash"]
+            assert sim.state.position_m[0] < x + 2.0, physics  # stopped by the wall, not through it
+    assert hits["quadsim"] and hits["quadsim"] == hits["pybullet"], hits

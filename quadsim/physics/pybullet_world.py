@@ -556,9 +556,15 @@ class PhysicsWorld:
 
     @property
     def client_id(self) -> int:
-        """The PyBullet client, for components that render from it or ask it about the scene,
-        with every vehicle in it posed where it flew to (quadsim.physics.client.WorldClient.posed)."""
-        return self.client.posed() if self._cid >= 0 else self._cid
+        """The PyBullet client, for code of the user's own that reads the scene or changes it,
+        with every vehicle in it posed where it flew to (quadsim.physics.client.WorldClient.posed).
+        What is taken to change the scene: every vehicle looks at the world's bodies again before
+        its next step (a body added from outside may move: PyBullet then steps the vehicle)."""
+        if self._cid < 0:
+            return self._cid
+        for body in self.client.bodies:
+            body._scenery = False
+        return self.client.posed()
 
     @property
     def closed(self) -> bool:
