@@ -260,3 +260,22 @@ def test_a_body_added_from_outside_mid_flight_is_hit_not_flown_through():
             hits[physics] = [(e.step, e.kind.value) for e in sim.events if e.kind.value == "crash"]
             assert sim.state.position_m[0] < x + 2.0, physics  # stopped by the wall, not through it
     assert hits["quadsim"] and hits["quadsim"] == hits["pybullet"], hits
+
+
+def test_a_vehicle_moved_from_outside_flies_on_from_there():
+    """Code of the user's own that moves the vehicle in PyBullet (through `physics.client_id`)
+    between steps: the next step starts where it put it, and the flight from there is the same
+    whoever steps it."""
+    ends = {}
+    for physics in ("quadsim", "pybullet"):
+        with Simulator(SimConfig(physics=physics, z_mode=ZMode.HEIGHT)) as sim:
+            sim.send(Twist())
+            sim.run_for(3.0)
+            cid, body = sim.physics.client_id, sim.physics.body_id
+            pb.resetBasePositionAndOrientation(body, (5.0, -4.0, 3.0), (0.0, 0.0, 0.0, 1.0), physicsClientId=cid)
+            sim.step(1)
+            assert math.dist(sim.state.position_m, (5.0, -4.0, 3.0)) < 0.05, (physics, sim.state.position_m)
+            sim.run_for(2.0)  # the controller flies back to the spot it holds
+            ends[physics] = sim.state.position_m
+    assert math.dist(ends["quadsim"], ends["pybullet"]) < 1e-9, ends
+    assert math.dist(ends["quadsim"], (5.0, -4.0, 3.0)) > 1.0  # it did fly on

@@ -164,6 +164,8 @@ class PhysicsWorld:
         self._flew_free = False
         #: PyBullet's copy of the body is older than `_body` (posed again when the scene is read)
         self._stale = False
+        #: the body's state is to be read from PyBullet before the next step (`client_id`)
+        self._reread = False
         xyz = (0.0, 0.0, 0.0)
         #: what quadsim's step takes that stays the same from step to step
         self._clear_constants = (
@@ -424,6 +426,9 @@ class PhysicsWorld:
         # quarter of a microsecond a call). The force and torque are turned into the world frame
         # with this step's attitude: a force in a child link's frame is turned with that link's
         # pose of the previous step, so rotor thrust would lag the attitude by one step.
+        if self._reread:  # code of the user's own had the scene (client_id)
+            self._reread = False
+            self._read_kinematics(at_rest_before=False)
         motors = self.motors
         if len(command_n) != motors.motor_count:
             motors.check_count(command_n)
@@ -558,13 +563,16 @@ class PhysicsWorld:
     def client_id(self) -> int:
         """The PyBullet client, for code of the user's own that reads the scene or changes it,
         with every vehicle in it posed where it flew to (quadsim.physics.client.WorldClient.posed).
-        What is taken to change the scene: every vehicle looks at the world's bodies again before
-        its next step (a body added from outside may move: PyBullet then steps the vehicle)."""
+        What is taken to change the scene: before its next step every vehicle takes its state
+        from PyBullet (as that code may have set it) and looks at the world's bodies again (a
+        body added from outside may move: PyBullet then steps the vehicle)."""
         if self._cid < 0:
             return self._cid
+        cid = self.client.posed()
         for body in self.client.bodies:
             body._scenery = False
-        return self.client.posed()
+            body._reread = True  # and takes its state from PyBullet, where that code may have put it
+        return cid
 
     @property
     def closed(self) -> bool:
