@@ -194,7 +194,7 @@ def test_what_reads_the_scene_sees_the_vehicle_where_it_flew():
     images = {}
     for physics in ("pybullet", "quadsim"):
         with Simulator(SimConfig(physics=physics, z_mode=ZMode.HEIGHT)) as sim:
-            with Cameras(sim, default_cameras()) as cameras:
+            with Cameras(sim, default_cameras(96, 72, 10)) as cameras:
                 sim.send(Twist(linear_x=0.5, angular_z=0.3))
                 sim.run_for(5.0)
                 images[physics] = {name: cameras.latest(name).rgb.copy() for name in ("front", "floor")}
