@@ -75,6 +75,12 @@ class PhysicsWorld:
     also carries what makes PyBullet's explicit gyroscopic step an exact, energy-keeping one
     (quadsim.core.rigid_body), for the merged body.
 
+    While the body is clear of everything it could touch (the scenery, and the world's other
+    vehicles), the same force and torque are stepped by quadsim's own copy of PyBullet's step
+    instead (quadsim.physics.free_flight; `stepping`), with no PyBullet call at all; PyBullet's
+    copy of the body is posed again when something reads the scene (WorldClient.posed) or before
+    PyBullet steps it.
+
     The body is the URDF with its fixed links merged into one rigid body (scene.load_vehicle_body),
     whose pose PyBullet keeps at the centre of mass; what this class reads, sets and reports is
     base_link's origin, as the URDF and the recording contract have it.
