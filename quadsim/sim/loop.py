@@ -5,7 +5,8 @@ Stepping order, once per physics step n (time n / physics_hz):
                                        poll the driver; the gate takes its command, stamped n
   2. control (n % control_every == 0): the landing layer and the controller turn state + active
                                        command into rotor forces (take-off, landed: events at n)
-  3. physics:                          motors, forces, one PyBullet step -> step n + 1 (only here)
+  3. physics:                          motors, forces, one step (quadsim's own while the vehicle
+                                       is clear of everything, else PyBullet's) -> n + 1 (only here)
   4. contacts:                         touchdown and crash events at n + 1 (and the reset after a
                                        crash, if asked for)
   5. publish ((n + 1) % state_every == 0): the IMU noise takes its sample (sinks or not), and
@@ -14,7 +15,8 @@ Stepping order, once per physics step n (time n / physics_hz):
 Nothing here reads the wall clock; only a window paces these steps to real time.
 
 `run` does stages 1-2 (`before_physics`), 3 and 4-6 (`after_physics`) step after step; a fleet
-(quadsim.sim.fleet) does stages 1-2 for every vehicle, one world step, then 4-6 for every vehicle.
+(quadsim.sim.fleet) does stages 1-2 for every vehicle, their steps (one PyBullet step of the
+world if any of them needs it), then 4-6 for every vehicle.
 """
 
 from __future__ import annotations
