@@ -3,9 +3,13 @@ process group: exit 130 / 143, no traceback, the summary printed once the run ha
 recording finished, no process left behind, no temporary folder left behind.
 
 Each trial is a real `run` with both cameras and two render workers (a process group of
-three). The moments are drawn from a seeded generator, spread over a whole run's wall time
-(measured first, on this machine, in this test, and stretched for the two trials that run at once). The interpreter's own first ~0.1 s, before
-any quadsim code runs, is left out: a signal there meets Python's defaults, not quadsim.
+three), paced to real time. Its moment is taken from its own output, not from a clock: a
+seeded generator picks a line it prints (or its start) and a short delay after it. The run
+prints a progress line about every 0.4 s of wall time while it flies, so a moment after
+"recording to" or one of the first two progress lines lands inside the run however loaded the
+machine is (a loaded machine only makes the run, not the delay, longer): every such trial must
+end by its signal. The interpreter's own first ~0.1 s, before any quadsim code runs, is left
+out: a signal there meets Python's defaults, not quadsim.
 """
 
 from __future__ import annotations
@@ -16,6 +20,7 @@ import random
 import signal
 import subprocess
 import sys
+import threading
 import time
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
@@ -25,7 +30,7 @@ import pytest
 from mcap.reader import make_reader
 
 ROOT = Path(__file__).resolve().parent.parent
-MOMENTS_PER_CASE = int(os.environ.get("QUADSIM_SIGNAL_MOMENTS", "20"))
+MOMENTS_PER_CASE = int(os.environ.get("QUADSIM_SIGNAL_MOMENTS", "14"))  # each anchor twice
 EXPECTED = {signal.SIGINT: 130, signal.SIGTERM: 143}
 
 
@@ -34,6 +39,7 @@ class Trial:
     signum: int
     to_group: bool
     delay_s: float
+    anchor: str  # the line of its output the delay ran from ("start": the process's start)
     returncode: int
     stdout: str
     stderr: str
@@ -53,9 +59,58 @@ def _command(out: Path) -> list[str]:
         "1.5",
         "--camera-size",
         "64x48",
+        "--realtime",
         "--out",
         str(out),
     ]
+
+
+#: where a trial's signal goes: (the line it waits for, which of those lines, the delay after it
+#: drawn from [low, high) s); None: from the process's start
+ANCHORS = (
+    (None, 1, 0.12, 1.0),  # quadsim starting up
+    ("quadsim: starting", 1, 0.0, 0.5),  # the cameras and render workers starting
+    ("recording to", 1, 0.0, 0.3),  # flying
+    ("sim time:", 1, 0.0, 0.3),  # flying
+    ("sim time:", 2, 0.0, 0.3),  # flying
+    ("sim time: 100%", 1, 0.0, 0.3),  # closing the recording
+    ("final pose", 1, 0.0, 0.3),  # printing the summary, ending
+)
+#: the anchors after which the run has at least 0.7 s of wall time left (progress lines ~0.4 s apart)
+IN_FLIGHT = {("recording to", 1), ("sim time:", 1), ("sim time:", 2)}
+
+
+def _wait_for_line(proc: subprocess.Popen, text: str | None, count: int) -> tuple[list[str], list[str], list]:
+    """Read the process's stdout and stderr as it prints them (a thread each), and return once
+    the `count`-th line starting with `text` has come (at once for None; when the output ends
+    without it): the lists the lines go into, and the reading threads."""
+    seen = threading.Event()
+    lines: tuple[list[str], list[str]] = ([], [])
+    matched, ended = [0], [0]
+    lock = threading.Lock()
+
+    def read(stream, into: list[str]) -> None:
+        for line in stream:
+            into.append(line)
+            if text is not None and line.startswith(text):
+                with lock:
+                    matched[0] += 1
+                    if matched[0] == count:
+                        seen.set()
+        with lock:
+            ended[0] += 1
+            if ended[0] == 2:
+                seen.set()  # the output ended without the line: the run is over
+
+    readers = [
+        threading.Thread(target=read, args=(stream, into), daemon=True)
+        for stream, into in zip((proc.stdout, proc.stderr), lines)
+    ]
+    for reader in readers:
+        reader.start()
+    if text is not None:
+        seen.wait(timeout=120)
+    return lines[0], lines[1], readers
 
 
 def _env(tmpdir: Path) -> dict[str, str]:
@@ -79,7 +134,15 @@ def _processes_of(tmpdir: Path) -> list[int]:
     return found
 
 
-def _trial(folder: Path, signum: int, to_group: bool, delay_s: float, command=_command) -> Trial:
+def _trial(
+    folder: Path,
+    signum: int,
+    to_group: bool,
+    delay_s: float,
+    command=_command,
+    anchor: tuple[str | None, int] = (None, 1),
+) -> Trial:
+    """A run signalled `delay_s` after the `anchor` line of its output (None: its start)."""
     folder.mkdir(parents=True)
     tmpdir = folder / "tmp"
     tmpdir.mkdir()
@@ -93,7 +156,8 @@ def _trial(folder: Path, signum: int, to_group: bool, delay_s: float, command=_c
         env=_env(tmpdir),
         start_new_session=True,  # a process group of its own, as a shell job has
     )
-    time.sleep(delay_s)
+    stdout, stderr, readers = _wait_for_line(proc, *anchor)
+    time.sleep(delay_s)  # the moment: a short delay after the line, not a synchronisation
     try:
         if to_group:
             os.killpg(proc.pid, signum)
@@ -101,45 +165,45 @@ def _trial(folder: Path, signum: int, to_group: bool, delay_s: float, command=_c
             proc.send_signal(signum)
     except ProcessLookupError:
         pass  # it had already finished
-    stdout, stderr = proc.communicate(timeout=120)
+    proc.wait(timeout=120)
+    for reader in readers:
+        reader.join(timeout=30)
     deadline = time.monotonic() + 10.0
     while _processes_of(tmpdir) and time.monotonic() < deadline:
         time.sleep(0.05)
     leftover = bool(_processes_of(tmpdir))
     for pid in _processes_of(tmpdir):
         os.kill(pid, signal.SIGKILL)
-    return Trial(signum, to_group, delay_s, proc.returncode, stdout, stderr, out, tmpdir, leftover)
+    where = "start" if anchor[0] is None else f"{anchor[0]!r} #{anchor[1]}"
+    return Trial(
+        signum, to_group, delay_s, where, proc.returncode, "".join(stdout), "".join(stderr), out, tmpdir, leftover
+    )
 
 
 @pytest.fixture(scope="module")
 def trials(tmp_path_factory) -> list[Trial]:
     base = tmp_path_factory.mktemp("signals")
-    # one undisturbed run first: how long a run takes here, start to finish
-    t0 = time.monotonic()
-    calm = subprocess.run(_command(base / "calm.mcap"), capture_output=True, text=True, cwd=base, env=_env(base))
-    wall_s = time.monotonic() - t0
-    assert calm.returncode == 0, calm.stderr
-    rng = random.Random(20261122)
-    cases = [
-        (signum, to_group, rng.uniform(0.12, wall_s * 1.6))
-        for signum in (signal.SIGINT, signal.SIGTERM)
-        for to_group in (False, True)
-        for _ in range(MOMENTS_PER_CASE)
-    ]
+    rng = random.Random(20261128)
+    cases = []
+    for signum in (signal.SIGINT, signal.SIGTERM):
+        for to_group in (False, True):
+            for i in range(MOMENTS_PER_CASE):
+                text, count, low, high = ANCHORS[i % len(ANCHORS)]  # every anchor, in turn
+                cases.append((signum, to_group, rng.uniform(low, high), (text, count)))
     with ThreadPoolExecutor(max_workers=2) as pool:
         futures = [
-            pool.submit(_trial, base / f"t{i:03d}", signum, group, delay)
-            for i, (signum, group, delay) in enumerate(cases)
+            pool.submit(_trial, base / f"t{i:03d}", signum, group, delay, _command, anchor)
+            for i, (signum, group, delay, anchor) in enumerate(cases)
         ]
         results = [f.result() for f in futures]
     stopped = sum(t.returncode != 0 for t in results)
-    print(f"\nsignals: {len(results)} trials over a {wall_s:.2f} s run, {stopped} stopped by the signal")
+    print(f"\nsignals: {len(results)} trials, {stopped} stopped by the signal")
     return results
 
 
 def _where(t: Trial) -> str:
     target = "group" if t.to_group else "process"
-    return f"{signal.Signals(t.signum).name} to the {target} at {t.delay_s:.2f} s"
+    return f"{signal.Signals(t.signum).name} to the {target} {t.delay_s:.2f} s after {t.anchor}"
 
 
 def test_no_traceback_and_the_right_exit_code(trials):
@@ -148,10 +212,11 @@ def test_no_traceback_and_the_right_exit_code(trials):
             f"{_where(t)}:\n{t.stderr}"
         )
         assert t.returncode in (0, EXPECTED[t.signum]), f"{_where(t)}: exit {t.returncode}\n{t.stderr}"
-    # enough signals came during the run for that path to be tried: a quarter, not half, because the
-    # moments are drawn from one calm run's wall time, and when other work beside it slowed that run
-    # (another test worker's pool) the trials ran more than twice as fast and half of them ended first
-    assert sum(t.returncode != 0 for t in trials) >= len(trials) // 4
+    # every signal sent while the vehicle flew stopped the run, whatever the machine's load
+    flying = [t for t in trials if any(t.anchor == f"{a!r} #{n}" for a, n in IN_FLIGHT)]
+    assert len(flying) >= len(trials) // 3
+    for t in flying:
+        assert t.returncode == EXPECTED[t.signum], f"{_where(t)}: exit {t.returncode}\n{t.stdout}\n{t.stderr}"
 
 
 def test_no_process_and_no_temporary_folder_left_behind(trials):
