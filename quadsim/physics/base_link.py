@@ -10,9 +10,7 @@ operation for operation, so states are the same to the bit as before it was comp
 from __future__ import annotations
 
 from quadsim.core.compiled import jit
-
-Vec3 = tuple[float, float, float]
-Mat3 = tuple[Vec3, Vec3, Vec3]
+from quadsim.core.kinematics import Mat3, Quat, Vec3
 
 
 @jit
@@ -39,7 +37,7 @@ def base_link_state(
     at_rest_before: bool,
     gravity_mps2: float,
     inv_dt: float,
-) -> tuple[Vec3, tuple[float, float, float, float], Vec3, Vec3, Mat3, Vec3, Vec3]:
+) -> tuple[Vec3, Quat, Vec3, Vec3, Mat3, Vec3, Vec3]:
     """From the base's position, orientation (x y z w), velocity and spin (world frame) and
     base_link's origin's offset (ox, oy, oz) from it in body axes: base_link's position, the
     orientation, its velocity, the spin, the rotation matrix (world <- body, rows first), the body

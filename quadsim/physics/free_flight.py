@@ -15,7 +15,7 @@ What PyBullet 3.2.x does in `stepSimulation` for a multibody with no links and n
      of h w, its angle limited to pi/4 a step, with Taylor's expansion of sin(x)/x below
      0.001 rad/s, then normalised.
 The arithmetic follows Bullet's order, so a flight agrees with PyBullet's to about 1e-12 m
-(docs/reference/physics.md has the figures); it is not the same to the bit, and need not be: a
+(docs/reference/determinism.md has the figures); it is not the same to the bit, and need not be: a
 run flies one way or the other from its first step (quadsim.physics.pybullet_world).
 """
 

@@ -44,9 +44,7 @@ def _near_others(bodies: list[PhysicsWorld]) -> set[PhysicsWorld]:
     """The vehicles among `bodies` that another one could reach within two steps: the bounding
     spheres of the pair, at their speeds, less than the clearance apart (each pair once)."""
     near: set[PhysicsWorld] = set()
-    reach = [
-        (b, b._position, abs(v[0]) + abs(v[1]) + abs(v[2]), b.reach_m) for b in bodies for v in [b._linear_velocity]
-    ]
+    reach = [(b, b._position, sum(map(abs, b._linear_velocity)), b.reach_m) for b in bodies]
     for i, (a, (x, y, z), speed, radius) in enumerate(reach):
         two_steps = 2.0 * a.dt_s
         for b, (ox, oy, oz), other_speed, other_radius in reach[i + 1 :]:
@@ -519,14 +517,10 @@ class PhysicsWorld:
         velocity, spin = pb.getBaseVelocity(body, cid)
         self._from_pybullet = (position, orientation, velocity, spin)
         self._stale = False
-        self._derive_kinematics((*position, *orientation, *velocity, *spin), at_rest_before)
-
-    def _derive_kinematics(self, base: tuple[float, ...] | list[float], at_rest_before: bool) -> None:
-        """base_link's pose and velocity, the attitude's matrix and the state's body rates and
-        specific force (quadsim.physics.base_link), from the base's state (`_body`'s layout) and
-        the velocity before the step (`at_rest_before`: none, as after a reset or a placing)."""
-        ux, uy, uz = self._previous_velocity
-        ox, oy, oz = self._offset
+        # base_link's state from the base's and the velocity before the step (`at_rest_before`:
+        # none, as after a reset or a placing)
+        (ux, uy, uz), (ox, oy, oz) = self._previous_velocity, self._offset
+        base = (*position, *orientation, *velocity, *spin)
         self._take_kinematics(
             self._base_link_state(*base, ox, oy, oz, ux, uy, uz, at_rest_before, self._gravity, self._inv_dt)
         )
