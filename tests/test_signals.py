@@ -4,12 +4,11 @@ recording finished, no process left behind, no temporary folder left behind.
 
 Each trial is a real `run` with both cameras and two render workers (a process group of
 three), paced to real time. Its moment is taken from its own output, not from a clock: a
-seeded generator picks a line it prints (or its start) and a short delay after it. The run
-prints a progress line about every 0.4 s of wall time while it flies, so a moment after
-"recording to" or one of the first two progress lines lands inside the run however loaded the
-machine is (a loaded machine only makes the run, not the delay, longer): every such trial must
-end by its signal. The interpreter's own first ~0.1 s, before any quadsim code runs, is left
-out: a signal there meets Python's defaults, not quadsim.
+seeded generator picks a line it prints (or its start) and a short random delay after it. A
+trial whose line comes while the vehicle flies ("recording to", the progress lines at a quarter
+and at half of the duration) flies 8 s, at least 4 s more after its line, so its signal meets the
+flight however late a slow machine ends the delay: every such trial must end by its signal. The interpreter's own first ~0.1 s,
+before any quadsim code runs, is left out: a signal there meets Python's defaults, not quadsim.
 """
 
 from __future__ import annotations
@@ -48,7 +47,7 @@ class Trial:
     leftover_processes: bool
 
 
-def _command(out: Path) -> list[str]:
+def _command(out: Path, duration_s: str = "1.5") -> list[str]:
     return [
         sys.executable,
         str(ROOT / "main.py"),
@@ -56,7 +55,7 @@ def _command(out: Path) -> list[str]:
         "--script",
         "square",
         "--duration",
-        "1.5",
+        duration_s,
         "--camera-size",
         "64x48",
         "--realtime",
@@ -76,8 +75,14 @@ ANCHORS = (
     ("sim time: 100%", 1, 0.0, 0.3),  # closing the recording
     ("final pose", 1, 0.0, 0.3),  # printing the summary, ending
 )
-#: the anchors after which the run has at least 0.7 s of wall time left (progress lines ~0.4 s apart)
+#: the anchors after which the vehicle is flying: their trials fly 8 s, so the flight goes on for
+#: at least 4 s after each of them (the run prints its progress at every quarter of the duration)
+#: and a signal sent late, on a slow machine, still meets it
 IN_FLIGHT = {("recording to", 1), ("sim time:", 1), ("sim time:", 2)}
+
+
+def _flying_command(out: Path) -> list[str]:
+    return _command(out, duration_s="8")
 
 
 def _wait_for_line(proc: subprocess.Popen, text: str | None, count: int) -> tuple[list[str], list[str], list]:
@@ -157,7 +162,7 @@ def _trial(
         start_new_session=True,  # a process group of its own, as a shell job has
     )
     stdout, stderr, readers = _wait_for_line(proc, *anchor)
-    time.sleep(delay_s)  # the moment: a short delay after the line, not a synchronisation
+    time.sleep(delay_s)  # the moment: a random delay after the line; no outcome depends on its length
     try:
         if to_group:
             os.killpg(proc.pid, signum)
@@ -192,7 +197,15 @@ def trials(tmp_path_factory) -> list[Trial]:
                 cases.append((signum, to_group, rng.uniform(low, high), (text, count)))
     with ThreadPoolExecutor(max_workers=2) as pool:
         futures = [
-            pool.submit(_trial, base / f"t{i:03d}", signum, group, delay, _command, anchor)
+            pool.submit(
+                _trial,
+                base / f"t{i:03d}",
+                signum,
+                group,
+                delay,
+                _flying_command if anchor in IN_FLIGHT else _command,
+                anchor,
+            )
             for i, (signum, group, delay, anchor) in enumerate(cases)
         ]
         results = [f.result() for f in futures]
