@@ -643,10 +643,22 @@ def test_resume_flies_a_fleet_again_when_its_own_airframe_files_change(tmp_path:
 
 
 def _workers_of(pid: int) -> list[int]:
-    """The pool's worker processes: the children of `pid` running Python (not the resource tracker)."""
-    out = subprocess.run(["ps", "-o", "pid=,args=", "--ppid", str(pid)], capture_output=True, text=True).stdout
-    lines = [line.split(maxsplit=1) for line in out.splitlines()]
-    return [int(pid) for pid, args in lines if "resource_tracker" not in args and not args.startswith("ps ")]
+    """The pool's worker processes: the children of `pid` running Python, not the resource tracker.
+    Read from /proc, not `ps`: piped, `ps` cuts its lines at 80 columns, and under a long enough
+    interpreter path the tracker's name fell past the cut and it was counted as a worker."""
+    workers = []
+    for entry in Path("/proc").iterdir():
+        if not entry.name.isdigit():
+            continue
+        try:
+            stat = (entry / "stat").read_text()
+            cmdline = (entry / "cmdline").read_bytes()
+        except OSError:  # gone meanwhile
+            continue
+        parent = int(stat[stat.rindex(")") + 2 :].split()[1])  # the name may hold spaces and ')'
+        if parent == pid and b"resource_tracker" not in cmdline:
+            workers.append(int(entry.name))
+    return sorted(workers)
 
 
 def _long_sweep(tmp_path: Path) -> subprocess.Popen:
