@@ -9,7 +9,7 @@ import pytest
 from quadsim.physics.pybullet_quiet import pb
 from quadsim.vehicle.mixer import Mixer
 from quadsim.vehicle.params import SHIPPED_VEHICLES, Spin, VehicleParams, load_vehicle
-from tests.sim_helpers import body_alone
+from tests.helpers.sim import body_alone
 
 #: J. Foerster, "System Identification of the Crazyflie 2.0 Nano Quadrocopter", ETH Zurich 2015:
 #: reaction torque per newton of thrust (his torque map's slope, the firmware's THRUST2TORQUE), m

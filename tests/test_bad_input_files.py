@@ -15,8 +15,8 @@ from pathlib import Path
 import pytest
 
 from quadsim.vehicle.params import DEFAULT_URDF
+from tests.helpers import ROOT
 
-ROOT = Path(__file__).resolve().parents[1]
 TIMEOUT_S = 30.0
 MAX_RSS_MB = 300.0
 NEST = 3000  # arrays within arrays: past the TOML parser's recursion

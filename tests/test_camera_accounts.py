@@ -7,14 +7,13 @@ from __future__ import annotations
 
 import subprocess
 import sys
-from pathlib import Path
 
 from quadsim import SimConfig, Simulator, Twist
 from quadsim.recording.reader import RecordingReader
 from quadsim.sensors.camera import CameraSpec
 from quadsim.sensors.pipeline import CameraPipeline
+from tests.helpers import ROOT
 
-ROOT = Path(__file__).resolve().parent.parent
 #: cameras no render worker keeps up with: 640x480 at 60 Hz, two of them, one worker
 STARVED = ("--camera-size", "640x480", "--camera-hz", "60", "--render-workers", "1")
 

@@ -2,7 +2,6 @@
 deterministic whether rendered in-process or by worker processes."""
 
 import math
-from pathlib import Path
 
 import cv2
 import numpy as np
@@ -17,6 +16,7 @@ from quadsim.sensors.pipeline import CameraPipeline
 from quadsim.sensors.rendering import decode_jpeg
 from quadsim.sensors.rig import CameraRig
 from quadsim.vehicle.params import load_vehicle
+from tests.helpers import ROOT
 
 
 class Frames:
@@ -199,7 +199,7 @@ def test_egl_renders_the_scene_where_a_driver_exists(tmp_path):
     why = _egl_renders_here()
     if why is not None:
         pytest.skip(f"no EGL rendering on this machine: {why}")
-    root = Path(__file__).resolve().parent.parent
+    root = ROOT
     for workers in ("2", "0"):
         out = tmp_path / f"egl{workers}.mcap"
         result = subprocess.run(

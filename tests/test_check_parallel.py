@@ -11,15 +11,13 @@ from pathlib import Path
 
 import pytest
 
-from tests.recording_helpers import SHIPPED_RECORDINGS
-
-ROOT = Path(__file__).resolve().parent.parent
+from tests.helpers import ROOT
+from tests.helpers.cli import run_main
+from tests.helpers.recording import SHIPPED_RECORDINGS
 
 
 def _check(*args: str) -> subprocess.CompletedProcess:
-    return subprocess.run(
-        [sys.executable, str(ROOT / "main.py"), "check", *args], capture_output=True, text=True, timeout=600
-    )
+    return run_main("check", *args, timeout=600)
 
 
 @pytest.fixture(scope="module")

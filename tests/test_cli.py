@@ -1,25 +1,18 @@
 """The CLI as a user meets it: a summary after a run, one-line errors with exit code 2."""
 
 import subprocess
-import sys
 from pathlib import Path
 
 import pytest
 
-ROOT = Path(__file__).resolve().parent.parent
-
+from tests.helpers import ROOT
+from tests.helpers.cli import bare_env, run_main
 
 QUIET = ("--no-record", "--cameras", "none")  # flight-only runs: nothing written, nothing rendered
 
 
 def cli(*args: str, cwd: Path = ROOT) -> subprocess.CompletedProcess:
-    return subprocess.run(
-        [sys.executable, str(ROOT / "main.py"), *args],
-        capture_output=True,
-        text=True,
-        cwd=cwd,
-        env={"PATH": "/usr/bin:/bin", "SDL_VIDEODRIVER": "dummy", "PYTHONPATH": str(ROOT)},
-    )
+    return run_main(*args, cwd=cwd, env=bare_env(SDL_VIDEODRIVER="dummy"))
 
 
 def test_run_prints_summary():

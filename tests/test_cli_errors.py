@@ -16,8 +16,8 @@ from quadsim.apps.cli import main
 from quadsim.control.gate import CommandGate
 from quadsim.core.types import Twist, ZMode
 from quadsim.vehicle.params import DEFAULT_URDF, load_vehicle
+from tests.helpers import RECORDINGS, ROOT
 
-ROOT = Path(__file__).resolve().parent.parent
 QUICK = ["--cameras", "none", "--no-record"]
 
 
@@ -347,7 +347,7 @@ def test_what_a_user_trial_found_last_is_refused_in_one_line(capsys, tmp_path):
     (tmp_path / "twice.qscript").write_text("2 linear.z=1 linear.z=-1\n")
     code, _, err = run_cli(capsys, "run", "--script", str(tmp_path / "twice.qscript"), "--no-record")
     assert_one_line_error(code, err, "twice.qscript, line 1: linear.z is given twice")
-    recording = str(Path(__file__).parent / "recordings" / "climb_cascade.mcap")
+    recording = str(RECORDINGS / "climb_cascade.mcap")
     code, _, err = run_cli(capsys, "replay", recording, "--headless", "--mp4", str(tmp_path / "vid.avi"))
     assert_one_line_error(code, err, "give a folder or NAME.mp4")
     assert not (tmp_path / "vid.avi").exists()

@@ -17,10 +17,10 @@ from rosbags.rosbag2 import StoragePlugin, Writer
 from rosbags.typesys import Stores, get_typestore
 
 from quadsim.recording.reader import RecordingReader
+from tests.helpers import ROOT
 from tests.test_bad_input_files import run_measured
 from tests.test_cli_errors import assert_one_line_error, run_cli
 
-ROOT = Path(__file__).resolve().parent.parent
 TS = get_typestore(Stores.ROS2_HUMBLE)
 T = TS.types
 #: a bag's log times are wall-clock times: the flight counts from its first command
@@ -107,7 +107,7 @@ def test_errors_are_one_line(tmp_path, capsys):
 
 def test_a_quadsim_recordings_commands_fly_the_same_flight_in_its_z_mode(tmp_path, capsys):
     """A recording flown in height z-mode: its commands, flown again, give the same poses."""
-    from tests.recording_helpers import record_flight
+    from tests.helpers.recording import record_flight
 
     first = tmp_path / "first.mcap"
     record_flight(first, cameras=False)  # height z-mode: 2 s hover at 2 m, 1 s forward and turning

@@ -23,9 +23,8 @@ from quadsim.core.types import ActiveCommand, Twist, VehicleState, ZMode
 from quadsim.vehicle.mixer import Mixer, mix
 from quadsim.vehicle.params import SHIPPED_VEHICLES, load_vehicle
 from quadsim.vehicle.wrench import airframe_wrench
-from tests.sim_helpers import body_alone
-
-ROOT = Path(__file__).resolve().parent.parent
+from tests.helpers import ROOT
+from tests.helpers.sim import body_alone
 
 # every scenario flown both ways: turns, climbs, holds after the dead-man, take-off and landing
 # near the ground (ground effect), wind with turbulence, the seed controller, six rotors
@@ -270,7 +269,7 @@ exec(sys.argv[1])
 from quadsim.control.cascade_step import cascade_update
 from quadsim.vehicle.mixer import mix
 from quadsim.vehicle.wrench import airframe_wrench
-from tests.sim_helpers import body_alone
+from tests.helpers.sim import body_alone
 print(cascade_update.py_func.__qualname__, mix.py_func.__qualname__, airframe_wrench.py_func.__qualname__)
 """
 

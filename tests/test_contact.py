@@ -6,7 +6,6 @@ import math
 import re
 import subprocess
 import sys
-from pathlib import Path
 
 import numpy as np
 import pybullet as pb
@@ -22,9 +21,9 @@ from quadsim.sensors.camera import RendererKind, default_cameras
 from quadsim.sensors.rendering import decode_jpeg
 from quadsim.sensors.rig import CameraRig
 from quadsim.sim.flight_events import EventKind
+from tests.helpers import ROOT
 from tests.test_teleop import key, make_app, run_with
 
-ROOT = Path(__file__).resolve().parent.parent
 HEXA = ROOT / "quadsim" / "assets" / "urdf" / "quadsim_hexa.urdf"
 #: the red tower's faces (world x, y ranges) in the default world: 0.8 m square, centred at x = 6
 TOWER_X, TOWER_Y = (5.6, 6.4), (-0.4, 0.4)

@@ -15,8 +15,8 @@ from quadsim.control import make_controller
 from quadsim.control.gains import gains_path
 from quadsim.errors import ConfigError
 from quadsim.vehicle.params import DEFAULT_URDF, SHIPPED_VEHICLES, load_vehicle
+from tests.helpers import ROOT
 
-ROOT = Path(__file__).resolve().parent.parent
 CF = SHIPPED_VEHICLES["crazyflie"]
 
 

@@ -23,10 +23,10 @@ from mcap.reader import make_reader
 
 from quadsim.apps.cli import main
 from quadsim.recording.mcap_scan import McapFile
-from tests.damaged_corpus import Damaged, make_corpus
-from tests.recording_helpers import record_flight
+from tests.helpers import ROOT
+from tests.helpers.damaged_corpus import Damaged, make_corpus
+from tests.helpers.recording import record_flight
 
-ROOT = Path(__file__).resolve().parent.parent
 CAMERA_SCRIPT = "z_mode height\n1.0 linear.z=0\n1.0 linear.x=1.0 angular.z=0.5\n"
 PLAIN_SCRIPT = "z_mode height\n1.0 linear.z=0\n0.5 linear.x=1.0 angular.z=0.5\n0.5 linear.y=-0.5\n"
 TIME_LIMIT_S = 60.0  # per run: generous, a hang is minutes

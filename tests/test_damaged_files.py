@@ -17,9 +17,9 @@ from mcap.writer import Writer
 from quadsim import QuadsimError
 from quadsim.apps.cli import main
 from quadsim.recording.reader import RecordingReader
-from tests.recording_helpers import record_flight
-
-ROOT = Path(__file__).resolve().parent.parent
+from tests.helpers import ROOT
+from tests.helpers.cli import bare_env, run_main
+from tests.helpers.recording import record_flight
 
 
 @pytest.fixture(scope="module")
@@ -56,13 +56,7 @@ def _make(kind: str, folder: Path, good: Path) -> Path:
 
 
 def cli(*args):
-    return subprocess.run(
-        [sys.executable, str(ROOT / "main.py"), *map(str, args)],
-        capture_output=True,
-        text=True,
-        cwd=ROOT,
-        env={"PATH": "/usr/bin:/bin", "PYTHONPATH": str(ROOT)},
-    )
+    return run_main(*args, cwd=ROOT, env=bare_env())
 
 
 EXPECTED = {
@@ -152,7 +146,7 @@ def _damaged_chunk(good: Path, dst: Path) -> Path:
     """`good` with a byte of its first chunk of states flipped (zstd refuses it). The file's first
     chunk holds only the latched scene messages (the "recording started" event's metadata record
     closes it): losing those still lets the flight re-fly."""
-    from tests.damaged_corpus import OP_CHUNK, layout
+    from tests.helpers.damaged_corpus import OP_CHUNK, layout
 
     data = bytearray(good.read_bytes())
     chunk = layout(bytes(data)).of(OP_CHUNK)[1]
@@ -163,7 +157,7 @@ def _damaged_chunk(good: Path, dst: Path) -> Path:
 
 def _changed_gains(good: Path, dst: Path) -> Path:
     """`good` as if flown with another position gain: re-flying it gives another flight."""
-    from tests.damaged_corpus import build, read_content
+    from tests.helpers.damaged_corpus import build, read_content
 
     content = read_content(good)
     md = content.metadata("quadsim")
@@ -214,7 +208,7 @@ def test_check_refuses_a_negative_or_nan_tolerance(option, value, good):
 def test_a_damaged_chunk_of_camera_images_alone_is_skipped_and_check_goes_on(tmp_path):
     """Where a damaged chunk held only images (its index says so), the commands and states are
     whole: replay and check go on, and say what was skipped."""
-    from tests.damaged_corpus import OP_CHUNK, RMessage, build, layout, read_content
+    from tests.helpers.damaged_corpus import OP_CHUNK, RMessage, build, layout, read_content
 
     src = tmp_path / "cams.mcap"
     record_flight(src, size=(64, 48), script="z_mode height\n1.5 linear.z=0\n")

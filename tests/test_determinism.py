@@ -4,14 +4,12 @@ import hashlib
 import struct
 import subprocess
 import sys
-from pathlib import Path
 
 from quadsim.apps.flight_quality import fly
 from quadsim.control import ControllerKind
 from quadsim.physics.wind import Turbulence, WindSettings
 from quadsim.sim.config import SimConfig
-
-ROOT = Path(__file__).resolve().parent.parent
+from tests.helpers import ROOT
 
 
 def digest(states) -> str:

@@ -13,7 +13,8 @@ from pathlib import Path
 import cv2
 import pytest
 
-ROOT = Path(__file__).resolve().parents[1]
+from tests.helpers import ROOT
+
 DOCS = ROOT / "docs"
 PAGES = sorted(DOCS.rglob("*.md"))
 RUNNABLE = re.compile(r"<!-- runnable -->\n```sh\n(.*?)\n```", re.S)
@@ -116,7 +117,7 @@ def test_the_foxglove_pictures_show_every_vehicle_of_the_example_fleet(picture):
     """docs/img/foxglove_*.png: Foxglove Studio 1.48 after docs/foxglove.md's steps: the four
     vehicles' names over their models, the rotors of at least the three larger ones (the
     Crazyflie's are a few pixels)."""
-    from tests.foxglove_studio import vehicle_names_drawn, vehicles_drawn
+    from tests.helpers.foxglove_studio import vehicle_names_drawn, vehicles_drawn
 
     panel = (40, 25, 755, 690)  # the 3D panel of a 1200 x 750 picture
     assert vehicle_names_drawn(DOCS / "img" / picture, panel) == 4

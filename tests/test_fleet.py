@@ -11,6 +11,7 @@ from quadsim import Fleet, FleetVehicle, SimConfig, Simulator, StartPose, Twist,
 from quadsim.drivers.scripted import ScriptedDriver, load_script
 from quadsim.errors import ConfigError, QuadsimError
 from quadsim.sim.flight_events import EventKind
+from tests.helpers import ROOT
 
 HEIGHT = SimConfig(z_mode=ZMode.HEIGHT)
 
@@ -146,9 +147,8 @@ def test_a_bad_fleet_is_one_line_naming_the_vehicle(vehicles, error):
 
 
 def test_the_docs_fleet_example_runs_and_does_what_it_says(capsys):
-    from pathlib import Path
 
-    page = (Path(__file__).resolve().parent.parent / "docs" / "reference" / "api.md").read_text()
+    page = (ROOT / "docs" / "reference" / "api.md").read_text()
     example = page.split("## Fleets", 1)[1].split("```python\n", 1)[1].split("```", 1)[0]
     exec(compile(example, "api.md", "exec"), {})
     numbers = [float(v) for v in re.findall(r"-?\d+\.\d+(?:e-?\d+)?", capsys.readouterr().out)]

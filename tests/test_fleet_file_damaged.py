@@ -6,7 +6,6 @@ from __future__ import annotations
 
 import random
 import re
-from pathlib import Path
 
 import pytest
 
@@ -15,9 +14,9 @@ from quadsim.errors import QuadsimError
 from quadsim.sim.config import SimConfig
 from quadsim.sim.fleet import Fleet
 from quadsim.sim.fleet_file import FleetFile, load_fleet_file
+from tests.helpers import ROOT
 from tests.test_cli import cli
 
-ROOT = Path(__file__).resolve().parents[1]
 EXAMPLE = (ROOT / "examples" / "fleet.toml").read_text()
 HOSTILE_VALUES = [
     "nan",

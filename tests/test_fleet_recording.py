@@ -15,7 +15,7 @@ from mcap_ros2.decoder import DecoderFactory
 
 from quadsim.recording.flight import load_flight, load_flights
 from quadsim.sim.description import DescriptionError, RunDescription
-from tests.recording_helpers import copy_recording
+from tests.helpers.recording import copy_recording
 from tests.test_cli import cli
 
 FLEET = """

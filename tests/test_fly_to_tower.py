@@ -4,15 +4,15 @@ from __future__ import annotations
 
 import math
 import runpy
-from pathlib import Path
 
 import pytest
 
 from quadsim import Cameras, SimConfig, Simulator, StartPose, Twist, ZMode
 from quadsim.assets import asset_path
 from quadsim.physics.world_spec import load_world
+from tests.helpers import ROOT
 
-EXAMPLE = runpy.run_path(str(Path(__file__).resolve().parent.parent / "examples" / "fly_to_tower.py"))
+EXAMPLE = runpy.run_path(str(ROOT / "examples" / "fly_to_tower.py"))
 TOWER = next(lm for lm in load_world(asset_path("worlds", "default.toml")).landmarks if lm.name == "red_tower")
 
 

@@ -1,5 +1,5 @@
 """The Foxglove bridge, from outside: quadsim runs as its own process with --foxglove, and an
-independent WebSocket client (tests/foxglove_client.py, another process, written from the
+independent WebSocket client (tests/helpers/foxglove_client.py, another process, written from the
 protocol's spec) watches it and flies it."""
 
 from __future__ import annotations
@@ -23,10 +23,11 @@ import pytest
 from quadsim.errors import QuadsimError
 from quadsim.live.foxglove import parse_endpoint, twist_from_cdr, twist_from_json
 from quadsim.recording import cdr
-from tests.recording_helpers import commanded_motion
+from tests.helpers import HELPERS, ROOT
+from tests.helpers import proc as procfs
+from tests.helpers.recording import commanded_motion
 
-ROOT = Path(__file__).resolve().parents[1]
-CLIENT = Path(__file__).with_name("foxglove_client.py")
+CLIENT = HELPERS / "foxglove_client.py"
 ENV = {**os.environ, "SDL_VIDEODRIVER": "dummy", "SDL_AUDIODRIVER": "dummy", "PYTHONUNBUFFERED": "1"}
 OLD_NAME = ("--subprotocol", "foxglove.websocket.v1")
 NEW_NAME = ("--subprotocol", "foxglove.sdk.v1")
@@ -216,7 +217,7 @@ def test_the_replay_window_hands_the_recording_to_its_feed_as_it_plays(tmp_path:
     from quadsim.apps.window.replay import ReplayApp
     from quadsim.live.playback import RecordingFeed
     from quadsim.recording.flight import load_flight
-    from tests.recording_helpers import record_flight
+    from tests.helpers.recording import record_flight
 
     path = tmp_path / "flight.mcap"
     record_flight(path)
@@ -240,8 +241,8 @@ def test_the_replay_window_hands_the_recording_to_its_feed_as_it_plays(tmp_path:
         ]
 
 
-NODE_CLIENT = Path(__file__).with_name("foxglove_node_client.js")
-#: the npm packages tests/foxglove_node_client.js needs, ws-protocol at the version JavaScript apps ship
+NODE_CLIENT = HELPERS / "foxglove_node_client.js"
+#: the npm packages tests/helpers/foxglove_node_client.js needs, ws-protocol at the version JavaScript apps ship
 NODE_PACKAGES = (
     "@foxglove/ws-protocol@0.8",
     "ws@8",
@@ -315,14 +316,12 @@ def test_the_npm_ws_protocol_client_watches_and_flies_with_its_default_subprotoc
     assert abs(dy) < 0.2 and abs(dy) < abs(dx) / 3, (dx, dy)  # not sideways
 
 
-HOSTILE_CLIENT = Path(__file__).with_name("foxglove_hostile_client.py")
+HOSTILE_CLIENT = HELPERS / "foxglove_hostile_client.py"
 
 
 def _rss_mb(pid: int) -> float:
-    for line in Path(f"/proc/{pid}/status").read_text().splitlines():
-        if line.startswith("VmRSS:"):
-            return int(line.split()[1]) / 1024
-    return 0.0
+    rss = procfs.status(pid).get("VmRSS")  # "1234 kB"
+    return int(rss.split()[0]) / 1024 if rss else 0.0
 
 
 def _hostile_run(

@@ -18,7 +18,7 @@ from mcap_ros2.decoder import DecoderFactory
 from quadsim.recording import scene
 from quadsim.recording.contract import typestore
 from quadsim.vehicle.params import SHIPPED_VEHICLES
-from tests import foxglove_studio
+from tests.helpers import foxglove_studio
 from tests.test_cli import cli
 from tests.test_foxglove import npm_packages
 

@@ -12,7 +12,7 @@ from quadsim.core.kinematics import matrix_from_quaternion
 from quadsim.core.rigid_body import add_gyroscopic_correction, free_rotation
 from quadsim.physics.pybullet_quiet import pb
 from quadsim.vehicle.params import SHIPPED_VEHICLES, load_vehicle
-from tests.sim_helpers import body_alone
+from tests.helpers.sim import body_alone
 
 #: rate (rad/s) -> the most the world-frame angular momentum may drift in 10 s (fraction)
 MOMENTUM_DRIFT = {1.0: 0.001, 6.0: 0.01, 20.0: 0.03}

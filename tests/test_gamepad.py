@@ -1,9 +1,8 @@
 """Gamepads through SDL's real device path: virtual devices plugged into pygame's own SDL library
-(tests/sdl_virtual.py), flying the real TeleopApp headless, checked by where the vehicle went and
+(tests/helpers/sdl_virtual.py), flying the real TeleopApp headless, checked by where the vehicle went and
 what the recording holds."""
 
 import math
-from pathlib import Path
 
 import pygame
 import pytest
@@ -15,7 +14,8 @@ from quadsim.apps.window.teleop import TeleopOptions
 from quadsim.drivers.gamepad import PadKind
 from quadsim.drivers.joystick import JoystickMapping, apply_deadzone, load_mapping
 from quadsim.recording.reader import RecordingReader
-from tests.sdl_virtual import LEFTX, LEFTY, RIGHTX, RIGHTY, SDL_HAT_LEFT, SDL_HAT_UP, VirtualPad, sdl
+from tests.helpers import ROOT
+from tests.helpers.sdl_virtual import LEFTX, LEFTY, RIGHTX, RIGHTY, SDL_HAT_LEFT, SDL_HAT_UP, VirtualPad, sdl
 from tests.test_teleop import FPS, key, make_app, run_with
 
 
@@ -378,7 +378,7 @@ def test_a_raw_axis_resting_at_one_end_never_moves_the_vehicle(tmp_path, pads):
 
 
 def test_the_docs_mapping_example_is_the_default_mapping_plus_buttons(tmp_path):
-    teleop_page = (Path(__file__).parent.parent / "docs" / "teleop.md").read_text()
+    teleop_page = (ROOT / "docs" / "teleop.md").read_text()
     block = teleop_page.split("write a mapping file", 1)[1].split("```toml\n", 1)[1].split("```", 1)[0]
     (tmp_path / "pad.toml").write_text(block)
     assert load_mapping(tmp_path / "pad.toml") == JoystickMapping(enable_button=9, enable_turbo_button=10)

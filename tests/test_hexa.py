@@ -3,7 +3,6 @@
 import math
 import subprocess
 import sys
-from pathlib import Path
 
 import pytest
 
@@ -15,8 +14,8 @@ from quadsim.session.outputs import OutputOptions, RecordedRun
 from quadsim.session.resim import resimulate
 from quadsim.vehicle.mixer import Mixer
 from quadsim.vehicle.params import SHIPPED_VEHICLES, Spin, load_vehicle
+from tests.helpers import ROOT
 
-ROOT = Path(__file__).resolve().parent.parent
 HEXA = SHIPPED_VEHICLES["hexa"]
 
 

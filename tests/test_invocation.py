@@ -16,8 +16,7 @@ import pytest
 from quadsim.apps.cli import main
 from quadsim.core import invocation
 from quadsim.core.invocation import RUNTIME_MODULES, install_extra, program
-
-ROOT = Path(__file__).resolve().parent.parent
+from tests.helpers import ROOT
 
 
 def _bare_python(folder: Path) -> Path:

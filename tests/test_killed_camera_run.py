@@ -32,8 +32,8 @@ import pytest
 from mcap.reader import make_reader
 
 from quadsim.sensors.pipeline import ORDERED_LAG_S
+from tests.helpers import ROOT
 
-ROOT = Path(__file__).resolve().parent.parent
 TRIALS = int(os.environ.get("QUADSIM_KILL_TRIALS", "6"))
 #: redraws at least 0.1 s of wall time apart each: the 10th is a wall second after the first, and
 #: the run writes (and so may close a chunk) between any two redraws but one

@@ -4,9 +4,9 @@ imaging libraries (they cost start-up time and memory)."""
 import json
 import subprocess
 import sys
-from pathlib import Path
 
-ROOT = Path(__file__).resolve().parent.parent
+from tests.helpers import ROOT
+
 HEAVY = ("rosbags", "mcap", "mcap_ros2", "foxglove", "cv2")
 
 PROBE = f"""

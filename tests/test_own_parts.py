@@ -31,9 +31,9 @@ from quadsim.core.parts import part_class
 from quadsim.drivers.scripted import ScriptedDriver, load_script
 from quadsim.recording.flight import load_flights
 from quadsim.vehicle.params import load_vehicle
-from tests.own_parts import BrokenWind, GustyWind, ShearWind
+from tests.helpers import ROOT
+from tests.helpers.own_parts import BrokenWind, GustyWind, ShearWind
 
-ROOT = Path(__file__).resolve().parent.parent
 OWN_CONTROLLER = "quadsim.assets.examples.own_controller:SmallAngleController"
 
 
@@ -119,14 +119,14 @@ def test_your_own_wind_blows_records_and_flies_again_bit_for_bit(tmp_path):
     assert all(w[0] == 0.0 and 0.5 <= w[1] <= 3.5 for w in winds) and len(winds) > 3  # gusts, one a second
     (flight,) = load_flights(path).values()
     assert flight.description is not None and flight.description.wind_model is not None
-    assert flight.description.wind_model.import_path == "tests.own_parts:GustyWind"
+    assert flight.description.wind_model.import_path == "tests.helpers.own_parts:GustyWind"
     assert flight.description.wind_model.details == {"gust_mps": 1.5}
     outcome = check_one(CheckTask(path, 1e-3, 1e-3))
     assert outcome.status == "ok" and "flies again identically" in outcome.lines[0], outcome.lines
     info = subprocess.run(
         [sys.executable, str(ROOT / "main.py"), "info", str(path)], capture_output=True, text=True, timeout=120
     )
-    assert "wind of its own (tests.own_parts:GustyWind)" in info.stdout
+    assert "wind of its own (tests.helpers.own_parts:GustyWind)" in info.stdout
 
 
 def test_a_shear_wind_pushes_harder_higher():

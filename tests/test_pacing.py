@@ -12,8 +12,9 @@ from quadsim.session.pacing import FixedStepPacer, RealTimePacer
 from quadsim.session.plan import RunPlan
 from quadsim.session.run import Run
 from quadsim.sim.config import SimConfig
+from tests.helpers import ROOT
 
-PACKAGE = Path(__file__).resolve().parent.parent / "quadsim"
+PACKAGE = ROOT / "quadsim"
 PACER = PACKAGE / "session" / "pacing.py"
 #: waits on the wall clock that are not a run's pacing, and why
 NOT_PACING = {

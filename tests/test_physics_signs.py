@@ -115,7 +115,7 @@ def test_thrust_follows_the_attitude_of_the_step_it_is_applied_in(airframe):
     step before: 2.34 degrees behind."""
     from quadsim.assets import asset_path
     from quadsim.vehicle.params import load_vehicle
-    from tests.sim_helpers import body_alone
+    from tests.helpers.sim import body_alone
 
     vehicle = load_vehicle(asset_path("urdf", f"{airframe}.urdf"))
     thrusts = (0.5 * vehicle.max_thrust_n,) * len(vehicle.rotors)
@@ -148,7 +148,7 @@ def test_the_flight_body_turns_with_the_urdf_inertia_and_is_placed_at_base_link(
     any attitude, not that of the centre of mass (where PyBullet keeps a merged body's pose)."""
     from quadsim.assets import asset_path
     from quadsim.vehicle.params import load_vehicle
-    from tests.sim_helpers import body_alone
+    from tests.helpers.sim import body_alone
 
     vehicle = load_vehicle(asset_path("urdf", f"{airframe}.urdf"))
     with body_alone(vehicle) as world:

@@ -11,11 +11,11 @@ from pathlib import Path
 
 import pytest
 
+from tests.helpers import RECORDINGS
 from tests.test_replay import _with_changed_attachment
 
 pytest_plugins = ["pytester"]
 
-RECORDINGS = Path(__file__).with_name("recordings")
 SQUARE = RECORDINGS / "square_cascade.mcap"
 CLIMB = RECORDINGS / "climb_cascade.mcap"
 

@@ -9,7 +9,8 @@ from pathlib import Path
 
 import pytest
 
-ROOT = Path(__file__).resolve().parent.parent
+from tests.helpers import ROOT
+
 README = (ROOT / "README.md").read_text()
 COMMAND_LINE_PAGE = (ROOT / "docs" / "command-line.md").read_text()
 

@@ -11,7 +11,7 @@ from mcap_ros2.decoder import DecoderFactory
 
 from quadsim.physics.world_spec import DEFAULT_WORLD, Shape, load_world
 from quadsim.vehicle.params import DEFAULT_URDF, load_vehicle
-from tests.recording_helpers import record_flight
+from tests.helpers.recording import record_flight
 
 CONTRACT = {
     "/quad_cmd_twist": ("geometry_msgs/msg/Twist", 20),

@@ -22,7 +22,8 @@ from pathlib import Path
 from mcap import records
 from mcap.stream_reader import StreamReader
 
-ROOT = Path(__file__).resolve().parent.parent
+from tests.helpers import ROOT
+
 GOLDEN = ROOT / "tests" / "golden" / "takeoff_cameras.mcap"
 #: the flight: a take-off in light turbulence with both cameras, small and slow (a small file)
 COMMAND = [

@@ -8,8 +8,7 @@ from pathlib import Path
 import pytest
 
 from quadsim.recording.paths import ENV_VAR, default_recordings_dir, source_checkout, user_data_dir
-
-ROOT = Path(__file__).resolve().parent.parent
+from tests.helpers import ROOT
 
 
 @pytest.fixture

@@ -15,9 +15,9 @@ from quadsim.recording.fanout import TopicFanout
 from quadsim.recording.salvage import scan
 from quadsim.recording.writer import McapRecorder, check_writable
 from quadsim.session.outputs import OutputOptions, RecordedRun
-from tests.recording_helpers import record_flight
-
-ROOT = Path(__file__).resolve().parent.parent
+from tests.helpers import ROOT
+from tests.helpers.cli import run_main
+from tests.helpers.recording import record_flight
 
 
 def _summary_ok(path: Path) -> dict:
@@ -88,12 +88,7 @@ def test_refuses_to_start_where_it_cannot_write(tmp_path):
 
 def _run_hover(out: Path) -> subprocess.CompletedProcess:
     """`run --script hover` recorded to `out`, without cameras."""
-    return subprocess.run(
-        [sys.executable, str(ROOT / "main.py"), "run", "--script", "hover", "--cameras", "none", "--out", str(out)],
-        capture_output=True,
-        text=True,
-        cwd=ROOT,
-    )
+    return run_main("run", "--script", "hover", "--cameras", "none", "--out", out, cwd=ROOT)
 
 
 def test_a_recording_that_cannot_start_says_what_to_do_in_the_callers_terms(tmp_path):

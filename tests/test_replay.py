@@ -23,20 +23,15 @@ from quadsim.recording.flight import load_flight
 from quadsim.session.outputs import OutputOptions
 from quadsim.session.pacing import FixedStepPacer
 from quadsim.session.resim import resimulate
-from tests.recording_helpers import SHIPPED_RECORDINGS, copy_recording, record_flight
+from tests.helpers import ROOT
+from tests.helpers.cli import bare_env, run_main
+from tests.helpers.recording import SHIPPED_RECORDINGS, copy_recording, record_flight
 
-ROOT = Path(__file__).resolve().parent.parent
 RECORDINGS = SHIPPED_RECORDINGS
 
 
 def cli(*args):
-    return subprocess.run(
-        [sys.executable, str(ROOT / "main.py"), *map(str, args)],
-        capture_output=True,
-        text=True,
-        cwd=ROOT,
-        env={"PATH": "/usr/bin:/bin", "PYTHONPATH": str(ROOT), "SDL_VIDEODRIVER": "dummy"},
-    )
+    return run_main(*args, cwd=ROOT, env=bare_env(SDL_VIDEODRIVER="dummy"))
 
 
 # --- recordings as regression tests --------------------------------------------------------------
@@ -86,7 +81,7 @@ def _with_changed_attachment(src: Path, dst: Path, name: str, edit) -> None:
 
 
 def test_check_passes_then_fails_with_a_readable_report(tmp_path):
-    out = cli("check", ROOT / "tests" / "recordings")
+    out = cli("check", *RECORDINGS)  # by name: flights a user adds to the folder are not the suite's
     assert out.returncode == 0, out.stdout + out.stderr
     assert f"{len(RECORDINGS)} of {len(RECORDINGS)} recordings re-fly" in out.stdout
     changed = tmp_path / "heavier_drag.mcap"

@@ -21,10 +21,10 @@ import pytest
 
 from quadsim.core.invocation import install_extra
 from quadsim.recording.reader import RecordingReader
-from tests.recording_helpers import commanded_motion
-from tests.ros2_env import DISTRIBUTIONS, PEER, free_domain, local_env, ros2_python
+from tests.helpers import ROOT
+from tests.helpers.recording import commanded_motion
+from tests.helpers.ros2_env import DISTRIBUTIONS, PEER, free_domain, local_env, ros2_python
 
-ROOT = Path(__file__).resolve().parents[1]
 #: (distribution, discovery range quadsim's environment exports, the node's: None is ROS 2's default, unset)
 CASES = [(d, r, r) for d in DISTRIBUTIONS for r in ("LOCALHOST", None)] + [("kilted", None, "LOCALHOST")]
 
@@ -49,7 +49,7 @@ def _beside_peer(
 ) -> tuple[subprocess.CompletedProcess[str], dict]:
     """Run quadsim with `quadsim_args` while the ROS 2 peer flies (it starts publishing once /clock
     comes): its climb, forward, left and turn on `cmd_topic` (reading odometry under `prefix`: a
-    namespace), or `program` (JSON phases, see tests/ros2_peer.py), or with `fleet` (NAME, OTHERS)
+    namespace), or `program` (JSON phases, see tests/helpers/ros2_peer.py), or with `fleet` (NAME, OTHERS)
     the climb, forward, left and turn of that fleet vehicle; return quadsim's outcome and the
     peer's report."""
     report_path = folder / "peer.json"

@@ -17,9 +17,9 @@ from quadsim.live.dds_types import dds_type_name, idl_type
 from quadsim.live.ros2 import discovery_config, domain_id
 from quadsim.recording import cdr
 from quadsim.recording.reader import RecordingReader
-from tests.ros2_env import free_domain, local_env
+from tests.helpers import ROOT
+from tests.helpers.ros2_env import free_domain, local_env
 
-ROOT = Path(__file__).resolve().parents[1]
 RECORDING = ROOT / "tests" / "recordings" / "keyboard_session_cascade.mcap"
 
 

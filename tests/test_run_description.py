@@ -18,7 +18,7 @@ from quadsim.recording.info import read_info
 from quadsim.sensors.camera import default_cameras
 from quadsim.session.resim import resimulate
 from quadsim.sim.description import SCHEMA_VERSION, DescriptionError, RunDescription
-from tests.recording_helpers import record_flight
+from tests.helpers.recording import record_flight
 
 
 @pytest.fixture(scope="module")

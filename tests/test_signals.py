@@ -28,7 +28,9 @@ from pathlib import Path
 import pytest
 from mcap.reader import make_reader
 
-ROOT = Path(__file__).resolve().parent.parent
+from tests.helpers import ROOT
+from tests.helpers import proc as procfs
+
 MOMENTS_PER_CASE = int(os.environ.get("QUADSIM_SIGNAL_MOMENTS", "14"))  # each anchor twice
 EXPECTED = {signal.SIGINT: 130, signal.SIGTERM: 143}
 
@@ -129,13 +131,12 @@ def _processes_of(tmpdir: Path) -> list[int]:
     they, carry the trial's own TMPDIR in their environment."""
     marker = f"TMPDIR={tmpdir}".encode() + b"\0"
     found = []
-    for entry in Path("/proc").iterdir():
-        if entry.name.isdigit():
-            try:
-                if marker in (entry / "environ").read_bytes():
-                    found.append(int(entry.name))
-            except OSError:
-                continue
+    for pid in procfs.pids():
+        try:
+            if marker in procfs.environ(pid):
+                found.append(pid)
+        except OSError:
+            continue
     return found
 
 
@@ -318,12 +319,10 @@ def _handlers_in(pid: int) -> bool:
     """Has quadsim taken the signals: holding them back (SigBlk, the first statement of main.py and
     of quadsim.apps.launch) or handling them (SigCgt, SignalStop)? Python alone does neither for SIGTERM."""
     try:
-        for line in Path(f"/proc/{pid}/status").read_text().splitlines():
-            if line.startswith(("SigBlk:", "SigCgt:")) and int(line.split()[1], 16) & SIGTERM_BIT:
-                return True
+        status = procfs.status(pid)
     except OSError:
-        pass
-    return False
+        return False
+    return any(int(status[field], 16) & SIGTERM_BIT for field in ("SigBlk", "SigCgt") if field in status)
 
 
 def _first_second_trial(folder: Path, signum: int, delay_s: float) -> tuple[bool, int, str]:

@@ -21,8 +21,9 @@ from quadsim.apps.sweep.table import existing_table, read_table
 from quadsim.core.invocation import install_extra
 from quadsim.errors import ConfigError
 from quadsim.recording.flight import load_flight
-
-ROOT = Path(__file__).resolve().parent.parent
+from tests.helpers import ROOT
+from tests.helpers import proc as procfs
+from tests.helpers.cli import run_main
 
 SMALL = """
 name = "small"
@@ -203,9 +204,7 @@ def test_the_wind_example_on_ray_and_on_the_pool_gives_the_docs_table(tmp_path: 
 
 
 def _run(*args: str) -> subprocess.CompletedProcess:
-    return subprocess.run(
-        [sys.executable, str(ROOT / "main.py"), *args], capture_output=True, text=True, timeout=600, cwd=ROOT
-    )
+    return run_main(*args, cwd=ROOT, timeout=600)
 
 
 def test_limits_fail_runs_and_only_failures_are_recorded(tmp_path: Path) -> None:
@@ -647,17 +646,13 @@ def _workers_of(pid: int) -> list[int]:
     Read from /proc, not `ps`: piped, `ps` cuts its lines at 80 columns, and under a long enough
     interpreter path the tracker's name fell past the cut and it was counted as a worker."""
     workers = []
-    for entry in Path("/proc").iterdir():
-        if not entry.name.isdigit():
-            continue
+    for child in procfs.pids():
         try:
-            stat = (entry / "stat").read_text()
-            cmdline = (entry / "cmdline").read_bytes()
+            parent, line = procfs.parent_of(child), procfs.cmdline(child)
         except OSError:  # gone meanwhile
             continue
-        parent = int(stat[stat.rindex(")") + 2 :].split()[1])  # the name may hold spaces and ')'
-        if parent == pid and b"resource_tracker" not in cmdline:
-            workers.append(int(entry.name))
+        if parent == pid and b"resource_tracker" not in line:
+            workers.append(child)
     return sorted(workers)
 
 

@@ -14,7 +14,6 @@ import bisect
 import json
 import math
 import subprocess
-import sys
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
@@ -28,14 +27,15 @@ from quadsim import SimConfig, Simulator, Twist, ZMode, record
 from quadsim.apps.window.teleop import TeleopOptions
 from quadsim.drivers.joystick import apply_deadzone
 from quadsim.recording.reader import RecordingReader
-from tests.ros2_env import free_domain, local_env, ros2_python
-from tests.sdl_virtual import LEFTX, LEFTY, RIGHTX, RIGHTY
+from tests.helpers import ROOT
+from tests.helpers.cli import run_main
+from tests.helpers.ros2_env import free_domain, local_env, ros2_python
+from tests.helpers.sdl_virtual import LEFTX, LEFTY, RIGHTX, RIGHTY
 from tests.test_foxglove import ENV, _client, _quadsim, _served_url
 from tests.test_gamepad import pads  # noqa: F401 (the fixture)
 from tests.test_ros2 import _beside_peer
 from tests.test_teleop import FPS, key, make_app, run_with
 
-ROOT = Path(__file__).resolve().parents[1]
 FIELDS = ("linear_x", "linear_y", "linear_z", "angular_x", "angular_y", "angular_z")
 FLOWN = ("linear_x", "linear_y", "linear_z", "angular_z")
 SEGMENT_S, PAUSE_S = 2.0, 1.0
@@ -172,9 +172,7 @@ def _expected(mode: ZMode) -> dict[str, float]:
 
 
 def _cli(*args: str) -> subprocess.CompletedProcess[str]:
-    done = subprocess.run(
-        [sys.executable, str(ROOT / "main.py"), *args], cwd=ROOT, env=ENV, capture_output=True, text=True, timeout=300
-    )
+    done = run_main(*args, cwd=ROOT, env=ENV, timeout=300)
     assert done.returncode == 0, done.stderr
     return done
 

@@ -22,8 +22,8 @@ from pathlib import Path
 import pytest
 
 import quadsim
+from tests.helpers import ROOT
 
-ROOT = Path(__file__).resolve().parent.parent
 CAMERA_TOPICS = [
     "/quad/front_camera/image_raw/compressed",
     "/quad/front_camera/camera_info",

@@ -21,8 +21,7 @@ from quadsim.physics.wind import (
     dryden_sigmas_mps,
     parse_wind,
 )
-
-ROOT = Path(__file__).resolve().parent.parent
+from tests.helpers import ROOT
 
 
 @pytest.mark.parametrize(

@@ -32,8 +32,8 @@ import pytest
 from mcap.reader import make_reader
 
 from quadsim.apps.window.x11_guard import EXIT_DISPLAY_LOST, LEGACY_ENV
+from tests.helpers import ROOT
 
-ROOT = Path(__file__).resolve().parent.parent
 LOST = "the window's display was lost ("
 START_UP_NOTES = ("quadsim: starting ", "quadsim: compiling ")
 EXIT_TIMEOUT_S = 30.0

@@ -11,7 +11,7 @@ is there and shows what it should.
 - docs/img/fleet_window.png: the real `fly --fleet` window under Xvfb, alpha climbed with a real W
   key press (xdotool); its front camera sees bravo and charlie flying ahead; the fleet on the map.
 - docs/img/foxglove_fleet.png and foxglove_live.png: a real Foxglove Studio 1.48 (the harness in
-  ../shared/foxglove-studio, tests/foxglove_studio.py) following docs/foxglove.md's steps: the
+  ../shared/foxglove-studio, tests/helpers/foxglove_studio.py) following docs/foxglove.md's steps: the
   example fleet's recording opened and its `quadsim layout` imported; then the fleet flown live
   with delta on Foxglove, connected, its layout imported and delta climbing on its Teleop panel.
 
@@ -205,7 +205,7 @@ def _small_png(shot: Path, out: Path) -> None:
 
 def foxglove() -> None:
     sys.path.insert(0, str(ROOT))
-    from tests import foxglove_studio
+    from tests.helpers import foxglove_studio
 
     main_py = [sys.executable, str(ROOT / "main.py")]
     example = ROOT / "examples" / "fleet.toml"

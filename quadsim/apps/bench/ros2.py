@@ -9,17 +9,17 @@ from typing import Any
 
 from quadsim.sim.config import SimConfig
 
-#: the ROS 2 distributions the bench flies from, oldest supported and newest (tests/ros2_env.py makes them)
+#: the ROS 2 distributions the bench flies from, oldest supported and newest (tests/helpers/ros2_env.py makes them)
 ROS2_DISTRIBUTIONS = ("jazzy", "kilted")
 
 
 def _ros2_peer(distribution: str) -> tuple[Path, Path] | None:
-    """The ROS 2 node of the tests (tests/ros2_peer.py, in a clone) and the Python of the ROS 2
+    """The ROS 2 node of the tests (tests/helpers/ros2_peer.py, in a clone) and the Python of the ROS 2
     `distribution` environment tests/test_ros2.py makes; None where either is missing."""
     import os
     import sys
 
-    script = Path(__file__).resolve().parents[2] / "tests" / "ros2_peer.py"
+    script = Path(__file__).resolve().parents[2] / "tests" / "helpers" / "ros2_peer.py"
     cache = Path(os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache")
     tag = f"py{sys.version_info.major}{sys.version_info.minor}"
     python = cache / "quadsim-tests" / f"ros2-{distribution}-{tag}" / "bin" / "python"
@@ -73,7 +73,7 @@ def run_ros2_bench(out: Callable[[str], None] = print, wall_s: float = 12.0) -> 
     out("## ROS 2 bridge (real time, both cameras, recorded)")
     peers = {d: _ros2_peer(d) for d in ROS2_DISTRIBUTIONS}
     if not any(peers.values()):
-        out("skipped: needs a clone's tests/ros2_peer.py and the ROS 2 environments tests/test_ros2.py makes")
+        out("skipped: needs a clone's tests/helpers/ros2_peer.py and the ROS 2 environments tests/test_ros2.py makes")
         return
     base_wall, base_cpu = _realtime_cameras_run(wall_s, (), SubscribedDriver("none"))
     out(f"baseline (no bridge)   CPU {100 * base_cpu / base_wall:5.1f} % of one core over {base_wall:.1f} s")

@@ -1,7 +1,7 @@
 """A real Foxglove Studio 1.48 for the tests and the docs' pictures: the harness in
 ../shared/foxglove-studio (the npm @foxglove/studio-base bundle served locally, in Debian's
 Chromium) set up once into a cache, served on a free port with files mapped under /data/, and
-driven through a person's steps by tests/foxglove_studio_steps.js."""
+driven through a person's steps by tests/helpers/foxglove_studio_steps.js."""
 
 from __future__ import annotations
 
@@ -16,7 +16,8 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-ROOT = Path(__file__).resolve().parents[1]
+from tests.helpers import ROOT
+
 HARNESS = Path(os.environ.get("QUADSIM_FOXGLOVE_STUDIO", ROOT.parent / "shared" / "foxglove-studio"))
 STUDIO_DIR = Path.home() / ".cache" / "quadsim-tests" / "foxglove-studio-1.48"
 STEPS = Path(__file__).with_name("foxglove_studio_steps.js")
@@ -59,7 +60,7 @@ def served(files: Mapping[str, Path]) -> Iterator[str]:
 
 
 def follow_steps(url: str, log: Path, *steps: str) -> None:
-    """A person's steps in Studio at `url` (tests/foxglove_studio_steps.js says which there are);
+    """A person's steps in Studio at `url` (tests/helpers/foxglove_studio_steps.js says which there are);
     raises with the log's start when one of them could not be carried out."""
     env = {**os.environ, "NODE_PATH": str(studio() / "node_modules")}
     done = subprocess.run(

@@ -17,7 +17,7 @@ touch, which `recover` must keep. Byte-level damage is applied to the sources as
 made them; crafted files are rebuilt record by record by `build` (a small raw MCAP writer that
 can write what no well-behaved writer would).
 
-Run as a script to write a corpus to look at: `python -m tests.damaged_corpus OUT_DIR GOOD.mcap...`
+Run as a script to write a corpus to look at: `python -m tests.helpers.damaged_corpus OUT_DIR GOOD.mcap...`
 """
 
 from __future__ import annotations

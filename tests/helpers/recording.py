@@ -11,12 +11,13 @@ from quadsim import SimConfig, Simulator, StateLog, Twist, ZMode
 from quadsim.drivers.scripted import ScriptedDriver, parse_script
 from quadsim.sensors.camera import default_cameras
 from quadsim.session.outputs import OutputOptions, RecordedRun
+from tests.helpers import RECORDINGS
 
 SCRIPT = "z_mode height\n2.0 linear.z=0\n1.0 linear.x=1.0 angular.z=0.5\n"
 #: the project's own regression recordings (tools/make_regression_recordings.py), by name: flights
 #: a user adds to tests/recordings/ (the docs ask for a folder of their own) change no test's count
 SHIPPED_RECORDINGS = [
-    Path(__file__).with_name("recordings") / name
+    RECORDINGS / name
     for name in (
         "climb_cascade.mcap",
         "figure8_seed.mcap",
