@@ -6,7 +6,7 @@ PY := $(VENV)/bin/python
 RUNTIME := $(VENV)/.runtime
 STAMP := $(VENV)/.installed
 
-.PHONY: fly test lint docs docs-serve bench clean
+.PHONY: fly test test-fast lint docs docs-serve bench clean
 
 $(PY):
 	$(PYTHON) -m venv $(VENV)
@@ -44,6 +44,15 @@ test: lint docs
 	@status=0; \
 	$(HEADLESS) $(PY) -m pytest -n auto -m "not whole_machine" || status=1; \
 	$(HEADLESS) $(PY) -m pytest -m whole_machine || status=1; \
+	exit $$status
+
+## test-fast: the unit and integration tests alone (tests/unit/, tests/integration/, the shipped
+## recordings), in parallel on every core, then their few that need the machine to themselves; no
+## lint, no docs, no end-to-end tests (tests/e2e/: `make test` runs those)
+test-fast: $(STAMP)
+	@status=0; \
+	$(HEADLESS) $(PY) -m pytest -n auto -m "(unit or integration) and not whole_machine" || status=1; \
+	$(HEADLESS) $(PY) -m pytest -m "(unit or integration) and whole_machine" || status=1; \
 	exit $$status
 
 bench: $(RUNTIME)

@@ -15,7 +15,7 @@ The public API, loaded on first use so that `import quadsim` stays light (no pyb
 TYPE_CHECKING = False
 
 #: the version these sources are: a development release (.devN) until 0.3.0 is released; the docs
-#: and the changelog's first heading name it too (tests/test_docs.py)
+#: and the changelog's first heading name it too (tests/unit/test_docs.py)
 __version__ = "0.3.0.dev0"
 
 #: public name -> module that defines it

@@ -1,5 +1,5 @@
 """The documentation's pictures, made from the simulator itself. Run from the clone:
-`python tools/make_doc_pictures.py [cameras|window|fleet|fleet_window|foxglove]`; tests/test_docs.py checks each
+`python tools/make_doc_pictures.py [cameras|window|fleet|fleet_window|foxglove]`; tests/unit/test_docs.py checks each
 is there and shows what it should.
 
 - docs/img/cameras.png: what the two onboard cameras see a few seconds into a flight toward the

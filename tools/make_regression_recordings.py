@@ -106,7 +106,7 @@ def fleet_trio() -> Path:
 
 
 def golden() -> Path:
-    """tests/golden/takeoff_cameras.mcap: the one-vehicle flight tests/test_recording_golden.py
+    """tests/golden/takeoff_cameras.mcap: the one-vehicle flight tests/integration/test_recording_golden.py
     flies again through the command line and compares record for record."""
     import subprocess
 

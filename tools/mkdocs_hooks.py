@@ -1,5 +1,5 @@
 """MkDocs hooks: the command-line reference is generated from quadsim's own parser at build time,
-so the page and `--help` cannot disagree (tests/test_docs.py checks the built page against `--help`)."""
+so the page and `--help` cannot disagree (tests/unit/test_docs.py checks the built page against `--help`)."""
 
 from __future__ import annotations
 

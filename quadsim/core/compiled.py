@@ -5,7 +5,7 @@ it is compiled to machine code on its first call (and cached on disk); without n
 NUMBA_DISABLE_JIT=1, it is the same Python function. Both give the same results to the bit:
 the functions use only arithmetic that numba and CPython round alike (no `math.hypot`, whose
 libm and CPython versions differ in the last bit), and numba does not fuse a multiply and an
-add (tests/test_compiled.py checks a flight both ways).
+add (tests/unit/test_compiled.py checks a flight both ways).
 
 `floats` holds a function's constants or state: a float array for compiled code, a list for
 Python (a list is faster to index from Python, an array from compiled code).
@@ -57,7 +57,7 @@ def status() -> str:
     return f"flight core as plain Python: {install_extra('fast')} (numba) to compile it"
 
 
-#: every module of the package with compiled functions (tests/test_compiled.py checks the list)
+#: every module of the package with compiled functions (tests/unit/test_compiled.py checks the list)
 FLIGHT_CORE = (
     "core/rigid_body.py",
     "physics/base_link.py",

@@ -22,7 +22,7 @@ from pathlib import Path
 #: the clone's own entry script, beside the package folder
 CLONE_ENTRY = "main.py"
 #: the modules of the runtime dependencies (pyproject.toml's `dependencies`, by import name;
-#: tests/test_invocation.py keeps the two lists alike)
+#: tests/unit/test_invocation.py keeps the two lists alike)
 RUNTIME_MODULES = (
     "pybullet",
     "numpy",

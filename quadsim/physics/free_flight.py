@@ -63,7 +63,7 @@ def free_flight_step(
     the force acting at the point `at`) and gravity, in place. `inertia`: the principal moments
     about the inertial frame's axes. One piece, as Bullet's step is: the same operations in the
     same order from the state to the state, so that what it leaves can be checked against
-    PyBullet's term for term (tests/test_free_flight.py)."""
+    PyBullet's term for term (tests/integration/test_free_flight.py)."""
     px, py, pz = body[0], body[1], body[2]
     qx, qy, qz, qw = body[3], body[4], body[5], body[6]
     vx, vy, vz = body[7], body[8], body[9]

@@ -1,6 +1,6 @@
 """A ROS 2 node run with rclpy and rmw_fastrtps_cpp in a virtual environment of its own (the ROS 2
 Jazzy or Kilted wheels), as a user's node would be: it flies quadsim with Twists and reads what
-quadsim publishes. Not a test module: tests/test_ros2.py and the benchmark start it.
+quadsim publishes. Not a test module: tests/e2e/test_ros2.py and the benchmark start it.
 
     python ros2_peer.py fly OUT.json [TOPIC [PREFIX]]
                                                climb, forward, left, turn; count every topic; read the

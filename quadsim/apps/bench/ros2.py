@@ -15,7 +15,7 @@ ROS2_DISTRIBUTIONS = ("jazzy", "kilted")
 
 def _ros2_peer(distribution: str) -> tuple[Path, Path] | None:
     """The ROS 2 node of the tests (tests/helpers/ros2_peer.py, in a clone) and the Python of the ROS 2
-    `distribution` environment tests/test_ros2.py makes; None where either is missing."""
+    `distribution` environment tests/e2e/test_ros2.py makes; None where either is missing."""
     import os
     import sys
 
@@ -73,14 +73,16 @@ def run_ros2_bench(out: Callable[[str], None] = print, wall_s: float = 12.0) -> 
     out("## ROS 2 bridge (real time, both cameras, recorded)")
     peers = {d: _ros2_peer(d) for d in ROS2_DISTRIBUTIONS}
     if not any(peers.values()):
-        out("skipped: needs a clone's tests/helpers/ros2_peer.py and the ROS 2 environments tests/test_ros2.py makes")
+        out(
+            "skipped: needs a clone's tests/helpers/ros2_peer.py and the ROS 2 environments tests/e2e/test_ros2.py makes"
+        )
         return
     base_wall, base_cpu = _realtime_cameras_run(wall_s, (), SubscribedDriver("none"))
     out(f"baseline (no bridge)   CPU {100 * base_cpu / base_wall:5.1f} % of one core over {base_wall:.1f} s")
     for k, (distribution, peer) in enumerate(peers.items()):
         out(f"### ROS 2 {distribution.capitalize()} node (rmw_fastrtps_cpp), discovery LOCALHOST")
         if peer is None:
-            out(f"skipped: no ROS 2 {distribution} environment (tests/test_ros2.py makes it)")
+            out(f"skipped: no ROS 2 {distribution} environment (tests/e2e/test_ros2.py makes it)")
             continue
         _ros2_bench_one(out, wall_s, peer, base_cpu / base_wall, k)
 

@@ -85,7 +85,7 @@ def plan_of(task: RunTask) -> RunPlan:
 def _fleet(plan: RunPlan) -> Fleet:
     """The plan's fleet: one this worker built for an earlier run with the same vehicles, settings
     and z-modes (all but the seed and the drivers), restarted with this run's seed and drivers
-    (it flies bit for bit as a new one would: tests/test_sweep.py checks), else a new one. The
+    (it flies bit for bit as a new one would: tests/e2e/test_sweep.py checks), else a new one. The
     world and the vehicles are loaded once per worker, not once per run."""
     key = (
         replace(plan.config, seed=0),

@@ -1,0 +1,178 @@
+"""Damaged inputs to info, recover and the reader: a clear message, exit 2, no traceback.
+
+Its e2e tests (real processes, signals, windows or peers); the others are in tests/integration/test_damaged_files.py."""
+
+import contextlib
+import errno
+import io
+import json
+import os
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from quadsim.apps.cli import main
+from tests.helpers import ROOT
+from tests.helpers.recording import record_flight
+from tests.integration.test_damaged_files import (
+    _damaged_chunk,
+    _make,
+    cli,
+    good,  # noqa: F401 (a fixture)
+)
+
+
+@pytest.mark.parametrize("argv", [["--headless"], ["--plot", "p.png"], []])
+def test_replay_refuses_a_cut_short_file_as_info_does(tmp_path, good, argv):
+    """A run killed mid-write lost its last states: replay says what info says (what is
+    readable, the recover command), in one line, exit 2, and plays nothing."""
+    cut = _make("truncated", tmp_path, good)
+    said = cli("info", cut).stderr
+    out = cli("replay", cut, *argv)
+    assert out.returncode == 2 and out.stdout == "" and out.stderr == said, out.stdout + out.stderr
+    assert "Readable:" in said and " recover " in said
+    assert not (ROOT / "p.png").exists()
+
+
+def _changed_gains(good: Path, dst: Path) -> Path:
+    """`good` as if flown with another position gain: re-flying it gives another flight."""
+    from tests.helpers.damaged_corpus import build, read_content
+
+    content = read_content(good)
+    md = content.metadata("quadsim")
+    entries = dict(md.metadata)
+    params = json.loads(entries["parameters"])
+    params["controller"]["gains"]["altitude_p_per_s"] *= 1.5
+    entries["parameters"] = json.dumps(params)
+    md.metadata = list(entries.items())
+    dst.write_bytes(build(content))
+    return dst
+
+
+def test_check_folder_reports_every_file_and_exits_with_the_worst(tmp_path, good):
+    folder = tmp_path / "runs"
+    folder.mkdir()
+    shutil.copy(good, folder / "a_good.mcap")
+    _damaged_chunk(good, folder / "b_damaged.mcap")  # in the middle: the files after it are still checked
+    _changed_gains(good, folder / "c_changed.mcap")
+    empty = tmp_path / "d_empty"
+    empty.mkdir()
+    out = cli("check", folder, empty)
+    assert out.returncode == 2 and "Traceback" not in out.stderr, out.stdout + out.stderr
+    lines = out.stdout.splitlines()
+    assert any(line.startswith("ok") and "a_good.mcap" in line for line in lines)
+    assert any(line.startswith("ERROR") and "b_damaged.mcap" in line and "chunk at byte" in line for line in lines)
+    assert any(line.startswith("FAIL") and "c_changed.mcap" in line for line in lines)
+    assert any(line.startswith("ERROR") and "d_empty" in line for line in lines)
+    assert lines[-1].startswith("1 of 3 recordings re-fly") and lines[-1].endswith(
+        "; 1 changed; 1 unusable; 1 folder with no recording"
+    )
+
+    (folder / "b_damaged.mcap").unlink()
+    assert cli("check", folder).returncode == 1  # none unusable, one changed
+    (folder / "c_changed.mcap").unlink()
+    assert cli("check", folder).returncode == 0
+
+
+def test_a_damaged_chunk_of_camera_images_alone_is_skipped_and_check_goes_on(tmp_path):
+    """Where a damaged chunk held only images (its index says so), the commands and states are
+    whole: replay and check go on, and say what was skipped."""
+    from tests.helpers.damaged_corpus import OP_CHUNK, RMessage, build, layout, read_content
+
+    src = tmp_path / "cams.mcap"
+    record_flight(src, size=(64, 48), script="z_mode height\n1.5 linear.z=0\n")
+    content = read_content(src)
+    images = {i.id for i in content.items if getattr(i, "topic", "").endswith("/image_raw/compressed")}
+    is_image = [isinstance(i, RMessage) and i.channel_id in images for i in content.items]
+    content.items = [i for i, img in zip(content.items, is_image) if not img] + [
+        i for i, img in zip(content.items, is_image) if img
+    ]  # the images last: the last chunks hold nothing else
+    data = bytearray(build(content, chunk_messages=30))
+    last = layout(bytes(data)).of(OP_CHUNK)[-2]
+    data[last.start + last.length - 10] ^= 0x21
+    bad = tmp_path / "bad.mcap"
+    bad.write_bytes(bytes(data))
+
+    out = cli("replay", "--headless", bad)
+    assert out.returncode == 0 and "Traceback" not in out.stderr
+    assert (
+        "quadsim: warning:" in out.stderr and "image_raw/compressed" in out.stderr and " s, are skipped" in out.stderr
+    )
+    frames = [int(line.split()[-2]) for line in out.stdout.splitlines() if line.startswith("camera")]
+    assert frames and min(frames) < 45  # some frames are gone, the rest play
+    out = cli("check", bad)
+    assert out.returncode == 0, out.stdout + out.stderr
+    assert out.stdout.startswith("ok") and "note: the chunk at byte" in out.stdout
+
+
+class _Filling:
+    """A file that fails with ENOSPC once `limit` bytes have been written to it."""
+
+    def __init__(self, fh, limit: int) -> None:
+        self._fh, self._left = fh, limit
+
+    def write(self, data) -> int:
+        self._left -= len(data)
+        if self._left < 0:
+            raise OSError(errno.ENOSPC, "No space left on device")
+        return self._fh.write(data)
+
+    def __getattr__(self, name):
+        return getattr(self._fh, name)
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self._fh.close()
+
+
+@contextlib.contextmanager
+def _small_disk(folder: Path, size_kib: int):
+    """A tmpfs of `size_kib` at `folder` (root only); None where mounting is not allowed."""
+    folder.mkdir()
+    mounted = subprocess.run(
+        ["mount", "-t", "tmpfs", "-o", f"size={size_kib}k", "tmpfs", str(folder)], capture_output=True
+    )
+    try:
+        yield folder if mounted.returncode == 0 else None
+    finally:
+        if mounted.returncode == 0:
+            subprocess.run(["umount", str(folder)], check=True)
+
+
+def test_recover_onto_a_full_disk_says_so_and_leaves_nothing(tmp_path, good, monkeypatch):
+    src = _damaged_chunk(good, tmp_path / "bad.mcap")
+    with _small_disk(tmp_path / "disk", 16) as disk:
+        if disk is None:  # no tmpfs here: the disk fills up after 16 kB all the same
+            disk = tmp_path / "disk"
+            real_fdopen = os.fdopen
+            monkeypatch.setattr(os, "fdopen", lambda fd, *a, **kw: _Filling(real_fdopen(fd, *a, **kw), 16 * 1024))
+        out = io.StringIO()
+        with contextlib.redirect_stderr(out), contextlib.redirect_stdout(io.StringIO()):
+            code = main(["recover", str(src), "-o", str(disk / "saved.mcap")])
+        assert code == 2
+        assert out.getvalue().strip().splitlines() == [
+            f"quadsim: error: cannot write {disk / 'saved.mcap'}: No space left on device; nothing was written"
+        ]
+        assert list(disk.iterdir()) == []  # no partial file, no temporary file
+
+
+@pytest.mark.parametrize(("kept_bytes", "recoverable"), [(6000, False), (20000, True)])
+def test_check_names_recover_only_where_recover_saves_something(tmp_path, kept_bytes, recoverable):
+    """A recording cut short: check's refusal named `recover` even where not one message could be
+    read, and recover then said there was nothing to recover."""
+    cut = tmp_path / "cut.mcap"
+    cut.write_bytes((ROOT / "tests" / "recordings" / "climb_cascade.mcap").read_bytes()[:kept_bytes])
+
+    def cli(*args: str) -> subprocess.CompletedProcess[str]:
+        return subprocess.run([sys.executable, str(ROOT / "main.py"), *args], capture_output=True, text=True)
+
+    checked, recovered = cli("check", str(cut)), cli("recover", str(cut))
+    assert checked.returncode == 2 and "cut short" in checked.stdout
+    assert ("main.py recover" in checked.stdout) == recoverable, checked.stdout
+    assert ("nothing to recover" in checked.stdout) != recoverable, checked.stdout
+    assert recovered.returncode == (0 if recoverable else 2), recovered.stderr

@@ -1,0 +1,109 @@
+"""Replay: playback (window and headless), re-simulation, and recordings as regression tests.
+
+Its e2e tests (real processes, signals, windows or peers); the others are in tests/integration/test_replay.py."""
+
+import re
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import cv2
+
+from tests.helpers import ROOT
+from tests.helpers.recording import copy_recording, record_flight
+from tests.integration.test_replay import (
+    RECORDINGS,
+    _frame_count,
+    cli,
+    with_cameras,  # noqa: F401 (a fixture)
+)
+
+
+def _with_changed_attachment(src: Path, dst: Path, name: str, edit) -> None:
+    """Copy a recording, editing one attachment (as if the vehicle file had changed)."""
+    copy_recording(src, dst, attachment=lambda n, data: edit(data) if n == name else data)
+
+
+def test_check_passes_then_fails_with_a_readable_report(tmp_path):
+    out = cli("check", *RECORDINGS)  # by name: flights a user adds to the folder are not the suite's
+    assert out.returncode == 0, out.stdout + out.stderr
+    assert f"{len(RECORDINGS)} of {len(RECORDINGS)} recordings re-fly" in out.stdout
+    changed = tmp_path / "heavier_drag.mcap"
+    _with_changed_attachment(
+        ROOT / "tests" / "recordings" / "square_cascade.mcap",
+        changed,
+        "quadsim_x.params.toml",
+        lambda d: d.replace(b"rotor_drag_ns_per_m_rad = 1.7e-4", b"rotor_drag_ns_per_m_rad = 4.0e-4"),
+    )
+    out = cli("check", changed)
+    assert out.returncode == 1
+    assert "FAIL" in out.stdout and "/quad/pose position: max" in out.stdout
+    assert "first beyond tolerance at t=" in out.stdout  # which topic, when, how far
+
+
+def test_ctrl_c_while_encoding_ends_soon_with_whole_videos(tmp_path):
+    """A real SIGINT to `replay --mp4` on a longer recording: it does not wait for the encoding
+    to end, exits 130 without a traceback, and leaves videos every player opens."""
+    recording = tmp_path / "long.mcap"
+    record_flight(recording, size=(320, 240), script="12.0 linear.x=0.5 angular.z=0.3\n")
+    proc = subprocess.Popen(
+        [sys.executable, str(ROOT / "main.py"), "replay", "--headless", "--mp4", str(tmp_path / "v"), str(recording)],
+        cwd=ROOT,
+        env={"PATH": "/usr/bin:/bin", "PYTHONPATH": str(ROOT), "SDL_VIDEODRIVER": "dummy"},
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+    try:
+        deadline = time.monotonic() + 60
+        while not list((tmp_path / "v").glob("*.mp4")) and time.monotonic() < deadline:
+            time.sleep(0.05)
+        time.sleep(0.5)
+        proc.send_signal(signal.SIGINT)
+        out, err = proc.communicate(timeout=60)
+    finally:
+        proc.kill()
+    assert proc.returncode == 130, err
+    assert "Traceback" not in err and "each video is whole and ends where the encoding stopped" in err, err
+    said = re.findall(r"video +(\S+) \(VP9, the first (\d+) of (\d+) frames: stopped\)", out)
+    assert len(said) == 2, out
+    for path, frames, of in said:
+        assert 0 < int(frames) < int(of) == 360 and _frame_count(Path(path)) == int(frames)
+
+
+def test_mp4_given_a_file_name_writes_each_camera_beside_it(with_cameras, tmp_path):
+    """`--mp4 flight.mp4` (a name, not a folder): flight_floor.mp4 and flight_front.mp4 beside
+    it, not a folder called flight.mp4."""
+    (tmp_path / "out").mkdir()
+    out = cli("replay", with_cameras, "--headless", "--mp4", tmp_path / "out" / "flight.mp4")
+    assert out.returncode == 0, out.stdout + out.stderr
+    assert sorted(p.name for p in (tmp_path / "out").iterdir()) == ["flight_floor.mp4", "flight_front.mp4"]
+    cap = cv2.VideoCapture(str(tmp_path / "out" / "flight_front.mp4"))
+    ok, frame = cap.read()
+    assert ok and frame.mean() > 20  # a picture, not black
+    # a second export to the same name is refused before anything is encoded: nothing is overwritten
+    size = (tmp_path / "out" / "flight_front.mp4").stat().st_size
+    again = cli("replay", with_cameras, "--headless", "--mp4", tmp_path / "out" / "flight.mp4")
+    assert again.returncode == 2 and "flight_floor.mp4 already exists" in again.stderr, again.stderr
+    assert "duration" not in again.stdout  # refused before the summary
+    assert (tmp_path / "out" / "flight_front.mp4").stat().st_size == size
+
+
+def test_replay_refuses_options_it_would_ignore(tmp_path):
+    recording = ROOT / "tests" / "recordings" / "climb_cascade.mcap"  # recorded without cameras
+    out = cli("replay", recording, "--headless", "--mp4", tmp_path / "videos")
+    assert out.returncode == 2 and "recorded no camera images" in out.stderr, out.stderr
+    assert not (tmp_path / "videos").exists()  # no empty folder left behind
+    for options, said in (
+        (["--resim", "--mp4", tmp_path / "v"], "--mp4 exports the recording as it is"),
+        (["--resim", "--plot", tmp_path / "p.png"], "--plot exports the recording as it is"),
+        (["--out", tmp_path / "new"], "--out is for the new flight of --resim"),
+        (["--no-record"], "--no-record is for the new flight of --resim"),
+    ):
+        out = cli("replay", recording, "--headless", *options)
+        assert out.returncode == 2 and said in out.stderr and len(out.stderr.splitlines()) == 1, out.stderr
+    fleet = ROOT / "tests" / "recordings" / "fleet_trio_wind.mcap"
+    out = cli("replay", fleet, "--headless", "--vehicle", "bravo", "--mp4", tmp_path / "v")
+    assert out.returncode == 2 and "vehicle bravo recorded no camera images" in out.stderr, out.stderr

@@ -1,0 +1,252 @@
+"""The Gymnasium environments (quadsim.envs): the checker, seeded resets, a hand-written policy
+that solves Hover, the tower in TowerVision's images, vector envs, and the missing-extra message."""
+
+from __future__ import annotations
+
+import math
+import subprocess
+import sys
+import warnings
+
+import gymnasium as gym
+import numpy as np
+import pytest
+from gymnasium.utils.env_checker import check_env
+
+import quadsim.envs
+from quadsim.core.invocation import install_extra
+from quadsim.envs.quad import AGENT_HZ, HOVER_EPISODE_S
+
+
+@pytest.mark.parametrize("env_id", quadsim.envs.ENV_IDS)
+def test_every_env_passes_the_checker(env_id):
+    """With no warning at all: actions in [-1, 1], bounded observations (what Stable-Baselines3's
+    checker also asks)."""
+    env = gym.make(env_id, render_mode="rgb_array")
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("error")
+            check_env(env.unwrapped, skip_render_check=False)
+        env.reset(seed=0)
+        frame = env.render()
+        assert frame.shape == (120, 160, 3) and frame.dtype == np.uint8
+        assert env.spec.max_episode_steps is not None  # truncation on a time limit
+    finally:
+        env.close()
+
+
+def _p_policy(observation: np.ndarray) -> tuple[float, float, float, float]:
+    """Fly toward the target: world velocity proportional to the error, turned into the heading
+    frame (m/s and rad/s: the env's action_of makes them an action)."""
+    position, yaw, target = observation[0:3], observation[8], observation[12:15]
+    error = target - position
+    vx, vy = np.clip(1.0 * error[:2], -1.5, 1.5)
+    c, s = math.cos(yaw), math.sin(yaw)
+    return (c * vx + s * vy, -s * vx + c * vy, float(np.clip(1.5 * error[2], -1.0, 1.0)), 0.0)
+
+
+def test_seeded_resets_are_reproducible_and_a_p_controller_solves_hover():
+    env = gym.make("quadsim/Hover-v0")
+    try:
+        runs = []
+        for seed in (7, 7, 8):
+            observation, _ = env.reset(seed=seed)
+            observations = [observation]
+            for _ in range(HOVER_EPISODE_S * AGENT_HZ):
+                observation, _, terminated, truncated, _ = env.step(env.unwrapped.action_of(*_p_policy(observation)))
+                observations.append(observation)
+                if terminated or truncated:
+                    break
+            runs.append(np.array(observations))
+        same, again, other = runs
+        assert np.array_equal(same, again)  # the same seed: the same start, target and flight
+        assert not np.array_equal(same[0], other[0])  # another seed: another start
+        for run in (same, other):
+            assert len(run) == HOVER_EPISODE_S * AGENT_HZ + 1  # ended by the time limit, not a failure
+            final = run[-1]
+            assert np.linalg.norm(final[12:15] - final[0:3]) < 0.05  # reached and holding the target
+            assert np.linalg.norm(final[3:6]) < 0.05
+    finally:
+        env.close()
+
+
+def test_the_seed_draws_the_gusts_and_a_crash_ends_the_episode():
+    from quadsim.physics.wind import Turbulence, WindSettings
+
+    env = gym.make("quadsim/Hover-v0", wind=WindSettings(3.0, 90.0, Turbulence.MODERATE))
+    try:
+        flights, winds = [], []
+        for seed in (5, 5, 6):
+            observation, _ = env.reset(seed=seed)
+            for _ in range(AGENT_HZ):  # take off
+                observation, *_ = env.step(env.unwrapped.action_of(0.0, 0.0, 1.0, 0.0))
+            gusts = []
+            for _ in range(2 * AGENT_HZ):  # hold still: only the wind moves it
+                observation, *_ = env.step(np.zeros(4, np.float32))
+                gusts.append(env.unwrapped.sim.state.wind_mps)
+            flights.append(observation)
+            winds.append(np.array(gusts))
+        assert np.array_equal(flights[0], flights[1])  # the same seed, the same start and gusts
+        assert np.array_equal(winds[0], winds[1])
+        assert np.abs(winds[0] - winds[2]).max() > 0.1  # another seed, other gusts
+        assert np.linalg.norm(flights[0][3:6]) > 0.01  # the gusts move it
+
+        # fly into the red tower (6 m ahead of the origin, 3 m tall): the crash ends the episode
+        observation, _ = env.reset(seed=1)
+        for _ in range(AGENT_HZ):  # up to about 1.5 m
+            observation, *_ = env.step(env.unwrapped.action_of(0.0, 0.0, 1.5, 0.0))
+        terminated, reward = False, 0.0
+        for _ in range(5 * AGENT_HZ):
+            yaw, (x, y) = observation[8], observation[0:2]
+            wx, wy = 6.0 - x, 0.0 - y
+            d = math.hypot(wx, wy)
+            c, sn = math.cos(yaw), math.sin(yaw)
+            action = env.unwrapped.action_of(4.0 * (c * wx + sn * wy) / d, 4.0 * (-sn * wx + c * wy) / d, 0.0, 0.0)
+            observation, reward, terminated, truncated, _ = env.step(action)
+            if terminated or truncated:
+                break
+        assert terminated and reward < -5.0
+        events = env.unwrapped.sim.events
+        assert any(e.kind.value == "crash" and e.hit == "red_tower" for e in events), events
+        assert abs(observation[0] - 6.0) < 1.5  # it ended at the tower, not out of the arena
+    finally:
+        env.close()
+
+
+def test_tower_vision_images_show_the_tower_when_facing_it():
+    env = gym.make("quadsim/TowerVision-v0")
+    try:
+        red_fraction = {}
+        for yaw in (0.0, math.pi):
+            observation, _ = env.reset(seed=1, options={"start_yaw_rad": yaw})
+            for _ in range(45):  # climb for 1.5 s
+                observation, *_ = env.step(env.unwrapped.action_of(0.0, 0.0, 1.0, 0.0))
+            image = observation["image"].astype(int)
+            red = (image[:, :, 0] > 120) & (image[:, :, 0] > 2 * image[:, :, 1]) & (image[:, :, 0] > 2 * image[:, :, 2])
+            red_fraction[yaw] = red.mean()
+            if yaw == 0.0:
+                columns = np.nonzero(red.any(axis=0))[0]
+                assert 20 < columns.mean() < 44  # near the middle of the 64-pixel image
+        assert red_fraction[0.0] > 0.04 and red_fraction[math.pi] < 0.01  # the floor has red specks
+        # flying straight at it ends the episode with the reward for arriving, before touching it
+        observation, _ = env.reset(seed=1, options={"start_xy_m": (0.0, 0.0), "start_yaw_rad": 0.0})
+        unwrapped = env.unwrapped
+        start_m = unwrapped.distance_to_tower_m(unwrapped.sim.state)
+        total, terminated = 0.0, False
+        for _ in range(20 * AGENT_HZ):
+            distance = unwrapped.distance_to_tower_m(unwrapped.sim.state)
+            forward = 0.0 if distance < 1.2 else 1.0
+            climb = 1.5 - unwrapped.sim.state.position_m[2]
+            observation, reward, terminated, truncated, _ = env.step(env.unwrapped.action_of(forward, 0, climb, 0))
+            total += reward
+            if terminated or truncated:
+                break
+        assert terminated and 0.5 < unwrapped.distance_to_tower_m(unwrapped.sim.state) < 1.5
+        assert total == pytest.approx(start_m - unwrapped.distance_to_tower_m(unwrapped.sim.state) + 10.0, abs=1e-6)
+    finally:
+        env.close()
+
+
+def test_without_gymnasium_the_message_says_what_to_install():
+    code = "import sys; sys.modules['gymnasium'] = None\nimport quadsim.envs"
+    result = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
+    assert result.returncode != 0
+    assert install_extra("gym") in result.stderr.strip().splitlines()[-1]  # (here, in the same folder)
+
+
+def test_actions_are_fractions_of_the_command_limits():
+    env = gym.make("quadsim/Hover-v0")
+    try:
+        unwrapped = env.unwrapped
+        limits = unwrapped.sim.vehicle.limits
+        assert env.action_space.low.tolist() == [-1.0] * 4 and env.action_space.high.tolist() == [1.0] * 4
+        full = unwrapped.twist_of([1.0, -1.0, 1.0, -1.0])
+        assert full.tolist() == pytest.approx(
+            [
+                limits.max_horizontal_speed_mps,
+                -limits.max_horizontal_speed_mps,
+                limits.max_climb_rate_mps,
+                -limits.max_yaw_rate_radps,
+            ]
+        )
+        assert unwrapped.twist_of([0, 0, -1.0, 0])[2] == pytest.approx(-limits.max_descent_rate_mps)
+        assert unwrapped.action_of(*unwrapped.twist_of([0.3, -0.2, 0.5, -0.7])).tolist() == pytest.approx(
+            [0.3, -0.2, 0.5, -0.7]
+        )
+        env.reset(seed=0)
+        for _ in range(AGENT_HZ):
+            env.step(np.array([0.0, 0.0, 0.5, 0.0], np.float32))  # half the climb limit, for 1 s
+        climb = unwrapped.sim.gate.last_command.linear_z
+        assert climb == pytest.approx(0.5 * limits.max_climb_rate_mps)
+    finally:
+        env.close()
+
+
+def test_a_wrong_action_is_one_clear_error_and_a_closed_env_says_so():
+    """np.zeros(3) raised numpy's broadcasting error, np.zeros((2, 4)) an IndexError, the scalar 1
+    flew full forward, left, climb and yaw, inf was clipped while NaN raised about linear_x, and a
+    step after close() raised PyBullet's 'Not connected to physics server'."""
+    env = gym.make("quadsim/Hover-v0")
+    env.reset(seed=0)
+    for bad, said in (
+        (np.zeros(3), r"shape \(4,\); got array\(\[0., 0., 0.\]\) of shape \(3,\)"),
+        (np.zeros((2, 4)), r"got array\(\[\[0., 0., 0., 0.\], \[0., 0., 0., 0.\]\]\) of shape \(2, 4\)"),
+        (np.array([1j, 0, 0, 0]), r"4 real numbers"),
+        ([True, False, False, False], r"4 real numbers"),
+        ([[0, 0], [0]], r"4 real numbers"),
+        (1, r"shape \(4,\); got 1$"),
+        (None, r"shape \(4,\); got None$"),
+        ("up", r"shape \(4,\); got 'up'$"),
+        ([math.inf, 0, 0, 0], r"must be finite numbers \(each is clipped to \[-1, 1\]\), got \[inf, 0, 0, 0\]"),
+        ([0, math.nan, 0, 0], r"must be finite numbers"),
+    ):
+        with pytest.raises(ValueError, match=said):
+            env.step(bad)
+    step = env.unwrapped.sim.step_count
+    env.step([0.0, 0.0, 2.0, 0.0])  # beyond the box is clipped to its edge, as before
+    assert env.unwrapped.sim.gate.last_command.linear_z == env.unwrapped.sim.vehicle.limits.max_climb_rate_mps
+    assert env.unwrapped.sim.step_count == step + env.unwrapped.steps_per_action  # the refused ones never flew
+    env.close()
+    drawn = gym.make("quadsim/Hover-v0", render_mode="rgb_array")
+    drawn.reset(seed=0)
+    assert drawn.render().shape[2] == 3
+    drawn.close()
+    for again in (lambda: env.step(np.zeros(4)), lambda: env.reset(seed=1), drawn.render):
+        with pytest.raises(gym.error.ClosedEnvironmentError, match="this environment is closed"):
+            again()
+
+
+class _Shown(list):
+    """An action that counts how often it is shown (its repr)."""
+
+    shown = 0
+
+    def __repr__(self) -> str:
+        type(self).shown += 1
+        return super().__repr__()
+
+
+def test_a_good_action_is_never_formatted_for_an_error_it_does_not_raise():
+    """Formatting the action for the error message on every step (an array's repr) cost the
+    env about a fifth of its step time."""
+    env = gym.make("quadsim/Hover-v0")
+    env.reset(seed=0)
+    env.step(_Shown([0.5, 0.0, 0.2, 0.0]))
+    assert _Shown.shown == 0
+    with pytest.raises(ValueError, match=r"got \[0.5, 0.0\]"):
+        env.step(_Shown([0.5, 0.0]))
+    assert _Shown.shown == 1
+    env.close()
+
+
+def test_make_finds_the_environments_without_an_import():
+    """Gymnasium's "module:id" form imports quadsim.envs itself (Gymnasium 1.x dropped plugin
+    entry points), in a fresh interpreter that never imported quadsim."""
+    code = (
+        "import gymnasium as gym, sys\n"
+        "env = gym.make('quadsim.envs:quadsim/Hover-v0')\n"
+        "print(env.spec.id, env.observation_space.shape)\n"
+    )
+    result = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
+    assert result.returncode == 0, result.stderr
+    assert result.stdout.strip() == "quadsim/Hover-v0 (15,)"

@@ -1,0 +1,62 @@
+"""A recording is in log-time order, camera frames included (they are rendered elsewhere and
+come late), and one started mid-run begins when it began.
+
+Its unit tests (in-process, one part at a time); the others are in tests/e2e/test_recording_order.py."""
+
+from __future__ import annotations
+
+from quadsim import SimConfig, Simulator
+
+
+def test_a_frame_later_than_the_hold_is_left_out_not_written_out_of_order():
+    """In the window frames come when they are ready; the recorder holds the rest back for them
+    half a second of simulated time at most, then writes; a frame that comes later still is left
+    out (it would break the file's log-time order) and counted."""
+    from quadsim.recording.contract import POSE, Topic
+    from quadsim.recording.writer import MAX_FRAME_WAIT_NS, _LogTimeOrder
+
+    image = Topic("/quad/front_camera/image_raw/compressed", "sensor_msgs/msg/CompressedImage")
+    order = _LogTimeOrder({image.name}, start_ns=0)
+    written = []
+    for i in range(1, 61):  # a second of states at 60 Hz, no frame yet
+        written += order.push([(POSE, i * 1_000_000_000 // 60, b"")])
+    assert written and written[-1][1] <= 1_000_000_000 - MAX_FRAME_WAIT_NS  # held half a second, no more
+    written += order.push([(image, 100_000_000, b"late"), (image, 900_000_000, b"in time")])
+    written += order.drain()
+    times = [ns for _, ns, _ in written]
+    assert times == sorted(times) and order.late == 1
+    assert [data for topic, _, data in written if topic is image] == [b"in time"]
+
+
+def test_a_slow_run_closes_a_chunk_every_wall_second(tmp_path):
+    """A camera run on a busy machine takes several wall seconds per simulated second: the file
+    gets a complete chunk once a wall second has passed, not only at each simulated second, so a
+    run killed in its first simulated second keeps what it flew (it kept nothing)."""
+    import shutil
+
+    from quadsim.recording.contract import TWIST
+    from quadsim.recording.mcap_scan import McapFile
+    from quadsim.recording.writer import McapRecorder
+
+    def on_disk() -> int:
+        """The messages in complete chunks of the file as it is now (what a kill -9 leaves)."""
+        shutil.copyfile(path, tmp_path / "now.mcap")
+        with McapFile(tmp_path / "now.mcap") as found:
+            return found.message_count
+
+    wall_s = [0.0]
+    path = tmp_path / "slow.mcap"
+    with Simulator(SimConfig()) as sim:
+        recorder = McapRecorder(path, sim.description(), clock=lambda: wall_s[0])
+        recorder.add_topic(TWIST)
+        recorder.on_messages([(TWIST, 100_000_000, b"\0" * 8)])
+        assert on_disk() == 0  # 0.1 s of simulated time, no wall time: still in the open chunk
+        wall_s[0] = 0.9
+        recorder.on_messages([(TWIST, 200_000_000, b"\0" * 8)])
+        assert on_disk() == 0
+        wall_s[0] = 1.05  # a wall second since the recorder opened
+        recorder.on_messages([(TWIST, 300_000_000, b"\0" * 8)])
+        assert on_disk() == 3
+        recorder.on_messages([(TWIST, 1_000_000_000, b"\0" * 8)])  # a simulated second: closed as before
+        assert on_disk() == 4
+        recorder.close()
