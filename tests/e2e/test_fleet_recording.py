@@ -10,6 +10,7 @@ from pathlib import Path
 import pytest
 
 from quadsim.recording.flight import load_flight
+from tests.helpers.fleets import fleet_toml, vehicle
 from tests.helpers.recording import copy_recording
 from tests.integration.test_cli import cli
 from tests.integration.test_fleet_recording import (
@@ -17,17 +18,10 @@ from tests.integration.test_fleet_recording import (
     fleet_recording,  # noqa: F401 (a fixture)
 )
 
-COLLISION = """
-[[vehicle]]
-name = "alpha"
-start = [0.0, 0.0, 0.0, 0.0]
-input = "script:ram.qscript"
-
-[[vehicle]]
-name = "bravo"
-start = [3.0, 0.0, 0.0, 180.0]
-input = "script:hold.qscript"
-"""
+COLLISION = fleet_toml(
+    vehicle("alpha", (0.0, 0.0, 0.0, 0.0), input="script:ram.qscript"),
+    vehicle("bravo", (3.0, 0.0, 0.0, 180.0), input="script:hold.qscript"),
+)
 
 
 def test_two_vehicles_flown_into_each_other_both_crash_and_the_recording_refies(tmp_path):
@@ -58,12 +52,9 @@ cameras = ["front", "floor"]
 {bravo}"""
 
 
-BRAVO = """
-[[vehicle]]
-name = "bravo"
-start = [2.5, 0.0, 0.0, 180.0]
-input = "script:climb"
-"""
+BRAVO = fleet_toml(
+    vehicle("bravo", (2.5, 0.0, 0.0, 180.0), input="script:climb"),
+)
 
 
 def _front_frames(folder: Path, with_bravo: bool) -> tuple[Path, list]:

@@ -16,26 +16,15 @@ from quadsim.sensors.camera import default_cameras
 from quadsim.session.outputs import OutputOptions
 from quadsim.session.pacing import FixedStepPacer
 from quadsim.sim.fleet_file import load_fleet_file
+from tests.helpers.fleets import fleet_toml, vehicle
 from tests.integration.test_cli import cli
 from tests.integration.test_teleop import FPS, key, run_with
 
-FLEET = """
-[[vehicle]]
-name = "alpha"
-start = [0.0, 0.0, 0.0, 0.0]
-input = "keyboard"
-cameras = ["front", "floor"]
-
-[[vehicle]]
-name = "bravo"
-start = [0.0, -4.0, 0.0, 0.0]
-input = "script:square"
-cameras = ["front"]
-
-[[vehicle]]
-name = "charlie"
-start = [-4.0, 0.0, 0.0, 0.0]
-"""
+FLEET = fleet_toml(
+    vehicle("alpha", (0.0, 0.0, 0.0, 0.0), input="keyboard", cameras=["front", "floor"]),
+    vehicle("bravo", (0.0, -4.0, 0.0, 0.0), input="script:square", cameras=["front"]),
+    vehicle("charlie", (-4.0, 0.0, 0.0, 0.0)),
+)
 
 
 def fleet_app(tmp_path: Path, text: str = FLEET, input: str = "keyboard") -> TeleopApp:

@@ -21,6 +21,7 @@ import pytest
 
 from tests.helpers import HELPERS, ROOT
 from tests.helpers import proc as procfs
+from tests.helpers.fleets import fleet_toml, vehicle
 from tests.helpers.recording import commanded_motion
 
 CLIENT = HELPERS / "foxglove_client.py"
@@ -375,17 +376,10 @@ def test_a_client_that_stops_reading_does_not_hold_up_or_spoil_the_end_of_the_ru
     assert len(err) < 300, err
 
 
-FLEET = """
-[[vehicle]]
-name = "alpha"
-start = [0.0, 0.0, 0.0, 0.0]
-input = "script:square"
-
-[[vehicle]]
-name = "bravo"
-start = [0.0, -4.0, 0.0, 0.0]
-input = "foxglove"
-"""
+FLEET = fleet_toml(
+    vehicle("alpha", (0.0, 0.0, 0.0, 0.0), input="script:square"),
+    vehicle("bravo", (0.0, -4.0, 0.0, 0.0), input="foxglove"),
+)
 
 
 def test_a_client_flies_one_vehicle_of_a_fleet_on_its_topic_while_a_script_flies_another(tmp_path: Path) -> None:

@@ -14,27 +14,14 @@ import pytest
 
 from tests.e2e.test_foxglove import npm_packages
 from tests.helpers import foxglove_studio
+from tests.helpers.fleets import fleet_toml, vehicle
 from tests.integration.test_cli import cli
 
-FLEET = """
-[[vehicle]]
-name = "alpha"
-start = [0.0, 0.0, 0.0, 0.0]
-input = "script:square"
-cameras = ["front"]
-
-[[vehicle]]
-name = "bravo"
-airframe = "hexa"
-start = [0.0, 4.0, 0.0, 90.0]
-input = "idle"
-
-[[vehicle]]
-name = "charlie"
-airframe = "crazyflie"
-start = [-4.0, 0.0, 0.0, 0.0]
-input = "foxglove"
-"""
+FLEET = fleet_toml(
+    vehicle("alpha", (0.0, 0.0, 0.0, 0.0), input="script:square", cameras=["front"]),
+    vehicle("bravo", (0.0, 4.0, 0.0, 90.0), airframe="hexa", input="idle"),
+    vehicle("charlie", (-4.0, 0.0, 0.0, 0.0), airframe="crazyflie", input="foxglove"),
+)
 
 
 @pytest.fixture(scope="module")

@@ -22,6 +22,7 @@ import pytest
 from quadsim.core.invocation import install_extra
 from quadsim.recording.reader import RecordingReader
 from tests.helpers import ROOT
+from tests.helpers.fleets import fleet_toml, vehicle
 from tests.helpers.recording import commanded_motion
 from tests.helpers.ros2_env import DISTRIBUTIONS, PEER, free_domain, local_env, ros2_python
 
@@ -300,18 +301,10 @@ def test_a_ros2_node_flies_a_namespaced_quadsim_on_the_topic_a_remap_rule_names(
     assert sum(c.linear_z == 1.0 for c in commands) >= 20 and top > 1.0  # the climb the node sent flew
 
 
-FLEET = """
-[[vehicle]]
-name = "alpha"
-start = [0.0, 0.0, 0.0, 0.0]
-input = "ros2"
-
-[[vehicle]]
-name = "bravo"
-airframe = "hexa"
-start = [0.0, -4.0, 0.0, 0.0]
-input = "script:square"
-"""
+FLEET = fleet_toml(
+    vehicle("alpha", (0.0, 0.0, 0.0, 0.0), input="ros2"),
+    vehicle("bravo", (0.0, -4.0, 0.0, 0.0), airframe="hexa", input="script:square"),
+)
 
 
 @pytest.mark.parametrize("distribution", DISTRIBUTIONS)

@@ -30,6 +30,7 @@ from mcap.reader import make_reader
 
 from tests.helpers import ROOT
 from tests.helpers import proc as procfs
+from tests.helpers.fleets import fleet_toml, vehicle
 
 MOMENTS_PER_CASE = int(os.environ.get("QUADSIM_SIGNAL_MOMENTS", "14"))  # each anchor twice
 EXPECTED = {signal.SIGINT: 130, signal.SIGTERM: 143}
@@ -256,18 +257,10 @@ def test_the_summary_is_printed_and_the_recording_finished(trials):
 
 # --- a fleet --------------------------------------------------------------------------------------
 
-FLEET = """
-[[vehicle]]
-name = "alpha"
-start = [0.0, 0.0, 0.0, 0.0]
-input = "script:square"
-cameras = ["front", "floor"]
-
-[[vehicle]]
-name = "bravo"
-start = [0.0, 3.0, 0.0, 0.0]
-input = "script:yaw"
-"""
+FLEET = fleet_toml(
+    vehicle("alpha", (0.0, 0.0, 0.0, 0.0), input="script:square", cameras=["front", "floor"]),
+    vehicle("bravo", (0.0, 3.0, 0.0, 0.0), input="script:yaw"),
+)
 
 
 def test_a_fleet_run_stopped_at_any_moment_ends_cleanly_with_every_vehicle_recorded(tmp_path):

@@ -22,6 +22,7 @@ from quadsim.recording.flight import load_flight
 from tests.helpers import ROOT
 from tests.helpers import proc as procfs
 from tests.helpers.cli import run_main
+from tests.helpers.fleets import fleet_toml, vehicle
 
 SMALL = """
 name = "small"
@@ -299,23 +300,11 @@ def test_ctrl_c_at_random_moments_keeps_finished_runs_and_resume_completes(tmp_p
     assert interrupted >= 4  # the moments fell inside the sweep, not after it
 
 
-TRIO = """
-[[vehicle]]
-name = "alpha"
-start = [0.0, 0.0, 0.0, 0.0]
-input = "script:square"
-
-[[vehicle]]
-name = "bravo"
-airframe = "hexa"
-start = [0.0, -4.0, 0.0, 0.0]
-input = "script:yaw"
-
-[[vehicle]]
-name = "charlie"
-start = [-4.0, 0.0, 0.0, 0.0]
-input = "idle"
-"""
+TRIO = fleet_toml(
+    vehicle("alpha", (0.0, 0.0, 0.0, 0.0), input="script:square"),
+    vehicle("bravo", (0.0, -4.0, 0.0, 0.0), airframe="hexa", input="script:yaw"),
+    vehicle("charlie", (-4.0, 0.0, 0.0, 0.0), input="idle"),
+)
 
 
 def test_a_fleet_file_is_a_scenario_whose_row_is_its_worst_vehicle(tmp_path: Path) -> None:

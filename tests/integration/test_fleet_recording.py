@@ -14,26 +14,14 @@ from mcap.reader import make_reader
 from mcap_ros2.decoder import DecoderFactory
 
 from quadsim.recording.flight import load_flight, load_flights
+from tests.helpers.fleets import fleet_toml, vehicle
 from tests.integration.test_cli import cli
 
-FLEET = """
-[[vehicle]]
-name = "alpha"
-start = [0.0, 0.0, 0.0, 0.0]
-input = "script:square"
-
-[[vehicle]]
-name = "bravo"
-airframe = "hexa"
-start = [0.0, 4.0, 0.0, 90.0]
-input = "script:yaw"
-
-[[vehicle]]
-name = "charlie"
-airframe = "crazyflie"
-start = [-4.0, 0.0, 0.0, 0.0]
-input = "idle"
-"""
+FLEET = fleet_toml(
+    vehicle("alpha", (0.0, 0.0, 0.0, 0.0), input="script:square"),
+    vehicle("bravo", (0.0, 4.0, 0.0, 90.0), airframe="hexa", input="script:yaw"),
+    vehicle("charlie", (-4.0, 0.0, 0.0, 0.0), airframe="crazyflie", input="idle"),
+)
 
 
 def _decoded(path: Path) -> tuple[dict[str, list], dict[str, dict[str, str]], list[str]]:

@@ -15,6 +15,7 @@ from quadsim.drivers.gamepad import PadKind
 from quadsim.drivers.joystick import JoystickMapping, apply_deadzone, load_mapping
 from quadsim.recording.reader import RecordingReader
 from tests.helpers import ROOT
+from tests.helpers.fleets import fleet_toml, vehicle
 from tests.helpers.sdl_virtual import LEFTX, LEFTY, RIGHTX, RIGHTY, SDL_HAT_LEFT, SDL_HAT_UP, VirtualPad, sdl
 from tests.integration.test_teleop import FPS, key, make_app, run_with
 
@@ -384,22 +385,11 @@ def test_the_docs_mapping_example_is_the_default_mapping_plus_buttons(tmp_path):
     assert load_mapping(tmp_path / "pad.toml") == JoystickMapping(enable_button=9, enable_turbo_button=10)
 
 
-TWO_HANDS = """
-[[vehicle]]
-name = "alpha"
-start = [0.0, 0.0, 0.0, 0.0]
-input = "keyboard"
-
-[[vehicle]]
-name = "bravo"
-start = [0.0, -4.0, 0.0, 0.0]
-input = "gamepad"
-
-[[vehicle]]
-name = "charlie"
-start = [-4.0, 0.0, 0.0, 0.0]
-input = "script:hover"
-"""
+TWO_HANDS = fleet_toml(
+    vehicle("alpha", (0.0, 0.0, 0.0, 0.0), input="keyboard"),
+    vehicle("bravo", (0.0, -4.0, 0.0, 0.0), input="gamepad"),
+    vehicle("charlie", (-4.0, 0.0, 0.0, 0.0), input="script:hover"),
+)
 
 
 def test_a_fleet_with_a_keyboard_and_a_gamepad_vehicle_is_flown_by_two_people(tmp_path, pads):
