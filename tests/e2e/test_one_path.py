@@ -11,10 +11,9 @@ import math
 from pathlib import Path
 
 import pytest
-from mcap.reader import make_reader
-from mcap_ros2.decoder import DecoderFactory
 
 from quadsim.recording.flight import load_flights
+from tests.helpers.mcap import decoded_messages
 from tests.integration.test_cli import cli
 
 SQUARER = '[[vehicle]]\nname = "{name}"\nstart = [{x}, {y}, 0.0, 0.0]\ninput = "script:square"\n'
@@ -48,9 +47,8 @@ def _fly(shape: str, folder: Path) -> tuple[Path, str]:
 
 def _topics(path: Path) -> dict[str, list]:
     topics: dict[str, list] = {}
-    with path.open("rb") as fh:
-        for _, channel, _, decoded in make_reader(fh, decoder_factories=[DecoderFactory()]).iter_decoded_messages():
-            topics.setdefault(channel.topic, []).append(decoded)
+    for channel, _, decoded in decoded_messages(path):
+        topics.setdefault(channel.topic, []).append(decoded)
     return topics
 
 

@@ -7,9 +7,6 @@ from __future__ import annotations
 from pathlib import Path
 from xml.etree import ElementTree
 
-from mcap.reader import make_reader
-from mcap_ros2.decoder import DecoderFactory
-
 from quadsim.recording.contract import typestore
 from quadsim.vehicle.params import SHIPPED_VEHICLES
 from tests.e2e.test_foxglove_layout import (
@@ -17,6 +14,7 @@ from tests.e2e.test_foxglove_layout import (
     _panels,
     fleet,  # noqa: F401 (a fixture)
 )
+from tests.helpers.mcap import decoded_messages
 
 NAMES = ("alpha", "bravo", "charlie")
 
@@ -28,11 +26,9 @@ def _latched(path: Path) -> dict[str, tuple[int, object, bytes, str]]:
     """topic -> (log time, message decoded by mcap-ros2-support, its CDR, its channel's QoS) of
     each topic that got one message."""
     seen: dict[str, list] = {}
-    with path.open("rb") as fh:
-        reader = make_reader(fh, decoder_factories=[DecoderFactory()])
-        for _, channel, message, decoded in reader.iter_decoded_messages():
-            qos = channel.metadata.get("offered_qos_profiles", "")
-            seen.setdefault(channel.topic, []).append((message.log_time, decoded, message.data, qos))
+    for channel, message, decoded in decoded_messages(path):
+        qos = channel.metadata.get("offered_qos_profiles", "")
+        seen.setdefault(channel.topic, []).append((message.log_time, decoded, message.data, qos))
     return {topic: messages[0] for topic, messages in seen.items() if len(messages) == 1}
 
 

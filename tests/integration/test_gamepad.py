@@ -6,8 +6,6 @@ import math
 
 import pygame
 import pytest
-from mcap.reader import make_reader
-from mcap_ros2.decoder import DecoderFactory
 
 from quadsim import ConfigError, SimConfig, ZMode
 from quadsim.apps.window.teleop import TeleopOptions
@@ -16,6 +14,7 @@ from quadsim.drivers.joystick import JoystickMapping, apply_deadzone, load_mappi
 from quadsim.recording.reader import RecordingReader
 from tests.helpers import ROOT
 from tests.helpers.fleets import fleet_toml, vehicle
+from tests.helpers.mcap import topic_messages
 from tests.helpers.sdl_virtual import LEFTX, LEFTY, RIGHTX, RIGHTY, SDL_HAT_LEFT, SDL_HAT_UP, VirtualPad, sdl
 from tests.integration.test_teleop import FPS, key, make_app, run_with
 
@@ -71,9 +70,7 @@ def hold(app, pad, axes: dict[int, float], seconds: float, then_centre=True):
 
 
 def read_topic(path, topic):
-    with open(path, "rb") as fh:
-        reader = make_reader(fh, decoder_factories=[DecoderFactory()])
-        return [(m.log_time / 1e9, d) for _, _, m, d in reader.iter_decoded_messages(topics=[topic])]
+    return topic_messages(path, topic)
 
 
 def events(path):

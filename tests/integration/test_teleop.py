@@ -5,7 +5,6 @@ from pathlib import Path
 import pygame
 import pytest
 from mcap.reader import make_reader
-from mcap_ros2.decoder import DecoderFactory
 
 from quadsim import SimConfig, ZMode
 from quadsim.apps.replay_export import summary_lines
@@ -13,6 +12,7 @@ from quadsim.apps.window.teleop import TeleopApp, TeleopOptions
 from quadsim.recording.flight import load_flight
 from quadsim.session.outputs import OutputOptions
 from quadsim.session.pacing import FixedStepPacer
+from tests.helpers.mcap import topic_messages
 
 FPS = 30  # each frame advances 1/30 s of simulation time
 
@@ -47,9 +47,7 @@ def run_with(app: TeleopApp, frames: int, schedule: dict[int, list] | None = Non
 
 
 def twist_messages(path: Path):
-    with open(path, "rb") as fh:
-        reader = make_reader(fh, decoder_factories=[DecoderFactory()])
-        return [(m.log_time / 1e9, d) for _, _, m, d in reader.iter_decoded_messages(topics=["/quad_cmd_twist"])]
+    return topic_messages(path, "/quad_cmd_twist")
 
 
 def test_keys_fly_where_they_say_and_are_recorded(tmp_path):
@@ -166,9 +164,7 @@ def test_pause_reset_zmode_and_recording_keys(tmp_path):
 
 
 def rosout(path: Path):
-    with open(path, "rb") as fh:
-        reader = make_reader(fh, decoder_factories=[DecoderFactory()])
-        return [(m.log_time / 1e9, d) for _, _, m, d in reader.iter_decoded_messages(topics=["/rosout"])]
+    return topic_messages(path, "/rosout")
 
 
 def test_speed_keys_and_teleop_twist_layout(tmp_path):
