@@ -27,7 +27,7 @@ from quadsim.physics.wind import Turbulence, WindSettings
 from quadsim.sim.config import SimConfig
 from quadsim.vehicle.params import SHIPPED_VEHICLES
 sys.path.insert(0, sys.argv[1])
-from tests.unit.test_determinism import digest
+from tests.e2e.test_determinism import digest
 windy = SimConfig(wind=WindSettings(6.0, 135.0, Turbulence.MODERATE), seed=7)
 flights = {
     "figure8": fly("figure8"),

@@ -32,7 +32,7 @@ def digest(states) -> str:
 
 def test_two_processes_give_the_same_states():
     code = (
-        f"import sys; sys.path.insert(0, {str(ROOT)!r}); from tests.unit.test_determinism import digest; "
+        f"import sys; sys.path.insert(0, {str(ROOT)!r}); from tests.e2e.test_determinism import digest; "
         "from quadsim.apps.flight_quality import fly; from quadsim.physics.wind import Turbulence, WindSettings; "
         "from quadsim.sim.config import SimConfig; "
         "print(digest(fly('square', config=SimConfig(wind=WindSettings(3.0, 10.0, Turbulence.LIGHT))).states))"

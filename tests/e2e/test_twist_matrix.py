@@ -33,6 +33,7 @@ from tests.helpers import ROOT
 from tests.helpers.cli import run_main
 from tests.helpers.ros2_env import free_domain, local_env, ros2_python
 from tests.helpers.sdl_virtual import LEFTX, LEFTY, RIGHTX, RIGHTY
+from tests.integration.test_gamepad import pads  # noqa: F401 (the fixture)
 from tests.integration.test_teleop import FPS, key, make_app, run_with
 
 FIELDS = ("linear_x", "linear_y", "linear_z", "angular_x", "angular_y", "angular_z")
