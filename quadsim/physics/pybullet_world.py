@@ -40,19 +40,44 @@ class Contact(NamedTuple):
     normal_z: float  # world z of the contact normal, pointing at the vehicle (1: resting on it; 0: a wall)
 
 
-def _near_others(bodies: list[PhysicsWorld]) -> set[PhysicsWorld]:
-    """The vehicles among `bodies` that another one could reach within two steps: the bounding
-    spheres of the pair, at their speeds, less than the clearance apart (each pair once)."""
+def _near_others(client: WorldClient) -> set[PhysicsWorld]:
+    """The vehicles of `client`'s world that another one could reach within two steps: the
+    bounding spheres of a pair, at their speeds (1-norms), less than the clearance apart.
+
+    Every pair is measured only when needed: a measurement keeps, for each vehicle, where it was
+    and half its slack (the least gap to any other sphere, less the clearance). While every
+    vehicle has since moved less than its half slack, counting two steps ahead at its speed, no
+    pair can be that close (the gap of a pair shrinks by at most the two vehicles' moves, and
+    their half slacks add up to at most the gap): no vehicle is near, and no pair is looked at.
+    Otherwise every pair is measured again, as it was on every step before (the same set)."""
+    bodies, apart = client.bodies, client.apart
+    if len(apart) == len(bodies):
+        for body in bodies:
+            measured = apart.get(body)
+            if measured is None:
+                break
+            (x, y, z), (vx, vy, vz) = body._position, body._linear_velocity
+            (cx, cy, cz), slack = measured
+            if abs(x - cx) + abs(y - cy) + abs(z - cz) + 2.0 * body.dt_s * (abs(vx) + abs(vy) + abs(vz)) >= slack:
+                break
+        else:
+            return set()
     near: set[PhysicsWorld] = set()
     reach = [(b, b._position, sum(map(abs, b._linear_velocity)), b.reach_m) for b in bodies]
+    rooms = [math.inf] * len(reach)
     for i, (a, (x, y, z), speed, radius) in enumerate(reach):
         two_steps = 2.0 * a.dt_s
-        for b, (ox, oy, oz), other_speed, other_radius in reach[i + 1 :]:
-            apart = radius + other_radius + _CONTACT_CLEARANCE_M + two_steps * (speed + other_speed)
+        for j, (b, (ox, oy, oz), other_speed, other_radius) in enumerate(reach[i + 1 :], i + 1):
+            gap = radius + other_radius + _CONTACT_CLEARANCE_M
+            apart_m = gap + two_steps * (speed + other_speed)
             dx, dy, dz = x - ox, y - oy, z - oz
-            if dx * dx + dy * dy + dz * dz <= apart * apart:
+            squared = dx * dx + dy * dy + dz * dz
+            if squared <= apart_m * apart_m:
                 near.add(a)
                 near.add(b)
+            half = 0.5 * (math.sqrt(squared) - gap) - 1e-9  # rounding of the bound's terms
+            rooms[i], rooms[j] = min(rooms[i], half), min(rooms[j], half)
+    client.apart = {b: (position, room) for (b, position, _, _), room in zip(reach, rooms)}
     return near
 
 
@@ -350,7 +375,7 @@ class PhysicsWorld:
         world's vehicles is measured once a step, at the first vehicle's asking (`_near_others`)."""
         near = self.client.near_others
         if near is None:
-            near = self.client.near_others = _near_others(self.client.bodies)
+            near = self.client.near_others = _near_others(self.client)
         return self not in near
 
     def contacts(self) -> tuple[Contact, ...]:
