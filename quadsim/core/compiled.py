@@ -67,6 +67,8 @@ FLIGHT_CORE = (
     "vehicle/mixer.py",
     "vehicle/wrench.py",
     "control/cascade_step.py",
+    "control/landing.py",
+    "sim/clear_flight.py",
 )
 _PACKAGE = Path(__file__).resolve().parent.parent
 _digest: str | None = None

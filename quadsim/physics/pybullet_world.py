@@ -503,6 +503,31 @@ class PhysicsWorld:
         pb.applyExternalTorque(body, -1, (tx, ty, tz), world, cid)
         return False
 
+    def _clear_flight(self) -> tuple[Any, ...] | None:
+        """What quadsim.sim.clear_flight.fly_clear takes of the body (its step's constants,
+        base_link's state, the clearance kept), or None when it may not be flown that way now:
+        quadsim does not step it, it is not alone in its world, a wind blows on it, PyBullet
+        holds its newer state, or the scenery has not been measured around it."""
+        if (
+            not self._free
+            or self._others
+            or self._wind is not None
+            or self._from_pybullet is not None
+            or self._reread
+            or not isinstance(self._scenery, tuple)
+        ):
+            return None
+        return self._clear_constants, self._kinematics, self._clear_from, self._clear_slack_m
+
+    def _flown_clear(self, kinematics: Any, previous: Vec3) -> None:
+        """After steps fly_clear took: base_link's state after them (`kinematics`, as
+        base_link_state gives it) and the velocity before the last one."""
+        self.client.near_others = None
+        self._previous_velocity = previous
+        self._flew_free = self._stale = True
+        self._after_step = kinematics
+        self._take_kinematics(kinematics)
+
     def _finish_step(self) -> None:
         """After the step: the vehicle's new pose and velocities."""
         self.client.near_others = None  # measured again for the next step
@@ -552,6 +577,7 @@ class PhysicsWorld:
 
     def _take_kinematics(self, kinematics: Any) -> None:
         """base_link's state as quadsim.physics.base_link.base_link_state gives it."""
+        self._kinematics = kinematics
         (
             self._position,
             self._orientation,

@@ -16,22 +16,29 @@ Nothing here reads the wall clock; only a window paces these steps to real time.
 
 `run` does stages 1-2 (`before_physics`), 3 and 4-6 (`after_physics`) step after step; a fleet
 (quadsim.sim.fleet) does stages 1-2 for every vehicle, their steps (one PyBullet step of the
-world if any of them needs it), then 4-6 for every vehicle.
+world if any of them needs it), then 4-6 for every vehicle. Where the steps up to the next
+moment the loop acts in Python (a poll, a state published, a tap, the dead-man firing) are only
+stage 2's cascade and stage 3's own step of a flying vehicle, alone and clear of everything,
+`run` takes them in one compiled call (quadsim.sim.clear_flight), the same arithmetic to the
+bit, and then stages 5-6 for the last of them.
 """
 
 from __future__ import annotations
 
 from collections.abc import Callable
-from typing import Protocol
+from typing import Any, Protocol
 
 from quadsim.control import Controller
+from quadsim.control.cascade import CascadeController
 from quadsim.control.gate import CommandGate
 from quadsim.control.landing import FlightPhase, LandingLayer, LandingSettings
-from quadsim.core.types import RotorForces, Twist, VehicleState
+from quadsim.core.compiled import specialize
+from quadsim.core.types import RotorForces, Twist, VehicleState, ZMode
 from quadsim.drivers import InputDriver
 from quadsim.errors import ConfigError
 from quadsim.physics.pybullet_world import PhysicsWorld
 from quadsim.sensors.imu import ImuNoise
+from quadsim.sim.clear_flight import fly_clear
 from quadsim.sim.config import Rates
 from quadsim.sim.flight_events import WALL_NORMAL_Z, ContactMonitor, EventKind, FlightEvent
 
@@ -104,6 +111,8 @@ class SimLoop:
         self._control_dt_s = 1.0 / rates.control_hz
         self._idle: RotorForces = (0.0,) * len(physics.vehicle.rotors)
         self._rotor_command = self._idle
+        #: fly_clear made for this vehicle's arguments (at its first use)
+        self._fly_clear: Any = None
 
     @property
     def controller(self) -> Controller:
@@ -185,9 +194,73 @@ class SimLoop:
         # the state after a step is built once, only if someone takes it: the sinks and taps of
         # that step, then the controller at the start of the next one (nothing moves in between)
         state: VehicleState | None = None
-        for _ in range(steps):
+        while steps > 0:
+            quiet = self._quiet_steps(steps)
+            if quiet > 1:
+                flown = self._fly_quiet_steps(quiet)
+                if flown:
+                    steps -= flown
+                    state = self._publish(self.step_count)
+                    continue
             physics._step(before(state))
             state = after()
+            steps -= 1
+
+    def _quiet_steps(self, steps: int) -> int:
+        """How many of the next `steps` steps do nothing in Python but the cascade's update and
+        the body's own step: the vehicle flying, armed and off the ground, with no poll, no
+        state to publish, no tap and no dead-man firing before the last of them (0: not now)."""
+        landing, n = self.landing, self.step_count
+        if (
+            self._control_every != 1
+            or landing.phase is not FlightPhase.FLYING
+            or self._on_ground
+            or self.contact_monitor.touching
+            or type(landing.controller) is not CascadeController
+            or not landing.controller.armed
+        ):
+            return 0
+        last = self.gate.last_receive_step
+        if last is None:
+            return 0
+        quiet = steps
+        driver = self.driver
+        if driver is not None:
+            if n % self._input_every == 0 or n >= driver.next_poll_step or getattr(driver, "polled_anytime", False):
+                return 0
+            quiet = min(quiet, self._input_every - n % self._input_every, driver.next_poll_step - n)
+        timeout = self.gate.timeout_steps
+        if timeout is not None and n - last <= timeout:
+            quiet = min(quiet, last + timeout + 1 - n)  # the hold starts at that step
+        if self.imu is not None or self.sinks:
+            quiet = min(quiet, self._state_every - n % self._state_every)
+        for every, _ in self._taps:
+            quiet = min(quiet, every - n % every)
+        return quiet
+
+    def _fly_quiet_steps(self, quiet: int) -> int:
+        """Up to `quiet` steps in one compiled call (quadsim.sim.clear_flight), if the vehicle is
+        alone and clear of everything; the steps taken (it stops where the clearance ends)."""
+        physics = self.physics
+        body = physics._clear_flight()
+        if body is None:
+            return 0
+        cascade: CascadeController = self.landing.controller  # type: ignore[assignment]
+        command = self.gate.active(self.step_count)
+        tw = command.twist
+        twist = (float(tw.linear_x), float(tw.linear_y), float(tw.linear_z), float(tw.angular_z))
+        arguments = (
+            quiet, twist, command.z_mode is ZMode.HEIGHT, command.hold, self.landing.numbers,
+            *cascade.compiled_state, self._control_dt_s, *body,
+        )  # fmt: skip
+        if self._fly_clear is None:
+            self._fly_clear = specialize(fly_clear, *arguments)
+        flown, kinematics, previous = self._fly_clear(*arguments)
+        if flown:
+            physics._flown_clear(kinematics, previous)
+            self.step_count += flown
+            self._rotor_command = cascade.last_forces
+        return flown
 
     def before_physics(self, state: VehicleState | None = None) -> RotorForces:
         """Stages 1 and 2 at step n (the step count): the driver's input, then the control
@@ -218,10 +291,15 @@ class SimLoop:
         """Stages 4 to 6, once the physics has stepped: the step count moves on to n + 1, then
         contacts, publishing and taps. The state at n + 1 if one was built (None otherwise)."""
         n = self.step_count = self.step_count + 1
-        physics = self.physics
-        state: VehicleState | None = None
         if self._after_contact(n):
             self._rotor_command = self._idle
+        return self._publish(n)
+
+    def _publish(self, n: int) -> VehicleState | None:
+        """Stages 5 and 6 at step count `n`: the IMU's sample and the sinks at the state rate,
+        the taps at theirs. The state at `n` if one was built (None otherwise)."""
+        physics = self.physics
+        state: VehicleState | None = None
         if n % self._state_every == 0:
             if self.imu is not None:
                 state = self.imu.measure(physics.state(n))
