@@ -63,6 +63,18 @@ def _replayed(sim: Simulator) -> None:
     sim.run_for(20.0)
 
 
+def _imu_unseen_then_read(sim: Simulator) -> None:
+    """No sink for 20 s (the IMU noise walks in the compiled steps, 60 Hz samples across the
+    block of 256 drawn at a time), then a sink: its readings carry the biases walked meanwhile."""
+    log = sim.drone.loop.sinks.pop()
+    sim.send(Twist(linear_z=1.0))
+    sim.run_for(3.0)
+    sim.send(Twist(linear_x=1.0, angular_z=0.4))
+    sim.run_for(17.0)
+    sim.add_sink(log)
+    sim.run_for(5.0)
+
+
 def _odd_taps(sim: Simulator) -> None:
     seen: list[int] = []
     sim.add_tap(7, lambda state: seen.append(state.step))
@@ -95,6 +107,7 @@ FLIGHTS = {
     "ceiling and landing": (SimConfig(z_mode=ZMode.VELOCITY), None, _ceiling_and_landing),
     "replayed commands": (SimConfig(z_mode=ZMode.VELOCITY, rates=Rates(input_hz=30)), _replay_driver, _replayed),
     "taps every 7 steps": (SimConfig(z_mode=ZMode.VELOCITY), None, _odd_taps),
+    "IMU noise unseen, then read": (SimConfig(z_mode=ZMode.VELOCITY), None, _imu_unseen_then_read),
     "in a wind (not quiet)": (
         SimConfig(z_mode=ZMode.HEIGHT, wind=WindSettings(3.0, 45.0, Turbulence.MODERATE), seed=7),
         lambda: ScriptedDriver(load_script("figure8")),
@@ -128,6 +141,7 @@ def test_a_flight_with_quiet_steps_compiled_is_the_same_flight_to_the_bit(name, 
     assert len(states) == len(reference) > 100
     for ours, theirs in zip(states, reference):
         assert ours == theirs, (ours.step, ours, theirs)
+    assert (states[-2].imu is None) == (name == "figure-8, no IMU noise")  # the noise is in what was compared
     steps = states[-1].step
     if name == "in a wind (not quiet)":
         assert compiled == 0

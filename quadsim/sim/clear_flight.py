@@ -42,7 +42,14 @@ def fly_clear(
     kinematics: Any,
     clear_from: tuple[float, float, float],
     clear_slack_m: float,
-) -> tuple[int, Any, tuple[float, float, float]]:
+    imu: bool,
+    count: int,
+    state_every: int,
+    samples: Any,
+    next_sample: int,
+    gyro_bias: tuple[float, float, float],
+    accel_bias: tuple[float, float, float],
+) -> tuple[int, Any, tuple[float, float, float], int, tuple[float, float, float], tuple[float, float, float]]:
     """Up to `steps` steps of a flying vehicle under the gate's command `twist` (`height`: its z
     is a height; `hold`: the dead-man holds), each as the loop takes it: the landing layer's
     command (`landing`: its numbers), the cascade's update (gains `k`, mixer `rows`, state `s`,
@@ -50,8 +57,12 @@ def fly_clear(
     clear_step; `body`: its constants, the same every step). `kinematics`: base_link's state now,
     as clear_step gives it.
     Stops before a step the body's clearance does not cover (its travel since `clear_from` and
-    two steps ahead at its speed, within `clear_slack_m`). Returns the steps taken, base_link's
-    state after them and the velocity before the last one."""
+    two steps ahead at its speed, within `clear_slack_m`). With `imu`, the IMU noise's biases walk
+    at each step count (from `count`, the loop's now) that is a multiple of `state_every`, taking
+    the next of `samples` (quadsim.sensors.imu: from `next_sample`, the biases `gyro_bias` and
+    `accel_bias`), as the loop's samples of it would, no one taking the reading; it stops before
+    a step whose sample is not in `samples`. Returns the steps taken, base_link's state after
+    them, the velocity before the last one, the next sample and the biases."""
     cx, cy, cz = clear_from
     step_s = body[8]  # the physics step (PhysicsWorld._clear_constants)
     position, orientation, velocity, spin, rotation, rates, specific = kinematics
@@ -63,6 +74,10 @@ def fly_clear(
         ahead = 2.0 * step_s * (abs(vx) + abs(vy) + abs(vz))
         if not abs(x - cx) + abs(y - cy) + abs(z - cz) + ahead < clear_slack_m:
             break
+        count += 1
+        sampled = imu and count % state_every == 0
+        if sampled and next_sample >= len(samples):
+            break
         fx, fy, fz, fw, flown_height, flown_hold, _, _ = landing_command(z, twist, height, hold, landing)
         wanted = _NO_COMMAND if flown_hold else (fx, fy, fz, fw)
         cascade_update(
@@ -73,4 +88,10 @@ def fly_clear(
             *body, out, rotation, velocity, spin, position, velocity
         )
         done += 1
-    return done, (position, orientation, velocity, spin, rotation, rates, specific), previous
+        if sampled:
+            n = samples[next_sample]
+            gyro_bias = (gyro_bias[0] + n[3], gyro_bias[1] + n[4], gyro_bias[2] + n[5])
+            accel_bias = (accel_bias[0] + n[9], accel_bias[1] + n[10], accel_bias[2] + n[11])
+            next_sample += 1
+    kinematics = (position, orientation, velocity, spin, rotation, rates, specific)
+    return done, kinematics, previous, next_sample, gyro_bias, accel_bias

@@ -28,6 +28,8 @@ from __future__ import annotations
 from collections.abc import Callable
 from typing import Any, Protocol
 
+import numpy as np
+
 from quadsim.control import Controller
 from quadsim.control.cascade import CascadeController
 from quadsim.control.gate import CommandGate
@@ -41,6 +43,9 @@ from quadsim.sensors.imu import ImuNoise
 from quadsim.sim.clear_flight import fly_clear
 from quadsim.sim.config import Rates
 from quadsim.sim.flight_events import WALL_NORMAL_Z, ContactMonitor, EventKind, FlightEvent
+
+#: the IMU noise's walk in compiled steps without an IMU (quadsim.sensors.imu.ImuNoise.walk)
+_NO_WALK = (np.zeros((0, 12)), 0, (0.0, 0.0, 0.0), (0.0, 0.0, 0.0))
 
 
 class Sink(Protocol):
@@ -200,7 +205,7 @@ class SimLoop:
                 flown = self._fly_quiet_steps(quiet)
                 if flown:
                     steps -= flown
-                    state = self._publish(self.step_count)
+                    state = self._publish(self.step_count) if self.sinks or self._taps else None
                     continue
             physics._step(before(state))
             state = after()
@@ -232,7 +237,8 @@ class SimLoop:
         timeout = self.gate.timeout_steps
         if timeout is not None and n - last <= timeout:
             quiet = min(quiet, last + timeout + 1 - n)  # the hold starts at that step
-        if self.imu is not None or self.sinks:
+        # where a state is published; with no one to take it, the IMU noise walks in the compiled steps
+        if self.sinks or (self._taps and self.imu is not None):
             quiet = min(quiet, self._state_every - n % self._state_every)
         for every, _ in self._taps:
             quiet = min(quiet, every - n % every)
@@ -249,17 +255,22 @@ class SimLoop:
         command = self.gate.active(self.step_count)
         tw = command.twist
         twist = (float(tw.linear_x), float(tw.linear_y), float(tw.linear_z), float(tw.angular_z))
+        imu = self.imu if not (self.sinks or self._taps) else None  # else the loop samples it as it publishes
+        walk = _NO_WALK if imu is None else imu.walk
         arguments = (
             quiet, twist, command.z_mode is ZMode.HEIGHT, command.hold, self.landing.numbers,
-            *cascade.compiled_state, self._control_dt_s, *body,
+            *cascade.compiled_state, self._control_dt_s, *body, imu is not None, self.step_count,
+            self._state_every, *walk,
         )  # fmt: skip
         if self._fly_clear is None:
             self._fly_clear = specialize(fly_clear, *arguments)
-        flown, kinematics, previous = self._fly_clear(*arguments)
+        flown, kinematics, previous, next_sample, gyro_bias, accel_bias = self._fly_clear(*arguments)
         if flown:
             physics._flown_clear(kinematics, previous)
             self.step_count += flown
             self._rotor_command = cascade.last_forces
+            if imu is not None:
+                imu.walked(next_sample, gyro_bias, accel_bias)
         return flown
 
     def before_physics(self, state: VehicleState | None = None) -> RotorForces:
