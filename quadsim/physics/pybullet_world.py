@@ -354,12 +354,10 @@ class PhysicsWorld:
         if self._scenery is False:
             self._scenery = self._static_scenery()
             return self._clear_of_scenery()
-        (x, y, z), (vx, vy, vz) = self._position, self._linear_velocity
-        cx, cy, cz = self._clear_from
-        # two steps at this speed, plus (below) how far it went since the measurement (1-norms: never less)
-        ahead = 2.0 * self.dt_s * (abs(vx) + abs(vy) + abs(vz))
-        if abs(x - cx) + abs(y - cy) + abs(z - cz) + ahead < self._clear_slack_m:
+        if self._within_slack():
             return True
+        (x, y, z), (vx, vy, vz) = self._position, self._linear_velocity
+        ahead = 2.0 * self.dt_s * (abs(vx) + abs(vy) + abs(vz))
         planes, boxes = self._scenery  # type: ignore[misc]
         nearest = min((z - h for h in planes), default=math.inf)
         for (lx, ly, lz), (hx, hy, hz) in boxes:
@@ -368,6 +366,14 @@ class PhysicsWorld:
         self._clear_from = (x, y, z)
         self._clear_slack_m = nearest - self.reach_m - _CONTACT_CLEARANCE_M
         return ahead < self._clear_slack_m
+
+    def _within_slack(self) -> bool:
+        """Whether the vehicle is still within the clearance last measured: how far it went since
+        the measurement, plus two steps at its speed (1-norms: never less), short of the slack."""
+        (x, y, z), (vx, vy, vz) = self._position, self._linear_velocity
+        cx, cy, cz = self._clear_from
+        ahead = 2.0 * self.dt_s * (abs(vx) + abs(vy) + abs(vz))
+        return abs(x - cx) + abs(y - cy) + abs(z - cz) + ahead < self._clear_slack_m
 
     def _clear_of_others(self) -> bool:
         """True when no other vehicle of the world can reach this one within two steps: their
@@ -507,7 +513,8 @@ class PhysicsWorld:
         """What quadsim.sim.clear_flight.fly_clear takes of the body (its step's constants,
         base_link's state, the clearance kept), or None when it may not be flown that way now:
         quadsim does not step it, it is not alone in its world, a wind blows on it, PyBullet
-        holds its newer state, or the scenery has not been measured around it."""
+        holds its newer state, or the scenery's clearance, as measured, does not cover its next
+        step (a step by the loop measures it again)."""
         if (
             not self._free
             or self._others
@@ -515,6 +522,7 @@ class PhysicsWorld:
             or self._from_pybullet is not None
             or self._reread
             or not isinstance(self._scenery, tuple)
+            or not self._within_slack()
         ):
             return None
         return self._clear_constants, self._kinematics, self._clear_from, self._clear_slack_m

@@ -195,26 +195,28 @@ class SimLoop:
 
     def run(self, steps: int) -> None:
         """Advance `steps` physics steps (see the module docstring for the order)."""
-        physics, before, after = self.physics, self.before_physics, self.after_physics
+        physics, after = self.physics, self.after_physics
         # the state after a step is built once, only if someone takes it: the sinks and taps of
         # that step, then the controller at the start of the next one (nothing moves in between)
         state: VehicleState | None = None
         while steps > 0:
+            self._take_input()
             quiet = self._quiet_steps(steps)
-            if quiet > 1:
+            if quiet:
                 flown = self._fly_quiet_steps(quiet)
                 if flown:
                     steps -= flown
                     state = self._publish(self.step_count) if self.sinks or self._taps else None
                     continue
-            physics._step(before(state))
+            physics._step(self._control(state))
             state = after()
             steps -= 1
 
     def _quiet_steps(self, steps: int) -> int:
-        """How many of the next `steps` steps do nothing in Python but the cascade's update and
-        the body's own step: the vehicle flying, armed and off the ground, with no poll, no
-        state to publish, no tap and no dead-man firing before the last of them (0: not now)."""
+        """How many of the next `steps` steps, the driver polled for this one, do nothing in
+        Python but the cascade's update and the body's own step: the vehicle flying, armed and
+        off the ground, with no poll, no state to publish, no tap and no dead-man firing before
+        the last of them (0: not now)."""
         landing, n = self.landing, self.step_count
         if (
             self._control_every != 1
@@ -231,9 +233,9 @@ class SimLoop:
         quiet = steps
         driver = self.driver
         if driver is not None:
-            if n % self._input_every == 0 or n >= driver.next_poll_step or getattr(driver, "polled_anytime", False):
+            if getattr(driver, "polled_anytime", False):
                 return 0
-            quiet = min(quiet, self._input_every - n % self._input_every, driver.next_poll_step - n)
+            quiet = min(quiet, self._input_every - n % self._input_every, max(driver.next_poll_step - n, 1))
         timeout = self.gate.timeout_steps
         if timeout is not None and n - last <= timeout:
             quiet = min(quiet, last + timeout + 1 - n)  # the hold starts at that step
@@ -277,19 +279,32 @@ class SimLoop:
         """Stages 1 and 2 at step n (the step count): the driver's input, then the control
         update; the rotor forces to apply in this step. `state`: the vehicle's state at n if the
         last `after_physics` built it."""
-        n, driver, gate = self.step_count, self.driver, self.gate
+        self._take_input()
+        return self._control(state)
+
+    def _take_input(self) -> None:
+        """Stage 1 at step n: the driver polled, if due, and the gate takes its command."""
+        n, driver = self.step_count, self.driver
         if driver is not None and (n % self._input_every == 0 or n >= driver.next_poll_step):
             twist = driver.poll(n, n / self.rates.physics_hz)
             if twist is not None:
-                accepted = gate.receive(twist, n)
+                accepted = self.gate.receive(twist, n)
                 if accepted is not None:
                     for sink in self.sinks:
                         sink.on_command(n, accepted)
+
+    def _control(self, state: VehicleState | None) -> RotorForces:
+        """Stage 2 at step n: the landing layer and the controller's rotor forces, if a control
+        step (take-off and landed events at n)."""
+        n = self.step_count
         if n % self._control_every == 0:
             landing = self.landing
             phase = landing.phase
             self._rotor_command = landing.update(
-                self.physics.state(n) if state is None else state, gate.active(n), self._on_ground, self._control_dt_s
+                self.physics.state(n) if state is None else state,
+                self.gate.active(n),
+                self._on_ground,
+                self._control_dt_s,
             )
             if landing.phase is not phase:
                 if landing.phase is FlightPhase.FLYING:
