@@ -525,7 +525,7 @@ class PhysicsWorld:
             or not self._within_slack()
         ):
             return None
-        return self._clear_constants, self._kinematics, self._clear_from, self._clear_slack_m
+        return self._clear_constants, self._kinematics, (self._clear_from, self._clear_slack_m)
 
     def _flown_clear(self, kinematics: Any, previous: Vec3) -> None:
         """After steps fly_clear took: base_link's state after them (`kinematics`, as

@@ -14,12 +14,11 @@ applies (SimLoop.run).
 
 from __future__ import annotations
 
-from collections.abc import Sequence
 from typing import Any
 
 from quadsim.control.cascade_step import cascade_update
 from quadsim.control.landing import landing_command
-from quadsim.core.compiled import Floats, MutableFloats, jit
+from quadsim.core.compiled import Floats, jit
 from quadsim.physics.free_flight import ClearConstants, clear_step
 
 #: the command the cascade takes while the dead-man holds (quadsim.control.cascade)
@@ -29,41 +28,33 @@ _NO_COMMAND = (0.0, 0.0, 0.0, 0.0)
 @jit
 def fly_clear(
     steps: int,
-    twist: tuple[float, float, float, float],
-    height: bool,
-    hold: bool,
+    command: tuple[tuple[float, float, float, float], bool, bool],
     landing: Floats,
-    k: Floats,
-    rows: Sequence[Floats],
-    s: MutableFloats,
-    out: MutableFloats,
-    control_dt_s: float,
+    cascade: Any,
     body: ClearConstants,
     kinematics: Any,
-    clear_from: tuple[float, float, float],
-    clear_slack_m: float,
-    imu: bool,
-    count: int,
-    state_every: int,
-    samples: Any,
-    next_sample: int,
-    gyro_bias: tuple[float, float, float],
-    accel_bias: tuple[float, float, float],
-) -> tuple[int, Any, tuple[float, float, float], int, tuple[float, float, float], tuple[float, float, float]]:
-    """Up to `steps` steps of a flying vehicle under the gate's command `twist` (`height`: its z
-    is a height; `hold`: the dead-man holds), each as the loop takes it: the landing layer's
-    command (`landing`: its numbers), the cascade's update (gains `k`, mixer `rows`, state `s`,
-    rotor forces into `out`) and the body's step clear of everything (quadsim.physics.free_flight.
-    clear_step; `body`: its constants, the same every step). `kinematics`: base_link's state now,
-    as clear_step gives it.
-    Stops before a step the body's clearance does not cover (its travel since `clear_from` and
-    two steps ahead at its speed, within `clear_slack_m`). With `imu`, the IMU noise's biases walk
-    at each step count (from `count`, the loop's now) that is a multiple of `state_every`, taking
-    the next of `samples` (quadsim.sensors.imu: from `next_sample`, the biases `gyro_bias` and
-    `accel_bias`), as the loop's samples of it would, no one taking the reading; it stops before
-    a step whose sample is not in `samples`. Returns the steps taken, base_link's state after
-    them, the velocity before the last one, the next sample and the biases."""
-    cx, cy, cz = clear_from
+    clearance: tuple[tuple[float, float, float], float],
+    sampling: tuple[bool, int, int],
+    walk: Any,
+) -> tuple[int, Any, tuple[float, float, float], Any]:
+    """Up to `steps` steps of a flying vehicle under the gate's `command` (its twist, whether its
+    z is a height, whether the dead-man holds), each as the loop takes it: the landing layer's
+    command (`landing`: its numbers), the cascade's update (`cascade`: its gains, mixer rows,
+    state and rotor forces out, CascadeController.compiled_state, and the control step) and the body's step clear of
+    everything (quadsim.physics.free_flight.clear_step; `body`: its constants). `kinematics`:
+    base_link's state now, as clear_step gives it. Stops before a step the body's `clearance`
+    does not cover (its travel since where it was measured, and two steps ahead at its speed,
+    within the slack). With `sampling` (the IMU sampled, the loop's step count now, the steps
+    between two samples), the IMU noise's biases walk at each step count that is a sample's, taking
+    the next sample of `walk` (quadsim.sensors.imu.ImuNoise.walk: the samples, the next one's
+    index, the gyro's and the accelerometer's biases), as the loop's samples of it would, no one
+    taking the reading; it stops before a step whose sample is not there. Returns the steps
+    taken, base_link's state after them, the velocity before the last one and the walk after."""
+    (cx, cy, cz), clear_slack_m = clearance
+    twist, height, hold = command
+    imu, count, state_every = sampling
+    k, rows, s, out, control_dt_s = cascade
+    samples, next_sample, gyro_bias, accel_bias = walk
     step_s = body[8]  # the physics step (PhysicsWorld._clear_constants)
     position, orientation, velocity, spin, rotation, rates, specific = kinematics
     previous = velocity
@@ -94,4 +85,4 @@ def fly_clear(
             accel_bias = (accel_bias[0] + n[9], accel_bias[1] + n[10], accel_bias[2] + n[11])
             next_sample += 1
     kinematics = (position, orientation, velocity, spin, rotation, rates, specific)
-    return done, kinematics, previous, next_sample, gyro_bias, accel_bias
+    return done, kinematics, previous, (samples, next_sample, gyro_bias, accel_bias)

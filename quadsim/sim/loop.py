@@ -260,13 +260,13 @@ class SimLoop:
         imu = self.imu if not (self.sinks or self._taps) else None  # else the loop samples it as it publishes
         walk = _NO_WALK if imu is None else imu.walk
         arguments = (
-            quiet, twist, command.z_mode is ZMode.HEIGHT, command.hold, self.landing.numbers,
-            *cascade.compiled_state, self._control_dt_s, *body, imu is not None, self.step_count,
-            self._state_every, *walk,
+            quiet, (twist, command.z_mode is ZMode.HEIGHT, command.hold), self.landing.numbers,
+            (*cascade.compiled_state, self._control_dt_s), *body, (imu is not None, self.step_count, self._state_every),
+            walk,
         )  # fmt: skip
         if self._fly_clear is None:
             self._fly_clear = specialize(fly_clear, *arguments)
-        flown, kinematics, previous, next_sample, gyro_bias, accel_bias = self._fly_clear(*arguments)
+        flown, kinematics, previous, (_, next_sample, gyro_bias, accel_bias) = self._fly_clear(*arguments)
         if flown:
             physics._flown_clear(kinematics, previous)
             self.step_count += flown
