@@ -510,11 +510,11 @@ class PhysicsWorld:
         return False
 
     def _clear_flight(self) -> tuple[Any, ...] | None:
-        """What quadsim.sim.clear_flight.fly_clear takes of the body (its step's constants,
-        base_link's state, the clearance kept), or None when it may not be flown that way now:
-        quadsim does not step it, it is not alone in its world, a wind blows on it, PyBullet
-        holds its newer state, or the scenery's clearance, as measured, does not cover its next
-        step (a step by the loop measures it again)."""
+        """What quadsim.sim.clear_flight.fly_clear takes of the body (`clear_flight_arguments`),
+        or None when it may not be flown that way now: quadsim does not step it, it is not alone
+        in its world, a wind blows on it, PyBullet holds its newer state, or the scenery's
+        clearance, as measured, does not cover its next step (a step by the loop measures it
+        again)."""
         if (
             not self._free
             or self._others
@@ -525,6 +525,11 @@ class PhysicsWorld:
             or not self._within_slack()
         ):
             return None
+        return self.clear_flight_arguments
+
+    @property
+    def clear_flight_arguments(self) -> tuple[Any, ...]:
+        """The body's step's constants, base_link's state and the clearance kept, as fly_clear takes them."""
         return self._clear_constants, self._kinematics, (self._clear_from, self._clear_slack_m)
 
     def _flown_clear(self, kinematics: Any, previous: Vec3) -> None:

@@ -116,8 +116,13 @@ class SimLoop:
         self._control_dt_s = 1.0 / rates.control_hz
         self._idle: RotorForces = (0.0,) * len(physics.vehicle.rotors)
         self._rotor_command = self._idle
-        #: fly_clear made for this vehicle's arguments (at its first use)
-        self._fly_clear: Any = None
+        #: fly_clear made for this vehicle's arguments, now: a first compile is waited for while
+        #: the run is built (and said), not in the middle of its flight
+        self._fly_clear: Any = fly_clear
+        if type(controller) is CascadeController:
+            self._fly_clear = specialize(
+                fly_clear, *self._quiet_arguments(controller, 0, physics.clear_flight_arguments)
+            )
 
     @property
     def controller(self) -> Controller:
@@ -254,18 +259,8 @@ class SimLoop:
         if body is None:
             return 0
         cascade: CascadeController = self.landing.controller  # type: ignore[assignment]
-        command = self.gate.active(self.step_count)
-        tw = command.twist
-        twist = (float(tw.linear_x), float(tw.linear_y), float(tw.linear_z), float(tw.angular_z))
         imu = self.imu if not (self.sinks or self._taps) else None  # else the loop samples it as it publishes
-        walk = _NO_WALK if imu is None else imu.walk
-        arguments = (
-            quiet, (twist, command.z_mode is ZMode.HEIGHT, command.hold), self.landing.numbers,
-            (*cascade.compiled_state, self._control_dt_s), *body, (imu is not None, self.step_count, self._state_every),
-            walk,
-        )  # fmt: skip
-        if self._fly_clear is None:
-            self._fly_clear = specialize(fly_clear, *arguments)
+        arguments = self._quiet_arguments(cascade, quiet, body, imu)
         flown, kinematics, previous, (_, next_sample, gyro_bias, accel_bias) = self._fly_clear(*arguments)
         if flown:
             physics._flown_clear(kinematics, previous)
@@ -274,6 +269,21 @@ class SimLoop:
             if imu is not None:
                 imu.walked(next_sample, gyro_bias, accel_bias)
         return flown
+
+    def _quiet_arguments(
+        self, cascade: CascadeController, quiet: int, body: tuple[Any, ...], imu: ImuNoise | None = None
+    ) -> tuple[Any, ...]:
+        """What fly_clear takes for `quiet` steps of `cascade` and `body` (PhysicsWorld's
+        clear_flight_arguments) from this step, under the gate's command now, the IMU noise
+        `imu` walking in them."""
+        command = self.gate.active(self.step_count)
+        tw = command.twist
+        twist = (float(tw.linear_x), float(tw.linear_y), float(tw.linear_z), float(tw.angular_z))
+        sampling = (imu is not None, self.step_count, self._state_every)
+        return (
+            quiet, (twist, command.z_mode is ZMode.HEIGHT, command.hold), self.landing.numbers,
+            (*cascade.compiled_state, self._control_dt_s), *body, sampling, _NO_WALK if imu is None else imu.walk,
+        )  # fmt: skip
 
     def before_physics(self, state: VehicleState | None = None) -> RotorForces:
         """Stages 1 and 2 at step n (the step count): the driver's input, then the control
