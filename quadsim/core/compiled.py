@@ -1,4 +1,5 @@
-"""Compiled arithmetic where numba is installed (the `fast` extra), plain Python where it is not.
+"""Compiled arithmetic where numba is installed (with quadsim, where it has wheels; the `fast`
+extra installs it too), plain Python where it is not.
 
 `jit` marks a function of floats, tuples of floats and float arrays as compilable: with numba,
 it is compiled to machine code on its first call (and cached on disk); without numba, or with
@@ -35,7 +36,7 @@ numba: Any
 NUMBA_PROBLEM: str | None = None
 try:
     import numba
-except Exception as exc:  # the `fast` extra is not installed, or numba is broken: everything runs as Python
+except Exception as exc:  # numba is not installed, or is broken: everything runs as Python
     numba = None
     if not (isinstance(exc, ImportError) and exc.name == "numba"):
         NUMBA_PROBLEM = f"{type(exc).__name__}: {exc}"
