@@ -33,6 +33,10 @@ _SPAWN_CLEARANCE_M = 0.001
 _CONTACT_CLEARANCE_M = 0.5
 
 
+#: the clearance from other vehicles of a vehicle alone in its world
+_NOTHING_NEAR: tuple[Vec3, float] = ((0.0, 0.0, 0.0), math.inf)
+
+
 class Contact(NamedTuple):
     """The vehicle touching one other body after a physics step."""
 
@@ -517,7 +521,6 @@ class PhysicsWorld:
         again)."""
         if (
             not self._free
-            or self._others
             or self._wind is not None
             or self._from_pybullet is not None
             or self._reread
@@ -525,12 +528,23 @@ class PhysicsWorld:
             or not self._within_slack()
         ):
             return None
-        return self.clear_flight_arguments
+        arguments = self.clear_flight_arguments
+        if self._others:  # every pair measured, and this vehicle within its slack of them
+            apart = arguments[3]
+            if len(self.client.apart) != len(self.client.bodies) or apart is _NOTHING_NEAR:
+                return None
+            (x, y, z), (vx, vy, vz) = self._position, self._linear_velocity
+            (cx, cy, cz), slack = apart
+            if abs(x - cx) + abs(y - cy) + abs(z - cz) + 2.0 * self.dt_s * (abs(vx) + abs(vy) + abs(vz)) >= slack:
+                return None
+        return arguments
 
     @property
     def clear_flight_arguments(self) -> tuple[Any, ...]:
-        """The body's step's constants, base_link's state and the clearance kept, as fly_clear takes them."""
-        return self._clear_constants, self._kinematics, (self._clear_from, self._clear_slack_m)
+        """The body's step's constants, base_link's state, the clearance kept from the scenery and
+        the one from the other vehicles, as quadsim.sim.clear_flight takes them."""
+        apart = self.client.apart.get(self, _NOTHING_NEAR) if self._others else _NOTHING_NEAR
+        return self._clear_constants, self._kinematics, (self._clear_from, self._clear_slack_m), apart
 
     def _flown_clear(self, kinematics: Any, previous: Vec3) -> None:
         """After steps fly_clear took: base_link's state after them (`kinematics`, as

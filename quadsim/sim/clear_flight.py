@@ -16,6 +16,8 @@ from __future__ import annotations
 
 from typing import Any
 
+import numpy as np
+
 from quadsim.control.cascade_step import cascade_update
 from quadsim.control.landing import landing_command
 from quadsim.core.compiled import Floats, jit
@@ -50,39 +52,163 @@ def fly_clear(
     index, the gyro's and the accelerometer's biases), as the loop's samples of it would, no one
     taking the reading; it stops before a step whose sample is not there. Returns the steps
     taken, base_link's state after them, the velocity before the last one and the walk after."""
-    (cx, cy, cz), clear_slack_m = clearance
     twist, height, hold = command
     imu, count, state_every = sampling
-    k, rows, s, out, control_dt_s = cascade
     samples, next_sample, gyro_bias, accel_bias = walk
     step_s = body[8]  # the physics step (PhysicsWorld._clear_constants)
-    position, orientation, velocity, spin, rotation, rates, specific = kinematics
-    previous = velocity
+    previous = kinematics[2]
     done = 0
     for _ in range(steps):
-        x, y, z = position
-        vx, vy, vz = velocity
-        ahead = 2.0 * step_s * (abs(vx) + abs(vy) + abs(vz))
-        if not abs(x - cx) + abs(y - cy) + abs(z - cz) + ahead < clear_slack_m:
+        if not within(kinematics, clearance, step_s):
             break
         count += 1
         sampled = imu and count % state_every == 0
         if sampled and next_sample >= len(samples):
             break
-        fx, fy, fz, fw, flown_height, flown_hold, _, _ = landing_command(z, twist, height, hold, landing)
-        wanted = _NO_COMMAND if flown_hold else (fx, fy, fz, fw)
-        cascade_update(
-            k, rows, s, position, rotation, velocity, rates, wanted, flown_height, flown_hold, control_dt_s, out
-        )
-        previous = velocity
-        position, orientation, velocity, spin, rotation, rates, specific = clear_step(
-            *body, out, rotation, velocity, spin, position, velocity
-        )
+        previous = kinematics[2]
+        kinematics = step_once(twist, height, hold, landing, cascade, body, kinematics)
         done += 1
         if sampled:
-            n = samples[next_sample]
-            gyro_bias = (gyro_bias[0] + n[3], gyro_bias[1] + n[4], gyro_bias[2] + n[5])
-            accel_bias = (accel_bias[0] + n[9], accel_bias[1] + n[10], accel_bias[2] + n[11])
+            gyro_bias, accel_bias = walked(samples[next_sample], gyro_bias, accel_bias)
             next_sample += 1
-    kinematics = (position, orientation, velocity, spin, rotation, rates, specific)
     return done, kinematics, previous, (samples, next_sample, gyro_bias, accel_bias)
+
+
+@jit
+def within(kinematics: Any, clearance: tuple[tuple[float, float, float], float], step_s: float) -> bool:
+    """Whether the vehicle at `kinematics` is within a `clearance` measured before (where, and the
+    slack then): its travel since, and two steps ahead at its speed (1-norms), short of the slack."""
+    (x, y, z), (vx, vy, vz) = kinematics[0], kinematics[2]
+    (cx, cy, cz), slack = clearance
+    ahead = 2.0 * step_s * (abs(vx) + abs(vy) + abs(vz))
+    return abs(x - cx) + abs(y - cy) + abs(z - cz) + ahead < slack
+
+
+@jit
+def step_once(
+    twist: tuple[float, float, float, float],
+    height: bool,
+    hold: bool,
+    landing: Floats,
+    cascade: Any,
+    body: ClearConstants,
+    kinematics: Any,
+) -> Any:
+    """One step of a flying vehicle clear of everything: the landing layer's command, the
+    cascade's update and the body's step; base_link's state after it."""
+    position, _, velocity, spin, rotation, rates, _ = kinematics
+    k, rows, s, out, control_dt_s = cascade
+    fx, fy, fz, fw, flown_height, flown_hold, _, _ = landing_command(position[2], twist, height, hold, landing)
+    wanted = _NO_COMMAND if flown_hold else (fx, fy, fz, fw)
+    cascade_update(k, rows, s, position, rotation, velocity, rates, wanted, flown_height, flown_hold, control_dt_s, out)
+    return clear_step(*body, out, rotation, velocity, spin, position, velocity)
+
+
+@jit
+def walked(
+    sample: Any, gyro_bias: tuple[float, float, float], accel_bias: tuple[float, float, float]
+) -> tuple[tuple[float, float, float], tuple[float, float, float]]:
+    """The IMU noise's biases after one more `sample` (quadsim.sensors.imu.ImuNoise.measure's walk)."""
+    gyro = (gyro_bias[0] + sample[3], gyro_bias[1] + sample[4], gyro_bias[2] + sample[5])
+    accel = (accel_bias[0] + sample[9], accel_bias[1] + sample[10], accel_bias[2] + sample[11])
+    return gyro, accel
+
+
+@jit
+def fly_clear_together(
+    steps: int, vehicles: Any, active: int, count: int, state_every: int
+) -> tuple[int, Any, Any, Any]:
+    """Up to `steps` steps of a fleet's vehicles together, each step of each vehicle as
+    `fly_clear` takes it. `vehicles`: each one's command, landing numbers, cascade, body
+    constants, kinematics, scenery clearance, clearance from the other vehicles (as
+    quadsim.physics.pybullet_world._near_others keeps it), whether its IMU noise walks, and its
+    walk; the first `active` are flown (the rest pad the tuple to a size compiled once). Every
+    vehicle's clearances (and IMU sample) are checked before any of them takes a step, so all
+    stop before the same step. Returns the steps taken, each vehicle's base_link state after
+    them (packed: `unpacked`), the velocity before the last one, and its walk's next sample and
+    biases."""
+    kinematics = np.empty((active, KINEMATICS_SIZE))
+    previous = np.empty((active, 3))
+    walks = np.empty((active, 7))
+    for i in range(active):
+        vehicle = vehicles[i]
+        pack(kinematics[i], vehicle[4])
+        previous[i, 0], previous[i, 1], previous[i, 2] = vehicle[4][2]
+        _, next_sample, gyro, accel = vehicle[8]
+        walks[i, 0] = next_sample
+        walks[i, 1], walks[i, 2], walks[i, 3] = gyro
+        walks[i, 4], walks[i, 5], walks[i, 6] = accel
+    done = 0
+    for _ in range(steps):
+        count += 1
+        sampled = count % state_every == 0
+        clear = True
+        for i in range(active):
+            vehicle = vehicles[i]
+            now = unpacked(kinematics[i])
+            step_s = vehicle[3][8]
+            if not (within(now, vehicle[5], step_s) and within(now, vehicle[6], step_s)) or (
+                vehicle[7] and sampled and walks[i, 0] >= len(vehicle[8][0])
+            ):
+                clear = False
+        if not clear:
+            break
+        for i in range(active):
+            vehicle = vehicles[i]
+            now = unpacked(kinematics[i])
+            twist, height, hold = vehicle[0]
+            previous[i, 0], previous[i, 1], previous[i, 2] = now[2]
+            pack(kinematics[i], step_once(twist, height, hold, vehicle[1], vehicle[2], vehicle[3], now))
+            if vehicle[7] and sampled:
+                w = walks[i]
+                gyro, accel = walked(vehicle[8][0][int(w[0])], (w[1], w[2], w[3]), (w[4], w[5], w[6]))
+                w[0] += 1.0
+                w[1], w[2], w[3] = gyro
+                w[4], w[5], w[6] = accel
+        done += 1
+    return done, kinematics, previous, walks
+
+
+def kinematics_of(row: Any) -> Any:
+    """base_link's state from a row `pack` filled, as Python floats (the loop's own state)."""
+    return getattr(unpacked, "py_func", unpacked)(row.tolist())
+
+
+#: base_link's state packed in a row: position, orientation, velocity, spin, rotation, body rates, specific force
+KINEMATICS_SIZE = 28
+
+
+@jit
+def pack(row: Any, kinematics: Any) -> None:
+    """base_link's state (as clear_step gives it) into `row`."""
+    (px, py, pz), (qx, qy, qz, qw), (vx, vy, vz), (wx, wy, wz), rotation, (rx, ry, rz), (fx, fy, fz) = kinematics
+    (m00, m01, m02), (m10, m11, m12), (m20, m21, m22) = rotation
+    row[0], row[1], row[2], row[3], row[4], row[5], row[6] = px, py, pz, qx, qy, qz, qw
+    row[7], row[8], row[9], row[10], row[11], row[12] = vx, vy, vz, wx, wy, wz
+    row[13], row[14], row[15], row[16], row[17], row[18], row[19], row[20], row[21] = (
+        m00,
+        m01,
+        m02,
+        m10,
+        m11,
+        m12,
+        m20,
+        m21,
+        m22,
+    )
+    row[22], row[23], row[24], row[25], row[26], row[27] = rx, ry, rz, fx, fy, fz
+
+
+@jit
+def unpacked(row: Any) -> Any:
+    """base_link's state from a row `pack` filled, as clear_step gives it."""
+    rotation = ((row[13], row[14], row[15]), (row[16], row[17], row[18]), (row[19], row[20], row[21]))
+    return (
+        (row[0], row[1], row[2]),
+        (row[3], row[4], row[5], row[6]),
+        (row[7], row[8], row[9]),
+        (row[10], row[11], row[12]),
+        rotation,
+        (row[22], row[23], row[24]),
+        (row[25], row[26], row[27]),
+    )

@@ -120,9 +120,11 @@ class SimLoop:
         #: the run is built (and said), not in the middle of its flight
         self._fly_clear: Any = fly_clear
         if type(controller) is CascadeController:
-            self._fly_clear = specialize(
-                fly_clear, *self._quiet_arguments(controller, 0, physics.clear_flight_arguments)
+            command, landing, cascade, constants, kinematics, clearance, _, imu, walk = self.quiet_vehicle(
+                physics.clear_flight_arguments
             )
+            sample = (0, command, landing, cascade, constants, kinematics, clearance, (imu, 0, 1), walk)
+            self._fly_clear = specialize(fly_clear, *sample)
 
     @property
     def controller(self) -> Controller:
@@ -256,34 +258,44 @@ class SimLoop:
         alone and clear of everything; the steps taken (it stops where the clearance ends)."""
         physics = self.physics
         body = physics._clear_flight()
-        if body is None:
+        if body is None or physics._others:  # a fleet's vehicles fly their quiet steps together (Fleet.step)
             return 0
-        cascade: CascadeController = self.landing.controller  # type: ignore[assignment]
-        imu = self.imu if not (self.sinks or self._taps) else None  # else the loop samples it as it publishes
-        arguments = self._quiet_arguments(cascade, quiet, body, imu)
-        flown, kinematics, previous, (_, next_sample, gyro_bias, accel_bias) = self._fly_clear(*arguments)
+        command, landing, cascade, constants, kinematics, clearance, _, imu, walk = self.quiet_vehicle(body)
+        sampling = (imu, self.step_count, self._state_every)
+        flown, kinematics, previous, (_, *walked) = self._fly_clear(
+            quiet, command, landing, cascade, constants, kinematics, clearance, sampling, walk
+        )
         if flown:
-            physics._flown_clear(kinematics, previous)
-            self.step_count += flown
-            self._rotor_command = cascade.last_forces
-            if imu is not None:
-                imu.walked(next_sample, gyro_bias, accel_bias)
+            self.took_quiet_steps(flown, kinematics, previous, walked)
         return flown
 
-    def _quiet_arguments(
-        self, cascade: CascadeController, quiet: int, body: tuple[Any, ...], imu: ImuNoise | None = None
-    ) -> tuple[Any, ...]:
-        """What fly_clear takes for `quiet` steps of `cascade` and `body` (PhysicsWorld's
-        clear_flight_arguments) from this step, under the gate's command now, the IMU noise
-        `imu` walking in them."""
+    def quiet_vehicle(self, body: tuple[Any, ...]) -> tuple[Any, ...]:
+        """What the compiled quiet steps take of this vehicle (quadsim.sim.clear_flight), `body`
+        being its PhysicsWorld's clear_flight_arguments: the gate's command now, the landing
+        layer's numbers, the cascade's state and step, the body's constants, base_link's state,
+        the clearances from the scenery and from the other vehicles, whether the IMU noise walks
+        in them (no one takes its readings: no sink, no tap) and its walk."""
         command = self.gate.active(self.step_count)
         tw = command.twist
         twist = (float(tw.linear_x), float(tw.linear_y), float(tw.linear_z), float(tw.angular_z))
-        sampling = (imu is not None, self.step_count, self._state_every)
+        cascade: CascadeController = self.landing.controller  # type: ignore[assignment]
+        imu = self.imu if not (self.sinks or self._taps) else None  # else the loop samples it as it publishes
         return (
-            quiet, (twist, command.z_mode is ZMode.HEIGHT, command.hold), self.landing.numbers,
-            (*cascade.compiled_state, self._control_dt_s), *body, sampling, _NO_WALK if imu is None else imu.walk,
+            (twist, command.z_mode is ZMode.HEIGHT, command.hold), self.landing.numbers,
+            (*cascade.compiled_state, self._control_dt_s), *body, imu is not None,
+            _NO_WALK if imu is None else imu.walk,
         )  # fmt: skip
+
+    def took_quiet_steps(self, flown: int, kinematics: Any, previous: Any, walked: Any) -> None:
+        """After `flown` compiled quiet steps: base_link's state after them, the velocity before
+        the last one, and the IMU noise's walk (its next sample and biases, if it walked)."""
+        self.physics._flown_clear(kinematics, previous)
+        self.step_count += flown
+        cascade: CascadeController = self.landing.controller  # type: ignore[assignment]
+        self._rotor_command = cascade.last_forces
+        if self.imu is not None and not (self.sinks or self._taps):
+            next_sample, gyro_bias, accel_bias = walked
+            self.imu.walked(int(next_sample), tuple(gyro_bias), tuple(accel_bias))
 
     def before_physics(self, state: VehicleState | None = None) -> RotorForces:
         """Stages 1 and 2 at step n (the step count): the driver's input, then the control
