@@ -197,17 +197,17 @@ def test_a_vehicle_placed_near_the_scenery_mid_flight_leaves_the_compiled_steps(
 
 def _fleet_flight(monkeypatch: pytest.MonkeyPatch, together: bool, flight: str) -> tuple[list, list, int]:
     """A fleet flown with its quiet steps in one compiled call for all (or one step at a time)."""
-    import quadsim.sim.fleet as fleet_module
+    from quadsim.sim.clear_flight import QuietFleet
 
     flown_together = {"steps": 0}
-    fly = fleet_module.Fleet._fly_quiet_steps
+    fly = QuietFleet.fly
 
-    def counted(fleet: Fleet, loops: list, steps: int) -> int:
-        steps = fly(fleet, loops, steps) if together else 0
+    def counted(quiet: QuietFleet, steps: int) -> int:
+        steps = fly(quiet, steps) if together else 0
         flown_together["steps"] += steps
         return steps
 
-    monkeypatch.setattr(fleet_module.Fleet, "_fly_quiet_steps", counted)
+    monkeypatch.setattr(QuietFleet, "fly", counted)
     if flight == "mixed airframes":
         vehicles = [
             FleetVehicle("quad", start=StartPose(-3.0, 0.0)),

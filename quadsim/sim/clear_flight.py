@@ -20,7 +20,7 @@ import numpy as np
 
 from quadsim.control.cascade_step import cascade_update
 from quadsim.control.landing import landing_command
-from quadsim.core.compiled import Floats, jit
+from quadsim.core.compiled import Floats, jit, specialize, typed_list
 from quadsim.physics.free_flight import ClearConstants, clear_step
 
 #: the command the cascade takes while the dead-man holds (quadsim.control.cascade)
@@ -115,63 +115,109 @@ def walked(
 
 
 @jit
-def fly_clear_together(
-    steps: int, vehicles: Any, active: int, count: int, state_every: int
-) -> tuple[int, Any, Any, Any]:
+def fly_clear_together(steps: int, vehicles: Any, count: int, state_every: int) -> int:
     """Up to `steps` steps of a fleet's vehicles together, each step of each vehicle as
-    `fly_clear` takes it. `vehicles`: each one's command, landing numbers, cascade, body
-    constants, kinematics, scenery clearance, clearance from the other vehicles (as
-    quadsim.physics.pybullet_world._near_others keeps it), whether its IMU noise walks, and its
-    walk; the first `active` are flown (the rest pad the tuple to a size compiled once). Every
-    vehicle's clearances (and IMU sample) are checked before any of them takes a step, so all
-    stop before the same step. Returns the steps taken, each vehicle's base_link state after
-    them (packed: `unpacked`), the velocity before the last one, and its walk's next sample and
-    biases."""
-    kinematics = np.empty((active, KINEMATICS_SIZE))
-    previous = np.empty((active, 3))
-    walks = np.empty((active, 7))
-    for i in range(active):
-        vehicle = vehicles[i]
-        pack(kinematics[i], vehicle[4])
-        previous[i, 0], previous[i, 1], previous[i, 2] = vehicle[4][2]
-        _, next_sample, gyro, accel = vehicle[8]
-        walks[i, 0] = next_sample
-        walks[i, 1], walks[i, 2], walks[i, 3] = gyro
-        walks[i, 4], walks[i, 5], walks[i, 6] = accel
+    `fly_clear` takes it. `vehicles`: for each, its landing numbers, cascade, body constants, IMU
+    samples and its `now` (quadsim.sim.fleet's QuietFleet: the command, whether its z is a height,
+    whether it holds, whether its IMU noise walks, its kinematics, its clearances from the
+    scenery and from the others, its walk; written before, read after). Every vehicle's
+    clearances (and IMU sample) are checked before any of them takes a step, so all stop before
+    the same one. Returns the steps taken; each `now` then holds the state after them and the
+    velocity before the last one."""
     done = 0
     for _ in range(steps):
         count += 1
         sampled = count % state_every == 0
         clear = True
-        for i in range(active):
-            vehicle = vehicles[i]
-            now = unpacked(kinematics[i])
-            step_s = vehicle[3][8]
-            if not (within(now, vehicle[5], step_s) and within(now, vehicle[6], step_s)) or (
-                vehicle[7] and sampled and walks[i, 0] >= len(vehicle[8][0])
+        for vehicle in vehicles:
+            now = vehicle[4]
+            kinematics = unpacked(now[NOW_KINEMATICS:])
+            step_s = vehicle[2][8]
+            scenery = ((now[NOW_CLEAR], now[NOW_CLEAR + 1], now[NOW_CLEAR + 2]), now[NOW_CLEAR + 3])
+            others = ((now[NOW_APART], now[NOW_APART + 1], now[NOW_APART + 2]), now[NOW_APART + 3])
+            if not (within(kinematics, scenery, step_s) and within(kinematics, others, step_s)) or (
+                now[NOW_FLAGS + 2] != 0.0 and sampled and now[NOW_WALK] >= len(vehicle[3])
             ):
                 clear = False
         if not clear:
             break
-        for i in range(active):
-            vehicle = vehicles[i]
-            now = unpacked(kinematics[i])
-            twist, height, hold = vehicle[0]
-            previous[i, 0], previous[i, 1], previous[i, 2] = now[2]
-            pack(kinematics[i], step_once(twist, height, hold, vehicle[1], vehicle[2], vehicle[3], now))
-            if vehicle[7] and sampled:
-                w = walks[i]
-                gyro, accel = walked(vehicle[8][0][int(w[0])], (w[1], w[2], w[3]), (w[4], w[5], w[6]))
+        for vehicle in vehicles:
+            now = vehicle[4]
+            kinematics = unpacked(now[NOW_KINEMATICS:])
+            twist = (now[0], now[1], now[2], now[3])
+            height, hold = now[NOW_FLAGS] != 0.0, now[NOW_FLAGS + 1] != 0.0
+            now[NOW_PREVIOUS], now[NOW_PREVIOUS + 1], now[NOW_PREVIOUS + 2] = kinematics[2]
+            pack(now[NOW_KINEMATICS:], step_once(twist, height, hold, vehicle[0], vehicle[1], vehicle[2], kinematics))
+            if now[NOW_FLAGS + 2] != 0.0 and sampled:
+                w = now[NOW_WALK:]
+                gyro, accel = walked(vehicle[3][int(w[0])], (w[1], w[2], w[3]), (w[4], w[5], w[6]))
                 w[0] += 1.0
                 w[1], w[2], w[3] = gyro
                 w[4], w[5], w[6] = accel
         done += 1
-    return done, kinematics, previous, walks
+    return done
 
 
-def kinematics_of(row: Any) -> Any:
-    """base_link's state from a row `pack` filled, as Python floats (the loop's own state)."""
-    return getattr(unpacked, "py_func", unpacked)(row.tolist())
+#: where a fleet vehicle's `now` (fly_clear_together) holds what: the twist (0-3), the flags
+#: (height, hold, IMU walking), base_link's state (`pack`), the clearance from the scenery (where
+#: and the slack), the one from the others, the velocity before the last step, the walk (the next
+#: sample, the gyro's and the accelerometer's biases)
+NOW_FLAGS, NOW_KINEMATICS, NOW_CLEAR, NOW_APART, NOW_PREVIOUS, NOW_WALK, NOW_SIZE = 4, 7, 35, 39, 43, 46, 53
+
+
+def kinematics_of(values: list[float]) -> Any:
+    """base_link's state from the values of a row `pack` filled, as Python floats (the loop's own state)."""
+    return getattr(unpacked, "py_func", unpacked)(values)
+
+
+class QuietFleet:
+    """A fleet's vehicles as fly_clear_together takes them, in a list made once (each vehicle's
+    constant parts and its `now`, written before each call and read after), remade for a
+    vehicle only when its controller or its IMU noise's block of samples changes."""
+
+    def __init__(self, loops: list[Any]) -> None:
+        self.loops = loops
+        self._now = [np.zeros(NOW_SIZE) for _ in loops]
+        parts = [loop.quiet_vehicle(loop.physics.clear_flight_arguments) for loop in loops]
+        self._made = [(loop.landing.controller, part[8][0]) for loop, part in zip(loops, parts)]
+        self._vehicles = typed_list((part[1], part[2], part[3], part[8][0], now) for part, now in zip(parts, self._now))
+        self._fly: Any = specialize(fly_clear_together, 0, self._vehicles, 0, 1)  # compiled as the fleet is built
+
+    def fly(self, steps: int) -> int:
+        """Up to `steps` steps of every vehicle in one call, where each one's next steps are quiet
+        (SimLoop._quiet_steps) and each is clear of the scenery and of the others; the steps
+        taken (0: not now)."""
+        loops = self.loops
+        quiet = steps
+        for loop in loops:
+            quiet = loop._quiet_steps(quiet)
+            if not quiet:
+                return 0
+        for i, loop in enumerate(loops):
+            body = loop.physics._clear_flight()
+            if body is None:
+                return 0
+            (twist, height, hold), landing, cascade, constants, kinematics, clearance, apart, imu, walk = (
+                loop.quiet_vehicle(body)
+            )
+            samples, next_sample, gyro_bias, accel_bias = walk
+            made = self._made[i]
+            if made[0] is not loop.landing.controller or made[1] is not samples:
+                self._vehicles[i] = (landing, cascade, constants, samples, self._now[i])
+                self._made[i] = (loop.landing.controller, samples)
+            position, orientation, velocity, spin, (r0, r1, r2), rates, specific = kinematics
+            self._now[i][:] = (
+                *twist, height, hold, imu, *position, *orientation, *velocity, *spin, *r0, *r1, *r2, *rates,
+                *specific, *clearance[0], clearance[1], *apart[0], apart[1], 0.0, 0.0, 0.0, next_sample,
+                *gyro_bias, *accel_bias,
+            )  # fmt: skip
+        flown = int(self._fly(quiet, self._vehicles, loops[0].step_count, loops[0]._state_every))
+        for loop, now in zip(loops, self._now if flown else ()):
+            values = now.tolist()
+            walked = (values[NOW_WALK], values[NOW_WALK + 1 : NOW_WALK + 4], values[NOW_WALK + 4 : NOW_WALK + 7])
+            previous = tuple(values[NOW_PREVIOUS : NOW_PREVIOUS + 3])
+            loop.took_quiet_steps(flown, kinematics_of(values[NOW_KINEMATICS:NOW_CLEAR]), previous, walked)
+        return flown
 
 
 #: base_link's state packed in a row: position, orientation, velocity, spin, rotation, body rates, specific force

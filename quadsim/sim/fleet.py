@@ -28,18 +28,16 @@ import numpy as np
 from quadsim.control import Controller, ControllerKind
 from quadsim.control.cascade import CascadeController
 from quadsim.control.landing import LandingSettings
-from quadsim.core.compiled import specialize
 from quadsim.core.types import StartPose, VehicleState, ZMode
 from quadsim.drivers import InputDriver
 from quadsim.errors import ConfigError, QuadsimError
 from quadsim.physics.client import WorldClient
 from quadsim.physics.wind import WindModel
 from quadsim.physics.world_spec import WorldSpec, load_world
-from quadsim.sim.clear_flight import fly_clear_together, kinematics_of
+from quadsim.sim.clear_flight import QuietFleet
 from quadsim.sim.config import MAX_SEED, SimConfig, steps_of, whole_steps
 from quadsim.sim.description import MAX_FLEET, VEHICLE_NAME, RunDescription, WindModelDescription
 from quadsim.sim.drone import Drone
-from quadsim.sim.loop import SimLoop
 from quadsim.vehicle.params import VehicleParams
 
 if TYPE_CHECKING:
@@ -122,14 +120,10 @@ class Fleet:
         self.config = self._alone.config if self._alone is not None else config
         self._states: list[VehicleState | None] = [None] * len(self._members)
         self._reset_wind_model()
-        #: fly_clear_together made for this fleet's vehicles, now (a first compile while the run is built)
-        self._fly_together: Any = fly_clear_together
+        #: the vehicles' quiet steps in one compiled call for all (a fleet of cascade-flown vehicles)
         loops = [m.loop for m in self._members]
-        if len(loops) > 1 and all(type(loop.controller) is CascadeController for loop in loops):
-            sample = [loop.quiet_vehicle(loop.physics.clear_flight_arguments) for loop in loops]
-            size = 1 << (len(sample) - 1).bit_length()
-            padded = tuple(sample) + (sample[0],) * (size - len(sample))
-            self._fly_together = specialize(fly_clear_together, 0, padded, len(sample), 0, 1)
+        quiet = len(loops) > 1 and all(type(loop.controller) is CascadeController for loop in loops)
+        self._quiet = QuietFleet(loops) if quiet else None
 
     def _reset_wind_model(self) -> None:
         """A wind model of the user's own starts again with a generator of the run's seed."""
@@ -181,7 +175,7 @@ class Fleet:
         while steps > 0:
             for loop in loops:
                 loop._take_input()
-            flown = self._fly_quiet_steps(loops, steps)
+            flown = self._quiet.fly(steps) if self._quiet is not None else 0
             if flown:  # every vehicle's, in one compiled call
                 steps -= flown
                 states = [loop._publish(loop.step_count) if loop.sinks or loop._taps else None for loop in loops]
@@ -195,32 +189,6 @@ class Fleet:
             states = [loop.after_physics() for loop in loops]
             steps -= 1
         self._states = states
-
-    def _fly_quiet_steps(self, loops: list[SimLoop], steps: int) -> int:
-        """Up to `steps` steps of every vehicle in one compiled call (quadsim.sim.clear_flight.
-        fly_clear_together), where each one's next steps are quiet (SimLoop._quiet_steps) and
-        each is clear of the scenery and of the others; the steps taken (0: not now)."""
-        quiet = steps
-        for loop in loops:
-            quiet = loop._quiet_steps(quiet)
-            if not quiet:
-                return 0
-        vehicles = []
-        for loop in loops:
-            body = loop.physics._clear_flight()
-            if body is None:
-                return 0
-            vehicles.append(loop.quiet_vehicle(body))
-        size = 1 << (len(vehicles) - 1).bit_length()  # a few sizes compiled, not one for each fleet's
-        padded = tuple(vehicles) + (vehicles[0],) * (size - len(vehicles))
-        count, every = loops[0].step_count, loops[0]._state_every
-        flown, kinematics, previous, walks = self._fly_together(quiet, padded, len(vehicles), count, every)
-        for i, loop in enumerate(loops[: len(loops) if flown else 0]):
-            w = walks[i].tolist()
-            loop.took_quiet_steps(
-                flown, kinematics_of(kinematics[i]), tuple(previous[i].tolist()), (w[0], w[1:4], w[4:7])
-            )
-        return flown
 
     def run_for(self, seconds: float) -> None:
         """Advance by `seconds` of simulation time (rounded to whole physics steps)."""
