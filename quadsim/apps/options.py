@@ -450,6 +450,9 @@ def output_options(args: argparse.Namespace) -> OutputOptions:
     if args.render_workers < 0:
         raise QuadsimError("--render-workers must be 0 or more")
     cameras: tuple[CameraSpec, ...] = tuple(available[c] for c in wanted)
+    out = args.out
+    if not args.no_record and out is not None and out.suffix == ".mcap" and _exists(out):  # before any work
+        raise QuadsimError(f"{out} already exists; choose another --out (nothing is overwritten)")
     return OutputOptions(
         record=not args.no_record,
         out=args.out,
@@ -457,6 +460,14 @@ def output_options(args: argparse.Namespace) -> OutputOptions:
         renderer=RendererKind(args.renderer),
         render_workers=args.render_workers,
     )
+
+
+def _exists(path: Path) -> bool:
+    """Whether `path` exists (a name the system cannot take, too long for one: not; said later)."""
+    try:
+        return path.exists()
+    except OSError:
+        return False
 
 
 def check_output_file(option: str, path: Path, suffixes: tuple[str, ...]) -> None:

@@ -138,6 +138,22 @@ class CascadeController:
     def describe(self) -> dict[str, Any]:
         return {"name": self.kind.value, "gains": asdict(self.gains)}
 
+    @property
+    def armed(self) -> bool:
+        """Whether it flies (its holds latched at the first update after the gate armed)."""
+        return self._armed
+
+    @property
+    def compiled_state(self) -> tuple[Any, Any, Any, Any]:
+        """Its gains, the mixer's rows, its state and its output, as `cascade_update` takes them
+        (quadsim.sim.clear_flight calls it with them)."""
+        return self._k, self._rows, self._s, self._out
+
+    @property
+    def last_forces(self) -> RotorForces:
+        """The rotor forces of its last update."""
+        return tuple(self._out.tolist()) if COMPILED else tuple(self._out)
+
     def reset(self) -> None:
         self._armed = False
         s = self._s
@@ -171,4 +187,4 @@ class CascadeController:
             r = matrix_from_quaternion(float_tuple(state.orientation_xyzw))
             wanted = float_tuple(wanted)
             self._update(self._k, self._rows, s, position, r, velocity, rates, wanted, height, hold, float(dt_s), out)
-        return tuple(out.tolist()) if COMPILED else tuple(out)
+        return self.last_forces

@@ -1,4 +1,5 @@
-"""Compiled arithmetic where numba is installed (the `fast` extra), plain Python where it is not.
+"""Compiled arithmetic where numba is installed (with quadsim, where it has wheels; the `fast`
+extra installs it too), plain Python where it is not.
 
 `jit` marks a function of floats, tuples of floats and float arrays as compilable: with numba,
 it is compiled to machine code on its first call (and cached on disk); without numba, or with
@@ -35,7 +36,7 @@ numba: Any
 NUMBA_PROBLEM: str | None = None
 try:
     import numba
-except Exception as exc:  # the `fast` extra is not installed, or numba is broken: everything runs as Python
+except Exception as exc:  # numba is not installed, or is broken: everything runs as Python
     numba = None
     if not (isinstance(exc, ImportError) and exc.name == "numba"):
         NUMBA_PROBLEM = f"{type(exc).__name__}: {exc}"
@@ -67,6 +68,8 @@ FLIGHT_CORE = (
     "vehicle/mixer.py",
     "vehicle/wrench.py",
     "control/cascade_step.py",
+    "control/landing.py",
+    "sim/clear_flight.py",
 )
 _PACKAGE = Path(__file__).resolve().parent.parent
 _digest: str | None = None
@@ -160,6 +163,17 @@ def float_tuple(values: Iterable[float]) -> Any:
     """`values` as a tuple of floats, as compiled functions take them, whatever sequence of numbers
     they came as (a list, integers)."""
     return tuple(float(v) for v in values)
+
+
+def typed_list(items: Iterable[Any]) -> Any:
+    """`items` (all of one type) as a list compiled functions take: numba's typed List when they
+    are compiled (one compile whatever its length, where a tuple's length is part of its type),
+    a list when they are Python. Slow to make (about 40 us an item): made once, changed by item."""
+    if COMPILED:
+        from numba.typed import List
+
+        return List(items)
+    return list(items)
 
 
 def table(rows: Iterable[Iterable[float]]) -> Any:

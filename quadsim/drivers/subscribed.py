@@ -37,6 +37,8 @@ class SubscribedDriver:
     """
 
     next_poll_step = NEVER
+    #: `next_poll_step` changes from another thread, at any moment: the loop looks at it every step
+    polled_anytime = True
 
     def __init__(self, name: str, topic: str = "/quad_cmd_twist", command_timeout_s: float | None = None) -> None:
         """`command_timeout_s`: hold after this long without a message (None: the input's own,

@@ -5,6 +5,7 @@ import quadsim.envs  # registers quadsim/Hover-v0 and quadsim/TowerVision-v0
 
 env = gym.make("quadsim/Hover-v0")
 observation, info = env.reset(seed=0)
+envs = gym.make_vec("quadsim/Hover-v0", num_envs=16)  # in one process (quadsim.envs.vector)
 """
 
 from __future__ import annotations
@@ -26,7 +27,10 @@ ENV_IDS = ("quadsim/Hover-v0", "quadsim/TowerVision-v0")
 
 if "quadsim/Hover-v0" not in gymnasium.registry:
     gymnasium.register(
-        "quadsim/Hover-v0", entry_point="quadsim.envs.quad:HoverEnv", max_episode_steps=HOVER_EPISODE_S * AGENT_HZ
+        "quadsim/Hover-v0",
+        entry_point="quadsim.envs.quad:HoverEnv",
+        vector_entry_point="quadsim.envs.vector:HoverVectorEnv",
+        max_episode_steps=HOVER_EPISODE_S * AGENT_HZ,
     )
     gymnasium.register(
         "quadsim/TowerVision-v0",

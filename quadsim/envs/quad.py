@@ -75,6 +75,7 @@ class QuadEnv(gym.Env):
         self._scale = ActionScale(self.sim.vehicle.limits)
         self.action_space: spaces.Box = spaces.Box(-1.0, 1.0, (4,), np.float32)
         self._view: Cameras | None = None
+        self._events_before = 0
 
     # --- what the subclasses say ----------------------------------------------------------
 
@@ -115,15 +116,27 @@ class QuadEnv(gym.Env):
 
     def step(self, action: Any) -> tuple[Any, float, bool, bool, dict[str, Any]]:
         self._check_open()
-        self.sim.send(self._scale.command(action))
-        events_before = len(self.sim.events)
-        state = self.sim.step(self.steps_per_action)
+        state = self.fly(self._scale.command(action))
+        reward, ended = self.judge(state)
+        return self._observe(state), reward, ended, False, self._info(state)
+
+    def fly(self, twist: Twist) -> VehicleState:
+        """The vehicle flown for one agent step under `twist` (the command an action stands for):
+        the state after it. What `step` does before judging it (a vector env does it for each of
+        its envs)."""
+        self.sim.send(twist)
+        self._events_before = len(self.sim.events)
+        return self.sim.step(self.steps_per_action)
+
+    def judge(self, state: VehicleState) -> tuple[float, bool]:
+        """The reward of the agent step that ended in `state`, and whether the episode ends
+        (the task done, a crash during the step, out of the arena, tipped over)."""
         reward, done = self._reward(state)
-        crashed = any(e.kind is EventKind.CRASH for e in self.sim.events[events_before:])
+        crashed = any(e.kind is EventKind.CRASH for e in self.sim.events[self._events_before :])
         failed = crashed or self.out_of_arena(state) or self.tipped_over(state)
         if failed:
             reward -= 10.0
-        return self._observe(state), reward, done or failed, False, self._info(state)
+        return reward, done or failed
 
     def _check_open(self) -> None:
         if self.sim.closed:
@@ -209,14 +222,17 @@ class ActionScale:
         self._up = np.array([v, v, limits.max_climb_rate_mps, yaw])
         self._down = np.array([v, v, limits.max_descent_rate_mps, yaw])
 
-    def twist_of(self, action: Any) -> np.ndarray:
+    def twist_of(self, action: Any, shape: tuple[int, ...] = (4,)) -> np.ndarray:
+        """The commands `action` stands for: forward, left, climb (m/s) and yaw rate (rad/s), in
+        an array of `shape` (a vector env's actions: (number of envs, 4))."""
         try:
             given = np.asarray(action)
         except (TypeError, ValueError):  # a ragged list
             given = np.array(None)
-        if given.shape != (4,) or given.dtype.kind not in "iuf":  # not None, text, complex or True
+        if given.shape != shape or given.dtype.kind not in "iuf":  # not None, text, complex or True
+            what = "an action is 4 real numbers" if shape == (4,) else f"actions are {shape[0]} rows of 4 real numbers"
             raise ValueError(
-                f"an action is 4 real numbers in [-1, 1] (forward, left, climb, yaw rate), shape (4,); got {_shown(action)}"
+                f"{what} in [-1, 1] (forward, left, climb, yaw rate), shape {shape}; got {_shown(action)}"
                 + (f" of shape {given.shape}" if given.ndim else "")
             )
         a = given.astype(np.float64)
@@ -226,12 +242,17 @@ class ActionScale:
         return np.where(a >= 0, a * self._up, a * self._down)
 
     def command(self, action: Any) -> Twist:
-        a = self.twist_of(action)
-        return Twist(linear_x=a[0], linear_y=a[1], linear_z=a[2], angular_z=a[3])
+        return twist_command(self.twist_of(action).tolist())
 
     def action_of(self, forward_mps: float, left_mps: float, climb_mps: float, yaw_rate_radps: float) -> np.ndarray:
         t = np.array([forward_mps, left_mps, climb_mps, yaw_rate_radps], np.float64)
         return np.clip(np.where(t >= 0, t / self._up, t / self._down), -1.0, 1.0).astype(np.float32)
+
+
+def twist_command(values: list[float]) -> Twist:
+    """The Twist of ActionScale.twist_of's four values (forward, left, climb, yaw rate)."""
+    forward, left, climb, yaw_rate = values
+    return Twist(linear_x=forward, linear_y=left, linear_z=climb, angular_z=yaw_rate)
 
 
 def hover_observation_space() -> spaces.Box:
@@ -247,26 +268,36 @@ def hover_observation_space() -> spaces.Box:
 
 
 def hover_observation(state: VehicleState, target_m: np.ndarray, space: spaces.Box) -> np.ndarray:
+    """The observation of `state` with the target `target_m`, clipped to `space` (Box(15))."""
+    return hover_observations([hover_observation_row(state, target_m)], space)[0]
+
+
+def hover_observation_row(state: VehicleState, target_m: Any) -> list[float]:
+    """An observation's 15 numbers, before clipping: position, velocity, roll, pitch, yaw, body
+    rates, target."""
     roll, pitch = state.roll_pitch_rad()
-    observation = np.array(
-        [
-            *state.position_m,
-            *state.linear_velocity_mps,
-            roll,
-            pitch,
-            state.yaw_rad(),
-            *state.angular_velocity_body_rps,
-            *target_m,
-        ],
-        np.float32,
-    )
-    return np.clip(observation, space.low, space.high)
+    return [
+        *state.position_m,
+        *state.linear_velocity_mps,
+        roll,
+        pitch,
+        state.yaw_rad(),
+        *state.angular_velocity_body_rps,
+        *target_m,
+    ]
 
 
-def hover_reward(state: VehicleState, target_m: np.ndarray) -> float:
+def hover_observations(rows: list[list[float]], space: spaces.Box) -> np.ndarray:
+    """Observations of several envs at once (one per row of hover_observation_row), as float32
+    clipped to `space`."""
+    return np.minimum(np.maximum(np.array(rows, np.float32), space.low), space.high)
+
+
+def hover_reward(state: VehicleState, target_m: Any) -> float:
     """Minus the distance to the target (m) and a little of the speed."""
-    distance = float(np.linalg.norm(np.asarray(state.position_m) - target_m))
-    return -distance - 0.1 * float(np.linalg.norm(state.linear_velocity_mps))
+    (x, y, z), (tx, ty, tz), (vx, vy, vz) = state.position_m, target_m, state.linear_velocity_mps
+    dx, dy, dz = x - tx, y - ty, z - tz
+    return -math.sqrt(dx * dx + dy * dy + dz * dz) - 0.1 * math.sqrt(vx * vx + vy * vy + vz * vz)
 
 
 class TowerVisionEnv(QuadEnv):

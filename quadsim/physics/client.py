@@ -50,6 +50,9 @@ class WorldClient:
         self.bodies: list[Any] = []
         #: the vehicles near another one this step, measured once for all at the first asking
         self.near_others: set[Any] | None = None
+        #: where each vehicle was when every pair was last measured, and half its slack then
+        #: (quadsim.physics.pybullet_world._near_others)
+        self.apart: dict[Any, tuple[Vec3, float]] = {}
 
     def posed(self) -> int:
         """The client, once every vehicle in it is where it flew to: a vehicle clear of

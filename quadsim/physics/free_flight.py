@@ -133,6 +133,15 @@ def free_flight_step(
     body[3], body[4], body[5], body[6] = -(nx / norm), -(ny / norm), -(nz / norm), nw / norm
 
 
+#: what `clear_step` takes first, the same every step: the airframe's constants, the hubs, the
+#: motors' thrusts, the wrench's output, the body's state, mass, inertia, gravity, the step, its
+#: inverse and base_link's offset from the inertial frame (PhysicsWorld._clear_constants)
+ClearConstants = tuple[
+    Floats, Sequence[Floats], MutableFloats, MutableFloats, MutableFloats, float, Floats, float, float, float,
+    tuple[float, float, float],
+]  # fmt: skip
+
+
 @jit
 def clear_step(
     c: Floats,

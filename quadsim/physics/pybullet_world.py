@@ -33,6 +33,10 @@ _SPAWN_CLEARANCE_M = 0.001
 _CONTACT_CLEARANCE_M = 0.5
 
 
+#: the clearance from other vehicles of a vehicle alone in its world
+_NOTHING_NEAR: tuple[Vec3, float] = ((0.0, 0.0, 0.0), math.inf)
+
+
 class Contact(NamedTuple):
     """The vehicle touching one other body after a physics step."""
 
@@ -40,19 +44,44 @@ class Contact(NamedTuple):
     normal_z: float  # world z of the contact normal, pointing at the vehicle (1: resting on it; 0: a wall)
 
 
-def _near_others(bodies: list[PhysicsWorld]) -> set[PhysicsWorld]:
-    """The vehicles among `bodies` that another one could reach within two steps: the bounding
-    spheres of the pair, at their speeds, less than the clearance apart (each pair once)."""
+def _near_others(client: WorldClient) -> set[PhysicsWorld]:
+    """The vehicles of `client`'s world that another one could reach within two steps: the
+    bounding spheres of a pair, at their speeds (1-norms), less than the clearance apart.
+
+    Every pair is measured only when needed: a measurement keeps, for each vehicle, where it was
+    and half its slack (the least gap to any other sphere, less the clearance). While every
+    vehicle has since moved less than its half slack, counting two steps ahead at its speed, no
+    pair can be that close (the gap of a pair shrinks by at most the two vehicles' moves, and
+    their half slacks add up to at most the gap): no vehicle is near, and no pair is looked at.
+    Otherwise every pair is measured again, as it was on every step before (the same set)."""
+    bodies, apart = client.bodies, client.apart
+    if len(apart) == len(bodies):
+        for body in bodies:
+            measured = apart.get(body)
+            if measured is None:
+                break
+            (x, y, z), (vx, vy, vz) = body._position, body._linear_velocity
+            (cx, cy, cz), slack = measured
+            if abs(x - cx) + abs(y - cy) + abs(z - cz) + 2.0 * body.dt_s * (abs(vx) + abs(vy) + abs(vz)) >= slack:
+                break
+        else:
+            return set()
     near: set[PhysicsWorld] = set()
     reach = [(b, b._position, sum(map(abs, b._linear_velocity)), b.reach_m) for b in bodies]
+    rooms = [math.inf] * len(reach)
     for i, (a, (x, y, z), speed, radius) in enumerate(reach):
         two_steps = 2.0 * a.dt_s
-        for b, (ox, oy, oz), other_speed, other_radius in reach[i + 1 :]:
-            apart = radius + other_radius + _CONTACT_CLEARANCE_M + two_steps * (speed + other_speed)
+        for j, (b, (ox, oy, oz), other_speed, other_radius) in enumerate(reach[i + 1 :], i + 1):
+            gap = radius + other_radius + _CONTACT_CLEARANCE_M
+            apart_m = gap + two_steps * (speed + other_speed)
             dx, dy, dz = x - ox, y - oy, z - oz
-            if dx * dx + dy * dy + dz * dz <= apart * apart:
+            squared = dx * dx + dy * dy + dz * dz
+            if squared <= apart_m * apart_m:
                 near.add(a)
                 near.add(b)
+            half = 0.5 * (math.sqrt(squared) - gap) - 1e-9  # rounding of the bound's terms
+            rooms[i], rooms[j] = min(rooms[i], half), min(rooms[j], half)
+    client.apart = {b: (position, room) for (b, position, _, _), room in zip(reach, rooms)}
     return near
 
 
@@ -329,12 +358,10 @@ class PhysicsWorld:
         if self._scenery is False:
             self._scenery = self._static_scenery()
             return self._clear_of_scenery()
-        (x, y, z), (vx, vy, vz) = self._position, self._linear_velocity
-        cx, cy, cz = self._clear_from
-        # two steps at this speed, plus (below) how far it went since the measurement (1-norms: never less)
-        ahead = 2.0 * self.dt_s * (abs(vx) + abs(vy) + abs(vz))
-        if abs(x - cx) + abs(y - cy) + abs(z - cz) + ahead < self._clear_slack_m:
+        if self._within_slack():
             return True
+        (x, y, z), (vx, vy, vz) = self._position, self._linear_velocity
+        ahead = 2.0 * self.dt_s * (abs(vx) + abs(vy) + abs(vz))
         planes, boxes = self._scenery  # type: ignore[misc]
         nearest = min((z - h for h in planes), default=math.inf)
         for (lx, ly, lz), (hx, hy, hz) in boxes:
@@ -344,13 +371,21 @@ class PhysicsWorld:
         self._clear_slack_m = nearest - self.reach_m - _CONTACT_CLEARANCE_M
         return ahead < self._clear_slack_m
 
+    def _within_slack(self) -> bool:
+        """Whether the vehicle is still within the clearance last measured: how far it went since
+        the measurement, plus two steps at its speed (1-norms: never less), short of the slack."""
+        (x, y, z), (vx, vy, vz) = self._position, self._linear_velocity
+        cx, cy, cz = self._clear_from
+        ahead = 2.0 * self.dt_s * (abs(vx) + abs(vy) + abs(vz))
+        return abs(x - cx) + abs(y - cy) + abs(z - cz) + ahead < self._clear_slack_m
+
     def _clear_of_others(self) -> bool:
         """True when no other vehicle of the world can reach this one within two steps: their
         bounding spheres, at their speeds, stay more than the clearance apart. Every pair of the
         world's vehicles is measured once a step, at the first vehicle's asking (`_near_others`)."""
         near = self.client.near_others
         if near is None:
-            near = self.client.near_others = _near_others(self.client.bodies)
+            near = self.client.near_others = _near_others(self.client)
         return self not in near
 
     def contacts(self) -> tuple[Contact, ...]:
@@ -478,6 +513,48 @@ class PhysicsWorld:
         pb.applyExternalTorque(body, -1, (tx, ty, tz), world, cid)
         return False
 
+    def _clear_flight(self) -> tuple[Any, ...] | None:
+        """What quadsim.sim.clear_flight.fly_clear takes of the body (`clear_flight_arguments`),
+        or None when it may not be flown that way now: quadsim does not step it, it is not alone
+        in its world, a wind blows on it, PyBullet holds its newer state, or the scenery's
+        clearance, as measured, does not cover its next step (a step by the loop measures it
+        again)."""
+        if (
+            not self._free
+            or self._wind is not None
+            or self._from_pybullet is not None
+            or self._reread
+            or not isinstance(self._scenery, tuple)
+            or not self._within_slack()
+        ):
+            return None
+        arguments = self.clear_flight_arguments
+        if self._others:  # every pair measured, and this vehicle within its slack of them
+            apart = arguments[3]
+            if len(self.client.apart) != len(self.client.bodies) or apart is _NOTHING_NEAR:
+                return None
+            (x, y, z), (vx, vy, vz) = self._position, self._linear_velocity
+            (cx, cy, cz), slack = apart
+            if abs(x - cx) + abs(y - cy) + abs(z - cz) + 2.0 * self.dt_s * (abs(vx) + abs(vy) + abs(vz)) >= slack:
+                return None
+        return arguments
+
+    @property
+    def clear_flight_arguments(self) -> tuple[Any, ...]:
+        """The body's step's constants, base_link's state, the clearance kept from the scenery and
+        the one from the other vehicles, as quadsim.sim.clear_flight takes them."""
+        apart = self.client.apart.get(self, _NOTHING_NEAR) if self._others else _NOTHING_NEAR
+        return self._clear_constants, self._kinematics, (self._clear_from, self._clear_slack_m), apart
+
+    def _flown_clear(self, kinematics: Any, previous: Vec3) -> None:
+        """After steps fly_clear took: base_link's state after them (`kinematics`, as
+        base_link_state gives it) and the velocity before the last one."""
+        self.client.near_others = None
+        self._previous_velocity = previous
+        self._flew_free = self._stale = True
+        self._after_step = kinematics
+        self._take_kinematics(kinematics)
+
     def _finish_step(self) -> None:
         """After the step: the vehicle's new pose and velocities."""
         self.client.near_others = None  # measured again for the next step
@@ -527,6 +604,7 @@ class PhysicsWorld:
 
     def _take_kinematics(self, kinematics: Any) -> None:
         """base_link's state as quadsim.physics.base_link.base_link_state gives it."""
+        self._kinematics = kinematics
         (
             self._position,
             self._orientation,

@@ -48,6 +48,8 @@ class ImuNoise:
     def reset(self) -> None:
         """Back to the start of the stream, biases zero."""
         self._rng = np.random.Generator(np.random.PCG64(self._seed))
+        #: the block of samples being used, as an array and as lists (faster to index from Python)
+        self._block = np.zeros((0, 12))
         self._samples: list[list[float]] = []
         self._next = 0
         self.gyro_bias_radps = (0.0, 0.0, 0.0)
@@ -56,7 +58,8 @@ class ImuNoise:
     def measure(self, state: VehicleState) -> VehicleState:
         """The state with its `imu` reading: true values plus bias plus white noise."""
         if self._next >= len(self._samples):
-            self._samples = (self._rng.standard_normal((_BLOCK, 12)) * self._scales).tolist()
+            self._block = self._rng.standard_normal((_BLOCK, 12)) * self._scales
+            self._samples = self._block.tolist()
             self._next = 0
         n = self._samples[self._next]
         self._next += 1
@@ -70,3 +73,17 @@ class ImuNoise:
             (f[0] + ab[0] + n[6], f[1] + ab[1] + n[7], f[2] + ab[2] + n[8]),
         )
         return state._replace(imu=reading)
+
+    @property
+    def walk(self) -> tuple[np.ndarray, int, tuple[float, float, float], tuple[float, float, float]]:
+        """Where the noise stands, for compiled steps that take its samples without a reading
+        (quadsim.sim.clear_flight): the block of samples, the next one's index in it, the gyro's
+        and the accelerometer's biases."""
+        return self._block, self._next, self.gyro_bias_radps, self.accel_bias_mps2
+
+    def walked(
+        self, next_sample: int, gyro_bias: tuple[float, float, float], accel_bias: tuple[float, float, float]
+    ) -> None:
+        """The samples up to `next_sample` of the block taken, and the biases they walked to."""
+        self._next = next_sample
+        self.gyro_bias_radps, self.accel_bias_mps2 = gyro_bias, accel_bias

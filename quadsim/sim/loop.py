@@ -16,24 +16,36 @@ Nothing here reads the wall clock; only a window paces these steps to real time.
 
 `run` does stages 1-2 (`before_physics`), 3 and 4-6 (`after_physics`) step after step; a fleet
 (quadsim.sim.fleet) does stages 1-2 for every vehicle, their steps (one PyBullet step of the
-world if any of them needs it), then 4-6 for every vehicle.
+world if any of them needs it), then 4-6 for every vehicle. Where the steps up to the next
+moment the loop acts in Python (a poll, a state published, a tap, the dead-man firing) are only
+stage 2's cascade and stage 3's own step of a flying vehicle, alone and clear of everything,
+`run` takes them in one compiled call (quadsim.sim.clear_flight), the same arithmetic to the
+bit, and then stages 5-6 for the last of them.
 """
 
 from __future__ import annotations
 
 from collections.abc import Callable
-from typing import Protocol
+from typing import Any, Protocol
+
+import numpy as np
 
 from quadsim.control import Controller
+from quadsim.control.cascade import CascadeController
 from quadsim.control.gate import CommandGate
 from quadsim.control.landing import FlightPhase, LandingLayer, LandingSettings
-from quadsim.core.types import RotorForces, Twist, VehicleState
+from quadsim.core.compiled import specialize
+from quadsim.core.types import RotorForces, Twist, VehicleState, ZMode
 from quadsim.drivers import InputDriver
 from quadsim.errors import ConfigError
 from quadsim.physics.pybullet_world import PhysicsWorld
 from quadsim.sensors.imu import ImuNoise
+from quadsim.sim.clear_flight import fly_clear
 from quadsim.sim.config import Rates
 from quadsim.sim.flight_events import WALL_NORMAL_Z, ContactMonitor, EventKind, FlightEvent
+
+#: the IMU noise's walk in compiled steps without an IMU (quadsim.sensors.imu.ImuNoise.walk)
+_NO_WALK = (np.zeros((0, 12)), 0, (0.0, 0.0, 0.0), (0.0, 0.0, 0.0))
 
 
 class Sink(Protocol):
@@ -104,6 +116,15 @@ class SimLoop:
         self._control_dt_s = 1.0 / rates.control_hz
         self._idle: RotorForces = (0.0,) * len(physics.vehicle.rotors)
         self._rotor_command = self._idle
+        #: fly_clear made for this vehicle's arguments, now: a first compile is waited for while
+        #: the run is built (and said), not in the middle of its flight
+        self._fly_clear: Any = fly_clear
+        if type(controller) is CascadeController:
+            command, landing, cascade, constants, kinematics, clearance, _, imu, walk = self.quiet_vehicle(
+                physics.clear_flight_arguments
+            )
+            sample = (0, command, landing, cascade, constants, kinematics, clearance, (imu, 0, 1), walk)
+            self._fly_clear = specialize(fly_clear, *sample)
 
     @property
     def controller(self) -> Controller:
@@ -181,31 +202,131 @@ class SimLoop:
 
     def run(self, steps: int) -> None:
         """Advance `steps` physics steps (see the module docstring for the order)."""
-        physics, before, after = self.physics, self.before_physics, self.after_physics
+        physics, after = self.physics, self.after_physics
         # the state after a step is built once, only if someone takes it: the sinks and taps of
         # that step, then the controller at the start of the next one (nothing moves in between)
         state: VehicleState | None = None
-        for _ in range(steps):
-            physics._step(before(state))
+        while steps > 0:
+            self._take_input()
+            quiet = self._quiet_steps(steps)
+            if quiet:
+                flown = self._fly_quiet_steps(quiet)
+                if flown:
+                    steps -= flown
+                    state = self._publish(self.step_count) if self.sinks or self._taps else None
+                    continue
+            physics._step(self._control(state))
             state = after()
+            steps -= 1
+
+    def _quiet_steps(self, steps: int) -> int:
+        """How many of the next `steps` steps, the driver polled for this one, do nothing in
+        Python but the cascade's update and the body's own step: the vehicle flying, armed and
+        off the ground, with no poll, no state to publish, no tap and no dead-man firing before
+        the last of them (0: not now)."""
+        landing, n = self.landing, self.step_count
+        if (
+            self._control_every != 1
+            or landing.phase is not FlightPhase.FLYING
+            or self._on_ground
+            or self.contact_monitor.touching
+            or type(landing.controller) is not CascadeController
+            or not landing.controller.armed
+        ):
+            return 0
+        last = self.gate.last_receive_step
+        if last is None:
+            return 0
+        quiet = steps
+        driver = self.driver
+        if driver is not None:
+            if getattr(driver, "polled_anytime", False):
+                return 0
+            quiet = min(quiet, self._input_every - n % self._input_every, max(driver.next_poll_step - n, 1))
+        timeout = self.gate.timeout_steps
+        if timeout is not None and n - last <= timeout:
+            quiet = min(quiet, last + timeout + 1 - n)  # the hold starts at that step
+        # where a state is published; with no one to take it, the IMU noise walks in the compiled steps
+        if self.sinks or (self._taps and self.imu is not None):
+            quiet = min(quiet, self._state_every - n % self._state_every)
+        for every, _ in self._taps:
+            quiet = min(quiet, every - n % every)
+        return quiet
+
+    def _fly_quiet_steps(self, quiet: int) -> int:
+        """Up to `quiet` steps in one compiled call (quadsim.sim.clear_flight), if the vehicle is
+        alone and clear of everything; the steps taken (it stops where the clearance ends)."""
+        physics = self.physics
+        body = physics._clear_flight()
+        if body is None or physics._others:  # a fleet's vehicles fly their quiet steps together (Fleet.step)
+            return 0
+        command, landing, cascade, constants, kinematics, clearance, _, imu, walk = self.quiet_vehicle(body)
+        sampling = (imu, self.step_count, self._state_every)
+        flown, kinematics, previous, (_, *walked) = self._fly_clear(
+            quiet, command, landing, cascade, constants, kinematics, clearance, sampling, walk
+        )
+        if flown:
+            self.took_quiet_steps(flown, kinematics, previous, walked)
+        return flown
+
+    def quiet_vehicle(self, body: tuple[Any, ...]) -> tuple[Any, ...]:
+        """What the compiled quiet steps take of this vehicle (quadsim.sim.clear_flight), `body`
+        being its PhysicsWorld's clear_flight_arguments: the gate's command now, the landing
+        layer's numbers, the cascade's state and step, the body's constants, base_link's state,
+        the clearances from the scenery and from the other vehicles, whether the IMU noise walks
+        in them (no one takes its readings: no sink, no tap) and its walk."""
+        command = self.gate.active(self.step_count)
+        tw = command.twist
+        twist = (float(tw.linear_x), float(tw.linear_y), float(tw.linear_z), float(tw.angular_z))
+        cascade: CascadeController = self.landing.controller  # type: ignore[assignment]
+        imu = self.imu if not (self.sinks or self._taps) else None  # else the loop samples it as it publishes
+        return (
+            (twist, command.z_mode is ZMode.HEIGHT, command.hold), self.landing.numbers,
+            (*cascade.compiled_state, self._control_dt_s), *body, imu is not None,
+            _NO_WALK if imu is None else imu.walk,
+        )  # fmt: skip
+
+    def took_quiet_steps(self, flown: int, kinematics: Any, previous: Any, walked: Any) -> None:
+        """After `flown` compiled quiet steps: base_link's state after them, the velocity before
+        the last one, and the IMU noise's walk (its next sample and biases, if it walked)."""
+        self.physics._flown_clear(kinematics, previous)
+        self.step_count += flown
+        cascade: CascadeController = self.landing.controller  # type: ignore[assignment]
+        self._rotor_command = cascade.last_forces
+        if self.imu is not None and not (self.sinks or self._taps):
+            next_sample, gyro_bias, accel_bias = walked
+            self.imu.walked(int(next_sample), tuple(gyro_bias), tuple(accel_bias))
 
     def before_physics(self, state: VehicleState | None = None) -> RotorForces:
         """Stages 1 and 2 at step n (the step count): the driver's input, then the control
         update; the rotor forces to apply in this step. `state`: the vehicle's state at n if the
         last `after_physics` built it."""
-        n, driver, gate = self.step_count, self.driver, self.gate
+        self._take_input()
+        return self._control(state)
+
+    def _take_input(self) -> None:
+        """Stage 1 at step n: the driver polled, if due, and the gate takes its command."""
+        n, driver = self.step_count, self.driver
         if driver is not None and (n % self._input_every == 0 or n >= driver.next_poll_step):
             twist = driver.poll(n, n / self.rates.physics_hz)
             if twist is not None:
-                accepted = gate.receive(twist, n)
+                accepted = self.gate.receive(twist, n)
                 if accepted is not None:
                     for sink in self.sinks:
                         sink.on_command(n, accepted)
+
+    def _control(self, state: VehicleState | None) -> RotorForces:
+        """Stage 2 at step n: the landing layer and the controller's rotor forces, if a control
+        step (take-off and landed events at n)."""
+        n = self.step_count
         if n % self._control_every == 0:
             landing = self.landing
             phase = landing.phase
             self._rotor_command = landing.update(
-                self.physics.state(n) if state is None else state, gate.active(n), self._on_ground, self._control_dt_s
+                self.physics.state(n) if state is None else state,
+                self.gate.active(n),
+                self._on_ground,
+                self._control_dt_s,
             )
             if landing.phase is not phase:
                 if landing.phase is FlightPhase.FLYING:
@@ -218,10 +339,15 @@ class SimLoop:
         """Stages 4 to 6, once the physics has stepped: the step count moves on to n + 1, then
         contacts, publishing and taps. The state at n + 1 if one was built (None otherwise)."""
         n = self.step_count = self.step_count + 1
-        physics = self.physics
-        state: VehicleState | None = None
         if self._after_contact(n):
             self._rotor_command = self._idle
+        return self._publish(n)
+
+    def _publish(self, n: int) -> VehicleState | None:
+        """Stages 5 and 6 at step count `n`: the IMU's sample and the sinks at the state rate,
+        the taps at theirs. The state at `n` if one was built (None otherwise)."""
+        physics = self.physics
+        state: VehicleState | None = None
         if n % self._state_every == 0:
             if self.imu is not None:
                 state = self.imu.measure(physics.state(n))

@@ -182,6 +182,22 @@ def test_outputs_where_nothing_can_be_written(capsys, tmp_path):
     assert_one_line_error(code, err, "too long")
 
 
+def test_a_recording_that_exists_is_refused_before_anything_is_built(capsys, monkeypatch, tmp_path):
+    """Refused in one line before the world and the vehicle are built (a first compile of the
+    flight core, said and waited for, came before the refusal)."""
+    import quadsim.sim.fleet
+
+    def built(*args, **kwargs):
+        raise AssertionError("the vehicle was built before the refusal")
+
+    monkeypatch.setattr(quadsim.sim.fleet, "Drone", built)
+    existing = tmp_path / "taken.mcap"
+    existing.write_bytes(b"mine")
+    code, _, err = run_cli(capsys, "run", "--script", "hover", "--cameras", "none", "--out", str(existing))
+    assert_one_line_error(code, err, f"{existing} already exists; choose another --out")
+    assert existing.read_bytes() == b"mine"
+
+
 def test_fly_gui_without_a_display(capsys, monkeypatch):
     monkeypatch.delenv("DISPLAY", raising=False)
     monkeypatch.delenv("WAYLAND_DISPLAY", raising=False)

@@ -259,3 +259,54 @@ def test_a_vehicle_moved_from_outside_flies_on_from_there():
             ends[physics] = sim.state.position_m
     assert math.dist(ends["quadsim"], ends["pybullet"]) < 1e-9, ends
     assert math.dist(ends["quadsim"], (5.0, -4.0, 3.0)) > 1.0  # it did fly on
+
+
+def _near_by_every_pair(bodies) -> set:
+    """The vehicles another one could reach within two steps, every pair measured (as the
+    physics did on every step before it kept a slack)."""
+    near = set()
+    for i, a in enumerate(bodies):
+        for b in bodies[i + 1 :]:
+            speeds = sum(map(abs, a._linear_velocity)) + sum(map(abs, b._linear_velocity))
+            apart = a.reach_m + b.reach_m + 0.5 + 2.0 * a.dt_s * speeds
+            if math.dist(a._position, b._position) <= apart:
+                near |= {a, b}
+    return near
+
+
+def test_vehicles_near_each_other_are_found_as_if_every_pair_were_measured_every_step():
+    """Two vehicles flown into each other, a third hovering apart until it is put beside one of
+    them: on every step the vehicles found near another are those that measuring every pair
+    finds, while most steps measure no pair at all (the slack kept from the last measurement)."""
+    from quadsim.physics.pybullet_world import _near_others
+
+    vehicles = [
+        FleetVehicle("alpha", start=StartPose(-1.5, 0.0)),
+        FleetVehicle("bravo", start=StartPose(1.5, 0.0, math.pi)),
+        FleetVehicle("charlie", start=StartPose(0.0, 6.0)),
+    ]
+    with Fleet(vehicles, SimConfig(z_mode=ZMode.HEIGHT)) as fleet:
+        client = fleet.client
+        for name in fleet:
+            fleet[name].send(Twist())
+        plan = [(720, None), (960, Twist(linear_x=2.0)), (240, "place"), (240, None)]
+        found, measured, steps = [], 0, 0
+        for count, what in plan:
+            if what == "place":  # beside alpha, wherever alpha went: a jump, not a flight
+                x, y, z = fleet["alpha"].physics.pose[0]
+                fleet["charlie"].physics.place((x, y + 0.6, z))
+                placed_at = len(found)
+            elif what is not None:
+                fleet["alpha"].send(what)
+                fleet["bravo"].send(what)
+            for _ in range(count):
+                fleet.step(1)
+                before = client.apart
+                near = _near_others(client)
+                measured += client.apart is not before
+                steps += 1
+                assert near == _near_by_every_pair(client.bodies), fleet.step_count
+                found.append(len(near))
+        assert max(found[:placed_at]) == 2 and found[placed_at] >= 2, found  # the collision; charlie beside alpha
+        assert measured < steps / 2, (measured, steps)  # hovering apart, no pair is measured
+        assert any(e.kind.value == "crash" for e in fleet["alpha"].events), fleet["alpha"].events

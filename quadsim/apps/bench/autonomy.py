@@ -5,7 +5,9 @@
 - PIPELINED: how old the newest frame is when code reads it, with the simulation paced to real
   time (as a live robot program would be), in ms of simulation time;
 - the Gymnasium environments (with the `gym` extra): env steps per second at the 30 Hz agent
-  rate, one env and gymnasium.make_vec over two processes, random actions;
+  rate, one env and gymnasium.make_vec over two processes, random actions; Hover-v0's vector env
+  in one process (make_vec's default) of 1, 16 and 64 envs against one env, random actions and a
+  policy holding a climb;
 - beside them, the peers' hover envs (PyFlyt's QuadX-Hover, gym-pybullet-drones' HoverAviary)
   timed by the same loop in their own processes, where they are installed (quadsim.apps.bench.peers).
 """
@@ -128,6 +130,67 @@ def env_steps_per_s(env_id: str, num_envs: int, steps: int = 300) -> float:
     return float(np.float64(steps * num_envs / elapsed))
 
 
+#: the vector env sizes the bench measures (0: one env, gymnasium.make)
+VECTOR_SIZES = (0, 1, 16, 64)
+
+
+def vector_rates(steps: int = 150) -> dict[tuple[str, int], float]:
+    """Hover-v0's env steps per second (summed over the envs) for one env (gymnasium.make) and
+    the vector env in one process (make_vec's default: quadsim.envs.vector) of 1, 16 and 64
+    envs, under two policies: random actions (the vehicles stay on or near the floor, where
+    PyBullet steps them) and holding a slow climb (in flight, clear of everything). Each
+    episode's own resets included."""
+    import gymnasium as gym
+    import numpy as np
+
+    import quadsim.envs  # noqa: F401 - registers the environments
+
+    rates: dict[tuple[str, int], float] = {}
+    warm = gym.make("quadsim/Hover-v0")  # the flight core loaded and made for an env's arguments
+    warm.reset(seed=0)
+    for _ in range(60):
+        warm.step(np.array([0.1, 0.0, 0.3, 0.1], np.float32))
+    warm.close()
+    for policy in ("random", "climbing"):
+        for num_envs in VECTOR_SIZES:
+            one = num_envs == 0
+            envs = gym.make("quadsim/Hover-v0") if one else gym.make_vec("quadsim/Hover-v0", num_envs=num_envs)
+            rng = np.random.default_rng(0)
+            shape = (4,) if one else (num_envs, 4)
+            climbing = np.broadcast_to(np.array([0.1, 0.0, 0.3, 0.1], np.float32), shape)
+            actions = [
+                rng.uniform(-1, 1, shape).astype(np.float32) if policy == "random" else climbing for _ in range(steps)
+            ]
+            envs.reset(seed=0)
+            for action in actions[:30]:  # in the air, for the climbing policy
+                envs.step(action)
+            start = time.perf_counter()
+            for action in actions:
+                result = envs.step(action)
+                if one and (result[2] or result[3]):
+                    envs.reset()
+            rates[policy, num_envs] = steps * max(num_envs, 1) / (time.perf_counter() - start)
+            envs.close()
+    return rates
+
+
+def vector_lines() -> list[str]:
+    """The vector env's rates against one env's, measured in the same run, and issue 33's target."""
+    rates = vector_rates()
+    lines = [f"  Hover-v0, one process{'':31s}{'env steps/s':>12s} {'x one env':>10s}"]
+    for policy in ("random", "climbing"):
+        for num_envs in VECTOR_SIZES:
+            how = "one env (make)" if num_envs == 0 else f"vector env, {num_envs} envs (make_vec)"
+            ratio = rates[policy, num_envs] / rates[policy, 0]
+            lines.append(f"  {policy + ' actions':16s} {how:34s} {rates[policy, num_envs]:12.0f} {ratio:9.2f}x")
+    sixteen = rates["climbing", 16] / rates["climbing", 0]
+    lines.append(
+        f"  target: a vector env of 16 >= 5x one env's steps/s [{'met' if sixteen >= 5 else 'MISSED'}: "
+        f"{sixteen:.2f}x climbing, {rates['random', 16] / rates['random', 0]:.2f}x random]"
+    )
+    return lines
+
+
 def peer_lines(quadsim_hover: SteppingTimes, agent_hz: int = 30) -> list[str]:
     """The peers' hover envs at `agent_hz` (and at their own default rate where it differs), each
     against quadsim's Hover-v0 measured in this run, or why a peer is not measured."""
@@ -197,5 +260,7 @@ def run_autonomy_bench(out: Callable[[str], None] = print) -> None:
             )
             how = "one env" if num_envs == 1 else "make_vec, 2 processes"
             out(f"  {what:16s} {how:22s}        {rate:12.0f} {rate / 30:11.1f}x")
+    for line in vector_lines():
+        out(line)
     for line in peer_lines(hover):
         out(line)

@@ -17,7 +17,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         "bench",
         description="Benchmark. Every figure is given as steps/s, real-time factor and a ratio to a "
         "baseline measured in the same run, the best of several runs. The first two lines say the machine's load and "
-        "whether the flight core is compiled (the fast extra: numba).",
+        "whether the flight core is compiled (numba, installed with quadsim where it has wheels).",
     )
     p.add_argument(
         "--steps",

@@ -1,0 +1,118 @@
+"""quadsim/Hover-v0's vector env (quadsim.envs.vector) against gymnasium's own SyncVectorEnv over
+the same envs: the same observations, rewards, ends and infos, bit for bit, through episodes that
+end (crashes, the time limit), next-step autoresets, seeds given as a number, a list or not at
+all, and partial resets; and what it refuses."""
+
+from __future__ import annotations
+
+import math
+
+import gymnasium as gym
+import numpy as np
+import pytest
+
+import quadsim.envs  # noqa: F401 - registers the envs
+from quadsim.envs.vector import HoverVectorEnv
+from quadsim.physics.wind import Turbulence, WindSettings
+
+
+def _pair(num_envs: int, **kwargs):
+    ours = gym.make_vec("quadsim/Hover-v0", num_envs=num_envs, **kwargs)
+    theirs = gym.make_vec("quadsim/Hover-v0", num_envs=num_envs, vectorization_mode="sync", **kwargs)
+    return ours, theirs
+
+
+def _same(ours, theirs) -> None:
+    for a, b in zip(ours[:-1], theirs[:-1]):
+        np.testing.assert_array_equal(a, b)
+    for key in ("step", "position_m"):
+        mask = theirs[-1][f"_{key}"]
+        np.testing.assert_array_equal(ours[-1][f"_{key}"], mask)
+        np.testing.assert_array_equal(ours[-1][key][mask], theirs[-1][key][mask])
+
+
+def test_make_vec_builds_it_and_each_env_flies_as_gymnasiums_sync_vector_env_would():
+    """Four envs, 600 steps: two flown out of the arena at full speed (their episodes end), two
+    wandering until a short time limit truncates theirs: everything the same, to the bit."""
+    ours, theirs = _pair(4, max_episode_steps=200)
+    try:
+        assert isinstance(ours.unwrapped, HoverVectorEnv)
+        assert ours.observation_space == theirs.observation_space and ours.action_space == theirs.action_space
+        _same(ours.reset(seed=7), theirs.reset(seed=7))
+        rng = np.random.default_rng(5)
+        ends = truncated = 0
+        for step in range(600):
+            actions = np.clip(rng.normal([0.0, 0.0, 0.6 if step % 90 < 40 else -0.8, 0.0], 0.7, (4, 4)), -1, 1)
+            actions[:2] = (1.0, 0.2, 0.4, 0.0)  # straight out of the arena
+            result, reference = ours.step(actions.astype(np.float32)), theirs.step(actions.astype(np.float32))
+            _same(result, reference)
+            ends += int(result[2].sum())
+            truncated += int(result[3].sum())
+        assert ends >= 1 and truncated >= 1, (ends, truncated)  # both kinds of end, and the resets after them
+    finally:
+        ours.close()
+        theirs.close()
+
+
+def test_seeds_as_a_list_or_none_and_a_partial_reset():
+    ours, theirs = _pair(3)
+    try:
+        mixed, reference = ours.reset(seed=[11, None, 13])[0], theirs.reset(seed=[11, None, 13])[0]
+        np.testing.assert_array_equal(mixed[[0, 2]], reference[[0, 2]])  # None: a start drawn anew
+        ours.reset(seed=[1, 2, 3])
+        theirs.reset(seed=[1, 2, 3])
+        actions = np.tile(np.array([0.3, 0.0, 0.5, 0.2], np.float32), (3, 1))
+        for _ in range(20):
+            _same(ours.step(actions), theirs.step(actions))
+        mask = np.array([False, True, False])
+        _same(ours.reset(options={"reset_mask": mask}), theirs.reset(options={"reset_mask": mask.copy()}))
+        for _ in range(20):
+            _same(ours.step(actions), theirs.step(actions))
+        first, _ = ours.reset(seed=4)
+        again, _ = ours.reset(seed=4)
+        np.testing.assert_array_equal(first, again)
+    finally:
+        ours.close()
+        theirs.close()
+
+
+def test_a_wind_for_every_env_each_with_its_own_gusts():
+    wind = WindSettings(3.0, 90.0, Turbulence.MODERATE)
+    ours, theirs = _pair(2, wind=wind)
+    try:
+        _same(ours.reset(seed=2), theirs.reset(seed=2))
+        actions = np.tile(np.array([0.0, 0.0, 0.6, 0.0], np.float32), (2, 1))
+        for _ in range(60):
+            result = ours.step(actions)
+            _same(result, theirs.step(actions))
+        assert not np.array_equal(result[0][0, :3], result[0][1, :3])
+    finally:
+        ours.close()
+        theirs.close()
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "said"),
+    [
+        ({"num_envs": 0}, "num_envs must be a whole number of at least 1"),
+        ({"num_envs": 2, "render_mode": "rgb_array"}, "does not render"),
+        ({"num_envs": 2, "controller": object()}, "a controller of your own flies one vehicle"),
+    ],
+)
+def test_what_it_refuses_is_said_in_one_line(kwargs, said):
+    with pytest.raises(ValueError, match=said):
+        HoverVectorEnv(**kwargs)
+
+
+def test_actions_of_the_wrong_shape_or_not_finite_are_refused():
+    envs = HoverVectorEnv(2)
+    try:
+        envs.reset(seed=0)
+        with pytest.raises(ValueError, match=r"actions are 2 rows of 4 real numbers .* shape \(2, 4\)"):
+            envs.step(np.zeros(4, np.float32))
+        with pytest.raises(ValueError, match="finite"):
+            envs.step(np.array([[0, 0, 0, 0], [0, math.nan, 0, 0]], np.float32))
+        observations, *_ = envs.step(np.zeros((2, 4), np.float32))  # and it still steps
+        assert observations.shape == (2, 15)
+    finally:
+        envs.close()
