@@ -22,7 +22,8 @@ from pathlib import Path
 #: the clone's own entry script, beside the package folder
 CLONE_ENTRY = "main.py"
 #: the modules of the runtime dependencies (pyproject.toml's `dependencies`, by import name;
-#: tests/unit/test_invocation.py keeps the two lists alike)
+#: tests/unit/test_invocation.py keeps the two lists alike), less those a run does without
+#: (OPTIONAL_AT_RUN_TIME)
 RUNTIME_MODULES = (
     "pybullet",
     "numpy",
@@ -35,6 +36,9 @@ RUNTIME_MODULES = (
     "pygame",
     *(("tomli",) if sys.version_info < (3, 11) else ()),
 )
+#: dependencies a run does without: numba (installed where it has wheels; without it the flight
+#: core runs as plain Python, the same to the bit: quadsim.core.compiled)
+OPTIONAL_AT_RUN_TIME = ("numba",)
 
 
 def source_tree() -> Path | None:

@@ -14,7 +14,7 @@ import pytest
 
 from quadsim.apps.cli import main
 from quadsim.core import invocation
-from quadsim.core.invocation import RUNTIME_MODULES, install_extra, program
+from quadsim.core.invocation import OPTIONAL_AT_RUN_TIME, RUNTIME_MODULES, install_extra, program
 from tests.helpers import ROOT
 
 
@@ -30,7 +30,8 @@ def clone(tmp_path) -> Path:
 
 
 def test_the_dependency_list_is_pyprojects():
-    """RUNTIME_MODULES names a module of every runtime dependency pyproject.toml lists, and no other."""
+    """RUNTIME_MODULES names a module of every runtime dependency pyproject.toml lists, and no
+    other, but those a run does without (OPTIONAL_AT_RUN_TIME)."""
     try:
         import tomllib
     except ImportError:  # Python 3.10
@@ -40,7 +41,8 @@ def test_the_dependency_list_is_pyprojects():
         re.split(r"[<>=;\[ ]", d, maxsplit=1)[0].lower().replace("_", "-")
         for d in declared
         if "python_version < '3.11'" not in d or sys.version_info < (3, 11)
-    }
+    } - set(OPTIONAL_AT_RUN_TIME)
+    assert set(OPTIONAL_AT_RUN_TIME) <= {re.split(r"[<>=;\[ ]", d, maxsplit=1)[0].lower() for d in declared}
     distributions = packages_distributions()
     found = {dist.lower().replace("_", "-") for name in RUNTIME_MODULES for dist in distributions.get(name, [])}
     assert found == wanted
