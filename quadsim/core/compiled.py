@@ -168,12 +168,39 @@ def float_tuple(values: Iterable[float]) -> Any:
 def typed_list(items: Iterable[Any]) -> Any:
     """`items` (all of one type) as a list compiled functions take: numba's typed List when they
     are compiled (one compile whatever its length, where a tuple's length is part of its type),
-    a list when they are Python. Slow to make (about 40 us an item): made once, changed by item."""
-    if COMPILED:
-        from numba.typed import List
+    a list when they are Python. Made and changed (`set_item`) by compiled functions of its own,
+    cached like the rest: a typed List's own methods, called from Python, compile anew in every
+    process (0.9 s)."""
+    listed = list(items)
+    if not COMPILED:
+        return listed
+    typed = _typed_list(listed[0])
+    for item in listed[1:]:
+        _append(typed, item)
+    return typed
 
-        return List(items)
-    return list(items)
+
+def set_item(items: Any, index: int, item: Any) -> None:
+    """items[index] = item, for a `typed_list`."""
+    if COMPILED:
+        _set_item(items, index, item)
+    else:
+        items[index] = item
+
+
+if COMPILED:
+    from numba.typed import List as _List
+
+    def _typed_list_of(item: Any) -> Any:
+        items = _List()
+        items.append(item)
+        return items
+
+    def _append_to(items: Any, item: Any) -> None:
+        items.append(item)
+
+    def _set_item_of(items: Any, index: int, item: Any) -> None:
+        items[index] = item
 
 
 def table(rows: Iterable[Iterable[float]]) -> Any:
@@ -184,3 +211,9 @@ def table(rows: Iterable[Iterable[float]]) -> Any:
 
         return np.array([[float(v) for v in row] for row in rows], dtype=np.float64)
     return [[float(v) for v in row] for row in rows]
+
+
+if COMPILED:
+    _typed_list = jit(_typed_list_of)
+    _append = jit(_append_to)
+    _set_item = jit(_set_item_of)

@@ -20,7 +20,7 @@ import numpy as np
 
 from quadsim.control.cascade_step import cascade_update
 from quadsim.control.landing import landing_command
-from quadsim.core.compiled import Floats, jit, specialize, typed_list
+from quadsim.core.compiled import Floats, jit, set_item, specialize, typed_list
 from quadsim.physics.free_flight import ClearConstants, clear_step
 
 #: the command the cascade takes while the dead-man holds (quadsim.control.cascade)
@@ -203,7 +203,7 @@ class QuietFleet:
             samples, next_sample, gyro_bias, accel_bias = walk
             made = self._made[i]
             if made[0] is not loop.landing.controller or made[1] is not samples:
-                self._vehicles[i] = (landing, cascade, constants, samples, self._now[i])
+                set_item(self._vehicles, i, (landing, cascade, constants, samples, self._now[i]))
                 self._made[i] = (loop.landing.controller, samples)
             position, orientation, velocity, spin, (r0, r1, r2), rates, specific = kinematics
             self._now[i][:] = (
