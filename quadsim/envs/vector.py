@@ -7,7 +7,7 @@
 Each of its envs is a HoverEnv (quadsim.envs.quad), flown and judged by HoverEnv's own methods,
 so env i flies exactly as `gymnasium.make("quadsim/Hover-v0")` reset with seed + i would, step
 for step and bit for bit (what gymnasium's SyncVectorEnv over those envs gives:
-tests/test_envs_vector.py). What it saves is the rest: one call for all the actions' scaling,
+tests/integration/test_envs_vector.py). What it saves is the rest: one call for all the actions' scaling,
 no wrappers around each env, the observations and infos gathered into arrays once. Most of an
 env step is its vehicle's flight, compiled where the vehicle is clear of everything
 (quadsim.sim.clear_flight); the envs are stepped one after another on this process's core
