@@ -58,11 +58,7 @@ def _near_others(client: WorldClient) -> set[PhysicsWorld]:
     if len(apart) == len(bodies):
         for body in bodies:
             measured = apart.get(body)
-            if measured is None:
-                break
-            (x, y, z), (vx, vy, vz) = body._position, body._linear_velocity
-            (cx, cy, cz), slack = measured
-            if abs(x - cx) + abs(y - cy) + abs(z - cz) + 2.0 * body.dt_s * (abs(vx) + abs(vy) + abs(vz)) >= slack:
+            if measured is None or not body._within_slack(measured):
                 break
         else:
             return set()
@@ -371,13 +367,15 @@ class PhysicsWorld:
         self._clear_slack_m = nearest - self.reach_m - _CONTACT_CLEARANCE_M
         return ahead < self._clear_slack_m
 
-    def _within_slack(self) -> bool:
-        """Whether the vehicle is still within the clearance last measured: how far it went since
-        the measurement, plus two steps at its speed (1-norms: never less), short of the slack."""
+    def _within_slack(self, clearance: tuple[Vec3, float] | None = None) -> bool:
+        """Whether the vehicle is still within a clearance measured before (where it was, and the
+        slack then; default: the scenery's, last measured): how far it went since, plus two steps
+        at its speed (1-norms: never less), short of the slack. (quadsim.sim.clear_flight.within
+        is the same test, compiled.)"""
         (x, y, z), (vx, vy, vz) = self._position, self._linear_velocity
-        cx, cy, cz = self._clear_from
+        (cx, cy, cz), slack = (self._clear_from, self._clear_slack_m) if clearance is None else clearance
         ahead = 2.0 * self.dt_s * (abs(vx) + abs(vy) + abs(vz))
-        return abs(x - cx) + abs(y - cy) + abs(z - cz) + ahead < self._clear_slack_m
+        return abs(x - cx) + abs(y - cy) + abs(z - cz) + ahead < slack
 
     def _clear_of_others(self) -> bool:
         """True when no other vehicle of the world can reach this one within two steps: their
@@ -533,9 +531,7 @@ class PhysicsWorld:
             apart = arguments[3]
             if len(self.client.apart) != len(self.client.bodies) or apart is _NOTHING_NEAR:
                 return None
-            (x, y, z), (vx, vy, vz) = self._position, self._linear_velocity
-            (cx, cy, cz), slack = apart
-            if abs(x - cx) + abs(y - cy) + abs(z - cz) + 2.0 * self.dt_s * (abs(vx) + abs(vy) + abs(vz)) >= slack:
+            if not self._within_slack(apart):
                 return None
         return arguments
 
