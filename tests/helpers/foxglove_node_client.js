@@ -4,6 +4,10 @@
 // publishes Twists on /quad_cmd_twist in CDR, and prints one JSON report on stdout.
 //
 //   NODE_PATH=<cache>/node_modules node foxglove_node_client.js ws://127.0.0.1:8765 LISTEN_S PUBLISH_S LX,LY,LZ,AZ
+//
+// LISTEN_S and PUBLISH_S are simulated time: the odometry's timestamps from the first one on (a
+// client timed by the wall clock flies less when the simulation falls behind on a busy machine).
+// It gives up after WALL_LIMIT_S on the wall clock all the same.
 
 "use strict";
 const { FoxgloveClient } = require("@foxglove/ws-protocol");
@@ -25,6 +29,9 @@ const report = { odom: [], images: 0, image: null, status: [], published: 0, und
 const ws = new WebSocket(url, [FoxgloveClient.SUPPORTED_SUBPROTOCOL]);
 const client = new FoxgloveClient({ ws });
 const readers = new Map(); // subscription id -> [topic, MessageReader]
+let startNs = null; // the first odometry's timestamp (ns), and the latest one's: the client's clock
+let nowNs = 0;
+let lastImage = null; // the latest camera frame
 
 client.on("open", () => {
   report.subprotocol = ws.protocol;
@@ -55,30 +62,37 @@ client.on("message", ({ subscriptionId, timestamp, data }) => {
   if (topic === ODOM) {
     const p = msg.pose.pose.position;
     report.odom.push([Number(timestamp), p.x, p.y, p.z]);
+    if (startNs === null) startNs = Number(timestamp);
+    nowNs = Math.max(nowNs, Number(timestamp));
   } else {
     report.images += 1;
-    const image = jpeg.decode(msg.data, { useTArray: true });
-    let sum = 0;
-    for (let i = 0; i < image.data.length; i += 4) sum += image.data[i] + image.data[i + 1] + image.data[i + 2];
-    report.image = { format: msg.format, width: image.width, height: image.height, mean: sum / (image.width * image.height * 3) };
+    lastImage = msg; // decoded once, at the end: decoding every frame starves the 20 Hz timer
   }
 });
 client.on("close", () => {
   report.closed = true;
 });
 
-const start = Date.now();
+const WALL_LIMIT_S = 50;
+const wallStart = Date.now();
 const writer = new MessageWriter(parse(TWIST_SCHEMA, { ros2: true }));
 let channelId = null;
 const timer = setInterval(() => {
-  const elapsedS = (Date.now() - start) / 1000;
-  if (elapsedS >= Number(listenS)) {
+  const elapsedS = startNs === null ? 0 : (nowNs - startNs) / 1e9; // simulated seconds
+  if ((startNs !== null && elapsedS >= Number(listenS)) || Date.now() - wallStart > WALL_LIMIT_S * 1000) {
     clearInterval(timer);
     ws.close();
+    if (lastImage !== null) {
+      const image = jpeg.decode(lastImage.data, { useTArray: true });
+      let sum = 0;
+      for (let i = 0; i < image.data.length; i += 4) sum += image.data[i] + image.data[i + 1] + image.data[i + 2];
+      const mean = sum / (image.width * image.height * 3);
+      report.image = { format: lastImage.format, width: image.width, height: image.height, mean };
+    }
     process.stdout.write(JSON.stringify(report) + "\n");
     return;
   }
-  if (report.serverInfo && elapsedS < Number(publishS) && ws.readyState === WebSocket.OPEN) {
+  if (report.serverInfo && startNs !== null && elapsedS < Number(publishS) && ws.readyState === WebSocket.OPEN) {
     if (channelId === null) {
       channelId = client.advertise({ topic: "/quad_cmd_twist", encoding: "cdr", schemaName: "geometry_msgs/msg/Twist" });
     }
