@@ -18,31 +18,6 @@ from tests.integration.test_fleet_recording import (
     fleet_recording,  # noqa: F401 (a fixture)
 )
 
-COLLISION = fleet_toml(
-    vehicle("alpha", (0.0, 0.0, 0.0, 0.0), input="script:ram.qscript"),
-    vehicle("bravo", (3.0, 0.0, 0.0, 180.0), input="script:hold.qscript"),
-)
-
-
-def test_two_vehicles_flown_into_each_other_both_crash_and_the_recording_refies(tmp_path):
-    (tmp_path / "ram.qscript").write_text("z_mode height\n3.0 linear.z=0\n3.0 linear.x=2.0\n")
-    (tmp_path / "hold.qscript").write_text("z_mode height\n6.0 linear.z=0\n")
-    (tmp_path / "ram.toml").write_text(COLLISION)
-    out = cli("run", "--fleet", str(tmp_path / "ram.toml"), "--out", str(tmp_path / "ram.mcap"))
-    assert out.returncode == 0, out.stderr
-    crash_lines = [line.split() for line in out.stdout.splitlines() if line.split()[1:2] == ["crash"]]
-    assert [line[0] for line in crash_lines] == ["alpha", "bravo"], out.stdout  # each under its vehicle's name
-    assert "bravo" in crash_lines[0] and "alpha" in crash_lines[1], out.stdout  # each names the other
-    topics, metadata, _ = _decoded(tmp_path / "ram.mcap")
-    crashes = {m.name: m for _, m in topics["/rosout"] if m.msg.startswith("crash")}
-    assert set(crashes) == {"alpha.quadsim", "bravo.quadsim"}
-    assert "hit bravo" in crashes["alpha.quadsim"].msg and "hit alpha" in crashes["bravo.quadsim"].msg
-    assert {m.level for m in crashes.values()} == {30}  # WARN
-    assert crashes["alpha.quadsim"].stamp == crashes["bravo.quadsim"].stamp  # the same step
-    out = cli("check", str(tmp_path / "ram.mcap"), "--tolerance-m", "0", "--tolerance-rad", "0")
-    assert out.returncode == 0 and "flies again identically" in out.stdout, out.stdout + out.stderr
-
-
 PAIR = """
 [[vehicle]]
 name = "alpha"

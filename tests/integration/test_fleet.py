@@ -7,10 +7,9 @@ import re
 
 import pytest
 
-from quadsim import Fleet, FleetVehicle, SimConfig, Simulator, StartPose, Twist, ZMode
+from quadsim import Fleet, FleetVehicle, SimConfig, Simulator, StartPose, ZMode
 from quadsim.drivers.scripted import ScriptedDriver, load_script
 from quadsim.errors import ConfigError, QuadsimError
-from quadsim.sim.flight_events import EventKind
 from tests.helpers import ROOT
 
 HEIGHT = SimConfig(z_mode=ZMode.HEIGHT)
@@ -49,65 +48,6 @@ def test_each_vehicle_flies_as_it_would_alone_on_one_clock():
     assert math.dist(alpha.position_m[:2], (0.0, 3.0)) < 0.2  # the square's third corner at 20 s
     assert abs(math.remainder(bravo.yaw_rad() - 6.0, 2 * math.pi)) < 0.1  # turned 6 rad
     assert charlie.position_m[2] < 0.1  # idle: never took off
-
-
-def _ramming_pair(reset_on_crash: bool = False) -> Fleet:
-    """alpha and bravo 3 m apart, climbed to 1.5 m; alpha then flies at bravo at 3 m/s."""
-    fleet = Fleet(
-        [FleetVehicle("alpha"), FleetVehicle("bravo", start=StartPose(3.0, 0.0))],
-        SimConfig(z_mode=ZMode.VELOCITY),
-        reset_on_crash=reset_on_crash,
-    )
-    for name in fleet:
-        fleet[name].send(Twist(linear_z=1.0))
-    fleet.run_for(1.5)
-    for name in fleet:
-        fleet[name].send(Twist())
-    fleet["alpha"].send(Twist(linear_x=3.0))
-    return fleet
-
-
-def test_vehicles_that_fly_into_each_other_both_crash_naming_the_other():
-    with _ramming_pair() as fleet:
-        fleet.run_for(2.0)
-        crashes = {n: [e for e in fleet[n].events if e.kind is EventKind.CRASH] for n in fleet}
-    assert crashes["alpha"] and crashes["alpha"][0].hit == "bravo", crashes
-    assert crashes["bravo"] and crashes["bravo"][0].hit == "alpha", crashes
-    assert crashes["alpha"][0].step == crashes["bravo"][0].step
-    assert "hit bravo" in crashes["alpha"][0].value and "hit alpha" in crashes["bravo"][0].value
-
-
-def test_with_reset_on_crash_vehicles_that_collide_both_crash_and_both_go_back():
-    """The first vehicle's reset moves it away within the step: the second still has the
-    step's contact with it (it was left uncrashed and hit again)."""
-    with _ramming_pair(reset_on_crash=True) as fleet:
-        fleet.run_for(2.0)
-        kinds = {
-            n: [(e.kind, e.step) for e in fleet[n].events if e.kind in (EventKind.CRASH, EventKind.RESET)]
-            for n in fleet
-        }
-    crash = kinds["alpha"][0][1]
-    assert kinds["alpha"][:2] == [(EventKind.CRASH, crash), (EventKind.RESET, crash)], kinds
-    assert kinds["bravo"][:2] == [(EventKind.CRASH, crash), (EventKind.RESET, crash)], kinds
-
-
-def test_the_contacts_asked_once_a_step_for_the_world_are_each_vehicles_own():
-    """A fleet asks PyBullet for the world's contacts once a step and hands each vehicle its
-    own: the same points, with the normal turned to point at it, as asking for each vehicle."""
-    from quadsim.physics.pybullet_quiet import pb
-
-    seen = {"floor": 0, "other vehicle": 0}
-    with _ramming_pair() as fleet:  # into bravo, then both down to the floor
-        bodies = {fleet[n].physics.body_id: n for n in fleet}
-        cid = fleet.client.cid
-        for _ in range(3 * 240):
-            fleet.step()
-            for body in bodies:
-                asked = [(p[2], p[7][2]) for p in pb.getContactPoints(body, physicsClientId=cid)]
-                assert list(fleet.client.touching(body)) == asked
-                for other, _ in asked:
-                    seen["other vehicle" if other in bodies else "floor"] += 1
-    assert seen["floor"] > 0 and seen["other vehicle"] > 0, seen  # both kinds were compared
 
 
 def test_only_the_fleet_steps_its_vehicles_and_a_reset_flies_again_the_same():
