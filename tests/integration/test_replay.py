@@ -17,10 +17,11 @@ from quadsim.apps.replay_export import export_mp4
 from quadsim.apps.window.replay import ReplayApp
 from quadsim.apps.window.teleop import TeleopApp, TeleopOptions
 from quadsim.core.invocation import install_extra
-from quadsim.recording.flight import load_flight
+from quadsim.recording.flight import load_flight, load_flights
 from quadsim.session.outputs import OutputOptions
 from quadsim.session.pacing import FixedStepPacer
 from quadsim.session.resim import resimulate
+from tests.helpers import RECORDINGS as RECORDINGS_DIR
 from tests.helpers import ROOT
 from tests.helpers.cli import bare_env, run_main
 from tests.helpers.recording import SHIPPED_RECORDINGS, record_flight
@@ -286,6 +287,35 @@ def test_playback_window_controls(with_cameras):
     assert set(model.frames) == {"front", "floor"} and len(model.track) > 10
     pygame.image.save(app.screen, "/tmp/quadsim_replay_test.png")
     app.close()
+
+
+#: a shipped recording of each shape, and what C says in its window once it has gone round
+FOLLOWED = {
+    "alone": ("square_cascade.mcap", "one vehicle in this recording: nothing else to follow"),
+    "fleet of 3": ("fleet_trio_wind.mcap", "following alpha (it recorded no cameras)"),
+}
+
+
+@pytest.mark.parametrize("shape", list(FOLLOWED))
+def test_c_in_the_replay_window_follows_each_vehicle_in_turn(shape):
+    """The replay window of a recording: C follows the next vehicle (its HUD's state and
+    cameras, the others on the map), in the fleet's order and round again; alone, there is no
+    other to follow, and it says so."""
+    recording, said = FOLLOWED[shape]
+    flights = load_flights(RECORDINGS_DIR / recording)
+    first, *rest = flights
+    with ReplayApp(flights[first], (640, 360), frame_s=0.1, others={n: flights[n] for n in rest}) as app:
+        app.seek(5.0)
+        followed = []
+        for _ in flights:
+            model = app.model()
+            followed.append(model.cameras_of)
+            assert model.state == flights[model.cameras_of].state_at(app.t_ns)
+            assert [n for n, *_ in model.others] == [n for n in flights if n != model.cameras_of]
+            pygame.event.post(pygame.event.Event(pygame.KEYDOWN, key=pygame.K_c, mod=0, unicode="c", scancode=0))
+            app.run(max_frames=app.frame_count + 1)
+        assert followed == list(flights) and app.model().cameras_of == first
+        assert said in app.model().warnings
 
 
 def test_the_plot_shades_the_stretch_flown_in_height_mode():
