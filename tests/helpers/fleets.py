@@ -82,3 +82,12 @@ def run_args(shape: str, folder: Path) -> tuple[str, ...]:
     )
     (folder / "fleet.toml").write_text(text)
     return ("run", "--fleet", str(folder / "fleet.toml"))
+
+
+#: a fleet to fly in the window (`fly --fleet`): alpha by the keyboard, with two cameras; bravo on
+#: the square, with its front camera; charlie idle
+WINDOW_FLEET = fleet_toml(
+    vehicle("alpha", (0.0, 0.0, 0.0, 0.0), input="keyboard", cameras=["front", "floor"]),
+    vehicle("bravo", (0.0, -4.0, 0.0, 0.0), input="script:square", cameras=["front"]),
+    vehicle("charlie", (-4.0, 0.0, 0.0, 0.0)),
+)

@@ -7,7 +7,7 @@ import pytest
 
 from tests.helpers import ROOT
 from tests.helpers.cli import bare_env, run_main
-from tests.helpers.fleets import RUNS, run_args
+from tests.helpers.fleets import RUNS, WINDOW_FLEET, run_args
 
 QUIET = ("--no-record", "--cameras", "none")  # flight-only runs: nothing written, nothing rendered
 
@@ -100,6 +100,13 @@ def test_fly_without_display_keeps_no_demo_under_a_name_meant_for_a_flight_by_ha
     out = cli("fly", "--cameras", "none", "--out", str(tmp_path / "by_hand.mcap"))
     _one_line_error(out, "would hold the scripted demo")
     assert "run --script NAME --out" in out.stderr and not (tmp_path / "by_hand.mcap").exists()
+
+
+def test_fly_fleet_without_a_display_says_what_to_do(tmp_path):
+    """Unlike `fly` (above: it flies the scripted demo headless), `fly --fleet` refuses."""
+    (tmp_path / "f.toml").write_text(WINDOW_FLEET)
+    out = cli("fly", "--fleet", str(tmp_path / "f.toml"))
+    assert out.returncode == 2 and "fly --fleet needs a display" in out.stderr and "run --fleet" in out.stderr
 
 
 def test_scenarios_lists_builtins():
