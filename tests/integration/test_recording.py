@@ -309,10 +309,9 @@ def test_each_vehicle_is_recorded_under_its_names(run_recorded):
     fleet = names != [""]
     commanded = [f.name for f in fliers if COMMANDS[f.input]]
     topics, metadata, attachments = decoded_recording(path)
-    assert set(topics) == RUN_TOPICS | {under(n, t) for n in names for t in VEHICLE_TOPICS} | {
-        under(n, "quad_cmd_twist")
-        for n in commanded  # idle: nothing was sent
-    }
+    own = {under(n, t) for n in names for t in VEHICLE_TOPICS}
+    sent = {under(n, "quad_cmd_twist") for n in commanded}  # idle: nothing was sent
+    assert set(topics) == RUN_TOPICS | own | sent  # a fleet's only under its names, alone only unprefixed
     assert [len(topics[t]) for t in ("/tf_static", "/world/markers")] == [1, 1]  # the run's, once
     static = topics["/tf_static"][0][1].transforms
     for flier in fliers:
@@ -352,6 +351,7 @@ def test_it_reads_back_vehicle_by_vehicle(run_recorded):
         flight = flights[flier.name]
         assert flight.vehicle == flier.name and len(flight.commands) == COMMANDS[flier.input]
         assert flight.description.vehicle.rotor_count == AIRFRAMES[flier.airframe][1]
+        assert (flight.states[-1].position_m[2] < 0.1) == (flier.input == "idle")  # its own end: idle on the floor
     assert load_flight(path).vehicle == names[0]
     last = load_flight(path, names[-1])
     assert last.vehicle == names[-1] and last.states == flights[names[-1]].states
