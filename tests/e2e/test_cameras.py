@@ -1,14 +1,22 @@
 """The cameras show the world, their CameraInfo matches the projection used, and they are
-deterministic whether rendered in-process or by worker processes.
+deterministic whether rendered in-process or by worker processes; in a fleet, a vehicle's cameras
+see the other vehicles, and only the vehicles given cameras record them.
 
 Its e2e tests (real processes, signals, windows or peers); the others are in tests/integration/test_cameras.py."""
+
+import json
+from pathlib import Path
 
 import pytest
 
 from quadsim import Twist
+from quadsim.recording.flight import load_flight
 from quadsim.sensors.rendering import decode_jpeg
 from tests.helpers import ROOT
+from tests.helpers.fleets import fleet_toml, vehicle
+from tests.helpers.mcap import decoded_recording
 from tests.integration.test_cameras import _hovering_with_cameras, _red_mask
+from tests.integration.test_cli import cli
 
 
 def test_workers_render_the_same_images_as_in_process():
@@ -79,3 +87,47 @@ def test_egl_renders_the_scene_where_a_driver_exists(tmp_path):
 
         front = decode_jpeg(load_flight(out).frames["front"][-1][1])
         assert _red_mask(front).sum() > 500  # the red tower ahead, drawn by EGL
+
+
+ALPHA = vehicle("alpha", (0.0, 0.0, 0.0, 0.0), input="script:takeoff", cameras=["front", "floor"])
+BRAVO = vehicle("bravo", (2.5, 0.0, 0.0, 180.0), input="script:climb")
+
+
+def _front_frames(folder: Path, with_bravo: bool) -> tuple[Path, list]:
+    import cv2
+    import numpy as np
+
+    (folder / "pair.toml").write_text(fleet_toml(ALPHA, BRAVO) if with_bravo else fleet_toml(ALPHA))
+    out = cli("run", "--fleet", str(folder / "pair.toml"), "--camera-size", "160x120", "--out", str(folder / "p.mcap"))
+    assert out.returncode == 0, out.stderr
+    assert "control 240 Hz, cameras alpha (front, floor)" in out.stdout.splitlines()[0]  # whose it records
+    flight = load_flight(folder / "p.mcap", "alpha")
+    frames = [cv2.imdecode(np.frombuffer(jpeg, np.uint8), cv2.IMREAD_GRAYSCALE) for _, jpeg in flight.frames["front"]]
+    return folder / "p.mcap", frames
+
+
+def test_a_vehicles_cameras_see_the_other_vehicles_and_only_it_records_them(tmp_path):
+    """alpha records its cameras and bravo none; alpha's front camera sees bravo, 2.5 m ahead:
+    the same flight without bravo differs only where bravo stands in the picture."""
+    (tmp_path / "a").mkdir()
+    (tmp_path / "b").mkdir()
+    path, with_bravo = _front_frames(tmp_path / "a", True)
+    _, alone = _front_frames(tmp_path / "b", False)
+    topics, metadata, _ = decoded_recording(path)
+    cameras = {t for t in topics if "camera" in t}
+    assert cameras == {
+        "/alpha/quad/front_camera/image_raw/compressed",
+        "/alpha/quad/front_camera/camera_info",
+        "/alpha/quad/floor_camera/image_raw/compressed",
+        "/alpha/quad/floor_camera/camera_info",
+    }
+    assert topics["/alpha/quad/front_camera/camera_info"][0][1].header.frame_id == "alpha/front_camera_optical"
+    assert len(alone) == 180 and len(with_bravo) > 180  # 30 Hz, for 6 s (takeoff) or climb's 10.5 s
+    params = json.loads(metadata["quadsim"]["parameters"])
+    assert [len(v["cameras"]) for v in params["fleet"]] == [2, 0]
+    # 3 s in: bravo has climbed 3 m / 2.5 m ahead, alpha hovers at 2 m (its front camera on the horizon)
+    diff = abs(with_bravo[90].astype(int) - alone[90].astype(int)) > 40
+    rows, cols = diff.nonzero()
+    assert 15 < diff.sum() < 2000, diff.sum()
+    assert abs(cols.mean() - 80) < 15 and rows.mean() < 60  # ahead of it, and above the horizon
+    assert not (abs(with_bravo[0].astype(int) - alone[0].astype(int)) > 40)[:, :10].any()  # the rest: the same

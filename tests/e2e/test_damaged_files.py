@@ -1,4 +1,5 @@
-"""Damaged inputs to info, recover and the reader: a clear message, exit 2, no traceback.
+"""Damaged inputs to info, recover and the reader: a clear message, exit 2, no traceback; a
+fleet's recording with crafted run parameters refused in one line by every command.
 
 Its e2e tests (real processes, signals, windows or peers); the others are in tests/integration/test_damaged_files.py."""
 
@@ -15,8 +16,8 @@ from pathlib import Path
 import pytest
 
 from quadsim.apps.cli import main
-from tests.helpers import ROOT
-from tests.helpers.recording import record_flight
+from tests.helpers import RECORDINGS, ROOT
+from tests.helpers.recording import copy_recording, record_flight
 from tests.integration.test_damaged_files import (
     _damaged_chunk,
     _make,
@@ -176,3 +177,59 @@ def test_check_names_recover_only_where_recover_saves_something(tmp_path, kept_b
     assert ("main.py recover" in checked.stdout) == recoverable, checked.stdout
     assert ("nothing to recover" in checked.stdout) != recoverable, checked.stdout
     assert recovered.returncode == (0 if recoverable else 2), recovered.stderr
+
+
+# --- a fleet's recording with crafted run parameters ---------------------------------------------
+
+
+def _with_parameters(src: Path, dst: Path, edit) -> Path:
+    """Copy a recording with its run parameters edited (a crafted or damaged file)."""
+
+    def parameters(name: str, data: dict[str, str]) -> dict[str, str]:
+        if name == "quadsim":
+            data["parameters"] = json.dumps(edit(json.loads(data["parameters"])))
+        return data
+
+    return copy_recording(src, dst, metadata=parameters)
+
+
+def _set(params: dict, path: str, value) -> dict:
+    where = params
+    *parents, last = path.split(".")
+    for key in parents:
+        where = where[int(key)] if isinstance(where, list) else where[key]
+    where[int(last) if isinstance(where, list) else last] = value
+    return params
+
+
+CRAFTED = {
+    "too_many": (lambda p: {**p, "fleet": p["fleet"] * 40}, "parameters.fleet: expected a list of 1 to 100"),
+    "traversing_name": (lambda p: _set(p, "fleet.1.name", "../../bravo"), "not a unique ROS name segment"),
+    "not_an_object": (lambda p: _set(p, "fleet.2", "charlie"), "parameters.fleet[2]: expected an object"),
+    "traversing_urdf": (
+        lambda p: _set(p, "fleet.0.vehicle.urdf", "../../../etc/evil.urdf"),
+        "attachment(s) evil.urdf missing",
+    ),
+    "no_such_vehicle": (lambda p: _set(p, "fleet.2.name", "zulu"), "has no /zulu/quad/pose states"),
+    "fleet_left_out": (lambda p: {k: v for k, v in p.items() if k != "fleet"}, "parameters.fleet: expected a list"),
+}
+
+
+@pytest.mark.parametrize("case", list(CRAFTED))
+def test_a_crafted_fleet_recording_is_refused_in_one_line_by_every_command(tmp_path, case):
+    """Hostile parameters in a fleet's recording (the shipped fleet of three's): info and replay
+    still show what is there, check and replay --resim refuse it in one line naming why, and
+    nothing is written outside the folder asked for."""
+    edit, why = CRAFTED[case]
+    path = _with_parameters(RECORDINGS / "fleet_trio_wind.mcap", tmp_path / f"{case}.mcap", edit)
+    before = set(Path("/etc").iterdir())
+    out = cli("check", str(path))
+    assert out.returncode == 2 and "Traceback" not in out.stderr, out.stdout + out.stderr
+    assert f"ERROR {path}:" in out.stdout and why in out.stdout, out.stdout
+    resim = cli("replay", str(path), "--resim", "--out", str(tmp_path / "resim"))
+    assert resim.returncode == 2 and "Traceback" not in resim.stderr and why in resim.stderr, resim.stderr
+    assert len(resim.stderr.strip().splitlines()) == 1, resim.stderr
+    for argv in (("info", str(path)), ("replay", str(path), "--headless")):
+        shown = cli(*argv)
+        assert shown.returncode == 0 and "Traceback" not in shown.stderr, (argv, shown.stderr)
+    assert set(Path("/etc").iterdir()) == before and not (tmp_path / "resim").exists()

@@ -1,8 +1,11 @@
 """One run, one path, whatever the number of vehicles: a run of one vehicle, a fleet of one and a
 fleet of three are flown by `run`, recorded under each vehicle's names, summarised, read back
 vehicle by vehicle, re-flown by `check` and `replay --resim` at 0 m, and described by `info`, by
-the same code (quadsim.session.run). The fleet-only behaviours (collisions, cameras that see the
-others, crafted fleet files) are in tests/*/test_fleet*.py."""
+the same code (quadsim.session.run). The other tests of a run's shape are beside the one-vehicle
+tests of the same thing, parametrised over it (tests/integration/test_recording.py, test_cli.py,
+test_replay.py, test_teleop.py); what only a fleet has is with what it is about: vehicles that
+collide in tests/*/test_contact.py, cameras that see the others in tests/e2e/test_cameras.py,
+crafted fleet recordings in tests/e2e/test_damaged_files.py."""
 
 from __future__ import annotations
 

@@ -10,8 +10,11 @@ import time
 from pathlib import Path
 
 import cv2
+import pytest
 
+from tests.helpers import RECORDINGS as RECORDINGS_DIR
 from tests.helpers import ROOT
+from tests.helpers.fleets import under
 from tests.helpers.recording import copy_recording, record_flight
 from tests.integration.test_replay import (
     RECORDINGS,
@@ -26,21 +29,53 @@ def _with_changed_attachment(src: Path, dst: Path, name: str, edit) -> None:
     copy_recording(src, dst, attachment=lambda n, data: edit(data) if n == name else data)
 
 
-def test_check_passes_then_fails_with_a_readable_report(tmp_path):
+def test_check_passes_the_shipped_recordings():
     out = cli("check", *RECORDINGS)  # by name: flights a user adds to the folder are not the suite's
     assert out.returncode == 0, out.stdout + out.stderr
     assert f"{len(RECORDINGS)} of {len(RECORDINGS)} recordings re-fly" in out.stdout
+
+
+#: a shipped recording of each shape, the vehicles in it that fly the quadrotor (they stray when
+#: its rotor drag changes), and the others (they fly as recorded)
+CHANGED = {
+    "alone": ("square_cascade.mcap", [""], []),
+    "fleet of 3": ("fleet_trio_wind.mcap", ["alpha", "bravo"], ["charlie"]),  # charlie: the hexacopter
+}
+
+
+def _said_of(report: str, name: str) -> str:
+    """The lines of check's report about vehicle `name` (a fleet's are under "  NAME:"; alone, all of them)."""
+    if not name:
+        return report
+    lines = report.splitlines()
+    start = next(i for i, line in enumerate(lines) if line.strip() == f"{name}:") + 1
+    end = next((i for i in range(start, len(lines)) if lines[i].strip().endswith(":")), len(lines))
+    return "\n".join(lines[start:end])
+
+
+@pytest.mark.parametrize("shape", list(CHANGED))
+def test_check_fails_a_changed_airframe_with_a_readable_report(shape, tmp_path):
+    """The quadrotor's rotor drag changed since the recording: check fails it, and the report
+    says which vehicle strayed, on which topic, when and how far, and which did not."""
+    recording, strayed, as_recorded = CHANGED[shape]
     changed = tmp_path / "heavier_drag.mcap"
     _with_changed_attachment(
-        ROOT / "tests" / "recordings" / "square_cascade.mcap",
+        RECORDINGS_DIR / recording,
         changed,
         "quadsim_x.params.toml",
         lambda d: d.replace(b"rotor_drag_ns_per_m_rad = 1.7e-4", b"rotor_drag_ns_per_m_rad = 4.0e-4"),
     )
     out = cli("check", changed)
-    assert out.returncode == 1
-    assert "FAIL" in out.stdout and "/quad/pose position: max" in out.stdout
-    assert "first beyond tolerance at t=" in out.stdout  # which topic, when, how far
+    assert out.returncode == 1, out.stdout + out.stderr
+    names = strayed + as_recorded
+    fleet = f" (a fleet of {len(names)})" if names != [""] else ""
+    assert f"FAIL  {changed}{fleet}: position off by up to" in out.stdout, out.stdout
+    for name in strayed:
+        said, pose = _said_of(out.stdout, name), under(name, "quad/pose")
+        assert f"{pose} position: max" in said and f"{pose} position: max 0 m" not in said, said
+        assert "first beyond tolerance at t=" in said  # which topic, when, how far
+    for name in as_recorded:
+        assert f"{under(name, 'quad/pose')} position: max 0 m" in _said_of(out.stdout, name)  # flies as recorded
 
 
 def test_ctrl_c_while_encoding_ends_soon_with_whole_videos(tmp_path):

@@ -1,9 +1,13 @@
-"""Fleet files as the tests write them: `fleet_toml(vehicle(...), ...)`. Not a test module."""
+"""Fleet files as the tests write them: `fleet_toml(vehicle(...), ...)`; the shapes of a run the
+tests fly with `run` (alone, a fleet of three), and a vehicle's topic and frame names in each. Not
+a test module."""
 
 from __future__ import annotations
 
 import json
 from collections.abc import Sequence
+from pathlib import Path
+from typing import NamedTuple
 
 
 def vehicle(
@@ -30,3 +34,60 @@ def vehicle(
 def fleet_toml(*vehicles: str) -> str:
     """A fleet file of `vehicles` (vehicle()'s tables), a blank line before each."""
     return "".join(f"\n{table}" for table in vehicles)
+
+
+def under(name: str, topic: str) -> str:
+    """A vehicle's topic: /NAME/TOPIC in a fleet, /TOPIC for a vehicle flying alone (name "")."""
+    return f"/{name}/{topic}" if name else f"/{topic}"
+
+
+def frame(name: str, frame_id: str) -> str:
+    """A vehicle's TF frame: NAME/FRAME in a fleet, FRAME for a vehicle flying alone (name "")."""
+    return f"{name}/{frame_id}" if name else frame_id
+
+
+class Flier(NamedTuple):
+    """One vehicle of a run as a test flies it: its name ("" alone), airframe, start pose (x, y,
+    z in m, heading in deg) and input."""
+
+    name: str
+    airframe: str
+    start: tuple[float, float, float, float]
+    input: str
+
+
+#: the shapes of a run the tests fly with `run`, by id: each its vehicles. Alone, the square
+#: (`run --script square --cameras none`); a fleet of three (`run --fleet`): the square on a
+#: quadrotor, a turn on the spot on a hexacopter, an idle Crazyflie
+RUNS: dict[str, tuple[Flier, ...]] = {
+    "alone": (Flier("", "quad", (0.0, 0.0, 0.0, 0.0), "script:square"),),
+    "fleet of 3": (
+        Flier("alpha", "quad", (0.0, 0.0, 0.0, 0.0), "script:square"),
+        Flier("bravo", "hexa", (0.0, 4.0, 0.0, 90.0), "script:yaw"),
+        Flier("charlie", "crazyflie", (-4.0, 0.0, 0.0, 0.0), "idle"),
+    ),
+}
+
+
+def run_args(shape: str, folder: Path) -> tuple[str, ...]:
+    """`run` and its arguments for a run of `shape` (RUNS); a fleet's file is written into `folder`."""
+    fliers = RUNS[shape]
+    if fliers[0].name == "":
+        return ("run", "--script", fliers[0].input.removeprefix("script:"), "--cameras", "none")
+    text = fleet_toml(
+        *(
+            vehicle(f.name, f.start, airframe=None if f.airframe == "quad" else f.airframe, input=f.input)
+            for f in fliers
+        )
+    )
+    (folder / "fleet.toml").write_text(text)
+    return ("run", "--fleet", str(folder / "fleet.toml"))
+
+
+#: a fleet to fly in the window (`fly --fleet`): alpha by the keyboard, with two cameras; bravo on
+#: the square, with its front camera; charlie idle
+WINDOW_FLEET = fleet_toml(
+    vehicle("alpha", (0.0, 0.0, 0.0, 0.0), input="keyboard", cameras=["front", "floor"]),
+    vehicle("bravo", (0.0, -4.0, 0.0, 0.0), input="script:square", cameras=["front"]),
+    vehicle("charlie", (-4.0, 0.0, 0.0, 0.0)),
+)

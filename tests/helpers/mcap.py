@@ -23,3 +23,16 @@ def decoded_messages(path: Path, topics: Sequence[str] | None = None) -> Iterato
 def topic_messages(path: Path, topic: str) -> list[tuple[float, Any]]:
     """(log time in s, decoded message) for each message of `path` on `topic`."""
     return [(message.log_time / 1e9, decoded) for _, message, decoded in decoded_messages(path, [topic])]
+
+
+def decoded_recording(path: Path) -> tuple[dict[str, list[tuple[int, Any]]], dict[str, dict[str, str]], list[str]]:
+    """A recording read whole: topic -> [(log time in ns, decoded message)] in log-time order, its
+    metadata records by name, and its attachments' names."""
+    topics: dict[str, list[tuple[int, Any]]] = {}
+    with open(path, "rb") as fh:
+        reader = make_reader(fh, decoder_factories=[DecoderFactory()])
+        for _, channel, message, decoded in reader.iter_decoded_messages(log_time_order=True):
+            topics.setdefault(channel.topic, []).append((message.log_time, decoded))
+        metadata = {m.name: m.metadata for m in reader.iter_metadata()}
+        attachments = [a.name for a in reader.iter_attachments()]
+    return topics, metadata, attachments

@@ -1,9 +1,13 @@
-"""The API autonomy code uses: create a sim, send a Twist, step, read the state."""
+"""The API autonomy code uses: create a sim, send a Twist, step, read the state; a fleet of
+vehicles in one world (quadsim.Fleet), made and refused as the API reference says."""
+
+import re
 
 import pytest
 
-from quadsim import QuadsimError, SimConfig, Simulator, Twist, ZMode
+from quadsim import ConfigError, Fleet, FleetVehicle, QuadsimError, SimConfig, Simulator, StartPose, Twist, ZMode
 from quadsim.drivers.scripted import ScriptedDriver, load_script
+from tests.helpers import ROOT
 
 
 def test_send_step_read():
@@ -109,3 +113,80 @@ def test_a_config_takes_the_names_the_command_line_takes_and_refuses_the_rest(tm
     ):
         with pytest.raises(QuadsimError, match=said):
             SimConfig(**bad)
+
+
+# --- fleets -------------------------------------------------------------------------------------
+
+
+def test_only_the_fleet_steps_its_vehicles_and_a_missing_one_is_named():
+    """(A fleet's reset, as a vehicle's: tests/integration/test_loop.py.)"""
+    vehicles = [FleetVehicle("alpha"), FleetVehicle("bravo", start=StartPose(0.0, 3.0))]
+    with Fleet(vehicles, SimConfig(z_mode=ZMode.HEIGHT)) as fleet:
+        with pytest.raises(QuadsimError, match=r"alpha flies in a fleet.*step the fleet"):
+            fleet["alpha"].step()
+        assert fleet.step_count == 0 and fleet["alpha"].step_count == 0
+        with pytest.raises(KeyError, match=r"no vehicle named 'zulu'.*alpha, bravo"):
+            fleet["zulu"]
+
+
+@pytest.mark.parametrize(
+    "vehicles, error",
+    [
+        ([], "at least one vehicle"),
+        ([FleetVehicle("alpha"), FleetVehicle("alpha", start=StartPose(3.0, 0.0))], "two vehicles are named 'alpha'"),
+        ([FleetVehicle("Alpha")], "vehicle name 'Alpha': a ROS name segment"),
+        ([FleetVehicle("a/b")], "vehicle name 'a/b'"),
+        (
+            [FleetVehicle("alpha"), FleetVehicle("bravo", start=StartPose(0.2, 0.0))],
+            "'alpha' and 'bravo' start 0.20 m apart",
+        ),
+    ],
+)
+def test_a_bad_fleet_is_one_line_naming_the_vehicle(vehicles, error):
+    with pytest.raises(ConfigError, match=error):
+        Fleet(vehicles)
+
+
+def test_the_docs_fleet_example_runs_and_does_what_it_says(capsys):
+    page = (ROOT / "docs" / "reference" / "api.md").read_text()
+    example = page.split("## Fleets", 1)[1].split("```python\n", 1)[1].split("```", 1)[0]
+    exec(compile(example, "api.md", "exec"), {})
+    numbers = [float(v) for v in re.findall(r"-?\d+\.\d+(?:e-?\d+)?", capsys.readouterr().out)]
+    time_s, alpha, bravo = numbers[0], numbers[1:4], numbers[4:7]
+    assert time_s == 2.0
+    assert 1.0 < alpha[2] < 2.5 and bravo[2] < 0.1  # alpha climbed at 1 m/s; bravo stayed on the ground
+
+
+#: a run whose vehicle starts on the red tower's spot (it would start inside it), what it is told,
+#: and the same run with that vehicle beside the tower (x = 5 m)
+ON_THE_TOWER = {
+    "alone": (
+        lambda x, y: Simulator(SimConfig(start=StartPose(x, y))),
+        (6.0, 0.0),
+        r"start pose \(6, 0\) is on the red_tower landmark's spot",
+    ),
+    "fleet of 2": (
+        lambda x, y: Fleet([FleetVehicle("alpha"), FleetVehicle("bravo", start=StartPose(x, y))]),
+        (5.5, 0.3),
+        r"bravo: the start pose \(5.5, 0.3\) is on the red_tower",
+    ),
+}
+
+
+@pytest.mark.parametrize("shape", list(ON_THE_TOWER))
+def test_a_start_on_a_landmark_is_refused_and_leaves_no_world_behind(shape):
+    """A start pose on the red tower's spot is one line naming the landmark (in a fleet, and the
+    vehicle); no PyBullet client is left open; beside the tower the vehicle starts there."""
+    import pybullet as pb
+
+    def open_clients() -> int:
+        return sum(pb.getConnectionInfo(cid)["isConnected"] for cid in range(64))
+
+    make, on_it, said = ON_THE_TOWER[shape]
+    before = open_clients()
+    with pytest.raises(ConfigError, match=said):
+        make(*on_it)
+    assert open_clients() == before
+    with make(5.0, 0.0) as run:  # beside it: fine
+        started = run if isinstance(run, Simulator) else run["bravo"]
+        assert started.state.position_m[0] == pytest.approx(5.0, abs=1e-6)

@@ -7,6 +7,7 @@ import pytest
 
 from tests.helpers import ROOT
 from tests.helpers.cli import bare_env, run_main
+from tests.helpers.fleets import RUNS, WINDOW_FLEET, run_args
 
 QUIET = ("--no-record", "--cameras", "none")  # flight-only runs: nothing written, nothing rendered
 
@@ -15,12 +16,29 @@ def cli(*args: str, cwd: Path = ROOT) -> subprocess.CompletedProcess:
     return run_main(*args, cwd=cwd, env=bare_env(SDL_VIDEODRIVER="dummy"))
 
 
-def test_run_prints_summary():
-    out = cli("run", "--script", "square", *QUIET)
+#: what `run` says first, for each shape of run (tests.helpers.fleets.RUNS)
+FLYING = {
+    "alone": "flying 'square' for 27.0 s: controller cascade, ",
+    "fleet of 3": "flying a fleet of 3 for 27.0 s: alpha (quad, script square), bravo (hexa, script yaw), "
+    "charlie (crazyflie, idle); ",
+}
+
+
+@pytest.mark.parametrize("shape", list(RUNS))
+def test_run_prints_summary(shape, tmp_path):
+    """What flies, then where each vehicle ended: one vehicle's whole, a fleet's a line each."""
+    out = cli(*run_args(shape, tmp_path), "--no-record")
     assert out.returncode == 0, out.stderr
     text = out.stdout
-    assert "real-time factor" in text and "distance flown" in text
-    final = next(line for line in text.splitlines() if line.startswith("final pose"))
+    assert text.startswith(FLYING[shape]) and "real-time factor" in text
+    names = [flier.name for flier in RUNS[shape]]
+    if names == [""]:
+        assert "distance flown" in text
+        final = next(line for line in text.splitlines() if line.startswith("final pose"))
+    else:
+        finals = [line for line in text.splitlines() if " final x=" in line]
+        assert [line.split()[0] for line in finals] == names and all("; flown " in line for line in finals)
+        final = finals[0]
     x = float(final.split("x=")[1].split()[0])
     z = float(final.split("z=")[1].split()[0])
     assert abs(x) < 0.2 and abs(z - 2.0) < 0.05  # the square returns to its start at 2 m
@@ -82,6 +100,13 @@ def test_fly_without_display_keeps_no_demo_under_a_name_meant_for_a_flight_by_ha
     out = cli("fly", "--cameras", "none", "--out", str(tmp_path / "by_hand.mcap"))
     _one_line_error(out, "would hold the scripted demo")
     assert "run --script NAME --out" in out.stderr and not (tmp_path / "by_hand.mcap").exists()
+
+
+def test_fly_fleet_without_a_display_says_what_to_do(tmp_path):
+    """Unlike `fly` (above: it flies the scripted demo headless), `fly --fleet` refuses."""
+    (tmp_path / "f.toml").write_text(WINDOW_FLEET)
+    out = cli("fly", "--fleet", str(tmp_path / "f.toml"))
+    assert out.returncode == 2 and "fly --fleet needs a display" in out.stderr and "run --fleet" in out.stderr
 
 
 def test_scenarios_lists_builtins():

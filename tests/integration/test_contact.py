@@ -1,6 +1,7 @@
 """Contact: the collision shapes (drops land upright; walls keep the rotors and the front camera
 out), crashes as events with their impact speed and what was hit, in the recording, the window
-and the API, and --reset-on-crash."""
+and the API, and --reset-on-crash; vehicles of a fleet that fly into each other, and the contacts
+a fleet asks PyBullet for once a step."""
 
 import math
 
@@ -9,7 +10,7 @@ import pybullet as pb
 import pygame
 import pytest
 
-from quadsim import SimConfig, Simulator, StartPose, Twist, ZMode
+from quadsim import Fleet, FleetVehicle, SimConfig, Simulator, StartPose, Twist, ZMode
 from quadsim.apps.flight_quality import DROP_HEIGHTS_M, DROP_ROLLS_DEG, drop_grid
 from quadsim.apps.window.teleop import TeleopOptions
 from quadsim.sensors.camera import RendererKind, default_cameras
@@ -94,6 +95,66 @@ def test_hitting_the_tower_is_a_crash_with_its_speed(tower_push):
     assert "red_tower" in first.value and "side" in first.value
     assert events[0].kind is EventKind.TAKEOFF
     assert not any(e.kind is EventKind.TOUCHDOWN and e.hit == "red_tower" for e in events)
+
+
+# --- vehicles that fly into each other ----------------------------------------------------------
+
+
+def _ramming_pair(reset_on_crash: bool = False) -> Fleet:
+    """alpha and bravo 3 m apart, climbed to 1.5 m; alpha then flies at bravo at 3 m/s."""
+    fleet = Fleet(
+        [FleetVehicle("alpha"), FleetVehicle("bravo", start=StartPose(3.0, 0.0))],
+        SimConfig(z_mode=ZMode.VELOCITY),
+        reset_on_crash=reset_on_crash,
+    )
+    for name in fleet:
+        fleet[name].send(Twist(linear_z=1.0))
+    fleet.run_for(1.5)
+    for name in fleet:
+        fleet[name].send(Twist())
+    fleet["alpha"].send(Twist(linear_x=3.0))
+    return fleet
+
+
+def test_vehicles_that_fly_into_each_other_both_crash_naming_the_other():
+    with _ramming_pair() as fleet:
+        fleet.run_for(2.0)
+        crashes = {n: [e for e in fleet[n].events if e.kind is EventKind.CRASH] for n in fleet}
+    assert crashes["alpha"] and crashes["alpha"][0].hit == "bravo", crashes
+    assert crashes["bravo"] and crashes["bravo"][0].hit == "alpha", crashes
+    assert crashes["alpha"][0].step == crashes["bravo"][0].step
+    assert "hit bravo" in crashes["alpha"][0].value and "hit alpha" in crashes["bravo"][0].value
+
+
+def test_with_reset_on_crash_vehicles_that_collide_both_crash_and_both_go_back():
+    """The first vehicle's reset moves it away within the step: the second still has the
+    step's contact with it (it was left uncrashed and hit again)."""
+    with _ramming_pair(reset_on_crash=True) as fleet:
+        fleet.run_for(2.0)
+        kinds = {
+            n: [(e.kind, e.step) for e in fleet[n].events if e.kind in (EventKind.CRASH, EventKind.RESET)]
+            for n in fleet
+        }
+    crash = kinds["alpha"][0][1]
+    assert kinds["alpha"][:2] == [(EventKind.CRASH, crash), (EventKind.RESET, crash)], kinds
+    assert kinds["bravo"][:2] == [(EventKind.CRASH, crash), (EventKind.RESET, crash)], kinds
+
+
+def test_the_contacts_asked_once_a_step_for_the_world_are_each_vehicles_own():
+    """A fleet asks PyBullet for the world's contacts once a step and hands each vehicle its
+    own: the same points, with the normal turned to point at it, as asking for each vehicle."""
+    seen = {"floor": 0, "other vehicle": 0}
+    with _ramming_pair() as fleet:  # into bravo, then both down to the floor
+        bodies = {fleet[n].physics.body_id: n for n in fleet}
+        cid = fleet.client.cid
+        for _ in range(3 * 240):
+            fleet.step()
+            for body in bodies:
+                asked = [(p[2], p[7][2]) for p in pb.getContactPoints(body, physicsClientId=cid)]
+                assert list(fleet.client.touching(body)) == asked
+                for other, _ in asked:
+                    seen["other vehicle" if other in bodies else "floor"] += 1
+    assert seen["floor"] > 0 and seen["other vehicle"] > 0, seen  # both kinds were compared
 
 
 def _red_fraction(rgb: np.ndarray) -> float:

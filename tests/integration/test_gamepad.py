@@ -393,7 +393,7 @@ def test_a_fleet_with_a_keyboard_and_a_gamepad_vehicle_is_flown_by_two_people(tm
     """fly --fleet: the keyboard flies alpha and a real (virtual) SDL pad flies bravo at the same
     time, each only its own vehicle; bravo's pad is recorded on /bravo/joy; a pad pulled out holds
     bravo where it is."""
-    from tests.e2e.test_fleet_window import fleet_app
+    from tests.integration.test_teleop import fleet_app
 
     pad = pads(game_controller=True)
     app = fleet_app(tmp_path, TWO_HANDS)

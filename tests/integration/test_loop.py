@@ -1,10 +1,14 @@
-"""The loop owns the step count and the rates; the dead-man timeout applies to scripted input."""
+"""The loop owns the step count and the rates; the dead-man timeout applies to scripted input; a
+reset goes back to the start, alone and in a fleet; a fleet's vehicles fly on one clock, each as it
+would alone."""
+
+import math
 
 import pytest
 
-from quadsim import ConfigError, Rates, SimConfig, Simulator, StateLog, Twist, ZMode
+from quadsim import ConfigError, Fleet, FleetVehicle, Rates, SimConfig, Simulator, StartPose, StateLog, Twist, ZMode
 from quadsim.drivers import NEVER
-from quadsim.drivers.scripted import ScriptedDriver, parse_script
+from quadsim.drivers.scripted import ScriptedDriver, load_script, parse_script
 
 
 def test_rates_must_divide_physics_rate():
@@ -98,13 +102,29 @@ def test_send_checks_its_argument_at_once():
         assert sim.step(24).position_m[2] < 0.1  # nothing was taken: still on the ground
 
 
-def test_reset_returns_to_start():
-    with Simulator(SimConfig(z_mode=ZMode.HEIGHT)) as sim:
-        start = sim.state.position_m
-        sim.send(Twist(linear_x=1.0))
-        sim.run_for(3.0)
-        sim.reset()
-        assert sim.step_count == 0 and sim.state.position_m == pytest.approx(start)
+HEIGHT = SimConfig(z_mode=ZMode.HEIGHT)
+
+
+@pytest.mark.parametrize("shape", ["alone", "fleet of 2"])
+def test_reset_returns_to_start(shape):
+    """A reset puts the clock at 0 and the vehicle where it started, and it flies its script
+    again the same (in a fleet: the fleet resets, every vehicle with it)."""
+    driver = ScriptedDriver(load_script("step_forward"))  # take off for 5 s, then forward at 1 m/s
+    if shape == "alone":
+        run = Simulator(HEIGHT, driver)
+    else:
+        run = Fleet([FleetVehicle("alpha", driver=driver), FleetVehicle("bravo", start=StartPose(0.0, 3.0))], HEIGHT)
+    with run:
+        flown = run if isinstance(run, Simulator) else run["alpha"]
+        start = flown.state.position_m
+        run.run_for(7.0)
+        first = flown.state
+        assert first.position_m[0] > 1.0 and first.position_m[2] > 1.5  # up and forward
+        run.reset()
+        assert run.step_count == 0 and flown.state.position_m == pytest.approx(start)
+        assert flown.state.position_m[2] < 0.1
+        run.run_for(7.0)
+        assert flown.state.position_m == first.position_m
 
 
 def test_the_state_step_is_always_the_loops_step_count():
@@ -138,3 +158,38 @@ def test_the_state_step_is_always_the_loops_step_count():
         sim.reset()
         assert sim.step_count == 0 == sim.state.step
         assert sim.step(5).step == 5
+
+
+def _alone(script: str | None, start: StartPose, seconds: float):
+    driver = ScriptedDriver(load_script(script)) if script else None
+    with Simulator(SimConfig(z_mode=ZMode.HEIGHT, start=start), driver) as sim:
+        sim.run_for(seconds)
+        return sim.state, [e.kind for e in sim.events]
+
+
+def test_each_vehicle_of_a_fleet_flies_as_it_would_alone_on_one_clock():
+    """A square, a yaw turn and an idle vehicle, in one world: each ends where it ends when it
+    flies alone (to the bit: PyBullet solves bodies apart that do not touch), all on one clock."""
+    plan = {
+        "alpha": ("square", StartPose()),
+        "bravo": ("yaw", StartPose(0.0, -4.0)),
+        "charlie": (None, StartPose(-3.0, 2.0)),
+    }
+    vehicles = [
+        FleetVehicle(name, start=start, driver=ScriptedDriver(load_script(script)) if script else None)
+        for name, (script, start) in plan.items()
+    ]
+    with Fleet(vehicles, HEIGHT) as fleet:
+        fleet.run_for(20.0)
+        assert fleet.step_count == 4800 and fleet.time_s == 20.0
+        assert [fleet[n].step_count for n in fleet] == [4800] * 3
+        flown = {n: (fleet[n].state, [e.kind for e in fleet[n].events]) for n in fleet}
+    for name, (script, start) in plan.items():
+        state, kinds = _alone(script, start, 20.0)
+        assert flown[name][0].position_m == state.position_m, name
+        assert flown[name][0].orientation_xyzw == state.orientation_xyzw, name
+        assert flown[name][1] == kinds, name
+    alpha, bravo, charlie = (flown[n][0] for n in ("alpha", "bravo", "charlie"))
+    assert math.dist(alpha.position_m[:2], (0.0, 3.0)) < 0.2  # the square's third corner at 20 s
+    assert abs(math.remainder(bravo.yaw_rad() - 6.0, 2 * math.pi)) < 0.1  # turned 6 rad
+    assert charlie.position_m[2] < 0.1  # idle: never took off

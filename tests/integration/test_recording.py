@@ -1,5 +1,8 @@
-"""Round trip of the recording contract, read back with readers quadsim does not use to write."""
+"""Round trip of the recording contract, read back with readers quadsim does not use to write;
+and a run flown as a user flies it (`run`), alone or a fleet of three: each vehicle recorded
+under its names, and read back vehicle by vehicle."""
 
+import itertools
 import json
 import math
 from pathlib import Path
@@ -9,9 +12,14 @@ import pytest
 from mcap.reader import make_reader
 from mcap_ros2.decoder import DecoderFactory
 
+from quadsim import QuadsimError
 from quadsim.physics.world_spec import DEFAULT_WORLD, Shape, load_world
+from quadsim.recording.flight import load_flight, load_flights
 from quadsim.vehicle.params import DEFAULT_URDF, load_vehicle
+from tests.helpers.fleets import RUNS, Flier, frame, run_args, under
+from tests.helpers.mcap import decoded_recording
 from tests.helpers.recording import record_flight
+from tests.integration.test_cli import cli
 
 CONTRACT = {
     "/quad_cmd_twist": ("geometry_msgs/msg/Twist", 20),
@@ -246,3 +254,112 @@ def test_a_run_without_commands_is_still_a_quadsim_recording(tmp_path):
         assert "/quad_cmd_twist" not in reader.topics and list(reader.commands()) == []
         assert len(list(reader.poses())) == 60
     assert read_info(path).missing_topics() == []
+
+
+# --- a run as a user flies it, alone or a fleet --------------------------------------------------
+
+#: each vehicle's topics (under its names) and the run's own (once, whatever flies)
+VEHICLE_TOPICS = ("quad/pose", "quad/odom", "quad/imu", "quad/rotor_thrusts", "robot_description", "robot_markers")
+RUN_TOPICS = {"/tf", "/tf_static", "/world/markers", "/rosout"}
+#: each airframe's URDF (its name in `info` and the description) and rotors
+AIRFRAMES = {"quad": ("quadsim_x", 4), "hexa": ("quadsim_hexa", 6), "crazyflie": ("crazyflie", 4)}
+#: the commands each input sends in the 27 s run (the square's and yaw's at 20 Hz till they end)
+COMMANDS = {"script:square": 540, "script:yaw": 280, "idle": 0}
+
+
+@pytest.fixture(scope="module", params=list(RUNS))
+def run_recorded(request, tmp_path_factory) -> tuple[Path, tuple[Flier, ...]]:
+    """A run of each shape (tests.helpers.fleets.RUNS) flown and recorded by `run`: its file and
+    its vehicles."""
+    folder = tmp_path_factory.mktemp("run")
+    out = cli(*run_args(request.param, folder), "--out", str(folder / "run.mcap"))
+    assert out.returncode == 0, out.stderr
+    return folder / "run.mcap", RUNS[request.param]
+
+
+def _yaw(q) -> float:
+    return math.atan2(2 * (q.w * q.z + q.x * q.y), 1 - 2 * (q.y * q.y + q.z * q.z))
+
+
+def _flew_its_input(flier: Flier, poses: list, thrusts: list) -> None:
+    """The vehicle's recorded poses and rotor thrusts show what its input flew."""
+    x0, y0, _, heading_deg = flier.start
+    if flier.input == "script:square":  # the 3 m square, back over its start at 2 m
+        points = [p.position for p in poses]
+        path_m = sum(math.dist((a.x, a.y, a.z), (b.x, b.y, b.z)) for a, b in itertools.pairwise(points))
+        assert 13.0 < path_m < 16.0 and math.dist((points[-1].x, points[-1].y), (x0, y0)) < 0.2, path_m
+        assert abs(points[-1].z - 2.0) < 0.1 and max(p.x for p in points) > x0 + 2.8
+        assert max(p.y for p in points) > y0 + 2.8
+    elif flier.input == "script:yaw":  # turned 6 rad from its heading where it stands
+        last = poses[-1]
+        assert math.dist((last.position.x, last.position.y), (x0, y0)) < 0.1
+        turned = _yaw(last.orientation) - (math.radians(heading_deg) + 6.0)
+        assert abs(math.remainder(turned, 2 * math.pi)) < 0.1
+    else:  # idle: on the floor, its rotors still
+        assert flier.input == "idle" and max(p.position.z for p in poses) < 0.1
+        assert sum(thrusts[-1].data) == 0.0
+
+
+def test_each_vehicle_is_recorded_under_its_names(run_recorded):
+    """Read back with mcap-ros2-support: each vehicle on its own topics and frames (a fleet's
+    under its name, one flying alone the contract's own), the run's topics once, and each vehicle
+    flew what its input said."""
+    path, fliers = run_recorded
+    names = [f.name for f in fliers]
+    fleet = names != [""]
+    commanded = [f.name for f in fliers if COMMANDS[f.input]]
+    topics, metadata, attachments = decoded_recording(path)
+    own = {under(n, t) for n in names for t in VEHICLE_TOPICS}
+    sent = {under(n, "quad_cmd_twist") for n in commanded}  # idle: nothing was sent
+    assert set(topics) == RUN_TOPICS | own | sent  # a fleet's only under its names, alone only unprefixed
+    assert [len(topics[t]) for t in ("/tf_static", "/world/markers")] == [1, 1]  # the run's, once
+    static = topics["/tf_static"][0][1].transforms
+    for flier in fliers:
+        name, (urdf, rotors) = flier.name, AIRFRAMES[flier.airframe]
+        poses = [m.pose for _, m in topics[under(name, "quad/pose")]]
+        thrusts = [m for _, m in topics[under(name, "quad/rotor_thrusts")]]
+        _flew_its_input(flier, poses, thrusts)
+        assert len(thrusts[-1].data) == rotors
+        assert sum(t.child_frame_id.startswith(frame(name, "rotor")) for t in static) == rotors
+        odom = topics[under(name, "quad/odom")][0][1]
+        assert (odom.header.frame_id, odom.child_frame_id) == ("world", frame(name, "base_link"))
+        assert topics[under(name, "quad/imu")][0][1].header.frame_id == frame(name, "base_link")
+        assert f'<robot name="{urdf}"' in topics[under(name, "robot_description")][0][1].data
+    # frames under each name, in one TF tree rooted at world
+    bases = {frame(n, "base_link") for n in names}
+    assert {t.child_frame_id for _, m in topics["/tf"] for t in m.transforms} == bases
+    assert {t.header.frame_id for _, m in topics["/tf"] for t in m.transforms} == {"world"}
+    assert {t.header.frame_id for t in static} == bases
+    # the run: a fleet's parameters, each airframe's files attached once
+    params = json.loads(metadata["quadsim"]["parameters"])
+    assert params["schema_version"] == (3 if fleet else 2)
+    assert [v["name"] for v in params.get("fleet", [])] == (names if fleet else [])
+    assert sorted(attachments) == sorted(set(attachments))
+    assert len(attachments) == 2 * len({f.airframe for f in fliers}) + 1  # URDF and parameters, and the world
+    takeoffs = [m.name for _, m in topics["/rosout"] if "takeoff" in m.msg]
+    assert sorted(takeoffs) == sorted(f"{n}.quadsim" if n else "quadsim" for n in commanded)
+
+
+def test_it_reads_back_vehicle_by_vehicle(run_recorded):
+    """(Re-flown at 0 m by check and replay --resim as every run is: tests/e2e/test_one_path.py.)"""
+    path, fliers = run_recorded
+    names = [f.name for f in fliers]
+    fleet = names != [""]
+    flights = load_flights(path)
+    assert list(flights) == names
+    for flier in fliers:
+        flight = flights[flier.name]
+        assert flight.vehicle == flier.name and len(flight.commands) == COMMANDS[flier.input]
+        assert flight.description.vehicle.rotor_count == AIRFRAMES[flier.airframe][1]
+        assert (flight.states[-1].position_m[2] < 0.1) == (flier.input == "idle")  # its own end: idle on the floor
+    assert load_flight(path).vehicle == names[0]
+    last = load_flight(path, names[-1])
+    assert last.vehicle == names[-1] and last.states == flights[names[-1]].states
+    have = ", ".join(names) if fleet else "one vehicle, unnamed"
+    with pytest.raises(QuadsimError, match=rf"no vehicle named 'zulu' in this recording \(it has {have}\)"):
+        load_flight(path, "zulu")
+    info = cli("info", str(path)).stdout
+    assert (f"a fleet of {len(names)} vehicles:" in info) == fleet, info
+    for flier in fliers:
+        urdf, rotors = AIRFRAMES[flier.airframe]
+        assert (f"{flier.name}: {urdf} ({rotors} rotors" if fleet else f"vehicle {urdf} ({rotors} rotors)") in info

@@ -12,18 +12,21 @@ import pygame
 import pytest
 from mcap.writer import Writer
 
-from quadsim import QuadsimError, SimConfig
+from quadsim import QuadsimError, SimConfig, ZMode
 from quadsim.apps.replay_export import export_mp4
 from quadsim.apps.window.replay import ReplayApp
 from quadsim.apps.window.teleop import TeleopApp, TeleopOptions
 from quadsim.core.invocation import install_extra
-from quadsim.recording.flight import load_flight
+from quadsim.recording.flight import load_flight, load_flights
+from quadsim.recording.reader import RecordingReader
 from quadsim.session.outputs import OutputOptions
 from quadsim.session.pacing import FixedStepPacer
 from quadsim.session.resim import resimulate
+from tests.helpers import RECORDINGS as RECORDINGS_DIR
 from tests.helpers import ROOT
 from tests.helpers.cli import bare_env, run_main
 from tests.helpers.recording import SHIPPED_RECORDINGS, record_flight
+from tests.integration.test_teleop import APPS
 
 RECORDINGS = SHIPPED_RECORDINGS
 
@@ -47,10 +50,13 @@ def test_shipped_recordings_are_small_and_cover_both_controllers_and_teleop():
 # tests/recordings/*.mcap (pyproject.toml's quadsim_recordings; tests/unit/test_pytest_plugin.py tests it)
 
 
-def test_fresh_interactive_recording_reflies_to_zero(tmp_path):
-    app = TeleopApp(
-        SimConfig(), OutputOptions(out=tmp_path, cameras=()), TeleopOptions(), pacer=FixedStepPacer(240, 1 / 30)
-    )
+@pytest.mark.parametrize("shape", list(APPS))
+def test_fresh_interactive_recording_reflies_to_zero(shape, tmp_path):
+    """Tab switches the flown vehicle's z-mode: the recording keeps the switch under its name
+    (a fleet's, not the others'), so the run re-flies to zero (it was once a run event in a
+    fleet, and the height commands after it re-flew as climbs)."""
+    app = APPS[shape](tmp_path)
+    flown, *others = app.session.fleet
     plan = {2: pygame.K_w, 40: pygame.K_TAB, 50: pygame.K_UP, 51: pygame.K_d}
 
     def events(a):
@@ -60,17 +66,23 @@ def test_fresh_interactive_recording_reflies_to_zero(tmp_path):
             )
 
     app.run(max_frames=120, before_frame=events)
+    assert app.sim.gate.z_mode is ZMode.HEIGHT
     app.close()
-    flight = load_flight(app.recordings[0])
-    assert [e[1:] for e in flight.events] == [
+    flights = load_flights(app.recordings[0])
+    with RecordingReader(app.recordings[0]) as reader:  # a fleet's recording keeps the run's own apart
+        run_events = reader.events
+    assert [e[1:] for e in sorted({*run_events, *flights[flown].events})] == [
         ("recording", "started"),
         ("takeoff", "climbing from the ground"),
         ("z_mode", "height"),
         ("recording", "stopped"),
     ]
-    report = resimulate(flight, out=tmp_path / "again")
+    for name in others:
+        assert not [value for _, kind, value in flights[name].events if kind == "z_mode"], name
+    report = resimulate(flights, out=tmp_path / "again")
     assert report.position.max_error == 0.0 and report.attitude.max_error == 0.0
-    assert report.new_recording is not None and load_flight(report.new_recording).states
+    assert report.fleet_size == (len(flights) if others else 0)
+    assert report.new_recording is not None and all(f.states for f in load_flights(report.new_recording).values())
 
 
 def test_check_on_unusable_files_exits_2(tmp_path):
@@ -286,6 +298,35 @@ def test_playback_window_controls(with_cameras):
     assert set(model.frames) == {"front", "floor"} and len(model.track) > 10
     pygame.image.save(app.screen, "/tmp/quadsim_replay_test.png")
     app.close()
+
+
+#: a shipped recording of each shape, and what C says in its window once it has gone round
+FOLLOWED = {
+    "alone": ("square_cascade.mcap", "one vehicle in this recording: nothing else to follow"),
+    "fleet of 3": ("fleet_trio_wind.mcap", "following alpha (it recorded no cameras)"),
+}
+
+
+@pytest.mark.parametrize("shape", list(FOLLOWED))
+def test_c_in_the_replay_window_follows_each_vehicle_in_turn(shape):
+    """The replay window of a recording: C follows the next vehicle (its HUD's state and
+    cameras, the others on the map), in the fleet's order and round again; alone, there is no
+    other to follow, and it says so."""
+    recording, said = FOLLOWED[shape]
+    flights = load_flights(RECORDINGS_DIR / recording)
+    first, *rest = flights
+    with ReplayApp(flights[first], (640, 360), frame_s=0.1, others={n: flights[n] for n in rest}) as app:
+        app.seek(5.0)
+        followed = []
+        for _ in flights:
+            model = app.model()
+            followed.append(model.cameras_of)
+            assert model.state == flights[model.cameras_of].state_at(app.t_ns)
+            assert [n for n, *_ in model.others] == [n for n in flights if n != model.cameras_of]
+            pygame.event.post(pygame.event.Event(pygame.KEYDOWN, key=pygame.K_c, mod=0, unicode="c", scancode=0))
+            app.run(max_frames=app.frame_count + 1)
+        assert followed == list(flights) and app.model().cameras_of == first
+        assert said in app.model().warnings
 
 
 def test_the_plot_shades_the_stretch_flown_in_height_mode():

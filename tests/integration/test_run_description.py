@@ -1,5 +1,7 @@
 """The typed run description: written to a recording, read back equal; bad values refused with
-the field named; every reader (info, resim/check) goes through it."""
+the field named; every reader (info, resim/check) goes through it.
+
+Its integration tests (several layers, in-process or one process started); the others are in tests/unit/test_run_description.py."""
 
 from __future__ import annotations
 

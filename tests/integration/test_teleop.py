@@ -1,5 +1,9 @@
-"""The teleop window, driven headless (SDL dummy video) with synthetic pygame events."""
+"""The teleop window, driven headless (SDL dummy video) with synthetic pygame events: flying one
+vehicle (`fly`) or one vehicle of a fleet among the others (`fly --fleet`).
 
+Its integration tests (several layers, in-process or one process started); the others are in tests/e2e/test_teleop.py."""
+
+import math
 from pathlib import Path
 
 import pygame
@@ -7,11 +11,16 @@ import pytest
 from mcap.reader import make_reader
 
 from quadsim import SimConfig, ZMode
+from quadsim.apps.plans import fleet_drivers
 from quadsim.apps.replay_export import summary_lines
-from quadsim.apps.window.teleop import TeleopApp, TeleopOptions
-from quadsim.recording.flight import load_flight
+from quadsim.apps.window.teleop import FleetSetup, TeleopApp, TeleopOptions
+from quadsim.recording.flight import load_flight, load_flights
+from quadsim.sensors.camera import default_cameras
 from quadsim.session.outputs import OutputOptions
 from quadsim.session.pacing import FixedStepPacer
+from quadsim.session.resim import resimulate
+from quadsim.sim.fleet_file import load_fleet_file
+from tests.helpers.fleets import WINDOW_FLEET, under
 from tests.helpers.mcap import topic_messages
 
 FPS = 30  # each frame advances 1/30 s of simulation time
@@ -25,6 +34,32 @@ def make_app(tmp_path: Path, cameras=(), options=TeleopOptions(), config=SimConf
         pacer=FixedStepPacer(240, 1 / FPS),
         **kw,
     )
+
+
+FLEET = WINDOW_FLEET  # alpha by the keyboard (front and floor cameras), bravo on the square (front), charlie idle
+
+
+def fleet_app(tmp_path: Path, text: str = FLEET, input: str = "keyboard", render_workers: int = 0) -> TeleopApp:
+    """The window as `fly --fleet` opens it for the fleet file `text` (`input`: the device of its
+    first keyboard or gamepad vehicle, as fly --fleet sets it); its cameras rendered in this
+    process (as make_app's) or by `render_workers` worker processes."""
+    (tmp_path / "three.toml").write_text(text)
+    fleet_file = load_fleet_file(tmp_path / "three.toml")
+    specs = {c.name: c for c in default_cameras(160, 120, 30)}
+    cameras = {v.name: tuple(specs[c] for c in v.cameras) for v in fleet_file.vehicles if v.cameras}
+    return TeleopApp(
+        SimConfig(),
+        OutputOptions(out=tmp_path, cameras=(), render_workers=render_workers),
+        TeleopOptions(input=input),
+        pacer=FixedStepPacer(240, 1 / FPS),
+        fleet=FleetSetup(fleet_file, fleet_drivers(fleet_file), cameras),
+    )
+
+
+#: the window of each shape of run: one vehicle flown by the keyboard (no cameras), or FLEET's
+APPS = {"alone": make_app, "fleet of 3": fleet_app}
+#: each vehicle's cameras in each shape's window
+CAMERAS = {"alone": {"": set()}, "fleet of 3": {"alpha": {"front", "floor"}, "bravo": {"front"}, "charlie": set()}}
 
 
 def post(kind, **fields):
@@ -50,11 +85,18 @@ def twist_messages(path: Path):
     return topic_messages(path, "/quad_cmd_twist")
 
 
-def test_keys_fly_where_they_say_and_are_recorded(tmp_path):
-    app = make_app(tmp_path)
+@pytest.mark.parametrize("shape", list(APPS))
+def test_keys_fly_where_they_say_and_are_recorded(shape, tmp_path):
+    """The keys fly the vehicle flown, and only it: it is recorded under its names, its commands
+    at the input rate, and the recording re-flies at 0. In a fleet the others fly meanwhile, the
+    map shows them with their tracks, and C shows each camera'd vehicle's cameras in turn."""
+    app = APPS[shape](tmp_path)
+    names = list(app.session.fleet)
+    flown, others, cameras = names[0], names[1:], CAMERAS[shape]
+    assert list(cameras) == names
     run_with(
         app,
-        150,
+        180,
         {
             0: [lambda: key(pygame.K_w)],
             60: [lambda: key(pygame.K_w, False)],  # climb 2 s
@@ -63,22 +105,53 @@ def test_keys_fly_where_they_say_and_are_recorded(tmp_path):
         },
     )
     x, y, z = app.sim.state.position_m
+    assert app.sim is app.session.fleet[flown]
     assert 1.3 < z < 1.8  # 2 s at 0.8 m/s
     assert x > 1.2 and abs(y) < 0.05
-    said = "\n".join(app.final_lines())  # what `fly` prints at the end, as `run` says it
-    assert (
-        f"final pose      x={x:+.3f} m" in said and "distance flown  " in said and "flight events   1 takeoff" in said
-    )
+    lines = app.final_lines()  # what `fly` prints at the end, as `run` says it
+    if others:  # a fleet's: a line each
+        assert [line.split()[0] for line in lines] == names and "script square" in lines[1]
+        assert f"final x={x:+.2f}" in lines[0] and "1 takeoff" in lines[0] and "; flown " in lines[0]
+    else:
+        said = "\n".join(lines)
+        assert f"final pose      x={x:+.3f} m" in said and "distance flown  " in said
+        assert "flight events   1 takeoff" in said
+    model = app._model()
+    assert [name for name, *_ in model.others] == others and model.cameras_of == flown
+    for name, position, _, points in model.others:  # each other vehicle, and its track, for the map
+        assert math.dist(position, app.session.fleet[name].state.position_m[:2]) < 1e-9 and len(points) > 10
+    if others:  # meanwhile: bravo its square (6 s: take-off, then forward), charlie idle
+        bravo = app.session.fleet["bravo"].state.position_m
+        assert bravo[2] > 1.5 and bravo[0] > 0.5, bravo
+        assert app.session.fleet["charlie"].state.position_m[2] < 0.1
+    assert set(app.frames) == cameras[flown]
+    shown = [n for n in names if cameras[n]]  # C: the next vehicle with cameras, and round again
+    for name in [*shown[1:], *shown[:1]]:
+        first = {camera: frame.step for camera, frame in app.frames.items()}
+        run_with(app, 3, {0: [lambda: key(pygame.K_c)]})
+        assert app.fleet.shown == name and app._model().cameras_of == name
+        run_with(app, 6)
+        assert set(app.frames) == cameras[name] and all(f.step > first.get(c, -1) for c, f in app.frames.items())
+    app.view.draw(app.screen, app._model())  # the map with the others draws
+    flown_s = app.sim.time_s
     app.close()
     path = app.recordings[0]
-    msgs = twist_messages(path)
+    msgs = topic_messages(path, under(flown, "quad_cmd_twist"))
     forward = [d.linear.x for t, d in msgs if 3.0 < t < 4.4]
     assert forward and all(v == pytest.approx(1.0) for v in forward)
     climbing = [d.linear.z for t, d in msgs if 0.2 < t < 1.9]
     assert climbing and all(v == pytest.approx(0.8) for v in climbing)
     assert all(d.linear.x == 0.0 for t, d in msgs if t > 4.6)  # released: that motion stops
     # published at the fixed 20 Hz whether or not anything changes, plus at each change
-    assert 20 * 5.0 <= len(msgs) <= 20 * 5.0 + 6
+    assert 20 * flown_s <= len(msgs) <= 20 * flown_s + 6
+    flights = load_flights(path)
+    assert list(flights) == names
+    assert any(t.linear_z > 0.5 for _, t in flights[flown].commands)  # the keyboard's climb, under its name
+    for name in names:  # each vehicle's cameras, under its name
+        assert set(flights[name].frames) == cameras[name] and all(flights[name].frames.values())
+    again = resimulate(flights, record=False)  # as `check --tolerance-m 0 --tolerance-rad 0` re-flies it
+    assert again.position.max_error == 0.0 and again.attitude.max_error == 0.0
+    assert again.fleet_size == (len(names) if others else 0) and again.states_compared >= 6 * 60 * len(names)
 
 
 def test_releasing_a_key_stops_the_motion(tmp_path):
@@ -161,6 +234,30 @@ def test_pause_reset_zmode_and_recording_keys(tmp_path):
         (0.0, "takeoff: climbing from the ground"),  # after the reset, from the ground again
         (round(closed_at, 6), "recording: stopped"),
     ]
+
+
+@pytest.mark.parametrize("shape", list(APPS))
+def test_backspace_resets_every_vehicle_and_starts_a_new_recording(shape, tmp_path):
+    """Backspace: every vehicle back at its start on a clock started again (not the time flown,
+    which the summary keeps counting), and a new recording from the reset on."""
+    app = APPS[shape](tmp_path)
+    names = list(app.session.fleet)
+    run_with(app, 90, {0: [lambda: key(pygame.K_w)], 60: [lambda: key(pygame.K_w, False)]})
+    assert app.sim.state.position_m[2] > 1.0
+    if "bravo" in names:  # on its square meanwhile
+        assert app.session.fleet["bravo"].state.position_m[2] > 0.5
+    run_with(app, 1, {0: [lambda: key(pygame.K_BACKSPACE)]})
+    for name in names:
+        assert app.session.fleet[name].state.position_m[2] < 0.2, name
+    assert app.session.fleet.step_count < 20
+    assert app.flown_s > 1.3  # the clock started again; the time flown did not
+    lines = app.final_lines()
+    if len(names) > 1:
+        assert [line.split()[0] for line in lines] == names and "script square" in lines[1]
+    else:
+        assert lines[0].startswith("final pose ") and "distance flown" in lines[1]
+    app.close()
+    assert len(app.recordings) == 2  # a new recording from the reset on
 
 
 def rosout(path: Path):

@@ -1,6 +1,7 @@
-"""A fleet flown from a fleet file, as a user runs it (`run --fleet`, `check`, `replay --resim`).
+"""The typed run description: a fleet's written and read back, and a bad fleet refused naming
+the field.
 
-Its unit tests (in-process, one part at a time); the others are in tests/integration/test_fleet_recording.py."""
+Its unit tests (in-process, one part at a time); the others are in tests/integration/test_run_description.py."""
 
 from __future__ import annotations
 
@@ -12,6 +13,8 @@ from quadsim.sim.description import DescriptionError, RunDescription
 
 
 def test_a_fleet_description_reads_back_and_refuses_a_bad_fleet():
+    """(Not one test with test_it_reads_back_what_it_wrote over alone and a fleet: a fleet's
+    description does not read back equal to itself; it holds schema_version 2 and writes 3.)"""
     from quadsim import Fleet, FleetVehicle, StartPose
 
     with Fleet([FleetVehicle("alpha"), FleetVehicle("bravo", start=StartPose(3.0, 0.0))]) as fleet:
