@@ -10,8 +10,9 @@ The JSON layout (`to_parameters`) is the one recordings have always carried, plu
 `schema_version`; files without it are version 1. Version 2 adds the run's wind, sensor noise
 and seed (`config.wind`, `config.sensor_noise`, `config.seed`); a version 1 file had no wind and
 no sensor noise. Version 3 is a fleet's (`fleet`: each vehicle's name and own description; the
-top-level `config` is the fleet's, with the run's seed, and `vehicle`, `controller` and `driver`
-are the first vehicle's); a run of one vehicle is still written as version 2.
+top-level `config` is the fleet's, with the run's seed and the first vehicle's z-mode, and
+`vehicle`, `controller` and `driver` are the first vehicle's); a run of one vehicle is still
+written as version 2. A description reads back equal to itself.
 """
 
 from __future__ import annotations

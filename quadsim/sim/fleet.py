@@ -36,7 +36,13 @@ from quadsim.physics.wind import WindModel
 from quadsim.physics.world_spec import WorldSpec, load_world
 from quadsim.sim.clear_flight import QuietFleet
 from quadsim.sim.config import MAX_SEED, SimConfig, steps_of, whole_steps
-from quadsim.sim.description import MAX_FLEET, VEHICLE_NAME, RunDescription, WindModelDescription
+from quadsim.sim.description import (
+    FLEET_SCHEMA_VERSION,
+    MAX_FLEET,
+    VEHICLE_NAME,
+    RunDescription,
+    WindModelDescription,
+)
 from quadsim.sim.drone import Drone
 from quadsim.vehicle.params import VehicleParams
 
@@ -230,8 +236,15 @@ class Fleet:
         wind = WindModelDescription.of(self.wind_model) if self.wind_model is not None else None
         if self._alone is not None:
             return replace(self._alone.description(), wind_model=wind)
-        members = tuple((name, drone.description()) for name, drone in self.vehicles.items())
-        return replace(members[0][1], config=self.config, fleet=members, wind_model=wind)
+        # written as a fleet's (version 3), each vehicle's part as read back from it
+        members = tuple(
+            (name, replace(drone.description(), schema_version=FLEET_SCHEMA_VERSION))
+            for name, drone in self.vehicles.items()
+        )
+        first = members[0][1]
+        # the top level's z-mode is the first vehicle's, as are its vehicle, controller and driver
+        config = replace(self.config, z_mode=first.z_mode)
+        return replace(first, config=config, fleet=members, wind_model=wind)
 
     # --- lifetime ---------------------------------------------------------------------------
 

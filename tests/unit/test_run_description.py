@@ -12,14 +12,15 @@ import pytest
 from quadsim.sim.description import DescriptionError, RunDescription
 
 
-def test_a_fleet_description_reads_back_and_refuses_a_bad_fleet():
-    """(Not one test with test_it_reads_back_what_it_wrote over alone and a fleet: a fleet's
-    description does not read back equal to itself; it holds schema_version 2 and writes 3.)"""
+def test_a_fleet_description_reads_back_equal_and_refuses_a_bad_fleet():
+    """A fleet's description reads back equal to itself (it once held version 2 and wrote 3)."""
     from quadsim import Fleet, FleetVehicle, StartPose
 
     with Fleet([FleetVehicle("alpha"), FleetVehicle("bravo", start=StartPose(3.0, 0.0))]) as fleet:
-        params = fleet.description().to_parameters()
+        description = fleet.description()
+        params = description.to_parameters()
     back = RunDescription.from_parameters(json.loads(json.dumps(params)))
+    assert back == description
     assert back.schema_version == 3 and [n for n, _ in back.fleet] == ["alpha", "bravo"]
     assert back.fleet[1][1].config.start == StartPose(3.0, 0.0) and back.config.seed == fleet.config.seed
     for bad, words in (
