@@ -70,6 +70,7 @@ FLIGHT_CORE = (
     "vehicle/wrench.py",
     "control/cascade_step.py",
     "control/landing.py",
+    "sensors/imu.py",
     "sim/clear_flight.py",
 )
 _PACKAGE = Path(__file__).resolve().parent.parent
@@ -136,6 +137,13 @@ def jit(function: F) -> F:
     except RuntimeError:  # nowhere to write the cache (a read-only install and home): compile each run
         compiled = numba.njit(error_model="python")(named)
     return compiled
+
+
+def python_of(function: F) -> F:
+    """The Python function a `jit` function was compiled from (itself where nothing compiles):
+    the same arithmetic, for callers in Python, where a compiled call's dispatch costs more than
+    the work."""
+    return getattr(function, "py_func", function)
 
 
 def specialize(function: F, *sample: Any) -> F:

@@ -22,6 +22,7 @@ from quadsim.control.cascade_step import cascade_update
 from quadsim.control.landing import landing_command
 from quadsim.core.compiled import Floats, jit, set_item, specialize, typed_list
 from quadsim.physics.free_flight import ClearConstants, clear_step
+from quadsim.sensors.imu import walked
 
 #: the command the cascade takes while the dead-man holds (quadsim.control.cascade)
 _NO_COMMAND = (0.0, 0.0, 0.0, 0.0)
@@ -102,16 +103,6 @@ def step_once(
     wanted = _NO_COMMAND if flown_hold else (fx, fy, fz, fw)
     cascade_update(k, rows, s, position, rotation, velocity, rates, wanted, flown_height, flown_hold, control_dt_s, out)
     return clear_step(*body, out, rotation, velocity, spin, position, velocity)
-
-
-@jit
-def walked(
-    sample: Any, gyro_bias: tuple[float, float, float], accel_bias: tuple[float, float, float]
-) -> tuple[tuple[float, float, float], tuple[float, float, float]]:
-    """The IMU noise's biases after one more `sample` (quadsim.sensors.imu.ImuNoise.measure's walk)."""
-    gyro = (gyro_bias[0] + sample[3], gyro_bias[1] + sample[4], gyro_bias[2] + sample[5])
-    accel = (accel_bias[0] + sample[9], accel_bias[1] + sample[10], accel_bias[2] + sample[11])
-    return gyro, accel
 
 
 @jit
