@@ -89,6 +89,12 @@ def local_env(domain: int, discovery_range: str | None = "LOCALHOST") -> dict[st
 
 
 def free_domain(offset: int = 0) -> int:
-    """A domain id unlikely to be in use by another test run on this machine (`offset` apart for
-    cases of the same run)."""
-    return 100 + (os.getpid() + offset) % 100
+    """A domain id of this test's own (`offset` apart for cases of the same run): under
+    pytest-xdist each worker draws from its own range, so tests running at once never share a
+    domain; else one unlikely to be in use by another run on this machine."""
+    worker = os.environ.get("PYTEST_XDIST_WORKER", "")
+    if worker.startswith("gw"):
+        count = max(1, int(os.environ.get("PYTEST_XDIST_WORKER_COUNT", "1")))
+        span = max(1, 200 // count)
+        return 20 + int(worker[2:]) % count * span + offset % span
+    return 20 + (os.getpid() + offset) % 200
