@@ -19,7 +19,6 @@ import random
 import signal
 import subprocess
 import sys
-import threading
 import time
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
@@ -30,6 +29,7 @@ from mcap.reader import make_reader
 
 from tests.helpers import ROOT
 from tests.helpers import proc as procfs
+from tests.helpers.cli import wait_for_line
 from tests.helpers.fleets import fleet_toml, vehicle
 
 MOMENTS_PER_CASE = int(os.environ.get("QUADSIM_SIGNAL_MOMENTS", "14"))  # each anchor twice
@@ -88,39 +88,6 @@ def _flying_command(out: Path) -> list[str]:
     return _command(out, duration_s="8")
 
 
-def _wait_for_line(proc: subprocess.Popen, text: str | None, count: int) -> tuple[list[str], list[str], list]:
-    """Read the process's stdout and stderr as it prints them (a thread each), and return once
-    the `count`-th line starting with `text` has come (at once for None; when the output ends
-    without it): the lists the lines go into, and the reading threads."""
-    seen = threading.Event()
-    lines: tuple[list[str], list[str]] = ([], [])
-    matched, ended = [0], [0]
-    lock = threading.Lock()
-
-    def read(stream, into: list[str]) -> None:
-        for line in stream:
-            into.append(line)
-            if text is not None and line.startswith(text):
-                with lock:
-                    matched[0] += 1
-                    if matched[0] == count:
-                        seen.set()
-        with lock:
-            ended[0] += 1
-            if ended[0] == 2:
-                seen.set()  # the output ended without the line: the run is over
-
-    readers = [
-        threading.Thread(target=read, args=(stream, into), daemon=True)
-        for stream, into in zip((proc.stdout, proc.stderr), lines)
-    ]
-    for reader in readers:
-        reader.start()
-    if text is not None:
-        seen.wait(timeout=120)
-    return lines[0], lines[1], readers
-
-
 def _env(tmpdir: Path) -> dict[str, str]:
     env = {k: v for k, v in os.environ.items() if not k.startswith("PYTEST")}
     env.update(TMPDIR=str(tmpdir), SDL_VIDEODRIVER="dummy", SDL_AUDIODRIVER="dummy", PYTHONPATH=str(ROOT))
@@ -163,7 +130,7 @@ def _trial(
         env=_env(tmpdir),
         start_new_session=True,  # a process group of its own, as a shell job has
     )
-    stdout, stderr, readers = _wait_for_line(proc, *anchor)
+    stdout, stderr, readers = wait_for_line(proc, *anchor)
     time.sleep(delay_s)  # the moment: a random delay after the line; no outcome depends on its length
     try:
         if to_group:

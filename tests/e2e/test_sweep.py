@@ -21,7 +21,7 @@ from quadsim.core.invocation import install_extra
 from quadsim.recording.flight import load_flight
 from tests.helpers import ROOT
 from tests.helpers import proc as procfs
-from tests.helpers.cli import run_main
+from tests.helpers.cli import run_main, wait_for_line
 from tests.helpers.fleets import fleet_toml, vehicle
 
 SMALL = """
@@ -249,11 +249,13 @@ def test_runs_flown_again_replace_their_recordings(tmp_path: Path) -> None:
 
 def test_ctrl_c_at_random_moments_keeps_finished_runs_and_resume_completes(tmp_path: Path) -> None:
     text = "seeds = 3\n" + SMALL.replace("duration_s = 6.0", "duration_s = 15.0")  # 18 runs
-    t0 = time.monotonic()
     reference = _sweep(tmp_path, text, "--jobs", "2", "--out", str(tmp_path / "ref"), "--format", "csv", "--no-plot")
     assert reference.returncode == 0, reference.stderr
-    wall_s = time.monotonic() - t0  # the moments are spread over a whole sweep, on this machine
     ref_bytes = (tmp_path / "ref" / "results.csv").read_bytes()
+    # each trial's moment comes from its own progress: a short random delay after its start (the
+    # sweep starting up) or after its line at a quarter, half or three quarters of the runs, so
+    # the moments fall inside the sweep however fast or busy the machine is
+    anchors = [(None, 1, 0.3, 1.0), ("sweep:", 1, 0.0, 0.5), ("sweep:", 2, 0.0, 0.5), ("sweep:", 3, 0.0, 0.5)]
     rng = random.Random(13)
     spec = tmp_path / "spec.toml"
     interrupted = 0
@@ -279,9 +281,14 @@ def test_ctrl_c_at_random_moments_keeps_finished_runs_and_resume_completes(tmp_p
             text=True,
             start_new_session=True,
         )
-        time.sleep(rng.uniform(0.3, 0.9 * wall_s))
+        line, count, low, high = anchors[trial % len(anchors)]
+        _, errs, readers = wait_for_line(proc, line, count)
+        time.sleep(rng.uniform(low, high))  # the moment itself, after its line: no outcome depends on its length
         os.killpg(proc.pid, signum)  # as a terminal's Ctrl-C does: the whole group
-        stdout, stderr = proc.communicate(timeout=120)
+        proc.wait(timeout=120)
+        for reader in readers:
+            reader.join(timeout=30)
+        stderr = "".join(errs)
         assert "Traceback" not in stderr, stderr
         if proc.returncode == 0:  # it had finished: nothing to resume
             assert (out / "results.csv").read_bytes() == ref_bytes

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import subprocess
 import sys
+import threading
 from collections.abc import Mapping
 from pathlib import Path
 
@@ -31,3 +32,37 @@ def bare_env(**extra: str) -> dict[str, str]:
     """An environment with nothing of this one's in it but the system's PATH and the clone on
     PYTHONPATH (what a user's shell in a clone would at least have), plus `extra`."""
     return {"PATH": "/usr/bin:/bin", "PYTHONPATH": str(ROOT), **extra}
+
+
+def wait_for_line(proc: subprocess.Popen, text: str | None, count: int) -> tuple[list[str], list[str], list]:
+    """Read the process's stdout and stderr (text pipes) as it prints them (a thread each), and
+    return once the `count`-th line starting with `text` has come on either (at once for None;
+    when the output ends without it): the lists the lines go into, and the reading threads. A
+    moment taken from what a process prints, not from a clock, is the same on a busy machine."""
+    seen = threading.Event()
+    lines: tuple[list[str], list[str]] = ([], [])
+    matched, ended = [0], [0]
+    lock = threading.Lock()
+
+    def read(stream, into: list[str]) -> None:
+        for line in stream:
+            into.append(line)
+            if text is not None and line.startswith(text):
+                with lock:
+                    matched[0] += 1
+                    if matched[0] == count:
+                        seen.set()
+        with lock:
+            ended[0] += 1
+            if ended[0] == 2:
+                seen.set()  # the output ended without the line: the run is over
+
+    readers = [
+        threading.Thread(target=read, args=(stream, into), daemon=True)
+        for stream, into in zip((proc.stdout, proc.stderr), lines)
+    ]
+    for reader in readers:
+        reader.start()
+    if text is not None:
+        seen.wait(timeout=120)
+    return lines[0], lines[1], readers
