@@ -6,7 +6,6 @@ import re
 import signal
 import subprocess
 import sys
-import time
 from pathlib import Path
 
 import cv2
@@ -14,6 +13,7 @@ import pytest
 
 from tests.helpers import RECORDINGS as RECORDINGS_DIR
 from tests.helpers import ROOT
+from tests.helpers.cli import wait_for_line
 from tests.helpers.fleets import under
 from tests.helpers.recording import copy_recording, record_flight
 from tests.integration.test_replay import (
@@ -92,12 +92,13 @@ def test_ctrl_c_while_encoding_ends_soon_with_whole_videos(tmp_path):
         text=True,
     )
     try:
-        deadline = time.monotonic() + 60
-        while not list((tmp_path / "v").glob("*.mp4")) and time.monotonic() < deadline:
-            time.sleep(0.05)
-        time.sleep(0.5)
+        # mid-encoding: once the encoding says it has done a quarter of the frames
+        outs, errs, readers = wait_for_line(proc, "encoding video:", 1)
         proc.send_signal(signal.SIGINT)
-        out, err = proc.communicate(timeout=60)
+        proc.wait(timeout=60)
+        for reader in readers:
+            reader.join(timeout=30)
+        out, err = "".join(outs), "".join(errs)
     finally:
         proc.kill()
     assert proc.returncode == 130, err
