@@ -504,10 +504,14 @@ def test_a_second_signal_abandons_the_runs_in_flight(tmp_path: Path, signum: int
     for worker in _workers_of(proc.pid):  # the command line forks them: they run main.py, not a spawn
         assert b"main.py\0sweep" in Path(f"/proc/{worker}/cmdline").read_bytes()
     os.killpg(proc.pid, signum)
-    time.sleep(0.5)
+    # the second once the first has been taken (the sweep says it stops at the next safe point)
+    _, errs, readers = wait_for_line(proc, "quadsim: stopping at the next safe point", 1)
     os.killpg(proc.pid, signum)
     # the runs in flight had an hour of flight left: ending within the timeout means they were killed
-    _, stderr = proc.communicate(timeout=120)
+    proc.wait(timeout=120)
+    for reader in readers:
+        reader.join(timeout=30)
+    stderr = "".join(errs)
     assert proc.returncode == 128 + signum, stderr
     assert "Traceback" not in stderr and "Error" not in stderr and "nothing was cut short" not in stderr, stderr
     assert stderr.strip().endswith(f"quadsim: {'interrupted' if signum == signal.SIGINT else 'terminated'}"), stderr
