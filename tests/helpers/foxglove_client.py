@@ -98,10 +98,11 @@ def main() -> None:
             elapsed_s -= seconds
         return [0.0] * 4
 
-    # close_timeout: with camera frames streaming, the server's answer to a close can take the
-    # library's whole default of 10 s to come (seen with foxglove-sdk 0.x); the client has its report
+    # max_queue=None: the library stops reading the socket while 16 frames it received wait to be
+    # read; once this client stops reading and closes, the server's answer to the close waited
+    # behind camera frames for the library's whole 10 s close timeout
     connection = connect(
-        args.url, subprotocols=args.subprotocol or SUBPROTOCOLS, compression=None, max_size=None, close_timeout=1.0
+        args.url, subprotocols=args.subprotocol or SUBPROTOCOLS, compression=None, max_size=None, max_queue=None
     )
     with connection as ws:
         report["subprotocol"] = ws.subprotocol
