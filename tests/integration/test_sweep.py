@@ -15,7 +15,7 @@ import pytest
 
 from quadsim.apps.sweep.spec import load_sweep
 from quadsim.apps.sweep.table import read_table
-from quadsim.errors import ConfigError
+from quadsim.errors import ConfigError, QuadsimError
 from tests.e2e.test_sweep import _sweep, _write
 from tests.helpers import ROOT
 
@@ -114,6 +114,24 @@ def test_a_broken_pyarrow_keeps_the_table_as_csv_and_says_so(tmp_path: Path) -> 
     rows = read_table(tmp_path / "o" / "results.csv")
     assert [r["status"] for r in rows] == ["ok", "ok"]
     assert not (tmp_path / "o" / "results.parquet").exists()
+
+
+def test_a_table_that_cannot_be_saved_on_the_way_stops_no_run(tmp_path: Path, monkeypatch) -> None:
+    """Saves on the way (here after every run) that fail, as a broken pyarrow's do, leave every
+    run to fly; the last write says why and keeps the table as CSV. (A save after 2 s of a loaded
+    machine's sweep used to end it with the runs left unflown.)"""
+    from quadsim.apps.sweep import execute
+
+    broken = tmp_path / "site" / "pyarrow"
+    broken.mkdir(parents=True)
+    (broken / "__init__.py").write_text('raise ImportError("libarrow.so.2000: cannot open shared object file")\n')
+    monkeypatch.syspath_prepend(str(tmp_path / "site"))
+    monkeypatch.delitem(sys.modules, "pyarrow", raising=False)
+    monkeypatch.setattr(execute, "_SAVE_EVERY_S", -1.0)
+    spec = load_sweep(_write(tmp_path, 'name = "b"\nscenarios = ["hover"]\nduration_s = 1\nseeds = 3\n', "b.toml"))
+    with pytest.raises(QuadsimError, match="pyarrow is installed but does not import"):
+        execute.run_sweep(spec, tmp_path / "o", table_format="parquet", progress=False)
+    assert [r["status"] for r in read_table(tmp_path / "o" / "results.csv")] == ["ok", "ok", "ok"]
 
 
 def test_a_worker_that_reuses_its_simulators_gives_the_rows_of_new_ones(tmp_path: Path, monkeypatch) -> None:

@@ -3,6 +3,7 @@ rewritten as results arrive (at most every 2 s) and at the end, whatever ended i
 
 from __future__ import annotations
 
+import contextlib
 import time
 from dataclasses import dataclass
 from pathlib import Path
@@ -108,7 +109,9 @@ def run_sweep(
             if bar is not None:
                 bar.update(skipped + flown, eta.text(flown))
             if time.monotonic() - last_save > _SAVE_EVERY_S:
-                with shielded_from_signals():
+                # a table that cannot be written (a broken pyarrow, a full disk) is said by the
+                # last write, below, once every run is flown: a save on the way stops none of them
+                with shielded_from_signals(), contextlib.suppress(QuadsimError, OSError):
                     write_table(path, rows.values())
                 last_save = time.monotonic()
     finally:
