@@ -7,10 +7,13 @@ Script format (one statement per line; `#` starts a comment):
     3.0  linear.x=1.0 angular.z=0.5
     1.0                      # no fields: a zero Twist (hover in place)
     silence 2.0              # publish nothing for 2 s (the dead-man timeout then holds)
+    6.0  goto x=3 y=-2 z=1.5 yaw_deg=90   # fly to that place for 6 s (quadsim.drivers.goal)
 
 Fields are `linear.x linear.y linear.z angular.x angular.y angular.z` (units of docs/reference/command-semantics.md:
 m/s, m/s or m, rad/s); unnamed fields are zero; `angular.x` and `angular.y` are Twist fields the
-vehicle ignores, as from every input. The z_mode line comes before the first command: a script
+vehicle ignores, as from every input. A `goto` line gives a goal (world frame, metres; z left out
+keeps the altitude flown, yaw_deg left out the heading), flown by the loop's pilot until the next
+command line (a `silence` line after it keeps flying it). The z_mode line comes before the first command: a script
 flies in one z-mode. Segments follow one another; the script lasts
 the sum of their durations. Commands are published at the input rate (20 Hz by default),
 each segment from the first poll at or after its start time.
@@ -26,6 +29,7 @@ from typing import Any
 from quadsim.assets import asset_path
 from quadsim.core.types import Twist, ZMode
 from quadsim.drivers import NEVER
+from quadsim.drivers.goal import Goal
 from quadsim.errors import ScriptError
 
 #: the largest script file read (a scenario is a few hundred bytes; a day of 0.05 s segments fits)
@@ -34,12 +38,14 @@ MAX_SCRIPT_BYTES = 4 * 1024 * 1024
 MAX_SCRIPT_S = 7 * 24 * 3600.0
 
 _FIELDS = ("linear.x", "linear.y", "linear.z", "angular.x", "angular.y", "angular.z")
+_GOAL_FIELDS = ("x", "y", "z", "yaw_deg")
 
 
 @dataclass(frozen=True)
 class Segment:
     duration_s: float
-    twist: Twist | None  # None: silence
+    twist: Twist | None  # None: silence (or a goal)
+    goal: Goal | None = None  # a goto line's
 
 
 @dataclass(frozen=True)
@@ -76,14 +82,15 @@ def parse_script(text: str, name: str = "<script>") -> Script:
                 )
             z_mode = ZMode(words[1].lower())
             continue
+        if len(words) > 1 and words[1].lower() == "goto":
+            segments.append(Segment(_duration(words[0], where), None, _goal(words[2:], where, line)))
+            continue
         silence = head == "silence"
         if silence:
             words = words[1:]
             if len(words) != 1:
                 raise ScriptError(f"{where}: expected 'silence DURATION_S', got {line!r}")
-        duration = _number(words[0], where, "duration")
-        if duration <= 0:
-            raise ScriptError(f"{where}: duration must be > 0 s, got {words[0]}")
+        duration = _duration(words[0], where)
         values = dict.fromkeys(_FIELDS, 0.0)
         given: set[str] = set()
         for word in words[1:]:
@@ -106,6 +113,34 @@ def parse_script(text: str, name: str = "<script>") -> Script:
             "as --duration)"
         )
     return Script(name, tuple(segments), z_mode, text)
+
+
+def _duration(text: str, where: str) -> float:
+    duration = _number(text, where, "duration")
+    if duration <= 0:
+        raise ScriptError(f"{where}: duration must be > 0 s, got {text}")
+    return duration
+
+
+def _goal(words: list[str], where: str, line: str) -> Goal:
+    """A goto line's goal: x=.. y=.. (needed), z=.. yaw_deg=.. (optional)."""
+    values: dict[str, float] = {}
+    for word in words:
+        key, sep, value = word.partition("=")
+        if not sep or key not in _GOAL_FIELDS:
+            raise ScriptError(
+                f"{where}: expected FIELD=VALUE with FIELD one of {', '.join(_GOAL_FIELDS)}, got {word!r}"
+            )
+        if key in values:
+            raise ScriptError(f"{where}: {key} is given twice")
+        values[key] = _number(value, where, key)
+    if "x" not in values or "y" not in values:
+        raise ScriptError(f"{where}: a goto line needs x= and y= (z= and yaw_deg= are optional), got {line!r}")
+    yaw = values.get("yaw_deg")
+    try:
+        return Goal(values["x"], values["y"], values.get("z"), None if yaw is None else math.radians(yaw)).checked()
+    except ValueError as exc:
+        raise ScriptError(f"{where}: {exc}") from None
 
 
 def _number(text: str, where: str, what: str) -> float:
@@ -178,6 +213,7 @@ class ScriptedDriver:
         """Play the script from its start again (the simulator's reset: time starts at 0 again)."""
         self._index = 0
         self._finished = False
+        self._goal_given = -1  # the index of the last goto segment whose goal was handed on
 
     @property
     def preferred_z_mode(self) -> ZMode | None:
@@ -194,6 +230,15 @@ class ScriptedDriver:
             self._finished = True
             return None
         return self.script.segments[self._index].twist
+
+    def take_goal(self) -> Goal | None:
+        """The goal of the goto segment just entered (once), or None."""
+        if self._index < len(self._ends) and self._goal_given != self._index:
+            goal = self.script.segments[self._index].goal
+            if goal is not None:
+                self._goal_given = self._index
+                return goal
+        return None
 
     @property
     def finished(self) -> bool:

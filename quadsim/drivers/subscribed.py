@@ -12,6 +12,10 @@ of 115. A Foxglove input holds after 0.2 s without a message (four periods of th
 20 Hz the docs ask for: shorter, and a stall of the simulation or of the client that delays a
 message that long would already stop the vehicle mid-press); a ROS 2 input keeps the run's
 timeout (nodes such as teleop_twist_keyboard send a zero Twist to stop). --live-timeout sets either.
+
+Goals (geometry_msgs/PoseStamped on GOAL_TOPICS under the vehicle's names: RViz's "2D Goal Pose",
+Foxglove's "publish pose") arrive the same way, `deliver_goal`; the flight loop takes the newest
+(`take_goal`) and flies it until a Twist comes (quadsim.drivers.goal).
 """
 
 from __future__ import annotations
@@ -22,6 +26,11 @@ from typing import Any
 
 from quadsim.core.types import Twist
 from quadsim.drivers import ASAP, NEVER
+from quadsim.drivers.goal import Goal, goal_from_pose
+
+#: the topics a live input takes goals on (a fleet vehicle's: under its name): RViz 2's "2D Goal
+#: Pose" and Nav2 publish /goal_pose; Foxglove's 3D panel and RViz 1 /move_base_simple/goal
+GOAL_TOPICS = ("/goal_pose", "/move_base_simple/goal")
 
 #: the dead-man timeout of a live input whose clients send nothing on release, by input name (the
 #: rest keep the run's): a released Teleop button stops the vehicle within about 0.2 s
@@ -40,9 +49,16 @@ class SubscribedDriver:
     #: `next_poll_step` changes from another thread, at any moment: the loop looks at it every step
     polled_anytime = True
 
-    def __init__(self, name: str, topic: str = "/quad_cmd_twist", command_timeout_s: float | None = None) -> None:
+    def __init__(
+        self,
+        name: str,
+        topic: str = "/quad_cmd_twist",
+        command_timeout_s: float | None = None,
+        goal_topics: tuple[str, ...] = GOAL_TOPICS,
+    ) -> None:
         """`command_timeout_s`: hold after this long without a message (None: the input's own,
-        RELEASE_TIMEOUT_S, else the run's)."""
+        RELEASE_TIMEOUT_S, else the run's); `goal_topics`: where it takes goals (the contract's
+        names of GOAL_TOPICS, under the vehicle's name in a fleet)."""
         self.name = name
         self.command_timeout_s = command_timeout_s if command_timeout_s is not None else RELEASE_TIMEOUT_S.get(name)
         #: the contract's name of the topic (what the recording keeps the commands on)
@@ -50,6 +66,9 @@ class SubscribedDriver:
         #: the name it has where the Twists come from: on a ROS 2 graph, in the bridge's namespace and
         #: remapped (--ros-namespace, --ros-remap), as the bridge subscribes to it; what lines say
         self.heard_on = topic
+        self.goal_topics = goal_topics
+        self.goals_received = 0
+        self._goal: Goal | None = None
         self.received = 0
         self.dropped = 0
         self.rejected = 0
@@ -79,6 +98,32 @@ class SubscribedDriver:
             self._pending = twist
             self.next_poll_step = ASAP
         return True
+
+    def deliver_goal(
+        self,
+        frame_id: str,
+        position: tuple[float, float, float],
+        orientation_xyzw: tuple[float, float, float, float],
+    ) -> str | None:
+        """A goal pose arrived (a PoseStamped's frame, position and orientation): flown from the
+        next step. None, or why it is not a goal (it is then ignored)."""
+        try:
+            goal = goal_from_pose(frame_id, position, orientation_xyzw)
+        except (TypeError, ValueError) as exc:
+            with self._lock:
+                self.rejected += 1
+            return str(exc)
+        with self._lock:
+            self.goals_received += 1
+            self._goal = goal
+            self.next_poll_step = ASAP
+        return None
+
+    def take_goal(self) -> Goal | None:
+        """The newest goal delivered since the last call (the loop's, at a poll), or None."""
+        with self._lock:
+            goal, self._goal = self._goal, None
+        return goal
 
     def poll(self, step: int, time_s: float) -> Twist | None:
         with self._lock:

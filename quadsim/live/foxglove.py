@@ -15,9 +15,10 @@ both its names (`foxglove.websocket.v1` for Foxglove Studio 1.x, Lichtblick <= 1
 ws-protocol client; `foxglove.sdk.v1` for current apps) and relays each client to the SDK server
 on loopback; the front hands this bridge what clients publish, with a status line to that client
 alone. Clients may publish on /quad_cmd_twist in `json` (what the Foxglove app sends, as the
-server lists it first) or `cdr`. The topics Foxglove's 3D panel advertises on connect
-(PANEL_TOPICS) are taken quietly and ignored; anything else is refused with a status message to
-that client.
+server lists it first) or `cdr`, and goals (geometry_msgs/PoseStamped, the 3D panel's "publish
+pose") on the input's goal topics (/move_base_simple/goal, /goal_pose; quadsim.drivers.goal). The
+other topics Foxglove's 3D panel advertises on connect (PANEL_TOPICS) are taken quietly and
+ignored; anything else is refused with a status message to that client.
 """
 
 from __future__ import annotations
@@ -26,6 +27,7 @@ import ipaddress
 import json
 import logging
 import math
+import struct
 import threading
 from collections.abc import Callable, Sequence
 from typing import TYPE_CHECKING, Any
@@ -55,8 +57,8 @@ PUBLISH_ENCODINGS = ("json", "cdr")
 TwistFields = tuple[tuple[float, float, float], float]  # linear x y z, angular z
 
 #: what Foxglove's 3D panel advertises on every connect (its publish tools: click a point, a
-#: pose estimate, a goal) and ROS 2's Nav2 goal topic: taken quietly. Not flown: the command
-#: path takes velocities (Twists), and a goal would need a position controller it has not.
+#: pose estimate, a goal) and ROS 2's Nav2 goal topic: taken quietly where no input flies them
+#: (a run without --input foxglove; a pose estimate, a clicked point)
 PANEL_TOPICS = frozenset({"/clicked_point", "/move_base_simple/goal", "/initialpose", "/goal_pose"})
 #: the SDK's per-client queue of outgoing messages: oldest data dropped past it (its default is
 #: 1024, ~50 MB of camera frames for a client that stopped reading)
@@ -113,6 +115,37 @@ def twist_from_cdr(data: bytes) -> TwistFields:
 
 DECODERS: dict[str, Callable[[bytes], TwistFields]] = {"json": twist_from_json, "cdr": twist_from_cdr}
 
+PoseFields = tuple[str, tuple[float, float, float], tuple[float, float, float, float]]
+
+
+def pose_from_json(data: bytes) -> PoseFields:
+    """A geometry_msgs/PoseStamped as the Foxglove app sends it in JSON (frame_id, position,
+    orientation x y z w); a field left out is 0 (an orientation left out: none). ValueError for
+    anything else."""
+    msg = json.loads(data)
+    header, pose = (msg.get("header") or {}, msg.get("pose") or {}) if isinstance(msg, dict) else (None, None)
+    if not isinstance(header, dict) or not isinstance(pose, dict):
+        raise ValueError("not a PoseStamped object")
+    frame_id = header.get("frame_id", "")
+    if not isinstance(frame_id, str):
+        raise ValueError("header.frame_id is not a string")
+
+    def numbers(name: str, fields: str) -> list[float]:
+        v = pose.get(name) or {}
+        if not isinstance(v, dict):
+            raise ValueError(f"pose.{name} is not an object")
+        values = [v.get(f, 0.0) for f in fields]
+        if not all(isinstance(x, (int, float)) and not isinstance(x, bool) for x in values):
+            raise ValueError(f"pose.{name} has a field that is not a number")
+        return [float(x) for x in values]
+
+    x, y, z = numbers("position", "xyz")
+    qx, qy, qz, qw = numbers("orientation", "xyzw")
+    return frame_id[: cdr.MAX_FRAME_ID_BYTES], (x, y, z), (qx, qy, qz, qw)
+
+
+POSE_DECODERS: dict[str, Callable[[bytes], PoseFields]] = {"json": pose_from_json, "cdr": cdr.pose_stamped_fields}
+
 
 def _reason(exc: BaseException) -> str:
     """A decoding error in a few words: never the client's whole message back."""
@@ -150,13 +183,15 @@ class FoxgloveBridge:
         drivers = [] if commands is None else [commands] if not isinstance(commands, Sequence) else list(commands)
         #: topic -> the driver Twists published on it go to
         self.inputs: dict[str, SubscribedDriver] = {d.topic: d for d in drivers}
+        #: goal topic -> the driver goals published on it go to
+        self.goal_inputs: dict[str, SubscribedDriver] = {t: d for d in drivers for t in d.goal_topics}
         self._context = foxglove.Context()  # the server's channels, apart from a recorder's
         self._channels: dict[str, Any] = {}
         self._log: dict[str, Callable[[bytes, int], None]] = {}
         self._latched: dict[str, tuple[int, bytes]] = {}  # topic -> its last (log time, message)
         self._latched_topics: set[str] = set()
-        # (client, channel) -> its decoder and the driver its Twists go to
-        self._publishers: dict[tuple[int, int], tuple[Callable[[bytes], TwistFields], SubscribedDriver]] = {}
+        # (client, channel) -> its decoder, the driver its messages go to, and whether they are goals
+        self._publishers: dict[tuple[int, int], tuple[Callable[[bytes], Any], SubscribedDriver, bool]] = {}
         self._lock = threading.Lock()
         self.closed = False
         route_sdk_logs_through_python()  # before the first sink starts, or it has no effect
@@ -232,6 +267,12 @@ class FoxgloveBridge:
 
     def advertised(self, client: FrontClient, channel: dict[str, Any]) -> None:
         topic = channel["topic"]
+        goal_driver = self.goal_inputs.get(topic)
+        if goal_driver is not None and channel["schemaName"].endswith("PoseStamped"):
+            pose_decoder = POSE_DECODERS.get(channel["encoding"])
+            if pose_decoder is not None:
+                self._publishers[(client.id, channel["id"])] = (pose_decoder, goal_driver, True)
+                return
         if topic in PANEL_TOPICS:
             return
         decoder = DECODERS.get(channel["encoding"])
@@ -244,7 +285,7 @@ class FoxgloveBridge:
             )
             self._tell(client, f"quadsim {takes}; {topic} ({channel['schemaName']}, {channel['encoding']}) is ignored")
             return
-        self._publishers[(client.id, channel["id"])] = (decoder, driver)
+        self._publishers[(client.id, channel["id"])] = (decoder, driver, False)
 
     def unadvertised(self, client: FrontClient, channel_id: int) -> None:
         self._publishers.pop((client.id, channel_id), None)
@@ -253,7 +294,10 @@ class FoxgloveBridge:
         publisher = self._publishers.get((client.id, channel_id))
         if publisher is None:
             return
-        decoder, driver = publisher
+        decoder, driver, goal = publisher
+        if goal:
+            self._goal_received(client, decoder, driver, data)
+            return
         try:
             linear, angular_z = decoder(data)
         except (ValueError, TypeError, OverflowError, RecursionError) as exc:  # json's errors are ValueErrors
@@ -261,6 +305,16 @@ class FoxgloveBridge:
             return
         if not driver.deliver(linear, angular_z) and not all(map(math.isfinite, (*linear, angular_z))):
             self._tell(client, f"a Twist on {driver.topic} with a field that is not finite is ignored")
+
+    def _goal_received(self, client: FrontClient, decoder: Callable[[bytes], Any], driver: Any, data: bytes) -> None:
+        try:
+            frame_id, position, orientation = decoder(data)
+        except (ValueError, TypeError, OverflowError, RecursionError, struct.error) as exc:
+            self._tell(client, f"a goal was not a PoseStamped ({_reason(exc)}); it is ignored")
+            return
+        why = driver.deliver_goal(frame_id, position, orientation)
+        if why is not None:
+            self._tell(client, f"a goal for {driver.topic} is ignored: {_reason(ValueError(why))}")
 
     @staticmethod
     def _tell(client: FrontClient, message: str) -> None:

@@ -21,6 +21,7 @@ got through and /quad/odom did not.
 
 from __future__ import annotations
 
+import logging
 import os
 import re
 import threading
@@ -68,6 +69,9 @@ _SUBNET_CONFIG = (
     '</ParticipantIndex><MaxAutoParticipantIndex>64</MaxAutoParticipantIndex><Peers><Peer address="127.0.0.1"/>'
     "</Peers></Discovery></Domain></CycloneDDS>"
 )
+
+
+log = logging.getLogger(__name__)
 
 
 def cyclonedds() -> Any:
@@ -285,7 +289,8 @@ class Ros2Bridge:
         node = f"{self.namespace.rstrip('/')}/{NODE_NAME}"
         topics = [TWIST.name] if takes_twist is True else list(takes_twist or ())
         twist = " and ".join(self.graph_name(t) for t in topics)
-        takes = f"; it takes geometry_msgs/Twist on {twist}" if takes_twist else ""
+        goals = "goal poses on /goal_pose and /move_base_simple/goal" + (" under each name" if len(topics) > 1 else "")
+        takes = f"; it takes geometry_msgs/Twist on {twist}, {goals}" if takes_twist else ""
         lines = [
             (
                 f"ROS 2: node {node} on domain {self.domain_id} (discovery range {self.discovery_range}), "
@@ -434,6 +439,36 @@ class Ros2Bridge:
         self._readers.append(
             DataReader(self._participant, dds_topic, qos=qos, listener=Listener(on_data_available=on_data_available))
         )
+        with self._lock:
+            self._announce()
+
+    def subscribe_goals(self, driver: SubscribedDriver) -> None:
+        """Feed `driver` the geometry_msgs/PoseStamped goals on its goal topics (/goal_pose and
+        /move_base_simple/goal, or a fleet vehicle's under its name), as they arrive; a goal that
+        is not one is said on /rosout, rate-limited by the driver's count."""
+        from cyclonedds.core import Listener
+        from cyclonedds.sub import DataReader
+        from cyclonedds.topic import Topic as DdsTopic
+
+        kind = idl_type("geometry_msgs/msg/PoseStamped")
+
+        def on_data_available(reader: Any) -> None:
+            for goal in reader.take(8):
+                if isinstance(goal, kind):
+                    p, q = goal.pose.position, goal.pose.orientation
+                    why = driver.deliver_goal(goal.header.frame_id, (p.x, p.y, p.z), (q.x, q.y, q.z, q.w))
+                    if why is not None:
+                        log.warning("a goal for %s is ignored: %s", driver.topic, why)
+
+        Policy = self._Policy
+        qos = self._Qos(Policy.Reliability.BestEffort, Policy.History.KeepLast(1))
+        for topic in driver.goal_topics:
+            dds_topic = DdsTopic(self._participant, dds_topic_name(self.graph_name(topic)), kind)
+            self._readers.append(
+                DataReader(
+                    self._participant, dds_topic, qos=qos, listener=Listener(on_data_available=on_data_available)
+                )
+            )
         with self._lock:
             self._announce()
 

@@ -112,6 +112,34 @@ def twist_fields(data: bytes) -> tuple[float, float, float, float, float, float]
     return body.unpack_from(data, 4)
 
 
+#: the longest frame_id a decoded PoseStamped may name (a TF frame name is a few dozen bytes)
+MAX_FRAME_ID_BYTES = 256
+
+
+def pose_stamped_fields(
+    data: bytes,
+) -> tuple[str, tuple[float, float, float], tuple[float, float, float, float]]:
+    """frame_id, position and orientation (x, y, z, w) of a CDR geometry_msgs/msg/PoseStamped, in
+    either byte order. ValueError for bytes that are not one (a frame_id past MAX_FRAME_ID_BYTES
+    included)."""
+    order = {b"\x00\x01": "<", b"\x00\x00": ">"}.get(bytes(data[:2]))
+    if order is None or len(data) < 16:
+        raise ValueError(f"not a CDR geometry_msgs/msg/PoseStamped ({len(data)} bytes)")
+    (length,) = struct.unpack_from(order + "I", data, 12)  # after the header's stamp (sec, nanosec)
+    if not 1 <= length <= MAX_FRAME_ID_BYTES or len(data) < 16 + length:
+        raise ValueError(f"not a CDR geometry_msgs/msg/PoseStamped (a frame_id of {length} bytes)")
+    frame = bytes(data[16 : 16 + length - 1])
+    start = 4 + (12 + length + 7) // 8 * 8  # the doubles align to 8 from the encapsulation's end
+    if len(data) < start + 56:
+        raise ValueError(f"not a CDR geometry_msgs/msg/PoseStamped ({len(data)} bytes)")
+    values = struct.unpack_from(order + "7d", data, start)
+    try:
+        frame_id = frame.decode()
+    except UnicodeDecodeError:
+        raise ValueError("a PoseStamped whose frame_id is not UTF-8") from None
+    return frame_id, (values[0], values[1], values[2]), (values[3], values[4], values[5], values[6])
+
+
 @lru_cache(maxsize=256)
 def pose_stamped_encoder(frame_id: str) -> Callable[[int, Vec3, Quat], bytes]:
     """geometry_msgs/msg/PoseStamped in `frame_id`: encode(ns, position, orientation)."""

@@ -62,6 +62,11 @@ ROBOT_MARKERS = Topic("/robot_markers", "visualization_msgs/msg/MarkerArray", QO
 WORLD_MARKERS = Topic("/world/markers", "visualization_msgs/msg/MarkerArray", QOS_LATCHED)
 #: the wind at the vehicle, `world` frame, in runs with wind (a state's sixth message)
 WIND = Topic("/wind", "geometry_msgs/msg/Vector3Stamped")
+#: goals a live input flies to (quadsim.drivers.goal): RViz 2's "2D Goal Pose", Foxglove's 3D panel
+GOALS = (
+    Topic("/goal_pose", "geometry_msgs/msg/PoseStamped"),
+    Topic("/move_base_simple/goal", "geometry_msgs/msg/PoseStamped"),
+)
 STATE_TOPICS = (POSE, ODOM, IMU, ROTOR_THRUSTS, TF)
 #: topics every quadsim recording has (cameras and /joy depend on the run)
 CORE_TOPICS = (TWIST.name, *(t.name for t in STATE_TOPICS), TF_STATIC.name)

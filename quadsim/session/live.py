@@ -50,7 +50,12 @@ def open_live_outputs(
             topics = " and ".join(d.topic for d in from_foxglove)
             holds = {d.command_timeout_s for d in from_foxglove if d.command_timeout_s is not None}
             held = f", holding {min(holds):g} s after the last" if len(holds) == 1 else ""
-            takes = f"; it takes Twists on {topics} (Teleop panel{held})" if from_foxglove else ""
+            takes = (
+                f"; it takes Twists on {topics} (Teleop panel{held}) and goals on /move_base_simple/goal "
+                "(3D panel, publish pose)" + (" under each name" if len(from_foxglove) > 1 else "")
+                if from_foxglove
+                else ""
+            )
             print(f"Foxglove: serving {bridge.url} (Open connection -> Foxglove WebSocket){takes}", flush=True)
             if bridge.exposed:  # said as the ROS 2 bridge says an unlimited discovery range
                 can = "watch this run and fly the vehicle" if from_foxglove else "watch this run"
@@ -69,6 +74,7 @@ def open_live_outputs(
             outputs.append(ros2_bridge)
             for driver in from_ros2:
                 ros2_bridge.subscribe_twist(driver)
+                ros2_bridge.subscribe_goals(driver)
             for line, warning in ros2_bridge.startup_lines(takes_twist=[d.topic for d in from_ros2]):
                 print(f"quadsim: warning: {line}" if warning else line, file=sys.stderr if warning else sys.stdout)
             sys.stdout.flush()

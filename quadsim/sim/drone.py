@@ -21,6 +21,7 @@ from quadsim.core.compiled import FIRST_COMPILE, will_compile
 from quadsim.core.parts import import_path
 from quadsim.core.types import Twist, VehicleState, ZMode
 from quadsim.drivers import InputDriver
+from quadsim.drivers.goal import Goal
 from quadsim.drivers.programmatic import ProgrammaticDriver
 from quadsim.errors import QuadsimError
 from quadsim.physics.client import WorldClient
@@ -104,6 +105,16 @@ class Drone:
         if not isinstance(self.driver, ProgrammaticDriver):
             raise QuadsimError(f"send() needs the programmatic driver; this vehicle is driven by {self.driver.name}")
         self.driver.send(twist)
+
+    def fly_to(self, x: float, y: float, z: float | None = None, yaw: float | None = None) -> None:
+        """Fly to (x, y, z), world frame, heading `yaw` (rad), through the command path
+        (quadsim.drivers.goal): z None keeps the altitude flown (1 m from the ground), yaw None the
+        heading. It holds there until `send`, another goal or a reset; a `goal_reached` event
+        says when it is there. ValueError for a goal that is not a finite place within 10 km."""
+        if not isinstance(self.driver, ProgrammaticDriver):
+            raise QuadsimError(f"fly_to() needs the programmatic driver; this vehicle is driven by {self.driver.name}")
+        self.driver.stop()  # its standing Twist would take over at the next poll
+        self.loop.fly_to(Goal(x, y, z, yaw))
 
     def set_z_mode(self, z_mode: ZMode | str) -> None:
         """How linear.z is read from now on (the standing command is re-clamped under the new mode):

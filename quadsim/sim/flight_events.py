@@ -42,6 +42,8 @@ class EventKind(enum.Enum):
     LANDED = "landed"
     CRASH = "crash"
     RESET = "reset"
+    GOAL = "goal"  # a goal taken (flying to it), or dropped for a Twist (quadsim.drivers.goal)
+    GOAL_REACHED = "goal_reached"
 
 
 class FlightEvent(NamedTuple):

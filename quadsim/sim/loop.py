@@ -3,6 +3,8 @@
 Stepping order, once per physics step n (time n / physics_hz):
   1. input   (n % input_every == 0, or n >= driver.next_poll_step):
                                        poll the driver; the gate takes its command, stamped n
+                                       (with a goal, the pilot's at input ticks while the driver
+                                       says nothing: quadsim.drivers.goal)
   2. control (n % control_every == 0): the landing layer and the controller turn state + active
                                        command into rotor forces (take-off, landed: events at n)
   3. physics:                          motors, forces, one step (quadsim's own while the vehicle
@@ -37,6 +39,7 @@ from quadsim.control.landing import FlightPhase, LandingLayer, LandingSettings
 from quadsim.core.compiled import specialize
 from quadsim.core.types import RotorForces, Twist, VehicleState, ZMode
 from quadsim.drivers import InputDriver
+from quadsim.drivers.goal import Goal, GoalPilot
 from quadsim.errors import ConfigError
 from quadsim.physics.pybullet_world import PhysicsWorld
 from quadsim.sensors.imu import ImuNoise
@@ -108,6 +111,9 @@ class SimLoop:
         #: put the vehicle back at its start pose after a crash (the clock and the command go on)
         self.reset_on_crash = reset_on_crash
         self._on_ground = True
+        #: flies the vehicle to a goal while there is one and the driver says nothing
+        self.pilot = GoalPilot(physics.vehicle.limits)
+        self._next_goal: Goal | None = None  # given since the last input stage (fly_to)
         self._taps: list[tuple[int, Callable[[VehicleState], None]]] = []
         self.step_count = 0
         self._input_every = rates.every(rates.input_hz)
@@ -164,7 +170,14 @@ class SimLoop:
         self.step_count = 0
         self._rotor_command = self._idle
         self._on_ground = True
+        self.pilot.stop()
+        self._next_goal = None
         self.events.clear()
+
+    def fly_to(self, goal: Goal) -> None:
+        """Fly to `goal` from the next step on (quadsim.drivers.goal): until the driver publishes a
+        Twist, another goal comes or the vehicle is reset. ValueError for a goal that is not one."""
+        self._next_goal = goal.checked()
 
     def _emit(self, event: FlightEvent) -> None:
         self.events.append(event)
@@ -239,6 +252,8 @@ class SimLoop:
             return 0
         quiet = steps
         driver = self.driver
+        if self.pilot.goal is not None:  # the pilot speaks at every input tick
+            quiet = min(quiet, self._input_every - n % self._input_every)
         if driver is not None:
             if getattr(driver, "polled_anytime", False):
                 return 0
@@ -307,13 +322,43 @@ class SimLoop:
     def _take_input(self) -> None:
         """Stage 1 at step n: the driver polled, if due, and the gate takes its command."""
         n, driver = self.step_count, self.driver
+        twist = None
         if driver is not None and (n % self._input_every == 0 or n >= driver.next_poll_step):
             twist = driver.poll(n, n / self.rates.physics_hz)
-            if twist is not None:
-                accepted = self.gate.receive(twist, n)
-                if accepted is not None:
-                    for sink in self.sinks:
-                        sink.on_command(n, accepted)
+            take_goal = getattr(driver, "take_goal", None)
+            if take_goal is not None:
+                self._next_goal = take_goal() or self._next_goal
+        if self._next_goal is not None or self.pilot.goal is not None:
+            twist = self._piloted(n, twist)
+        if twist is not None:
+            accepted = self.gate.receive(twist, n)
+            if accepted is not None:
+                for sink in self.sinks:
+                    sink.on_command(n, accepted)
+
+    def _piloted(self, n: int, twist: Twist | None) -> Twist | None:
+        """The command at step n with a goal given or flown: a new goal starts (and is flown at
+        once), a Twist from the driver drops the goal, and at input ticks the pilot's Twist is
+        published while the driver says nothing."""
+        pilot, goal = self.pilot, self._next_goal
+        if goal is not None:
+            self._next_goal = None
+            flown = pilot.start(goal, self.physics.state(n), self.landing.phase is not FlightPhase.FLYING)
+            self._emit(FlightEvent(n, EventKind.GOAL, f"flying to {flown.describe()}"))
+        elif twist is not None:
+            pilot.stop()
+            self._emit(FlightEvent(n, EventKind.GOAL, f"dropped: {self.driver_name} published a Twist"))
+            return twist
+        if twist is None and (goal is not None or n % self._input_every == 0):
+            reached = pilot.reached
+            twist = pilot.command(self.physics.state(n), self.gate.z_mode)
+            if pilot.reached and not reached:
+                self._emit(FlightEvent(n, EventKind.GOAL_REACHED, f"at {pilot.goal.describe()}"))  # type: ignore[union-attr]
+        return twist
+
+    @property
+    def driver_name(self) -> str:
+        return self.driver.name if self.driver is not None else "the driver"
 
     def _control(self, state: VehicleState | None) -> RotorForces:
         """Stage 2 at step n: the landing layer and the controller's rotor forces, if a control

@@ -82,6 +82,13 @@ class Simulator(Fleet):
         """Publish `twist` from now on, at the input rate (autonomy code's way in)."""
         self.drone.send(twist)
 
+    def fly_to(self, x: float, y: float, z: float | None = None, yaw: float | None = None) -> None:
+        """Fly to (x, y, z) in the world frame, heading `yaw` (rad), through the command path
+        (quadsim.drivers.goal): z None keeps the altitude flown (1 m from the ground), yaw None
+        the heading. A `goal_reached` event says when it is there; it holds there until `send`,
+        another goal or a reset."""
+        self.drone.fly_to(x, y, z, yaw)
+
     def set_z_mode(self, z_mode: ZMode | str) -> None:
         """How linear.z is read from now on (the standing command is re-clamped under the new mode):
         a ZMode or its name ("height"); anything else is a ConfigError."""

@@ -82,6 +82,31 @@ def test_pose_stamped_and_vector3_stamped():
         assert cdr.vector3_stamped(ns, frame, p) == _ref(ref)
 
 
+def test_pose_stamped_is_read_back_in_either_byte_order():
+    for rng in _rngs():
+        ns, frame, p, q = _ns(rng), _text(rng), _floats(rng, 3), _floats(rng, 4)
+        ref = T["geometry_msgs/msg/PoseStamped"](header=_header(ns, frame), pose=_pose(p, q))
+        for little in (True, False):
+            data = bytes(TS.serialize_cdr(ref, ref.__msgtype__, little_endian=little))
+            assert cdr.pose_stamped_fields(data) == (frame, p, q)
+
+
+def test_what_is_not_a_pose_stamped_is_refused():
+    good = cdr.pose_stamped(1, "world", (1.0, 2.0, 3.0), (0.0, 0.0, 0.0, 1.0))
+    cases = [
+        b"",
+        good[:20],  # cut inside the frame_id
+        good[:-1],  # cut inside the orientation
+        b"\x00\x07" + good[2:],  # not a CDR encapsulation
+        good[:12] + struct.pack("<I", 2**31) + good[16:],  # a frame_id of 2 GB
+        good[:12] + struct.pack("<I", 0) + good[16:],  # no frame_id at all (not even its NUL)
+        good[:16] + b"\xff" + good[17:],  # a frame_id that is not UTF-8
+    ]
+    for data in cases:
+        with pytest.raises(ValueError):
+            cdr.pose_stamped_fields(data)
+
+
 @pytest.mark.parametrize("with_covariance", [False, True])
 def test_odometry(with_covariance):
     for rng in _rngs():

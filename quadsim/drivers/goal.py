@@ -1,0 +1,153 @@
+"""Goals: "fly there". A goal pose becomes Twists through the command path a person's take.
+
+A goal comes from RViz's "2D Goal Pose" or Foxglove's "publish pose" (a geometry_msgs/PoseStamped
+on /goal_pose or /move_base_simple/goal), from Python (`sim.fly_to(...)`) or from a script's
+`goto` line. The flight loop holds at most one goal per vehicle and, at every input tick while it
+has one and its driver says nothing, asks `GoalPilot` for the Twist to publish: a proportional
+position controller in the heading frame (command semantics: docs/reference/command-semantics.md),
+which the gate then clamps to the vehicle's limits like any other command. The first Twist from
+the driver (a person's key, a node's message) ends the goal at once. Reaching it (within
+REACHED_M and REACHED_RAD, slowed below REACHED_SPEED_MPS) is an event; the pilot goes on holding
+the vehicle there until another goal or a Twist comes.
+
+Goals are in the world frame (REP 105's map and odom are the same frame here: quadsim's world has
+no drift), their heading the yaw of their orientation. A 2D goal (z exactly 0, what both panels
+send) keeps the altitude the vehicle flies at, or takes off to TAKEOFF_ALTITUDE_M from the ground.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import NamedTuple
+
+from quadsim.core.kinematics import clamp
+from quadsim.core.types import HEIGHT_MODE_BASE_M, Twist, VehicleState, ZMode
+from quadsim.vehicle.params import CommandLimits
+
+#: frames a goal may be given in: all are quadsim's world ("" is what a bare message says)
+WORLD_FRAMES = frozenset({"", "world", "map", "odom"})
+#: the altitude a 2D goal (z = 0) flies at when the vehicle is on the ground
+TAKEOFF_ALTITUDE_M = 1.0
+#: reached: this close, this well aligned and this slow (holding it stays well inside 0.1 m, 5 deg)
+REACHED_M = 0.05
+REACHED_RAD = math.radians(2.0)
+REACHED_SPEED_MPS = 0.1
+#: the pilot's gains: commanded velocity per metre to go, heading rate per radian to turn
+POSITION_GAIN = 1.5
+CLIMB_GAIN = 1.5
+HEADING_GAIN = 1.5
+#: the fastest the pilot asks to fly (the vehicle's own limits may be lower; the gate clamps)
+CRUISE_SPEED_MPS = 2.0
+#: the largest goal coordinate taken (a goal 10 km away is a typo, not a flight)
+MAX_GOAL_M = 10_000.0
+
+
+def _yaw(q: tuple[float, float, float, float]) -> float:
+    """The heading of a world <- body quaternion (x, y, z, w), as VehicleState.yaw_rad."""
+    x, y, z, w = q
+    return math.atan2(2.0 * (w * z + x * y), 1.0 - 2.0 * (y * y + z * z))
+
+
+def _wrapped(angle: float) -> float:
+    """`angle` in [-pi, pi)."""
+    return (angle + math.pi) % (2.0 * math.pi) - math.pi
+
+
+class Goal(NamedTuple):
+    """Where to fly, world frame: x, y (m), z (m; None: the altitude flown when it arrives), yaw
+    (rad; None: the heading held when it arrives)."""
+
+    x: float
+    y: float
+    z: float | None = None
+    yaw: float | None = None
+
+    def checked(self) -> Goal:
+        """The goal with floats, or ValueError naming what is wrong (a coordinate that is not a
+        finite number, or farther than MAX_GOAL_M)."""
+        values: list[float | None] = []
+        for name, value in zip(self._fields, self):
+            if value is None and name in ("z", "yaw"):
+                values.append(None)
+                continue
+            if isinstance(value, bool) or not isinstance(value, (int, float)):
+                raise ValueError(f"goal {name} must be a number, got {type(value).__name__}: {value!r}")
+            if not math.isfinite(value):
+                raise ValueError(f"goal {name} must be finite, got {value}")
+            if name != "yaw" and abs(value) > MAX_GOAL_M:
+                raise ValueError(f"goal {name} = {value} m is farther than {MAX_GOAL_M:g} m")
+            values.append(float(value))
+        return Goal(*values)  # type: ignore[arg-type]  # x and y are never None
+
+    def describe(self) -> str:
+        """For /rosout and a person: x=1.00 y=2.00 z=1.50 yaw=90.0deg."""
+        z = "here" if self.z is None else f"{self.z:.2f}"
+        yaw = "held" if self.yaw is None else f"{math.degrees(self.yaw):.1f}deg"
+        return f"x={self.x:.2f} y={self.y:.2f} z={z} yaw={yaw}"
+
+
+def goal_from_pose(
+    frame_id: str, position: tuple[float, float, float], orientation_xyzw: tuple[float, float, float, float]
+) -> Goal:
+    """A PoseStamped's goal: ValueError for a frame other than the world's, or numbers that are not
+    a goal (see Goal.checked); a zero quaternion keeps the heading; z = 0 keeps the altitude."""
+    if frame_id.lstrip("/") not in WORLD_FRAMES:
+        raise ValueError(f"goals are taken in the world frame (world, map or odom), not {frame_id!r}")
+    x, y, z = position
+    qx, qy, qz, qw = orientation_xyzw
+    norm = math.sqrt(qx * qx + qy * qy + qz * qz + qw * qw)
+    if not math.isfinite(norm):
+        raise ValueError("the goal's orientation is not finite")
+    yaw = _yaw((qx / norm, qy / norm, qz / norm, qw / norm)) if norm > 1e-9 else None
+    return Goal(x, y, None if z == 0.0 else z, yaw).checked()
+
+
+class GoalPilot:
+    """Turns the goal and the vehicle's state into the Twist to publish (before the gate's clamp)."""
+
+    def __init__(self, limits: CommandLimits) -> None:
+        self.limits = limits
+        #: the goal flown to, its altitude and heading filled in; None: no goal
+        self.goal: Goal | None = None
+        self.reached = False
+
+    def start(self, goal: Goal, state: VehicleState, on_ground: bool) -> Goal:
+        """Fly to `goal` from `state` (`on_ground`: landed there): its open altitude and heading
+        taken from the state. The goal as flown (what events say)."""
+        z = goal.z
+        if z is None:
+            z = TAKEOFF_ALTITUDE_M if on_ground else state.position_m[2]
+        z = clamp(z, self.limits.min_altitude_m, self.limits.max_altitude_m)
+        yaw = goal.yaw if goal.yaw is not None else state.yaw_rad()
+        self.goal = Goal(goal.x, goal.y, z, yaw)
+        self.reached = False
+        return self.goal
+
+    def stop(self) -> None:
+        self.goal = None
+        self.reached = False
+
+    def command(self, state: VehicleState, z_mode: ZMode) -> Twist:
+        """The Twist that flies toward the goal from `state`: the horizontal velocity in the
+        heading frame, the climb rate (velocity z-mode) or the altitude (height z-mode), the
+        heading rate. Sets `reached` once the vehicle is there (see the module's thresholds)."""
+        goal = self.goal
+        assert goal is not None and goal.z is not None and goal.yaw is not None
+        x, y, z = state.position_m
+        yaw = state.yaw_rad()
+        ex, ey, ez = goal.x - x, goal.y - y, goal.z - z
+        eyaw = _wrapped(goal.yaw - yaw)
+        c, s = math.cos(yaw), math.sin(yaw)
+        vx, vy = POSITION_GAIN * (c * ex + s * ey), POSITION_GAIN * (-s * ex + c * ey)
+        speed = math.hypot(vx, vy)
+        if speed > CRUISE_SPEED_MPS:
+            vx, vy = vx * CRUISE_SPEED_MPS / speed, vy * CRUISE_SPEED_MPS / speed
+        vz = CLIMB_GAIN * ez if z_mode is ZMode.VELOCITY else goal.z - HEIGHT_MODE_BASE_M
+        if not self.reached:
+            moving = math.sqrt(sum(v * v for v in state.linear_velocity_mps))
+            self.reached = (
+                math.sqrt(ex * ex + ey * ey + ez * ez) <= REACHED_M
+                and abs(eyaw) <= REACHED_RAD
+                and moving <= REACHED_SPEED_MPS
+            )
+        return Twist(linear_x=vx, linear_y=vy, linear_z=vz, angular_z=HEADING_GAIN * eyaw)
