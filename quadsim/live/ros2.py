@@ -35,7 +35,7 @@ from typing import TYPE_CHECKING, Any
 from quadsim.core.invocation import install_extra
 from quadsim.errors import QuadsimError
 from quadsim.live.dds_types import dds_type_name, idl_type
-from quadsim.recording.contract import TWIST, Topic
+from quadsim.recording.contract import GOALS, TWIST, Topic
 from quadsim.recording.fanout import NS_PER_S, Message
 
 if TYPE_CHECKING:
@@ -283,14 +283,16 @@ class Ros2Bridge:
         return graph_topic(name, self.namespace, self._remaps)
 
     def startup_lines(self, takes_twist: bool | Sequence[str]) -> list[tuple[str, bool]]:
-        """What to say at start-up: (line, is a warning). The node, its domain and discovery range;
-        a warning when it takes Twists (on /quad_cmd_twist, or on the topics given: a fleet's) and
-        discovery reaches beyond this machine."""
+        """What to say at start-up: (line, is a warning). The node, its domain and discovery range,
+        where it takes Twists (on /quad_cmd_twist, or on the topics given: a fleet's) and goal
+        poses; a warning when it takes them and discovery reaches beyond this machine."""
         node = f"{self.namespace.rstrip('/')}/{NODE_NAME}"
         topics = [TWIST.name] if takes_twist is True else list(takes_twist or ())
         twist = " and ".join(self.graph_name(t) for t in topics)
-        goals = "goal poses on /goal_pose and /move_base_simple/goal" + (" under each name" if len(topics) > 1 else "")
-        takes = f"; it takes geometry_msgs/Twist on {twist}, {goals}" if takes_twist else ""
+        goals = " and ".join(self.graph_name(goal.name) for goal in GOALS)
+        if len(topics) > 1:
+            goals = "each vehicle's " + " and ".join(goal.name.lstrip("/") for goal in GOALS)
+        takes = f"; it takes geometry_msgs/Twist on {twist} and goal poses on {goals}" if takes_twist else ""
         lines = [
             (
                 f"ROS 2: node {node} on domain {self.domain_id} (discovery range {self.discovery_range}), "

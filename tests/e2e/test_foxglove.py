@@ -22,6 +22,7 @@ import pytest
 from tests.helpers import HELPERS, ROOT
 from tests.helpers import proc as procfs
 from tests.helpers.fleets import fleet_toml, vehicle
+from tests.helpers.mcap import topic_messages
 from tests.helpers.recording import commanded_motion
 
 CLIENT = HELPERS / "foxglove_client.py"
@@ -134,6 +135,47 @@ def test_a_client_watches_every_topic_and_flies_it_with_twists(tmp_path: Path) -
     assert "0 rejected (not finite), 0 clamped to the limits" in out, out
     recordings = list(tmp_path.glob("*.mcap"))
     assert len(recordings) == 1  # recorded as every run is
+
+
+def _at_goal(report: dict, x: float, y: float, z: float, yaw_deg: float) -> None:
+    """The client's last odometry is within 0.1 m and 5 deg of the goal."""
+    _, px, py, pz = report["odom"][-1]
+    turn = (math.degrees(report["yaw"]) - yaw_deg + 180.0) % 360.0 - 180.0
+    assert math.dist((px, py, pz), (x, y, z)) < 0.1 and abs(turn) < 5.0, (px, py, pz, math.degrees(report["yaw"]))
+
+
+def test_the_3d_panels_publish_pose_flies_the_vehicle_there_in_either_encoding(tmp_path: Path) -> None:
+    proc = _quadsim(
+        "run", "--input", "foxglove", "--foxglove", "127.0.0.1:0", "--duration", "60", "--cameras", "none",
+        "--out", str(tmp_path / "goals.mcap"),
+    )  # fmt: skip
+    try:
+        serving = _serving_line(proc)
+        url = serving.split("serving ")[1].split()[0]
+        # on the ground plane, as the panel publishes in JSON (Studio 1.x's protocol name): lift off
+        # to 1 m and fly there, facing +y
+        first = _client(url, "--listen-s", "8", "--goal", "2,-1.5,0,90", "--start-s", "0.2", *OLD_NAME)
+        # a goal in the vehicle's frame is refused, to that client
+        refused = _client(url, "--listen-s", "0.5", "--goal", "1,1,1,0", "--goal-frame", "base_link", *NEW_NAME)
+        # in CDR, on /goal_pose, with an altitude
+        second = _client(
+            url, *("--listen-s", "8", "--goal=-1,0.5,1.6,-45", "--goal-encoding", "cdr"),
+            *("--goal-topic", "/goal_pose"), *NEW_NAME,
+        )  # fmt: skip
+        out, err = _ended_by_ctrl_c(proc)
+    finally:
+        proc.kill()
+    assert proc.returncode == 130, err
+    _at_goal(first, 2.0, -1.5, 1.0, 90.0)
+    assert any("world frame" in s and "base_link" in s for s in refused.get("status", [])), refused.get("status")
+    _at_goal(second, -1.0, 0.5, 1.6, -45.0)
+    assert "and goals on /move_base_simple/goal (3D panel, publish pose)" in serving, serving
+    logs = [text for _, msg in topic_messages(tmp_path / "goals.mcap", "/rosout") for text in [msg.msg]]
+    reached = [text for text in logs if text.startswith("goal_reached")]
+    assert reached == [
+        "goal_reached: at x=2.00 y=-1.50 z=1.00 yaw=90.0deg",
+        "goal_reached: at x=-1.00 y=0.50 z=1.60 yaw=-45.0deg",
+    ]
 
 
 def test_replay_streams_the_recorded_messages_as_they_are_played(tmp_path: Path) -> None:
@@ -505,7 +547,8 @@ def test_a_released_teleop_button_stops_the_turn_within_the_inputs_hold(
         proc.kill()
     assert proc.returncode == 130, err
     assert serving.rstrip().endswith(
-        f"it takes Twists on /quad_cmd_twist (Teleop panel, holding {hold_s:g} s after the last)"
+        f"it takes Twists on /quad_cmd_twist (Teleop panel, holding {hold_s:g} s after the last) and goals on "
+        "/move_base_simple/goal (3D panel, publish pose)"
     )
     from quadsim.recording.reader import RecordingReader
 

@@ -47,16 +47,20 @@ def _beside_peer(
     program: str | None = None,
     fleet: tuple[str, str] | None = None,
     prefix: str = "",
+    goal: tuple[str, str] | None = None,
 ) -> tuple[subprocess.CompletedProcess[str], dict]:
     """Run quadsim with `quadsim_args` while the ROS 2 peer flies (it starts publishing once /clock
     comes): its climb, forward, left and turn on `cmd_topic` (reading odometry under `prefix`: a
     namespace), or `program` (JSON phases, see tests/helpers/ros2_peer.py), or with `fleet` (NAME, OTHERS)
-    the climb, forward, left and turn of that fleet vehicle; return quadsim's outcome and the
+    the climb, forward, left and turn of that fleet vehicle, or with `goal` (X,Y,Z,YAW_DEG, TOPIC)
+    one goal pose; return quadsim's outcome and the
     peer's report."""
     report_path = folder / "peer.json"
     mode = ["fly", str(report_path), cmd_topic, prefix] if program is None else ["program", str(report_path), program]
     if fleet is not None:
         mode = ["fleet", str(report_path), *fleet]
+    if goal is not None:
+        mode = ["goal", str(report_path), *goal]
     peer = subprocess.Popen(
         [str(python), str(PEER), *mode],
         env=node_env or env,
@@ -254,7 +258,11 @@ def test_namespace_and_remapping_name_the_topics_as_ros2_would() -> None:
         assert bridge.graph_name("/tf") == "/robot1/tf"
         (line, warning), *rest = bridge.startup_lines(takes_twist=True)
         assert line.startswith("ROS 2: node /robot1/quadsim on domain ") and "(discovery range LOCALHOST)" in line
-        assert line.endswith("it takes geometry_msgs/Twist on /cmd_vel")
+        # goals in the namespace too, as RViz under it would publish them
+        assert line.endswith(
+            "it takes geometry_msgs/Twist on /cmd_vel and goal poses on /robot1/goal_pose and "
+            "/robot1/move_base_simple/goal"
+        )
         assert not warning and rest == []  # LOCALHOST: nobody else can fly it
     assert graph_topic("/quad_cmd_twist", *graph_names("", ["quad_cmd_twist:=cmd_vel"])) == "/cmd_vel"
     assert graph_topic("/alpha/quad_cmd_twist", *graph_names("t4ns", ["alpha/quad_cmd_twist:=/a"])) == "/a"
@@ -355,3 +363,22 @@ def test_a_ros2_node_flies_one_vehicle_of_a_fleet_by_its_name_while_a_script_fli
     assert report["others_last"]["bravo"]["x"] == pytest.approx(poses["bravo"][-1][0], abs=0.5)
     bravo_x = [p[0] for p in poses["bravo"]]
     assert max(bravo_x) > 2.5 and abs(poses["bravo"][-1][2] - 2.0) < 0.2  # its square's first leg, at 2 m
+
+
+@pytest.mark.parametrize("distribution", DISTRIBUTIONS)
+def test_a_ros2_nodes_goal_pose_flies_the_vehicle_there_and_holds_it(distribution: str, tmp_path: Path) -> None:
+    """RViz 2's "2D Goal Pose": one PoseStamped on /goal_pose, z = 0, frame map. The vehicle lifts
+    off to 1 m and flies there, facing the goal's heading, and holds; the events are on /rosout."""
+    python = _peer_python(distribution)
+    recording = tmp_path / "goal.mcap"
+    args = ["run", "--input", "ros2", "--duration", "12", "--cameras", "none", "--out", str(recording)]
+    env = local_env(free_domain(len(CASES) + 30 + DISTRIBUTIONS.index(distribution)), "LOCALHOST")
+    sim, report = _beside_peer(python, args, tmp_path, env, goal=("2,-1.5,0,-90", "/goal_pose"))
+    assert "and goal poses on /goal_pose and /move_base_simple/goal" in sim.stdout, sim.stdout
+    last = report["odom_last"]
+    turn = (math.degrees(last["yaw"]) + 90.0 + 180.0) % 360.0 - 180.0
+    assert math.dist((last["x"], last["y"], last["z"]), (2.0, -1.5, 1.0)) < 0.1 and abs(turn) < 5.0, last
+    with RecordingReader(recording) as reader:
+        logs = [msg.msg for _, msg in reader.messages("/rosout")]
+    assert "goal: flying to x=2.00 y=-1.50 z=1.00 yaw=-90.0deg" in logs, logs
+    assert "goal_reached: at x=2.00 y=-1.50 z=1.00 yaw=-90.0deg" in logs, logs

@@ -9,6 +9,8 @@ server advertises, decodes what arrives (CDR with rosbags), and may advertise /q
         [--subprotocol foxglove.websocket.v1] [--program '[[SECONDS, {"linear_x": V, ...}], ...]']
 
 --program publishes its phases one after another (from --start-s) instead of one --twist.
+--goal X,Y,Z,YAW_DEG publishes one geometry_msgs/PoseStamped goal at --start-s (in --goal-frame,
+on --goal-topic: the 3D panel's "publish pose"), in --goal-encoding.
 
 Every duration (--listen-s, --start-s, --publish-s, a phase's seconds) is simulated time: the log
 time of the odometry it receives, from the first odometry message on. A client timed by the
@@ -44,6 +46,18 @@ def twist_payload(encoding: str, lx: float, ly: float, lz: float, az: float) -> 
     return b"\x00\x01\x00\x00" + struct.pack("<6d", lx, ly, lz, 0.0, 0.0, az)
 
 
+def goal_payload(encoding: str, frame: str, x: float, y: float, z: float, yaw_deg: float) -> bytes:
+    """A PoseStamped goal facing `yaw_deg`, as the 3D panel sends it (JSON) or as CDR."""
+    qz, qw = math.sin(math.radians(yaw_deg) / 2), math.cos(math.radians(yaw_deg) / 2)
+    if encoding == "json":
+        pose = {"position": {"x": x, "y": y, "z": z}, "orientation": {"x": 0.0, "y": 0.0, "z": qz, "w": qw}}
+        return json.dumps({"header": {"stamp": {"sec": 0, "nsec": 0}, "frame_id": frame}, "pose": pose}).encode()
+    name = frame.encode() + b"\0"
+    head = struct.pack("<iII", 0, 0, len(name)) + name
+    head += b"\0" * (-len(head) % 8)  # the doubles align to 8
+    return b"\x00\x01\x00\x00" + head + struct.pack("<7d", x, y, z, 0.0, 0.0, qz, qw)
+
+
 def summarise(type_name: str, msg: Any) -> dict[str, Any]:
     """What the tests look at in a decoded message."""
     if type_name == "nav_msgs/msg/Odometry":
@@ -76,6 +90,10 @@ def main() -> None:
     ap.add_argument("--publish-s", type=float, default=0.0)
     ap.add_argument("--start-s", type=float, default=0.0, help="wait this long before publishing")
     ap.add_argument("--program", type=json.loads, default=None, help="phases [[seconds, {field: value}], ...]")
+    ap.add_argument("--goal", default=None, help="publish one goal X,Y,Z,YAW_DEG at --start-s")
+    ap.add_argument("--goal-topic", default="/move_base_simple/goal")
+    ap.add_argument("--goal-frame", default="world")
+    ap.add_argument("--goal-encoding", choices=["json", "cdr"], default="json")
     ap.add_argument("--subprotocol", choices=SUBPROTOCOLS, action="append", help="offer this name (default: both)")
     ap.add_argument("--wall-limit-s", type=float, default=50.0, help="give up after this long on the wall clock")
     args = ap.parse_args()
@@ -142,6 +160,20 @@ def main() -> None:
                 )
                 published += 1
                 next_publish = time.monotonic() + 0.05  # 20 Hz, as the Teleop panel and the joy node publish
+            if args.goal and start_ns is not None and elapsed_s >= args.start_s and "goal_sent" not in report:
+                goal_channel = {
+                    "id": 8,
+                    "topic": args.goal_topic,
+                    "encoding": args.goal_encoding,
+                    "schemaName": "geometry_msgs/msg/PoseStamped",
+                }
+                ws.send(json.dumps({"op": "advertise", "channels": [goal_channel]}))
+                x, y, z, yaw = (float(v) for v in args.goal.split(","))
+                ws.send(
+                    struct.pack("<BI", CLIENT_MESSAGE_DATA, 8)
+                    + goal_payload(args.goal_encoding, args.goal_frame, x, y, z, yaw)
+                )
+                report["goal_sent"] = elapsed_s
             try:
                 frame = ws.recv(timeout=0.01)
             except TimeoutError:
@@ -190,6 +222,7 @@ def main() -> None:
             entry["last_ns"] = log_time_ns
             if ch["schemaName"] == "nav_msgs/msg/Odometry":
                 report["odom"].append([log_time_ns, summary["x"], summary["y"], summary["z"]])
+                report["yaw"] = summary["yaw"]
                 start_ns = log_time_ns if start_ns is None else start_ns
                 now_ns = max(now_ns, log_time_ns)
         report["published"] = published

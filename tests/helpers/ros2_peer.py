@@ -8,6 +8,9 @@ quadsim publishes. Not a test module: tests/e2e/test_ros2.py and the benchmark s
     python ros2_peer.py latency OUT.json       publish a new climb rate every 0.25 s; report when each went out
     python ros2_peer.py program OUT.json PHASES
                                                fly PHASES, JSON [[SECONDS, {"linear_x": V, ...}], ...]
+    python ros2_peer.py goal OUT.json X,Y,Z,YAW_DEG TOPIC
+                                               publish one PoseStamped goal (frame map) on TOPIC, as
+                                               RViz's 2D Goal Pose does, and watch 9 s of the flight
     python ros2_peer.py fleet OUT.json NAME OTHER,...
                                                fly vehicle NAME of a fleet as `fly` does, on its
                                                /NAME/quad_cmd_twist; read its /NAME/quad/odom and
@@ -20,6 +23,7 @@ from __future__ import annotations
 
 import itertools
 import json
+import math
 import statistics
 import sys
 import time
@@ -70,7 +74,8 @@ def _endpoints(infos: list[Any]) -> list[dict[str, str]]:
 def main() -> int:
     mode, out = sys.argv[1], sys.argv[2]
     program = json.loads(sys.argv[3]) if mode == "program" else []
-    cmd_topic = sys.argv[3] if len(sys.argv) > 3 and mode != "program" else "/quad_cmd_twist"
+    cmd_topic = sys.argv[3] if len(sys.argv) > 3 and mode not in ("program", "goal") else "/quad_cmd_twist"
+    goal_topic = sys.argv[4] if mode == "goal" else ""
     prefix = f"/{sys.argv[3]}" if mode == "fleet" else ""  # a fleet vehicle's topics have its name in front
     if mode == "fly" and len(sys.argv) > 4:
         prefix = sys.argv[4]  # quadsim's namespace
@@ -95,9 +100,10 @@ def main() -> int:
     node.create_subscription(Clock, "/clock", on_clock, 10)
 
     def on_odom(m: Odometry) -> None:
-        p = m.pose.pose.position
+        p, q = m.pose.pose.position, m.pose.pose.orientation
         stamp = m.header.stamp.sec * 10**9 + m.header.stamp.nanosec
-        odoms.append({"ns": stamp, "x": p.x, "y": p.y, "z": p.z, "frame": m.header.frame_id})
+        yaw = math.atan2(2 * (q.w * q.z + q.x * q.y), 1 - 2 * (q.y * q.y + q.z * q.z))
+        odoms.append({"ns": stamp, "x": p.x, "y": p.y, "z": p.z, "yaw": yaw, "frame": m.header.frame_id})
 
     frame_lag_ns: list[int] = []  # how far each front frame's stamp is behind the newest odometry's
 
@@ -180,6 +186,20 @@ def main() -> int:
         graph["publishers"] = {t: _endpoints(node.get_publishers_info_by_topic(t)) for t in GRAPH_TOPICS}
         graph["subscriptions"] = _endpoints(node.get_subscriptions_info_by_topic(cmd_topic))
         until_sim(1.0)  # silence: quadsim holds after its dead-man timeout
+    elif clock_ns and mode == "goal":
+        x, y, z, yaw_deg = (float(v) for v in sys.argv[3].split(","))
+        goal_pub = node.create_publisher(PoseStamped, goal_topic, 10)
+        waited = time.monotonic() + 30.0
+        while node.count_subscribers(goal_topic) == 0 and time.monotonic() < waited:
+            spin_for(0.05)  # RViz publishes once: to a subscriber it has matched
+        goal = PoseStamped()
+        goal.header.frame_id = "map"
+        goal.pose.position.x, goal.pose.position.y, goal.pose.position.z = x, y, z
+        goal.pose.orientation.z = math.sin(math.radians(yaw_deg) / 2)
+        goal.pose.orientation.w = math.cos(math.radians(yaw_deg) / 2)
+        spin_for(0.2)  # the match is seen from both sides
+        goal_pub.publish(goal)
+        until_sim(9.0)
     elif clock_ns and mode == "program":
         for seconds, fields in program:
             send(seconds, **fields)
