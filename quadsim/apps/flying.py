@@ -9,12 +9,13 @@ import argparse
 import math
 import sys
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import replace
 
 from quadsim.apps.options import live_outputs
 from quadsim.apps.plans import Planned
 from quadsim.core.types import ZMode
+from quadsim.drivers.subscribed import SubscribedDriver
 from quadsim.errors import ConfigError
 from quadsim.session.outputs import RecordedRun
 from quadsim.session.pacing import RealTimePacer
@@ -54,7 +55,7 @@ class HeadlessFlight:
                 try:
                     # paced, a headless run catches up after a stall (live inputs keep their rate)
                     pacer = RealTimePacer(hz, max_frame_s=None) if planned.realtime else None
-                    self.summaries = run.fly(pacer, _progress(bar, pacer, run))
+                    self.summaries = run.fly(pacer, _progress(bar, pacer, run, planned.live_inputs))
                 finally:
                     self.sim_time = run.fleet.time_s
         except StopRequested:
@@ -98,18 +99,38 @@ class HeadlessFlight:
 
 #: a paced run says it is behind real time when it is more than this behind, at most every BEHIND_EVERY_S
 BEHIND_S, BEHIND_EVERY_S = 1.0, 10.0
+#: a run flown by live inputs (no end to count down to) says how it goes at 1 s of simulated time
+#: (it is up, its clock runs), then every LIVE_EVERY_S
+LIVE_FIRST_S, LIVE_EVERY_S = 1.0, 10.0
 
 
-def _progress(bar: ProgressBar | None, pacer: RealTimePacer | None, run: Run) -> Callable[[float], None] | None:
-    """What a headless flight does after each chunk: the progress bar, and, paced to the wall
-    clock, a line on stderr while the run falls behind real time (at most every 10 s)."""
+def _live_line(flown_s: float, wall_s: float, drivers: Sequence[SubscribedDriver]) -> str:
+    """`live: 10 s flown (1.00x real time); 200 Twists and 1 goal from ros2`."""
+    twists = sum(d.received for d in drivers)
+    goals = sum(d.goals_received for d in drivers)
+    names = " and ".join(sorted({d.name for d in drivers}))
+    pace = f" ({flown_s / wall_s:.2f}x real time)" if wall_s > 0 else ""
+    got = f"{twists} Twist{'s' * (twists != 1)}" + (f" and {goals} goal{'s' * (goals != 1)}" if goals else "")
+    return f"live: {flown_s:.0f} s flown{pace}; {got} from {names}"
+
+
+def _progress(
+    bar: ProgressBar | None, pacer: RealTimePacer | None, run: Run, live: Sequence[SubscribedDriver] = ()
+) -> Callable[[float], None] | None:
+    """What a headless flight does after each chunk: the progress bar, or with live inputs a
+    line now and then (`_live_line`), and, paced to the wall clock, a line on stderr while the
+    run falls behind real time (at most every 10 s)."""
     if pacer is None:
         return bar.update if bar is not None else None
     said = [-math.inf]
+    next_live, started = [LIVE_FIRST_S], time.monotonic()
 
     def progress(flown_s: float) -> None:
         if bar is not None:
             bar.update(flown_s)
+        if live and flown_s >= next_live[0]:
+            next_live[0] = (flown_s // LIVE_EVERY_S + 1) * LIVE_EVERY_S
+            print(_live_line(flown_s, time.monotonic() - started, live), file=sys.stderr, flush=True)
         behind = pacer.behind_s(run.fleet.step_count)
         now = time.monotonic()
         if behind > BEHIND_S and now - said[0] >= BEHIND_EVERY_S:

@@ -42,7 +42,8 @@ class SubscribedDriver:
 
     `deliver` may be called from any thread; it sets `next_poll_step` to ASAP so the loop takes
     the command at its next step instead of waiting for the next input tick. `received` counts
-    what arrived, `dropped` what was superseded before a poll and `rejected` what was malformed.
+    what arrived, `dropped` what was superseded before a poll and `rejected` what was malformed
+    (goals: `goals_received`, `goals_rejected`).
     """
 
     next_poll_step = NEVER
@@ -68,6 +69,7 @@ class SubscribedDriver:
         self.heard_on = topic
         self.goal_topics = goal_topics
         self.goals_received = 0
+        self.goals_rejected = 0
         self._goal: Goal | None = None
         self.received = 0
         self.dropped = 0
@@ -111,7 +113,7 @@ class SubscribedDriver:
             goal = goal_from_pose(frame_id, position, orientation_xyzw)
         except (TypeError, ValueError) as exc:
             with self._lock:
-                self.rejected += 1
+                self.goals_rejected += 1
             return str(exc)
         with self._lock:
             self.goals_received += 1

@@ -90,9 +90,11 @@ def _live_input(driver: object) -> str:
     if not isinstance(driver, SubscribedDriver):
         return ""
     arrived = driver.received + driver.rejected
+    goals = driver.goals_received + driver.goals_rejected
     return (
         f"{arrived} arrived on {driver.heard_on} from {driver.name}: {driver.rejected} rejected (not finite), "
         f"{driver.dropped} superseded before a step took them"
+        + (f"; {goals} goal{'s' * (goals != 1)}, {driver.goals_rejected} refused" if goals else "")
     )
 
 

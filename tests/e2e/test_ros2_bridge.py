@@ -7,12 +7,12 @@ from __future__ import annotations
 import signal
 import subprocess
 import sys
-import time
 from pathlib import Path
 
 from quadsim.live.dds_types import idl_type
 from quadsim.recording.reader import RecordingReader
 from tests.helpers import ROOT
+from tests.helpers.cli import wait_for_line
 from tests.helpers.ros2_env import free_domain, local_env
 
 RECORDING = ROOT / "tests" / "recordings" / "keyboard_session_cascade.mcap"
@@ -43,14 +43,14 @@ def test_run_with_ros2_input_ends_on_sigterm_with_its_recording_finished(tmp_pat
         stderr=subprocess.PIPE,
         text=True,
     )
-    assert proc.stdout is not None
-    line = proc.stdout.readline()
-    while line and not line.startswith("recording to"):
-        line = proc.stdout.readline()
-    time.sleep(1.0)
+    (_, said, readers) = wait_for_line(proc, "live: 1 s flown", 1)  # a second of flight in the file
     proc.send_signal(signal.SIGTERM)
-    out, err = proc.communicate(timeout=60)
+    proc.wait(timeout=60)
+    for reader in readers:
+        reader.join(timeout=10)
+    err = "".join(said)
     assert proc.returncode == 143, err
+    assert "live: 1 s flown (" in err and "; 0 Twists from ros2" in err, err
     assert "the recording is finished and readable" in err
     with RecordingReader(recording) as reader:
         assert reader.topic_counts()["/quad/odom"] > 10
