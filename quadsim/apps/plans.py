@@ -29,7 +29,7 @@ from quadsim.drivers.scripted import Script, ScriptedDriver, load_script
 from quadsim.drivers.subscribed import SubscribedDriver
 from quadsim.errors import ConfigError, QuadsimError
 from quadsim.recording.bag_commands import command_steps, read_bag_commands
-from quadsim.recording.contract import GOALS, TWIST, Names
+from quadsim.recording.contract import BODY_FRAME, GOALS, TWIST, Names
 from quadsim.session.outputs import OutputOptions
 from quadsim.session.plan import RunPlan
 from quadsim.sim.fleet_file import FleetEntry, FleetFile, load_fleet_file
@@ -211,7 +211,7 @@ def _driver(entry: FleetEntry, live_timeout_s: float | None = None) -> InputDriv
     if entry.input in ("ros2", "foxglove"):
         names = Names(entry.name)
         goals = tuple(names.topic(goal).name for goal in GOALS)
-        return SubscribedDriver(entry.input, names.topic(TWIST).name, live_timeout_s, goals)
+        return SubscribedDriver(entry.input, names.topic(TWIST).name, live_timeout_s, goals, names.frame(BODY_FRAME))
     return IdleDriver()  # nothing is sent, unless from Python
 
 

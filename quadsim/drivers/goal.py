@@ -11,8 +11,12 @@ REACHED_M and REACHED_RAD, slowed below REACHED_SPEED_MPS) is an event; the pilo
 the vehicle there until another goal or a Twist comes.
 
 Goals are in the world frame (REP 105's map and odom are the same frame here: quadsim's world has
-no drift), their heading the yaw of their orientation. A 2D goal (z exactly 0, what both panels
-send) keeps the altitude the vehicle flies at, or takes off to TAKEOFF_ALTITUDE_M from the ground.
+no drift), their heading the yaw of their orientation; or in the vehicle's own base_link, what
+Foxglove's 3D panel sends while it follows the vehicle (its display frame): then they are taken
+relative to where the vehicle is and its heading when the goal arrives (roll and pitch left out:
+a click on the panel's ground grid is a place at the vehicle's altitude). A 2D goal (z exactly 0,
+what both panels send) keeps the altitude the vehicle flies at, or takes off to
+TAKEOFF_ALTITUDE_M from the ground.
 """
 
 from __future__ import annotations
@@ -54,19 +58,22 @@ def _wrapped(angle: float) -> float:
 
 
 class Goal(NamedTuple):
-    """Where to fly, world frame: x, y (m), z (m; None: the altitude flown when it arrives), yaw
-    (rad; None: the heading held when it arrives)."""
+    """Where to fly, world frame (`relative`: the vehicle's heading frame when it is taken): x, y
+    (m), z (m; None: the altitude flown when it arrives), yaw (rad; None: the heading held when it
+    arrives)."""
 
     x: float
     y: float
     z: float | None = None
     yaw: float | None = None
+    #: given in the vehicle's heading frame (from base_link), relative to where it is when taken
+    relative: bool = False
 
     def checked(self) -> Goal:
         """The goal with floats, or ValueError naming what is wrong (a coordinate that is not a
         finite number, or farther than MAX_GOAL_M)."""
         values: list[float | None] = []
-        for name, value in zip(self._fields, self):
+        for name, value in zip(self._fields[:4], self[:4]):
             if value is None and name in ("z", "yaw"):
                 values.append(None)
                 continue
@@ -77,7 +84,9 @@ class Goal(NamedTuple):
             if name != "yaw" and abs(value) > MAX_GOAL_M:
                 raise ValueError(f"goal {name} = {value} m is farther than {MAX_GOAL_M:g} m")
             values.append(float(value))
-        return Goal(*values)  # type: ignore[arg-type]  # x and y are never None
+        x, y, z, yaw = values
+        assert x is not None and y is not None  # only z and yaw may be open
+        return Goal(x, y, z, yaw, bool(self.relative))
 
     def describe(self) -> str:
         """For /rosout and a person: x=1.00 y=2.00 z=1.50 yaw=90.0deg."""
@@ -87,19 +96,25 @@ class Goal(NamedTuple):
 
 
 def goal_from_pose(
-    frame_id: str, position: tuple[float, float, float], orientation_xyzw: tuple[float, float, float, float]
+    frame_id: str,
+    position: tuple[float, float, float],
+    orientation_xyzw: tuple[float, float, float, float],
+    body_frame: str = "base_link",
 ) -> Goal:
-    """A PoseStamped's goal: ValueError for a frame other than the world's, or numbers that are not
+    """A PoseStamped's goal: in the world, or relative to the vehicle when in its `body_frame`
+    (a fleet vehicle's is NAME/base_link). ValueError for another frame, or numbers that are not
     a goal (see Goal.checked); a zero quaternion keeps the heading; z = 0 keeps the altitude."""
-    if frame_id.lstrip("/") not in WORLD_FRAMES:
-        raise ValueError(f"goals are taken in the world frame (world, map or odom), not {frame_id!r}")
+    frame = frame_id.lstrip("/")
+    if frame not in WORLD_FRAMES and frame != body_frame:
+        shown = frame_id if len(frame_id) <= 64 else frame_id[:61] + "..."
+        raise ValueError(f"goals are taken in the world frame (world, map or odom) or in {body_frame}, not {shown!r}")
     x, y, z = position
     qx, qy, qz, qw = orientation_xyzw
     norm = math.sqrt(qx * qx + qy * qy + qz * qz + qw * qw)
     if not math.isfinite(norm):
         raise ValueError("the goal's orientation is not finite")
     yaw = _yaw((qx / norm, qy / norm, qz / norm, qw / norm)) if norm > 1e-9 else None
-    return Goal(x, y, None if z == 0.0 else z, yaw).checked()
+    return Goal(x, y, None if z == 0.0 else z, yaw, relative=frame == body_frame).checked()
 
 
 class GoalPilot:
@@ -114,12 +129,18 @@ class GoalPilot:
     def start(self, goal: Goal, state: VehicleState, on_ground: bool) -> Goal:
         """Fly to `goal` from `state` (`on_ground`: landed there): its open altitude and heading
         taken from the state. The goal as flown (what events say)."""
-        z = goal.z
+        px, py, pz = state.position_m
+        heading = state.yaw_rad()
+        x, y, z, yaw = goal.x, goal.y, goal.z, goal.yaw
+        if goal.relative:  # from the vehicle's heading frame, where it is now
+            c, s = math.cos(heading), math.sin(heading)
+            x, y = px + c * goal.x - s * goal.y, py + s * goal.x + c * goal.y
+            z = None if z is None else pz + z
+            yaw = None if yaw is None else _wrapped(heading + yaw)
         if z is None:
-            z = TAKEOFF_ALTITUDE_M if on_ground else state.position_m[2]
+            z = TAKEOFF_ALTITUDE_M if on_ground else pz
         z = clamp(z, self.limits.min_altitude_m, self.limits.max_altitude_m)
-        yaw = goal.yaw if goal.yaw is not None else state.yaw_rad()
-        self.goal = Goal(goal.x, goal.y, z, yaw)
+        self.goal = Goal(x, y, z, heading if yaw is None else yaw)
         self.reached = False
         return self.goal
 

@@ -56,10 +56,12 @@ class SubscribedDriver:
         topic: str = "/quad_cmd_twist",
         command_timeout_s: float | None = None,
         goal_topics: tuple[str, ...] = GOAL_TOPICS,
+        body_frame: str = "base_link",
     ) -> None:
         """`command_timeout_s`: hold after this long without a message (None: the input's own,
         RELEASE_TIMEOUT_S, else the run's); `goal_topics`: where it takes goals (the contract's
-        names of GOAL_TOPICS, under the vehicle's name in a fleet)."""
+        names of GOAL_TOPICS, under the vehicle's name in a fleet); `body_frame`: the vehicle's
+        base_link as TF names it (NAME/base_link in a fleet), a frame goals may come in."""
         self.name = name
         self.command_timeout_s = command_timeout_s if command_timeout_s is not None else RELEASE_TIMEOUT_S.get(name)
         #: the contract's name of the topic (what the recording keeps the commands on)
@@ -68,6 +70,7 @@ class SubscribedDriver:
         #: remapped (--ros-namespace, --ros-remap), as the bridge subscribes to it; what lines say
         self.heard_on = topic
         self.goal_topics = goal_topics
+        self.body_frame = body_frame
         self.goals_received = 0
         self.goals_rejected = 0
         self._goal: Goal | None = None
@@ -110,7 +113,7 @@ class SubscribedDriver:
         """A goal pose arrived (a PoseStamped's frame, position and orientation): flown from the
         next step. None, or why it is not a goal (it is then ignored)."""
         try:
-            goal = goal_from_pose(frame_id, position, orientation_xyzw)
+            goal = goal_from_pose(frame_id, position, orientation_xyzw, self.body_frame)
         except (TypeError, ValueError) as exc:
             with self._lock:
                 self.goals_rejected += 1

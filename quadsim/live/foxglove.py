@@ -314,7 +314,7 @@ class FoxgloveBridge:
             return
         why = driver.deliver_goal(frame_id, position, orientation)
         if why is not None:
-            self._tell(client, f"a goal for {driver.topic} is ignored: {_reason(ValueError(why))}")
+            self._tell(client, f"a goal is ignored: {why}")  # quadsim's words, a frame name cut to 64 at most
 
     @staticmethod
     def _tell(client: FrontClient, message: str) -> None:

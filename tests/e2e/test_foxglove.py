@@ -152,11 +152,16 @@ def test_the_3d_panels_publish_pose_flies_the_vehicle_there_in_either_encoding(t
     try:
         serving = _serving_line(proc)
         url = serving.split("serving ")[1].split()[0]
-        # on the ground plane, as the panel publishes in JSON (Studio 1.x's protocol name): lift off
-        # to 1 m and fly there, facing +y
-        first = _client(url, "--listen-s", "8", "--goal", "2,-1.5,0,90", "--start-s", "0.2", *OLD_NAME)
-        # a goal in the vehicle's frame is refused, to that client
-        refused = _client(url, "--listen-s", "0.5", "--goal", "1,1,1,0", "--goal-frame", "base_link", *NEW_NAME)
+        # on the ground plane of the panel following the vehicle (its display frame base_link), in
+        # JSON under Studio 1.x's protocol name: lift off to 1 m and fly there, facing +y
+        first = _client(
+            url, *("--listen-s", "8", "--goal", "2,-1.5,0,90", "--goal-frame", "base_link", "--start-s", "0.2"),
+            *OLD_NAME,
+        )  # fmt: skip
+        # a goal in a camera's frame is refused, to that client
+        refused = _client(
+            url, *("--listen-s", "0.5", "--goal", "1,1,1,0", "--goal-frame", "front_camera_optical"), *NEW_NAME
+        )
         # in CDR, on /goal_pose, with an altitude
         second = _client(
             url, *("--listen-s", "8", "--goal=-1,0.5,1.6,-45", "--goal-encoding", "cdr"),
@@ -167,7 +172,8 @@ def test_the_3d_panels_publish_pose_flies_the_vehicle_there_in_either_encoding(t
         proc.kill()
     assert proc.returncode == 130, err
     _at_goal(first, 2.0, -1.5, 1.0, 90.0)
-    assert any("world frame" in s and "base_link" in s for s in refused.get("status", [])), refused.get("status")
+    said = refused.get("status", [])
+    assert any("world frame" in s and "'front_camera_optical'" in s for s in said), said
     _at_goal(second, -1.0, 0.5, 1.6, -45.0)
     assert "and goals on /move_base_simple/goal (3D panel, publish pose)" in serving, serving
     logs = [text for _, msg in topic_messages(tmp_path / "goals.mcap", "/rosout") for text in [msg.msg]]

@@ -47,7 +47,8 @@ def test_a_goal_pose_is_a_place_and_a_heading_in_the_world() -> None:
 @pytest.mark.parametrize(
     ("frame", "position", "orientation", "said"),
     [
-        ("base_link", (1.0, 0.0, 1.0), (0.0, 0.0, 0.0, 1.0), "world frame"),
+        ("front_camera_optical", (1.0, 0.0, 1.0), (0.0, 0.0, 0.0, 1.0), "world frame"),
+        ("bravo/base_link", (1.0, 0.0, 1.0), (0.0, 0.0, 0.0, 1.0), "or in base_link"),
         ("world", (math.nan, 0.0, 1.0), (0.0, 0.0, 0.0, 1.0), "finite"),
         ("world", (0.0, math.inf, 1.0), (0.0, 0.0, 0.0, 1.0), "finite"),
         ("world", (0.0, 0.0, 1.0), (0.0, 0.0, math.inf, 1.0), "orientation"),
@@ -60,6 +61,21 @@ def test_what_is_not_a_goal_is_refused_with_its_reason(frame, position, orientat
     driver = SubscribedDriver("ros2")
     assert said in (driver.deliver_goal(frame, position, orientation) or "")
     assert driver.take_goal() is None and (driver.goals_rejected, driver.rejected) == (1, 0)
+
+
+def test_a_goal_in_the_vehicles_own_frame_is_taken_from_where_it_is_and_its_heading() -> None:
+    """What Foxglove's 3D panel sends while it follows the vehicle: its display frame, base_link."""
+    goal = goal_from_pose("alpha/base_link", (2.0, 1.0, 0.0), _yawed(math.radians(30)), "alpha/base_link")
+    assert goal.relative and goal.z is None
+    pilot = GoalPilot(LIMITS)
+    # facing +y at (1, 1), 1.5 m up: 2 m ahead and 1 m left is (0, 3), the heading 90 + 30 deg
+    flown = pilot.start(goal, _state(1.0, 1.0, 1.5, math.pi / 2), on_ground=False)
+    assert flown.x == pytest.approx(0.0) and flown.y == pytest.approx(3.0) and flown.z == pytest.approx(1.5)
+    assert math.degrees(flown.yaw) == pytest.approx(120.0) and not flown.relative
+    # a height in base_link is over the vehicle's; no orientation keeps its heading
+    up = goal_from_pose("base_link", (0.0, 0.0, 0.5), (0.0, 0.0, 0.0, 0.0))
+    held = pilot.start(up, _state(1.0, 1.0, 1.5, 0.4), on_ground=False)
+    assert held[:3] == (1.0, 1.0, 2.0) and held.yaw == pytest.approx(0.4)
 
 
 def test_the_newest_goal_delivered_is_taken_once() -> None:
