@@ -16,34 +16,17 @@ from pathlib import Path
 import pytest
 
 from quadsim.recording.flight import load_flights
+from tests.helpers.fleets import FLEET_OF_ONE, RUNS, run_args
 from tests.helpers.mcap import decoded_messages
 from tests.integration.test_cli import cli
 
-SQUARER = '[[vehicle]]\nname = "{name}"\nstart = [{x}, {y}, 0.0, 0.0]\ninput = "script:square"\n'
-IDLE = '[[vehicle]]\nname = "{name}"\nairframe = "hexa"\nstart = [{x}, {y}, 0.0, 0.0]\ninput = "idle"\n'
-#: the run's shape: how `run` is told to fly it, and its vehicles' names ("" alone: no prefix)
-SHAPES = {
-    "alone": ((), ("",)),
-    "fleet of 1": ((SQUARER.format(name="alpha", x=0.0, y=0.0),), ("alpha",)),
-    "fleet of 3": (
-        (
-            SQUARER.format(name="alpha", x=0.0, y=0.0),
-            SQUARER.format(name="bravo", x=0.0, y=5.0),
-            IDLE.format(name="charlie", x=-4.0, y=0.0),
-        ),
-        ("alpha", "bravo", "charlie"),
-    ),
-}
+#: the shapes of a run the tests fly (tests.helpers.fleets.RUNS), and a fleet of one
+SHAPES = {**RUNS, "fleet of 1": FLEET_OF_ONE}
 
 
 def _fly(shape: str, folder: Path) -> tuple[Path, str]:
-    vehicles, _ = SHAPES[shape]
     out = folder / "run.mcap"
-    if vehicles:
-        (folder / "fleet.toml").write_text("\n".join(vehicles))
-        done = cli("run", "--fleet", str(folder / "fleet.toml"), "--out", str(out))
-    else:
-        done = cli("run", "--script", "square", "--cameras", "none", "--out", str(out))
+    done = cli(*run_args(SHAPES[shape], folder), "--out", str(out))
     assert done.returncode == 0, done.stderr
     return out, done.stdout
 
@@ -58,7 +41,7 @@ def _topics(path: Path) -> dict[str, list]:
 @pytest.mark.parametrize("shape", list(SHAPES))
 def test_every_run_records_each_vehicle_under_its_names_and_flies_again_at_zero(shape, tmp_path):
     path, stdout = _fly(shape, tmp_path)
-    _, names = SHAPES[shape]
+    names = tuple(flier.name for flier in SHAPES[shape])
     prefix = {name: f"/{name}" if name else "" for name in names}
     # the summary: one vehicle's whole, a fleet's vehicle by vehicle
     assert "sim time        27.00 s" in stdout

@@ -69,9 +69,14 @@ RUNS: dict[str, tuple[Flier, ...]] = {
 }
 
 
-def run_args(shape: str, folder: Path) -> tuple[str, ...]:
-    """`run` and its arguments for a run of `shape` (RUNS); a fleet's file is written into `folder`."""
-    fliers = RUNS[shape]
+#: a fleet of one (`run --fleet`): the square, as the run alone flies it, under a name
+FLEET_OF_ONE = (Flier("alpha", "quad", (0.0, 0.0, 0.0, 0.0), "script:square"),)
+
+
+def run_args(shape: str | tuple[Flier, ...], folder: Path) -> tuple[str, ...]:
+    """`run` and its arguments for a run of `shape` (RUNS' id, or the vehicles themselves); a
+    fleet's file is written into `folder`."""
+    fliers = RUNS[shape] if isinstance(shape, str) else shape
     if fliers[0].name == "":
         return ("run", "--script", fliers[0].input.removeprefix("script:"), "--cameras", "none")
     text = fleet_toml(
