@@ -62,13 +62,18 @@ ROBOT_MARKERS = Topic("/robot_markers", "visualization_msgs/msg/MarkerArray", QO
 WORLD_MARKERS = Topic("/world/markers", "visualization_msgs/msg/MarkerArray", QOS_LATCHED)
 #: the wind at the vehicle, `world` frame, in runs with wind (a state's sixth message)
 WIND = Topic("/wind", "geometry_msgs/msg/Vector3Stamped")
+#: the legend of the segmentation images: a JSON list of names, label id i is the body named [i]
+#: (quadsim.sensors.images.segment_names); the run's one, in runs with a segmenting camera
+SEGMENTATION_LABELS = Topic("/world/segmentation_labels", "std_msgs/msg/String", QOS_LATCHED)
 STATE_TOPICS = (POSE, ODOM, IMU, ROTOR_THRUSTS, TF)
 #: topics every quadsim recording has (cameras and /joy depend on the run)
 CORE_TOPICS = (TWIST.name, *(t.name for t in STATE_TOPICS), TF_STATIC.name)
 
 
 #: topics a fleet shares: one world, one TF tree, one log
-SHARED_TOPICS = frozenset({TF.name, TF_STATIC.name, ROSOUT.name, WORLD_MARKERS.name, "/clock"})
+SHARED_TOPICS = frozenset(
+    {TF.name, TF_STATIC.name, ROSOUT.name, WORLD_MARKERS.name, SEGMENTATION_LABELS.name, "/clock"}
+)
 
 
 @dataclass(frozen=True)
@@ -103,6 +108,20 @@ def image_topic(spec: CameraSpec) -> Topic:
 
 def camera_info_topic(spec: CameraSpec) -> Topic:
     return Topic(f"{spec.topic_prefix}/camera_info", "sensor_msgs/msg/CameraInfo")
+
+
+def depth_image_topic(spec: CameraSpec) -> Topic:
+    """A camera's depth image (spec.depth: 32FC1 metres or 16UC1 millimetres, REP 118)."""
+    return Topic(f"{spec.topic_prefix}/depth/image_raw", "sensor_msgs/msg/Image")
+
+
+def depth_camera_info_topic(spec: CameraSpec) -> Topic:
+    return Topic(f"{spec.topic_prefix}/depth/camera_info", "sensor_msgs/msg/CameraInfo")
+
+
+def segmentation_image_topic(spec: CameraSpec) -> Topic:
+    """A camera's segmentation image: label ids (SEGMENTATION_LABELS says which is which body)."""
+    return Topic(f"{spec.topic_prefix}/segmentation/image_raw", "sensor_msgs/msg/Image")
 
 
 @cache
