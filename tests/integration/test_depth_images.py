@@ -1,0 +1,122 @@
+"""A recorded run with depth and segmentation images (their conventions alone:
+tests/unit/test_depth_images.py): every new message decodes with rosbags and mcap-ros2-support,
+the depth is the known distance to the red tower and to the floor, the labels name the tower's
+pixels, a render worker gives the bytes this process gives, and `check` re-flies the run."""
+
+import json
+
+import numpy as np
+import pytest
+from rosbags.typesys import Stores, get_typestore
+
+from quadsim.recording.flight import load_flight
+from quadsim.sensors.camera import CameraSpec
+from quadsim.sensors.images import depth_metres_from_image, image_pixels
+from quadsim.session.resim import resimulate
+from tests.helpers.mcap import decoded_recording
+from tests.helpers.recording import record_flight
+
+HOVER = "z_mode height\n2.5 linear.z=0\n"  # climbs to 2 m and holds
+FRONT = CameraSpec("front", "front_camera_link", 160, 120, rate_hz=10, depth="32FC1", segmentation=True)
+FLOOR = CameraSpec("floor", "floor_camera_link", 160, 120, rate_hz=10, near_m=0.01, depth="16UC1")
+NEW_TOPICS = {
+    "/quad/front_camera/depth/image_raw": "sensor_msgs/msg/Image",
+    "/quad/front_camera/depth/camera_info": "sensor_msgs/msg/CameraInfo",
+    "/quad/front_camera/segmentation/image_raw": "sensor_msgs/msg/Image",
+    "/quad/floor_camera/depth/image_raw": "sensor_msgs/msg/Image",
+    "/quad/floor_camera/depth/camera_info": "sensor_msgs/msg/CameraInfo",
+    "/world/segmentation_labels": "std_msgs/msg/String",
+}
+#: the red tower's face toward the start, and the cameras' places on the body (quadsim_x.urdf)
+TOWER_FACE_X_M, FRONT_CAMERA_X_M, FLOOR_CAMERA_Z_M = 5.6, 0.108, -0.034
+
+
+@pytest.fixture(scope="module")
+def recorded(tmp_path_factory):
+    folder = tmp_path_factory.mktemp("depth")
+    paths = {workers: folder / f"workers{workers}.mcap" for workers in (0, 1)}
+    for workers, path in paths.items():
+        record_flight(path, workers=workers, cameras=(FRONT, FLOOR), script=HOVER)
+    return paths
+
+
+def _pixels(msg) -> np.ndarray:
+    return image_pixels(msg.encoding, msg.height, msg.width, msg.step, bool(msg.is_bigendian), bytes(msg.data))
+
+
+def test_every_new_message_decodes_with_both_readers_on_the_cameras_frame(recorded):
+    topics, _, _ = decoded_recording(recorded[0])  # mcap-ros2-support
+    for topic in NEW_TOPICS:
+        assert topics.get(topic), topic
+    assert len(topics["/quad/front_camera/depth/image_raw"]) == len(topics["/quad/front_camera/image_raw/compressed"])
+    for topic in (t for t, type_name in NEW_TOPICS.items() if type_name == "sensor_msgs/msg/Image"):
+        for ns, msg in topics[topic]:
+            assert msg.header.frame_id == topic.split("/")[2] + "_optical"  # front_camera_optical
+            assert msg.header.stamp.sec * 10**9 + msg.header.stamp.nanosec == ns
+            assert (msg.width, msg.height, msg.is_bigendian) == (160, 120, 0)
+    encodings = {t: topics[t][0][1].encoding for t in NEW_TOPICS if t.endswith("image_raw")}
+    assert encodings == {
+        "/quad/front_camera/depth/image_raw": "32FC1",
+        "/quad/front_camera/segmentation/image_raw": "mono8",
+        "/quad/floor_camera/depth/image_raw": "16UC1",
+    }
+    _, info = topics["/quad/front_camera/depth/camera_info"][0]
+    assert tuple(info.k) == pytest.approx(FRONT.k_matrix()) and info.header.frame_id == "front_camera_optical"
+    # rosbags reads the same bytes as a ROS 2 node would
+    from rosbags.highlevel import AnyReader
+
+    with AnyReader([recorded[0]], default_typestore=get_typestore(Stores.ROS2_HUMBLE)) as reader:
+        wanted = [c for c in reader.connections if c.topic in NEW_TOPICS]
+        assert {c.topic: c.msgtype for c in wanted} == NEW_TOPICS
+        counts = dict.fromkeys(NEW_TOPICS, 0)
+        for connection, _, raw in reader.messages(connections=wanted):
+            msg = reader.deserialize(raw, connection.msgtype)
+            counts[connection.topic] += 1
+            if connection.msgtype == "sensor_msgs/msg/Image":
+                assert _pixels(msg).shape == (120, 160)
+    assert counts == {t: len(topics[t]) for t in NEW_TOPICS}
+
+
+def test_depth_is_the_distance_to_the_tower_and_to_the_floor(recorded):
+    topics, _, _ = decoded_recording(recorded[0])
+    poses = dict(topics["/quad/pose"])
+    ns, front = topics["/quad/front_camera/depth/image_raw"][-1]
+    x_m = poses[ns].pose.position.x
+    depth = depth_metres_from_image(_pixels(front), front.encoding)
+    centre = depth[59:61, 79:81]  # the four pixels about the optical axis
+    assert centre == pytest.approx(TOWER_FACE_X_M - FRONT_CAMERA_X_M - x_m, abs=0.02)
+    assert np.isposinf(depth[0]).all()  # the sky: no return, +inf (REP 118)
+    ns, floor = topics["/quad/floor_camera/depth/image_raw"][-1]
+    z_m = poses[ns].pose.position.z
+    assert z_m > 1.9  # hovering
+    below = depth_metres_from_image(_pixels(floor), "16UC1")[59:61, 79:81]
+    assert below == pytest.approx(z_m + FLOOR_CAMERA_Z_M, abs=0.01)
+
+
+def test_the_legend_names_the_towers_pixels(recorded):
+    topics, _, _ = decoded_recording(recorded[0])
+    (_, legend_msg), *more = topics["/world/segmentation_labels"]
+    assert not more  # latched: once
+    legend = json.loads(legend_msg.data)
+    assert legend[:3] == ["nothing", "floor", "red_tower"] and legend[-1] == "vehicle"
+    _, seg = topics["/quad/front_camera/segmentation/image_raw"][-1]
+    labels = _pixels(seg)
+    _, depth_msg = topics["/quad/front_camera/depth/image_raw"][-1]
+    depth = depth_metres_from_image(_pixels(depth_msg), "32FC1")
+    tower = labels == legend.index("red_tower")
+    assert tower[60, 80] and 150 < tower.sum() < 2000  # the middle of the image, a narrow column
+    assert np.isposinf(depth[labels == 0]).all() and np.isfinite(depth[labels != 0]).all()
+    assert set(np.unique(labels)) == {0, 1, legend.index("red_tower")}  # sky, floor, tower
+
+
+def test_a_render_worker_gives_the_same_images(recorded):
+    images = []
+    for path in recorded.values():
+        topics, _, _ = decoded_recording(path)
+        images.append({t: [(ns, bytes(m.data)) for ns, m in topics[t]] for t in NEW_TOPICS if t.endswith("/image_raw")})
+    assert images[0] == images[1]
+
+
+def test_check_re_flies_it(recorded):
+    report = resimulate(load_flight(recorded[0]), record=False)
+    assert report.states_compared > 100 and report.position.max_error == 0.0 and report.attitude.max_error == 0.0
