@@ -98,3 +98,16 @@ def image_pixels(encoding: str, height: int, width: int, step: int, is_bigendian
     dtype = np.dtype(("<" if not is_bigendian else ">") + kind)
     rows = np.frombuffer(data, np.uint8, step * height).reshape(height, step)[:, : width * size]
     return np.ascontiguousarray(rows).view(dtype).reshape(height, width).astype(dtype.newbyteorder("="))
+
+
+def depth_colour_mapped(depth_m: np.ndarray, near_m: float = 0.2, far_m: float = 50.0) -> np.ndarray:
+    """Depth in metres as an RGB image for people (height x width x 3 uint8): the turbo colour
+    map on a log scale, red near `near_m`, blue toward `far_m`; black where there is no depth."""
+    import cv2  # only the viewers need it
+
+    with np.errstate(divide="ignore", invalid="ignore"):
+        scale = np.log(np.clip(depth_m, near_m, far_m) / near_m) / np.log(far_m / near_m)
+    index = (255.0 - np.nan_to_num(scale, nan=1.0) * 255.0).astype(np.uint8)
+    rgb = cv2.cvtColor(cv2.applyColorMap(index, cv2.COLORMAP_TURBO), cv2.COLOR_BGR2RGB)
+    rgb[~np.isfinite(depth_m)] = 0
+    return rgb

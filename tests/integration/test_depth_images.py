@@ -6,12 +6,16 @@ pixels, a render worker gives the bytes this process gives, and `check` re-flies
 import json
 
 import numpy as np
+import pygame
 import pytest
 from rosbags.typesys import Stores, get_typestore
 
+from quadsim.apps.replay_export import mp4_paths
+from quadsim.apps.window.replay import ReplayApp
 from quadsim.recording.flight import load_flight
 from quadsim.sensors.camera import CameraSpec
 from quadsim.sensors.images import depth_metres_from_image, image_pixels
+from quadsim.sensors.rendering import decode_jpeg
 from quadsim.session.resim import resimulate
 from tests.helpers.mcap import decoded_recording
 from tests.helpers.recording import record_flight
@@ -120,3 +124,29 @@ def test_a_render_worker_gives_the_same_images(recorded):
 def test_check_re_flies_it(recorded):
     report = resimulate(load_flight(recorded[0]), record=False)
     assert report.states_compared > 100 and report.position.max_error == 0.0 and report.attitude.max_error == 0.0
+
+
+def test_replay_shows_the_depth_colour_mapped_and_d_switches_back(recorded):
+    flight = load_flight(recorded[0], depth=True)
+    assert {cam: len(frames) for cam, frames in flight.frames.items()} == dict.fromkeys(
+        ("front", "front_depth", "floor", "floor_depth"), 25
+    )
+    assert set(mp4_paths(recorded[0].parent / "videos", flight)) == set(flight.frames)  # exported too
+    depth = decode_jpeg(flight.frames["front_depth"][-1][1])
+    assert depth[5].max() < 30  # the sky: no depth, black
+    tower, floor_near = depth[60, 80].astype(int), depth[115, 80].astype(int)
+    assert tower.sum() > 200 and abs(tower - floor_near).sum() > 60  # nearer is another colour
+    app = ReplayApp(flight, (640, 360), frame_s=0.1)
+    try:
+        app.run(max_frames=30)
+        assert {cam: f.camera for cam, f in app.model().frames.items()} == {
+            "front": "front_depth",
+            "floor": "floor_depth",
+        }
+        pygame.image.save(app.screen, "/tmp/quadsim_replay_depth_test.png")
+        pygame.event.post(pygame.event.Event(pygame.KEYDOWN, key=pygame.K_d, mod=0, unicode="d"))
+        app.run(max_frames=31)
+        assert {f.camera for f in app.model().frames.values()} == {"front", "floor"}
+    finally:
+        app.close()
+    assert set(load_flight(recorded[0]).frames) == {"front", "floor"}  # loaded only when asked for
