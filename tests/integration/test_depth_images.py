@@ -19,6 +19,7 @@ from quadsim.sensors.rendering import decode_jpeg
 from quadsim.session.resim import resimulate
 from tests.helpers.mcap import decoded_recording
 from tests.helpers.recording import record_flight
+from tests.integration.test_cli import cli
 
 HOVER = "z_mode height\n2.5 linear.z=0\n"  # climbs to 2 m and holds
 FRONT = CameraSpec("front", "front_camera_link", 160, 120, rate_hz=10, depth="32FC1", segmentation=True)
@@ -150,3 +151,49 @@ def test_replay_shows_the_depth_colour_mapped_and_d_switches_back(recorded):
     finally:
         app.close()
     assert set(load_flight(recorded[0]).frames) == {"front", "floor"}  # loaded only when asked for
+
+
+FLEET = """
+[[vehicle]]
+name = "alpha"
+start = [0.0, 0.0, 0.0, 0.0]
+input = "idle"
+cameras = ["front"]
+depth = ["front:32FC1"]
+segmentation = ["front"]
+
+[[vehicle]]
+name = "bravo"
+airframe = "hexa"
+start = [2.0, 0.0, 0.0, 0.0]
+input = "idle"
+cameras = ["front", "floor"]
+depth = ["floor"]
+"""
+
+
+def test_a_fleet_files_vehicles_choose_their_images_and_the_legend_names_each_vehicle(tmp_path):
+    (tmp_path / "fleet.toml").write_text(FLEET)
+    out = tmp_path / "fleet.mcap"
+    done = cli(
+        "run", "--fleet", str(tmp_path / "fleet.toml"), "--duration", "0.2", "--render-workers", "0", "--out", str(out)
+    )
+    assert done.returncode == 0, done.stderr
+    topics, _, _ = decoded_recording(out)
+    assert sorted(t for t in topics if "/depth/" in t or "segmentation" in t) == [
+        "/alpha/quad/front_camera/depth/camera_info",
+        "/alpha/quad/front_camera/depth/image_raw",
+        "/alpha/quad/front_camera/segmentation/image_raw",
+        "/bravo/quad/floor_camera/depth/camera_info",
+        "/bravo/quad/floor_camera/depth/image_raw",
+        "/world/segmentation_labels",
+    ]
+    legend = json.loads(topics["/world/segmentation_labels"][0][1].data)
+    assert legend[-2:] == ["alpha", "bravo"]
+    _, seg = topics["/alpha/quad/front_camera/segmentation/image_raw"][-1]
+    assert seg.header.frame_id == "alpha/front_camera_optical"
+    labels = _pixels(seg)
+    assert (labels == legend.index("bravo")).sum() > 50  # alpha sees bravo 2 m ahead, by its name
+    assert not (labels == legend.index("alpha")).any()  # and not itself
+    _, depth = topics["/bravo/quad/floor_camera/depth/image_raw"][-1]
+    assert depth.encoding == "16UC1" and depth.header.frame_id == "bravo/floor_camera_optical"
