@@ -13,6 +13,7 @@ from rosbags.typesys import Stores, get_typestore
 from quadsim.apps.replay_export import mp4_paths
 from quadsim.apps.window.replay import ReplayApp
 from quadsim.recording.flight import load_flight
+from quadsim.recording.info import read_info
 from quadsim.sensors.camera import CameraSpec
 from quadsim.sensors.images import depth_metres_from_image, image_pixels
 from quadsim.sensors.rendering import decode_jpeg
@@ -120,6 +121,14 @@ def test_a_render_worker_gives_the_same_images(recorded):
         topics, _, _ = decoded_recording(path)
         images.append({t: [(ns, bytes(m.data)) for ns, m in topics[t]] for t in NEW_TOPICS if t.endswith("/image_raw")})
     assert images[0] == images[1]
+
+
+def test_the_run_description_keeps_each_cameras_images_and_info_says_them(recorded):
+    cameras = load_flight(recorded[0]).description.cameras
+    assert cameras == (FRONT, FLOOR)  # read back from the metadata, field for field
+    lines = read_info(recorded[0]).lines()
+    assert "  camera front: 160x120 @ 10 Hz, vertical FOV 60.0 deg, JPEG quality 85, depth 32FC1, segmentation" in lines
+    assert "  camera floor: 160x120 @ 10 Hz, vertical FOV 60.0 deg, JPEG quality 85, depth 16UC1" in lines
 
 
 def test_check_re_flies_it(recorded):
