@@ -10,6 +10,7 @@ import pygame
 import pytest
 from rosbags.typesys import Stores, get_typestore
 
+from quadsim import Cameras, SimConfig, Simulator, Twist, ZMode, record
 from quadsim.apps.replay_export import mp4_paths
 from quadsim.apps.window.replay import ReplayApp
 from quadsim.recording.flight import load_flight
@@ -129,6 +130,21 @@ def test_the_run_description_keeps_each_cameras_images_and_info_says_them(record
     lines = read_info(recorded[0]).lines()
     assert "  camera front: 160x120 @ 10 Hz, vertical FOV 60.0 deg, JPEG quality 85, depth 32FC1, segmentation" in lines
     assert "  camera floor: 160x120 @ 10 Hz, vertical FOV 60.0 deg, JPEG quality 85, depth 16UC1" in lines
+
+
+def test_python_cameras_with_depth_record_it_as_the_code_saw_it(tmp_path):
+    small = CameraSpec("front", "front_camera_link", 64, 48, rate_hz=30, depth="32FC1")
+    with Simulator(SimConfig(z_mode=ZMode.VELOCITY)) as sim, Cameras(sim, (small,)) as cameras:
+        with record(sim, tmp_path / "api.mcap", cameras):
+            sim.send(Twist(linear_z=1.0))
+            sim.step(80)
+            seen = cameras.latest("front")
+    assert seen.depth_m is not None and seen.segmentation is None  # the spec asked for depth alone
+    topics, _, _ = decoded_recording(tmp_path / "api.mcap")
+    assert "/quad/front_camera/segmentation/image_raw" not in topics
+    ns, last = topics["/quad/front_camera/depth/image_raw"][-1]
+    assert round(ns * 240 / 1e9) == seen.step == 80
+    assert np.array_equal(_pixels(last), seen.depth_m)  # the very array the code got, bit for bit
 
 
 def test_check_re_flies_it(recorded):
