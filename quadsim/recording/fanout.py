@@ -48,7 +48,7 @@ from quadsim.recording.contract import (
 )
 from quadsim.recording.scene import link_transforms, robot_description, robot_markers, world_markers
 from quadsim.sensors.camera import CameraFrame, CameraSpec
-from quadsim.sensors.images import depth_image, segment_names
+from quadsim.sensors.images import segment_names
 from quadsim.vehicle.params import CameraMount, VehicleParams
 
 NS_PER_S = 1_000_000_000
@@ -391,8 +391,8 @@ class VehicleTopics:
         i = self._infos[frame.camera]
         info = cdr.camera_info(ns, camera.frame, i.height_px, i.width_px, i.distortion_model, i.d, i.k, i.r, i.p)
         messages = [(camera.image, ns, cdr.compressed_image(ns, camera.frame, "jpeg", jpeg)), (camera.info, ns, info)]
-        if camera.depth is not None and camera.depth_info is not None and frame.depth_m is not None:
-            pixels = depth_image(frame.depth_m, camera.spec.depth)
+        if camera.depth is not None and camera.depth_info is not None and frame.depth_pixels is not None:
+            pixels = frame.depth_pixels
             messages.append((camera.depth, ns, _image(ns, camera.frame, camera.spec.depth, pixels)))
             messages.append((camera.depth_info, ns, info))
         if camera.segmentation is not None and frame.labels is not None:

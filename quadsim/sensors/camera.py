@@ -227,6 +227,10 @@ class CameraFrame:
     rgb: np.ndarray | None = None
     depth_m: np.ndarray | None = None
     segmentation: np.ndarray | None = None
+    #: the depth in its camera's contract encoding (spec.depth: uint16 mm or float32 m), for a
+    #: camera whose spec asks for it (quadsim.sensors.images.depth_image): half the bytes of
+    #: `depth_m` to hand over from a render worker in 16UC1
+    depth_pixels: np.ndarray | None = None
     #: the segmentation as the contract's label ids (uint8 or uint16; 0: nothing drawn), for a
     #: camera whose spec asks for it (quadsim.sensors.labels)
     labels: np.ndarray | None = None

@@ -15,7 +15,7 @@ from quadsim.physics.pybullet_quiet import c_output_silenced, pb
 from quadsim.physics.scene import build_world, load_vehicle_body
 from quadsim.physics.world_spec import WorldSpec
 from quadsim.sensors.camera import CameraFrame, CameraSpec, ImageKind, RendererKind, camera_pose
-from quadsim.sensors.images import LabelMap
+from quadsim.sensors.images import LabelMap, depth_image
 from quadsim.sensors.rendering import (
     Atmosphere,
     depth_metres,
@@ -111,6 +111,7 @@ class CameraRig:
             if name not in self._checked:
                 self._check_not_blank(name, rgb, depth)
             rgb = self._atmospheres[name].apply(rgb, depth, pose)
+            metres = depth_metres(spec, depth) if spec.depth or ImageKind.DEPTH in kinds else None
             frames.append(
                 CameraFrame(
                     name,
@@ -119,8 +120,9 @@ class CameraRig:
                     spec.width_px,
                     spec.height_px,
                     rgb if ImageKind.RGB in kinds else None,
-                    depth_metres(spec, depth) if spec.depth or ImageKind.DEPTH in kinds else None,
+                    metres if ImageKind.DEPTH in kinds else None,
                     mask if ImageKind.SEGMENTATION in kinds else None,
+                    depth_image(metres, spec.depth) if spec.depth and metres is not None else None,
                     self._label_map().apply(mask) if spec.segmentation and mask is not None else None,
                 )
             )
