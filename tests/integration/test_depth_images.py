@@ -13,6 +13,7 @@ from rosbags.typesys import Stores, get_typestore
 from quadsim import Cameras, SimConfig, Simulator, Twist, ZMode, record
 from quadsim.apps.replay_export import mp4_paths
 from quadsim.apps.window.replay import ReplayApp
+from quadsim.apps.window.teleop import TeleopOptions
 from quadsim.recording.flight import load_flight
 from quadsim.recording.info import read_info
 from quadsim.sensors.camera import CameraSpec
@@ -22,6 +23,7 @@ from quadsim.session.resim import resimulate
 from tests.helpers.mcap import decoded_recording
 from tests.helpers.recording import record_flight
 from tests.integration.test_cli import cli
+from tests.integration.test_teleop import key, make_app, run_with
 
 HOVER = "z_mode height\n2.5 linear.z=0\n"  # climbs to 2 m and holds
 FRONT = CameraSpec("front", "front_camera_link", 160, 120, rate_hz=10, depth="32FC1", segmentation=True)
@@ -152,7 +154,7 @@ def test_check_re_flies_it(recorded):
     assert report.states_compared > 100 and report.position.max_error == 0.0 and report.attitude.max_error == 0.0
 
 
-def test_replay_shows_the_depth_colour_mapped_and_d_switches_back(recorded):
+def test_replay_shows_the_depth_colour_mapped_and_v_switches_back(recorded):
     flight = load_flight(recorded[0], depth=True)
     assert {cam: len(frames) for cam, frames in flight.frames.items()} == dict.fromkeys(
         ("front", "front_depth", "floor", "floor_depth"), 25
@@ -170,7 +172,7 @@ def test_replay_shows_the_depth_colour_mapped_and_d_switches_back(recorded):
             "floor": "floor_depth",
         }
         pygame.image.save(app.screen, "/tmp/quadsim_replay_depth_test.png")
-        pygame.event.post(pygame.event.Event(pygame.KEYDOWN, key=pygame.K_d, mod=0, unicode="d"))
+        pygame.event.post(pygame.event.Event(pygame.KEYDOWN, key=pygame.K_v, mod=0, unicode="v"))
         app.run(max_frames=31)
         assert {f.camera for f in app.model().frames.values()} == {"front", "floor"}
     finally:
@@ -222,3 +224,24 @@ def test_a_fleet_files_vehicles_choose_their_images_and_the_legend_names_each_ve
     assert not (labels == legend.index("alpha")).any()  # and not itself
     _, depth = topics["/bravo/quad/floor_camera/depth/image_raw"][-1]
     assert depth.encoding == "16UC1" and depth.header.frame_id == "bravo/floor_camera_optical"
+
+
+def test_v_in_the_flying_window_shows_the_depth_of_the_cameras_that_have_it(tmp_path):
+    front = CameraSpec("front", "front_camera_link", 160, 120, depth="16UC1")
+    floor = CameraSpec("floor", "floor_camera_link", 160, 120, near_m=0.01)
+    app = make_app(tmp_path, cameras=(front, floor), options=TeleopOptions(window_size=(640, 360)))
+    try:
+        run_with(app, 10)
+        assert {cam: f.camera for cam, f in app._model().frames.items()} == {"front": "front", "floor": "floor"}
+        run_with(app, 10, {0: [lambda: key(pygame.K_v)]})
+        shown = app._model().frames
+        assert {cam: f.camera for cam, f in shown.items()} == {"front": "front_depth", "floor": "floor"}
+        depth = shown["front"].rgb
+        # the sky beside the tower (landed, it reaches the top of the image): no depth, black
+        assert depth.shape == (120, 160, 3) and depth[5, :40].max() == 0
+        assert depth[60, 80].sum() > 200  # the tower, in colour
+        pygame.image.save(app.screen, "/tmp/quadsim_fly_depth_test.png")
+        run_with(app, 2, {0: [lambda: key(pygame.K_v)]})
+        assert app._model().frames["front"].camera == "front"
+    finally:
+        app.close()

@@ -95,7 +95,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         "--depth",
         action="store_true",
         help="also load the cameras' depth images, colour-mapped: the window shows them in place of the "
-        "cameras' (D switches), --mp4 exports them too (RECORDING_front_depth.mp4)",
+        "cameras' (V switches), --mp4 exports them too (RECORDING_front_depth.mp4)",
     )
     p.add_argument(
         "--vehicle",

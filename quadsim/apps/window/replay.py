@@ -37,7 +37,7 @@ KEYS = [
     "L          loop on / off",
     "Home/End   start / end",
     "C          a fleet: follow the next vehicle (its HUD and cameras)",
-    "D          depth images in place of the cameras' (replay --depth) on / off",
+    "V          depth images in place of the cameras' (replay --depth) on / off",
     "H, F1      this help;  Esc quit",
 ]
 
@@ -169,7 +169,7 @@ class ReplayApp:
                 self.show_help = not self.show_help
             elif k == pygame.K_c:
                 self.follow_next()
-            elif k == pygame.K_d:
+            elif k == pygame.K_v:
                 self.toggle_depth()
         elif event.type == pygame.MOUSEBUTTONDOWN and event.button == 1:
             bar = self.view.layout(self.screen.get_size())["timeline"].inflate(0, 16)
