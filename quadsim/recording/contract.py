@@ -124,6 +124,17 @@ def segmentation_image_topic(spec: CameraSpec) -> Topic:
     return Topic(f"{spec.topic_prefix}/segmentation/image_raw", "sensor_msgs/msg/Image")
 
 
+def frame_topics(spec: CameraSpec) -> tuple[Topic, ...]:
+    """Every topic one of the camera's frames becomes, in the order its messages come: the
+    image and its info, then the depth image and its info, the segmentation, where it has them."""
+    topics = [image_topic(spec), camera_info_topic(spec)]
+    if spec.depth:
+        topics += [depth_image_topic(spec), depth_camera_info_topic(spec)]
+    if spec.segmentation:
+        topics.append(segmentation_image_topic(spec))
+    return tuple(topics)
+
+
 @cache
 def typestore() -> Any:
     """rosbags' ROS 2 Humble typestore: the reference for schemas and for decoding."""
