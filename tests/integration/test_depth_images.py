@@ -180,6 +180,15 @@ def test_replay_shows_the_depth_colour_mapped_and_v_switches_back(recorded):
     assert set(load_flight(recorded[0]).frames) == {"front", "floor"}  # loaded only when asked for
 
 
+def test_replay_depth_on_the_command_line_lists_and_exports_the_depth_streams(recorded, tmp_path):
+    done = cli("replay", "--headless", "--depth", "--mp4", str(tmp_path / "videos"), str(recorded[0]))
+    assert done.returncode == 0, done.stderr
+    assert "camera      front_depth: 25 frames" in done.stdout and "camera      floor_depth: 25 frames" in done.stdout
+    assert sorted(p.name for p in (tmp_path / "videos").iterdir()) == [
+        f"workers0_{cam}.mp4" for cam in ("floor", "floor_depth", "front", "front_depth")
+    ]
+
+
 FLEET = """
 [[vehicle]]
 name = "alpha"
