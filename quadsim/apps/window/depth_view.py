@@ -17,7 +17,9 @@ class DepthView:
 
     def __init__(self) -> None:
         self.shown = False
-        self._mapped: dict[str, CameraFrame] = {}
+        #: by camera: the frame last mapped (compared by identity: in a fleet, C shows another
+        #: vehicle's frame of the same camera and step) and what it was mapped to
+        self._mapped: dict[str, tuple[CameraFrame, CameraFrame]] = {}
 
     def frames(self, frames: dict[str, CameraFrame]) -> dict[str, CameraFrame]:
         """`frames` as the window shows them: by camera, each one's depth where shown and there."""
@@ -30,10 +32,10 @@ class DepthView:
                 out[camera] = frame
                 continue
             kept = self._mapped.get(camera)
-            if kept is None or kept.step != frame.step:
+            if kept is None or kept[0] is not frame:
                 metres = depth_metres_from_image(pixels, "16UC1" if pixels.dtype == np.uint16 else "32FC1")
                 rgb = depth_colour_mapped(metres)
-                kept = CameraFrame(camera + SUFFIX, frame.step, None, frame.width_px, frame.height_px, rgb)
+                kept = (frame, CameraFrame(camera + SUFFIX, frame.step, None, frame.width_px, frame.height_px, rgb))
                 self._mapped[camera] = kept
-            out[camera] = kept
+            out[camera] = kept[1]
         return out
