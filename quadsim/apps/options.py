@@ -237,6 +237,20 @@ def _add_recording_options(o: argparse._ArgumentGroup) -> None:
         help="frame rate of each camera; must divide the physics rate (default 30)",
     )
     o.add_argument(
+        "--camera-depth",
+        default=None,
+        metavar="LIST",
+        help="cameras that also publish a depth image (REP 118), each NAME or NAME:ENCODING: 16UC1 "
+        "millimetres (default) or 32FC1 metres, e.g. front or front:32FC1,floor",
+    )
+    o.add_argument(
+        "--camera-segmentation",
+        default=None,
+        metavar="LIST",
+        help="cameras that also publish a segmentation image (label ids, legend on /world/segmentation_labels), "
+        "e.g. front",
+    )
+    o.add_argument(
         "--renderer",
         choices=[r.value for r in RendererKind],
         default=RendererKind.TINY.value,
@@ -405,7 +419,12 @@ def camera_options_given(args: argparse.Namespace) -> list[str]:
     given = [] if args.cameras in (None, "none") else ["--cameras"]
     return given + [
         name
-        for name, value in (("--camera-size", args.camera_size), ("--camera-hz", args.camera_hz))
+        for name, value in (
+            ("--camera-size", args.camera_size),
+            ("--camera-hz", args.camera_hz),
+            ("--camera-depth", args.camera_depth),
+            ("--camera-segmentation", args.camera_segmentation),
+        )
         if value is not None
     ]
 
@@ -421,6 +440,17 @@ def camera_specs(args: argparse.Namespace) -> dict[str, CameraSpec]:
         raise QuadsimError(f"--camera-size must look like 320x240, got {size!r}") from None
     hz = args.camera_hz if args.camera_hz is not None else DEFAULT_CAMERA_HZ
     return {c.name: c for c in default_cameras(width, height, hz)}
+
+
+def camera_images(args: argparse.Namespace, cameras: tuple[CameraSpec, ...]) -> tuple[CameraSpec, ...]:
+    """`cameras` with the depth and segmentation images of --camera-depth and --camera-segmentation."""
+    from quadsim.sensors.camera import with_images
+
+    def items(value: str | None) -> list[str]:
+        return [item.strip() for item in (value or "").split(",") if item.strip()]
+
+    where = ("--camera-depth", "--camera-segmentation")
+    return with_images(cameras, items(args.camera_depth), items(args.camera_segmentation), where)
 
 
 def output_options(args: argparse.Namespace) -> OutputOptions:
@@ -449,7 +479,7 @@ def output_options(args: argparse.Namespace) -> OutputOptions:
         )
     if args.render_workers < 0:
         raise QuadsimError("--render-workers must be 0 or more")
-    cameras: tuple[CameraSpec, ...] = tuple(available[c] for c in wanted)
+    cameras = camera_images(args, tuple(available[c] for c in wanted))
     out = args.out
     if not args.no_record and out is not None and out.suffix == ".mcap" and _exists(out):  # before any work
         raise QuadsimError(f"{out} already exists; choose another --out (nothing is overwritten)")

@@ -30,6 +30,7 @@ from quadsim.drivers.subscribed import SubscribedDriver
 from quadsim.errors import ConfigError, QuadsimError
 from quadsim.recording.bag_commands import command_steps, read_bag_commands
 from quadsim.recording.contract import BODY_FRAME, GOALS, TWIST, Names
+from quadsim.sensors.camera import with_images
 from quadsim.session.outputs import OutputOptions
 from quadsim.session.plan import RunPlan
 from quadsim.sim.fleet_file import FleetEntry, FleetFile, load_fleet_file
@@ -187,6 +188,12 @@ def check_fleet_options(args: argparse.Namespace) -> None:
             raise QuadsimError(f"{option} with --fleet: the fleet file gives each vehicle its own (drop {option})")
     if args.cameras is not None:
         raise QuadsimError("--cameras with --fleet: each vehicle's cameras are in the fleet file (cameras = [...])")
+    for option, value, key in (
+        ("--camera-depth", args.camera_depth, "depth"),
+        ("--camera-segmentation", args.camera_segmentation, "segmentation"),
+    ):
+        if value is not None:
+            raise QuadsimError(f"{option} with --fleet: each vehicle's images are in the fleet file ({key} = [...])")
     if args.renderer != "tiny":
         raise QuadsimError(f"--renderer {args.renderer} with --fleet: a fleet's cameras render in its one world (tiny)")
 
@@ -198,9 +205,15 @@ def fleet_drivers(fleet_file: FleetFile, live_timeout_s: float | None = None) ->
 
 
 def fleet_cameras(args: argparse.Namespace, fleet_file: FleetFile) -> dict[str, tuple]:
-    """Each vehicle's cameras, at --camera-size and --camera-hz."""
+    """Each vehicle's cameras, at --camera-size and --camera-hz, with the depth and segmentation
+    images its entry asks for."""
     specs = camera_specs(args)
-    return {v.name: tuple(specs[c] for c in v.cameras) for v in fleet_file.vehicles if v.cameras}
+    where = ("depth", "segmentation")
+    return {
+        v.name: with_images(tuple(specs[c] for c in v.cameras), v.depth, v.segmentation, where)
+        for v in fleet_file.vehicles
+        if v.cameras
+    }
 
 
 def _driver(entry: FleetEntry, live_timeout_s: float | None = None) -> InputDriver | None:

@@ -287,6 +287,29 @@ def compressed_image(ns: int, frame_id: str, image_format: str, data: bytes) -> 
     return layout.pack(ENCAPSULATION, sec, nanosec, len(frame) + 1, frame, len(fmt) + 1, fmt, len(data)) + data
 
 
+@lru_cache(maxsize=256)
+def _image(frame_id: str, encoding: str) -> tuple[struct.Struct, bytes, bytes]:
+    frame, enc = frame_id.encode(), encoding.encode()
+    layout = _Layout().header(len(frame)).scalars("I", 2).string(len(enc)).scalars("B").scalars("I", 2)
+    return layout.build(), frame, enc  # height, width, encoding, is_bigendian, step, the data's count
+
+
+def image(
+    ns: int, frame_id: str, height: int, width: int, encoding: str, step: int, data: bytes, is_bigendian: bool = False
+) -> bytes:
+    """sensor_msgs/msg/Image: `height` rows of `step` bytes each in `data` (e.g. "32FC1")."""
+    layout, frame, enc = _image(frame_id, encoding)
+    head = layout.pack(*_image_head(ns, frame, height, width, enc), is_bigendian, step, len(data))
+    return head + data  # uint8 elements: no alignment after the count
+
+
+def _image_head(ns: int, frame: bytes, height: int, width: int, text: bytes) -> tuple[object, ...]:
+    """What Image and CameraInfo begin with: the header, height, width and a string (the
+    encoding; the distortion model)."""
+    sec, nanosec = divmod(ns, NS_PER_S)
+    return (ENCAPSULATION, sec, nanosec, len(frame) + 1, frame, height, width, len(text) + 1, text)
+
+
 class RegionOfInterest(NamedTuple):
     x_offset: int = 0
     y_offset: int = 0
@@ -325,17 +348,8 @@ def camera_info(
     if (len(k), len(r), len(p)) != (9, 9, 12):
         raise ValueError(f"CameraInfo needs 9 k, 9 r and 12 p values, got {len(k)}, {len(r)}, {len(p)}")
     layout, frame, model = _camera_info(frame_id, distortion_model, len(d))
-    sec, nanosec = divmod(ns, NS_PER_S)
     return layout.pack(
-        ENCAPSULATION,
-        sec,
-        nanosec,
-        len(frame) + 1,
-        frame,
-        height,
-        width,
-        len(model) + 1,
-        model,
+        *_image_head(ns, frame, height, width, model),
         len(d),
         *d,
         *k,

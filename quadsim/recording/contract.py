@@ -67,13 +67,18 @@ GOALS = (
     Topic("/goal_pose", "geometry_msgs/msg/PoseStamped"),
     Topic("/move_base_simple/goal", "geometry_msgs/msg/PoseStamped"),
 )
+#: the legend of the segmentation images: a JSON list of names, label id i is the body named [i]
+#: (quadsim.sensors.images.segment_names); the run's one, in runs with a segmenting camera
+SEGMENTATION_LABELS = Topic("/world/segmentation_labels", "std_msgs/msg/String", QOS_LATCHED)
 STATE_TOPICS = (POSE, ODOM, IMU, ROTOR_THRUSTS, TF)
 #: topics every quadsim recording has (cameras and /joy depend on the run)
 CORE_TOPICS = (TWIST.name, *(t.name for t in STATE_TOPICS), TF_STATIC.name)
 
 
 #: topics a fleet shares: one world, one TF tree, one log
-SHARED_TOPICS = frozenset({TF.name, TF_STATIC.name, ROSOUT.name, WORLD_MARKERS.name, "/clock"})
+SHARED_TOPICS = frozenset(
+    {TF.name, TF_STATIC.name, ROSOUT.name, WORLD_MARKERS.name, SEGMENTATION_LABELS.name, "/clock"}
+)
 
 
 @dataclass(frozen=True)
@@ -108,6 +113,31 @@ def image_topic(spec: CameraSpec) -> Topic:
 
 def camera_info_topic(spec: CameraSpec) -> Topic:
     return Topic(f"{spec.topic_prefix}/camera_info", "sensor_msgs/msg/CameraInfo")
+
+
+def depth_image_topic(spec: CameraSpec) -> Topic:
+    """A camera's depth image (spec.depth: 32FC1 metres or 16UC1 millimetres, REP 118)."""
+    return Topic(f"{spec.topic_prefix}/depth/image_raw", "sensor_msgs/msg/Image")
+
+
+def depth_camera_info_topic(spec: CameraSpec) -> Topic:
+    return Topic(f"{spec.topic_prefix}/depth/camera_info", "sensor_msgs/msg/CameraInfo")
+
+
+def segmentation_image_topic(spec: CameraSpec) -> Topic:
+    """A camera's segmentation image: label ids (SEGMENTATION_LABELS says which is which body)."""
+    return Topic(f"{spec.topic_prefix}/segmentation/image_raw", "sensor_msgs/msg/Image")
+
+
+def frame_topics(spec: CameraSpec) -> tuple[Topic, ...]:
+    """Every topic one of the camera's frames becomes, in the order its messages come: the
+    image and its info, then the depth image and its info, the segmentation, where it has them."""
+    topics = [image_topic(spec), camera_info_topic(spec)]
+    if spec.depth:
+        topics += [depth_image_topic(spec), depth_camera_info_topic(spec)]
+    if spec.segmentation:
+        topics.append(segmentation_image_topic(spec))
+    return tuple(topics)
 
 
 @cache

@@ -13,9 +13,12 @@ would on a live bus.
 
 from __future__ import annotations
 
+import json
 from collections.abc import Callable, Sequence
 from functools import lru_cache
 from typing import NamedTuple, Protocol
+
+import numpy as np
 
 from quadsim.core.kinematics import body_velocity, quaternion_from_matrix
 from quadsim.core.types import Twist, VehicleState
@@ -27,6 +30,7 @@ from quadsim.recording.contract import (
     ROBOT_DESCRIPTION,
     ROBOT_MARKERS,
     ROSOUT,
+    SEGMENTATION_LABELS,
     STATE_TOPICS,
     TF_STATIC,
     TWIST,
@@ -36,11 +40,15 @@ from quadsim.recording.contract import (
     Names,
     Topic,
     camera_info_topic,
+    depth_camera_info_topic,
+    depth_image_topic,
     image_topic,
     optical_rotation,
+    segmentation_image_topic,
 )
 from quadsim.recording.scene import link_transforms, robot_description, robot_markers, world_markers
 from quadsim.sensors.camera import CameraFrame, CameraSpec
+from quadsim.sensors.images import segment_names
 from quadsim.vehicle.params import CameraMount, VehicleParams
 
 NS_PER_S = 1_000_000_000
@@ -95,6 +103,29 @@ class _Camera(NamedTuple):
     image: Topic
     info: Topic
     frame: str  # its optical frame's name on the wire
+    depth: Topic | None  # its depth image and that image's CameraInfo, if it has depth
+    depth_info: Topic | None
+    segmentation: Topic | None  # its segmentation image, if it has one
+
+
+def _camera(spec: CameraSpec, names: Names) -> _Camera:
+    t = names.topic
+    return _Camera(
+        spec,
+        t(image_topic(spec)),
+        t(camera_info_topic(spec)),
+        names.frame(spec.optical_frame),
+        t(depth_image_topic(spec)) if spec.depth else None,
+        t(depth_camera_info_topic(spec)) if spec.depth else None,
+        t(segmentation_image_topic(spec)) if spec.segmentation else None,
+    )
+
+
+def _image(ns: int, frame_id: str, encoding: str, pixels: np.ndarray) -> bytes:
+    """One channel of pixels -> sensor_msgs/Image, little-endian (is_bigendian 0)."""
+    height, width = pixels.shape
+    data = np.ascontiguousarray(pixels, dtype=pixels.dtype.newbyteorder("<")).tobytes()
+    return cdr.image(ns, frame_id, height, width, encoding, width * pixels.itemsize, data)
 
 
 class TopicFanout:
@@ -144,6 +175,8 @@ class TopicFanout:
                 seen.setdefault(topic.name, topic)
         if self._world is not None:
             seen.setdefault(WORLD_MARKERS.name, WORLD_MARKERS)
+            if self.segment_names:
+                seen.setdefault(SEGMENTATION_LABELS.name, SEGMENTATION_LABELS)
         for topic in self._announced:
             seen.setdefault(topic.name, topic)
         return list(seen.values())
@@ -159,7 +192,17 @@ class TopicFanout:
             messages += vehicle.own_latched(step, local_files)
         if self._world is not None:
             messages.append((WORLD_MARKERS, ns, cdr.marker_array(world_markers(self._world, ns))))
+            if self.segment_names:
+                messages.append((SEGMENTATION_LABELS, ns, cdr.string(json.dumps(list(self.segment_names)))))
         return tuple(messages)
+
+    @property
+    def segment_names(self) -> tuple[str, ...]:
+        """The legend of the segmentation images (label id i is names[i]), in a run with a
+        segmenting camera and a world; else ()."""
+        if self._world is None or not any(v.segmenting for v in self.vehicles):
+            return ()
+        return segment_names(self._world, [v.names.vehicle for v in self.vehicles])
 
     # --- consumers ----------------------------------------------------------------------------
 
@@ -252,15 +295,15 @@ class VehicleTopics:
         self._odometry = cdr.odometry_encoder(WORLD_FRAME, body)
         self._imu = cdr.imu_encoder(body)
         self._tf = cdr.transform_encoder(WORLD_FRAME, body)
-        self._cameras = {
-            spec.name: _Camera(spec, t(image_topic(spec)), t(camera_info_topic(spec)), names.frame(spec.optical_frame))
-            for spec, _ in cameras
-        }
+        self._cameras = {spec.name: _camera(spec, names) for spec, _ in cameras}
         self._infos = {spec.name: spec.camera_info() for spec, _ in cameras}
+        #: whether a camera of this vehicle makes segmentation images
+        self.segmenting = any(spec.segmentation for spec, _ in cameras)
         #: this vehicle's topics, in the order consumers get them (/tf_static is the run's, shared)
         self.topics: list[Topic] = [self._twist, *self._state_topics, TF_STATIC]
         for camera in self._cameras.values():
             self.topics += [camera.image, camera.info]
+            self.topics += [t for t in (camera.depth, camera.depth_info, camera.segmentation) if t is not None]
         static = link_transforms(vehicle) if vehicle is not None else []
         static += [
             cdr.TransformStamped(
@@ -330,7 +373,9 @@ class VehicleTopics:
         fanout.publish(messages)
 
     def on_camera_frame(self, frame: CameraFrame) -> None:
-        """A rendered frame -> its CompressedImage and the matching CameraInfo."""
+        """A rendered frame -> its CompressedImage and the matching CameraInfo, then its depth
+        image and CameraInfo and its segmentation image where the camera has them (a frame
+        rendered before they were asked for has none)."""
         camera = self._cameras.get(frame.camera)
         fanout = self.fanout
         if camera is None or not fanout.consumers:
@@ -345,12 +390,15 @@ class VehicleTopics:
         ns = fanout.ns(frame.step)
         i = self._infos[frame.camera]
         info = cdr.camera_info(ns, camera.frame, i.height_px, i.width_px, i.distortion_model, i.d, i.k, i.r, i.p)
-        fanout.publish(
-            (
-                (camera.image, ns, cdr.compressed_image(ns, camera.frame, "jpeg", jpeg)),
-                (camera.info, ns, info),
-            )
-        )
+        messages = [(camera.image, ns, cdr.compressed_image(ns, camera.frame, "jpeg", jpeg)), (camera.info, ns, info)]
+        if camera.depth is not None and camera.depth_info is not None and frame.depth_pixels is not None:
+            pixels = frame.depth_pixels
+            messages.append((camera.depth, ns, _image(ns, camera.frame, camera.spec.depth, pixels)))
+            messages.append((camera.depth_info, ns, info))
+        if camera.segmentation is not None and frame.labels is not None:
+            encoding = "mono8" if frame.labels.dtype == np.uint8 else "16UC1"
+            messages.append((camera.segmentation, ns, _image(ns, camera.frame, encoding, frame.labels)))
+        fanout.publish(messages)
 
     def on_joy(self, step: int, axes: Sequence[float], buttons: Sequence[int]) -> None:
         """Joystick axes and buttons in the ROS `joy` convention -> /joy."""

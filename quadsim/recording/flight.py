@@ -37,7 +37,9 @@ class RecordedFlight:
     state_ns: list[int] = field(default_factory=list)
     body_velocities: list[tuple[float, float, float]] = field(default_factory=list)  # as /quad/odom has them
     commands: list[tuple[int, Twist]] = field(default_factory=list)  # (log time ns, twist)
-    frames: dict[str, list[tuple[int, bytes]]] = field(default_factory=dict)  # camera -> (ns, jpeg)
+    #: camera -> (ns, jpeg); with `load_flights(depth=True)`, also CAMERA_depth: its depth images
+    #: colour-mapped (quadsim.sensors.images.depth_colour_mapped), as JPEG
+    frames: dict[str, list[tuple[int, bytes]]] = field(default_factory=dict)
     events: list[tuple[int, str, str]] = field(default_factory=list)  # (step, kind, value)
     attachments: dict[str, bytes] = field(default_factory=dict)
     topics: dict[str, int] = field(default_factory=dict)  # topic -> message count
@@ -125,11 +127,11 @@ class RecordedFlight:
         return mode
 
 
-def load_flight(path: Path | str, vehicle: str | None = None) -> RecordedFlight:
+def load_flight(path: Path | str, vehicle: str | None = None, depth: bool = False) -> RecordedFlight:
     """Everything readable in a recording (of a fleet's: that of `vehicle`, by default the first
     vehicle). Damaged chunks are skipped (listed in `damage`); QuadsimError only for what is not
-    an MCAP file at all, or a vehicle the recording does not have."""
-    flights = load_flights(path)
+    an MCAP file at all, or a vehicle the recording does not have. `depth`: as load_flights."""
+    flights = load_flights(path, depth)
     if vehicle is None:
         return next(iter(flights.values()))
     if vehicle not in flights:
@@ -138,9 +140,11 @@ def load_flight(path: Path | str, vehicle: str | None = None) -> RecordedFlight:
     return flights[vehicle]
 
 
-def load_flights(path: Path | str) -> dict[str, RecordedFlight]:
+def load_flights(path: Path | str, depth: bool = False) -> dict[str, RecordedFlight]:
     """Every vehicle's flight in a recording, read in one pass, by name: a fleet's vehicles in
-    the fleet's order, or "" alone for a run of one vehicle (and for other programs' files)."""
+    the fleet's order, or "" alone for a run of one vehicle (and for other programs' files).
+    `depth`: also each camera's depth images, colour-mapped, as frames of CAMERA_depth (costs
+    a millisecond or two per image)."""
     with RecordingReader(path, require_topics=False, allow_damage=True) as reader:
         description = reader.description
         members = description.fleet if description is not None and description.fleet else (("", description),)
@@ -165,13 +169,19 @@ def load_flights(path: Path | str) -> dict[str, RecordedFlight]:
             flight.topics = reader.topic_counts()
             flight.start_ns, flight.end_ns = reader.span_ns
             flights[name] = flight
-            parts[name] = _wanted(flight, reader.topics, wanted)
+            parts[name] = _wanted(flight, reader.topics, wanted, depth)
         for topic, ns, msg in reader.raw_messages(list(wanted)):
             flight, what = wanted[topic]
             if what == _COMMAND:
                 flight.commands.append((ns, rm.twist_from_msg(msg)))
             elif what.startswith(_FRAME):
                 flight.frames.setdefault(what.removeprefix(_FRAME), []).append((ns, bytes(msg.data)))
+            elif what.startswith(_DEPTH):
+                jpeg = _depth_jpeg(msg)
+                if jpeg is None:
+                    reader.undecodable[topic] = reader.undecodable.get(topic, 0) + 1
+                else:
+                    flight.frames.setdefault(what.removeprefix(_DEPTH) + DEPTH_SUFFIX, []).append((ns, jpeg))
             elif _finite(what, msg):
                 parts[flight.vehicle][what][ns] = msg
             else:
@@ -186,13 +196,32 @@ def load_flights(path: Path | str) -> dict[str, RecordedFlight]:
 _COMMAND = "command"
 IMAGE_TYPE = "sensor_msgs/msg/CompressedImage"
 _FRAME = "frame:"
+_DEPTH = "depth:"
+#: what a camera's depth images are called among the frames (front_depth)
+DEPTH_SUFFIX = "_depth"
+DEPTH_TYPE = "sensor_msgs/msg/Image"
+
+
+def _depth_jpeg(msg: Any) -> bytes | None:
+    """A depth image message colour-mapped as JPEG; None for one that does not add up."""
+    from quadsim.sensors.images import depth_colour_mapped, depth_metres_from_image, image_pixels
+    from quadsim.sensors.rendering import encode_jpeg
+
+    try:
+        pixels = image_pixels(msg.encoding, msg.height, msg.width, msg.step, bool(msg.is_bigendian), bytes(msg.data))
+    except ValueError:
+        return None
+    if msg.encoding not in ("32FC1", "16UC1"):
+        return None
+    return encode_jpeg(depth_colour_mapped(depth_metres_from_image(pixels, msg.encoding)), 90)
 
 
 def _wanted(
-    flight: RecordedFlight, types: dict[str, str], wanted: dict[str, tuple[RecordedFlight, str]]
+    flight: RecordedFlight, types: dict[str, str], wanted: dict[str, tuple[RecordedFlight, str]], depth: bool = False
 ) -> dict[str, dict[int, Any]]:
     """Adds `flight`'s topics to `wanted` (topic -> what it is: a state part by its contract name,
-    the command, or a camera's frames); the state parts' message tables, empty."""
+    the command, a camera's frames, with `depth` its depth images); the state parts' message
+    tables, empty."""
     names = rm.Names(flight.vehicle)
     parts: dict[str, dict[int, Any]] = {t.name: {} for t in (rm.POSE, rm.ODOM, rm.IMU, rm.ROTOR_THRUSTS)}
     for part in parts:
@@ -202,6 +231,8 @@ def _wanted(
     for t in types:
         if t.startswith(prefix) and t.endswith("/image_raw/compressed") and types[t] == IMAGE_TYPE:
             wanted[t] = (flight, _FRAME + t.split("/")[-3].removesuffix("_camera"))
+        if depth and t.startswith(prefix) and t.endswith("/depth/image_raw") and types[t] == DEPTH_TYPE:
+            wanted[t] = (flight, _DEPTH + t.split("/")[-3].removesuffix("_camera"))
     for topic in [t for t, (f, _) in wanted.items() if f is flight and t not in types]:
         del wanted[topic]
     return parts

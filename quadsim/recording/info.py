@@ -110,6 +110,8 @@ class RecordingInfo:
                 out.append(
                     f"  camera {cam.name}: {cam.width_px}x{cam.height_px} @ {cam.rate_hz} Hz, "
                     f"vertical FOV {cam.vertical_fov_deg} deg, JPEG quality {cam.jpeg_quality}"
+                    + (f", depth {cam.depth}" if cam.depth else "")
+                    + (", segmentation" if cam.segmentation else "")
                 )
         elif self.description_error:
             out.append(f"run parameters: unreadable ({self.description_error})")

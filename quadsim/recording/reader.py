@@ -75,6 +75,10 @@ def _own_type(topic: str) -> str | None:
             return t.type_name
     if topic.endswith("/image_raw/compressed"):
         return "sensor_msgs/msg/CompressedImage"
+    if topic.endswith(("/depth/image_raw", "/segmentation/image_raw")):
+        return "sensor_msgs/msg/Image"
+    if topic == rm.SEGMENTATION_LABELS.name:
+        return rm.SEGMENTATION_LABELS.type_name
     if topic.endswith("/camera_info"):
         return "sensor_msgs/msg/CameraInfo"
     return None

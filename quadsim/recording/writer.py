@@ -29,7 +29,7 @@ from typing import TYPE_CHECKING, Any, BinaryIO
 from quadsim import __version__
 from quadsim.core.invocation import program
 from quadsim.errors import QuadsimError
-from quadsim.recording.contract import Names, Topic, camera_info_topic, image_topic, schema_text
+from quadsim.recording.contract import Names, Topic, frame_topics, schema_text
 from quadsim.recording.paths import default_recordings_dir
 from quadsim.sim.description import RunDescription
 
@@ -263,14 +263,10 @@ def route_sdk_logs_through_python() -> None:
 
 
 def _camera_topics(description: RunDescription) -> set[str]:
-    """The topics of the run's camera frames (of each fleet vehicle's, under its name)."""
+    """The topics of the run's camera frames, depth and segmentation included (of each fleet
+    vehicle's, under its name)."""
     runs = description.fleet or (("", description),)
-    return {
-        Names(name).topic(topic(spec)).name
-        for name, d in runs
-        for spec in d.cameras
-        for topic in (image_topic, camera_info_topic)
-    }
+    return {Names(name).topic(topic).name for name, d in runs for spec in d.cameras for topic in frame_topics(spec)}
 
 
 def _attachments(description: RunDescription) -> dict[str, tuple[bytes, str]]:

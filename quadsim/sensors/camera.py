@@ -9,7 +9,8 @@ from __future__ import annotations
 
 import enum
 import math
-from dataclasses import asdict, dataclass
+from collections.abc import Iterable, Sequence
+from dataclasses import asdict, dataclass, replace
 from typing import TYPE_CHECKING, Any
 
 from quadsim.core.kinematics import Mat3, matrix_from_quaternion, rotate
@@ -32,6 +33,13 @@ class ImageKind(enum.Enum):
     SEGMENTATION = "segmentation"  # height x width int32: the body drawn at each pixel, -1 for none
 
 
+#: the depth image encodings a camera may publish (REP 118): metres as float32, or millimetres
+#: as uint16 (half the size; 0 where there is no depth, and beyond 65.535 m)
+DEPTH_ENCODINGS = ("32FC1", "16UC1")
+#: the depth encoding of a camera named without one (`--camera-depth front`): half the size
+DEFAULT_DEPTH_ENCODING = "16UC1"
+
+
 class RendererKind(enum.Enum):
     TINY = "tiny"  # PyBullet's TinyRenderer, on the CPU (always there)
     EGL = "egl"  # PyBullet's EGL plugin: needs an EGL driver (a GPU, or Mesa's)
@@ -39,7 +47,11 @@ class RendererKind(enum.Enum):
 
 @dataclass(frozen=True)
 class CameraSpec:
-    """One onboard camera. `name` makes the topics: /quad/<name>_camera/..."""
+    """One onboard camera. `name` makes the topics: /quad/<name>_camera/...
+
+    Besides its JPEG images, a camera may publish a depth image (`depth`: one of
+    DEPTH_ENCODINGS, "" for none) and a segmentation image (`segmentation`), rendered with the
+    same frame (docs/recordings.md)."""
 
     name: str
     link_name: str
@@ -50,8 +62,16 @@ class CameraSpec:
     near_m: float = 0.05
     far_m: float = 100.0
     jpeg_quality: int = 85
+    depth: str = ""
+    segmentation: bool = False
 
     def __post_init__(self) -> None:
+        if self.depth not in ("", *DEPTH_ENCODINGS):
+            raise ConfigError(
+                f"camera {self.name}: depth encoding {self.depth!r:.20} must be one of {', '.join(DEPTH_ENCODINGS)}"
+            )
+        if not isinstance(self.segmentation, bool):
+            raise ConfigError(f"camera {self.name}: segmentation must be true or false, got {self.segmentation!r:.20}")
         if not (16 <= self.width_px <= 4096 and 16 <= self.height_px <= 4096):
             raise ConfigError(f"camera {self.name}: size {self.width_px}x{self.height_px} must be within 16..4096 px")
         if not 1.0 <= self.vertical_fov_deg <= 170.0:
@@ -144,6 +164,34 @@ def default_cameras(width_px: int = 320, height_px: int = 240, rate_hz: int = 30
     )
 
 
+def with_images(
+    specs: Sequence[CameraSpec], depth: Iterable[str], segmentation: Iterable[str], where: tuple[str, str]
+) -> tuple[CameraSpec, ...]:
+    """`specs` with the depth and segmentation images asked for by lists of camera names, as
+    the command line and fleet files give them: depth as NAME or NAME:ENCODING (`front`,
+    `floor:32FC1`; DEFAULT_DEPTH_ENCODING when none is said), segmentation as NAME. A ConfigError
+    starting with `where` (what says depth, what says segmentation: an option, a key) names an
+    unknown camera, encoding, or a camera named twice."""
+    names = [s.name for s in specs]
+    choices: dict[str, dict[str, Any]] = {name: {} for name in names}
+    for key, items, what in (("depth", depth, where[0]), ("segmentation", segmentation, where[1])):
+        for item in items:
+            if not isinstance(item, str):
+                raise ConfigError(f"{what}: expected camera names, got {item!r:.40}")
+            name, _, encoding = item.strip().partition(":")
+            if key == "segmentation" and encoding:
+                raise ConfigError(f"{what}: {item!r:.40}: a segmentation image has no encoding to choose")
+            if name not in choices:
+                known = ", ".join(names) or "no camera"
+                raise ConfigError(f"{what}: {name!r:.40} is not a camera of this run ({known})")
+            if key in choices[name]:
+                raise ConfigError(f"{what}: {name} is named twice")
+            if key == "depth" and encoding not in ("", *DEPTH_ENCODINGS):
+                raise ConfigError(f"{what}: depth encoding {encoding!r:.20}: choose {' or '.join(DEPTH_ENCODINGS)}")
+            choices[name][key] = (encoding or DEFAULT_DEPTH_ENCODING) if key == "depth" else True
+    return tuple(replace(spec, **choices[spec.name]) for spec in specs)
+
+
 @dataclass(frozen=True)
 class CameraPose:
     """A camera's pose in the world: eye, viewing direction, image up."""
@@ -179,3 +227,10 @@ class CameraFrame:
     rgb: np.ndarray | None = None
     depth_m: np.ndarray | None = None
     segmentation: np.ndarray | None = None
+    #: the depth in its camera's contract encoding (spec.depth: uint16 mm or float32 m), for a
+    #: camera whose spec asks for it (quadsim.sensors.images.depth_image): half the bytes of
+    #: `depth_m` to hand over from a render worker in 16UC1
+    depth_pixels: np.ndarray | None = None
+    #: the segmentation as the contract's label ids (uint8 or uint16; 0: nothing drawn), for a
+    #: camera whose spec asks for it (quadsim.sensors.labels)
+    labels: np.ndarray | None = None

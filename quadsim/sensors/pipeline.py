@@ -78,6 +78,8 @@ class Companions:
 
     vehicles: tuple[VehicleParams, ...]
     poses: Callable[[], tuple[tuple[tuple[float, float, float], tuple[float, float, float, float]], ...]]
+    #: the rendering vehicle's place in the fleet among them (segmentation labels go in fleet order)
+    own_index: int = 0
 
 
 class CameraAccount:
@@ -206,6 +208,7 @@ class CameraPipeline:
             "companions": [(str(c.urdf_path), str(c.params_path)) for c in self._companions.vehicles]
             if self._companions is not None
             else [],
+            "own_index": self._companions.own_index if self._companions is not None else 0,
         }
         try:
             for _ in range(count):

@@ -23,7 +23,14 @@ from pathlib import Path
 
 
 def worker_main(
-    conn, urdf: str, params: str, world: str, specs: tuple, renderer_value: str, companions: tuple = ()
+    conn,
+    urdf: str,
+    params: str,
+    world: str,
+    specs: tuple,
+    renderer_value: str,
+    companions: tuple = (),
+    own_index: int = 0,
 ) -> None:
     try:
         from quadsim.physics.world_spec import load_world
@@ -37,6 +44,7 @@ def worker_main(
             specs,
             RendererKind(renderer_value),
             tuple(load_vehicle(Path(u), Path(p)) for u, p in companions),
+            own_index,
         )
     except Exception as exc:  # report, do not die silently
         conn.send(("error", f"{type(exc).__name__}: {exc}"))
@@ -88,6 +96,7 @@ def main() -> None:
         settings["specs"],
         settings["renderer"],
         tuple(settings.get("companions", ())),
+        int(settings.get("own_index", 0)),
     )
     conn.close()
 

@@ -15,6 +15,7 @@ from quadsim.physics.pybullet_quiet import c_output_silenced, pb
 from quadsim.physics.scene import build_world, load_vehicle_body
 from quadsim.physics.world_spec import WorldSpec
 from quadsim.sensors.camera import CameraFrame, CameraSpec, ImageKind, RendererKind, camera_pose
+from quadsim.sensors.images import LabelMap, depth_image
 from quadsim.sensors.rendering import (
     Atmosphere,
     depth_metres,
@@ -40,11 +41,14 @@ class CameraRig:
         body_id: int | None,
         companion_ids: tuple[int, ...] = (),
         scene: WorldClient | None = None,
+        labelled_bodies: tuple[int, ...] = (),
     ) -> None:
         """Render in client `cid`. With `body_id`, the rig moves that body to each pose it is
         given (a client of its own), and the `companion_ids` (a fleet's other vehicles) to theirs;
         without, the bodies are where physics put them: `scene`, the physics world's client, is
-        asked to pose them before each render (quadsim.physics.client.WorldClient.posed)."""
+        asked to pose them before each render (quadsim.physics.client.WorldClient.posed).
+        `labelled_bodies`: the body ids in segmentation label order (quadsim.sensors.images; with
+        `scene`, its bodies in the order they were made)."""
         self.specs = {s.name: s for s in specs}
         self._mounts = {s.name: vehicle.camera_mount(s.link_name) for s in specs}
         self._projections = {s.name: projection_matrix(s) for s in specs}
@@ -56,6 +60,8 @@ class CameraRig:
         self._body = body_id
         self._companions = companion_ids
         self._scene = scene
+        self._labelled = labelled_bodies
+        self._labels: LabelMap | None = None
 
     @classmethod
     def standalone(
@@ -65,18 +71,21 @@ class CameraRig:
         specs: tuple[CameraSpec, ...],
         renderer: RendererKind,
         companions: tuple[VehicleParams, ...] = (),
+        own_index: int = 0,
     ) -> CameraRig:
         """A rig with a DIRECT client of its own holding the world, the vehicle and its
-        `companions` (a fleet's other vehicles; no physics)."""
+        `companions` (a fleet's other vehicles, in the fleet's order; no physics). `own_index`:
+        the vehicle's place among all of them (its segmentation label comes in that order)."""
         cid = pb.connect(pb.DIRECT)
         if renderer is RendererKind.EGL:
             enable_egl(cid)
-        build_world(world, cid, collisions=False)
+        scenery = tuple(build_world(world, cid, collisions=False).values())
         body = load_vehicle_body(vehicle, cid, (0.0, 0.0, 0.0), (0.0, 0.0, 0.0, 1.0))
         far = tuple(
             load_vehicle_body(v, cid, (0.0, 0.0, -100.0 - i), (0.0, 0.0, 0.0, 1.0)) for i, v in enumerate(companions)
         )
-        return cls(vehicle, specs, renderer, cid, body, far)
+        vehicles = (*far[:own_index], body, *far[own_index:])
+        return cls(vehicle, specs, renderer, cid, body, far, labelled_bodies=scenery + vehicles)
 
     def render(
         self,
@@ -93,15 +102,16 @@ class CameraRig:
             pb.resetBasePositionAndOrientation(self._body, position, orientation, physicsClientId=self._cid)
         for companion, (at, facing) in zip(self._companions, companion_poses):
             pb.resetBasePositionAndOrientation(companion, at, facing, physicsClientId=self._cid)
-        segmentation = ImageKind.SEGMENTATION in kinds
         frames = []
         for name in names:
             spec = self.specs[name]
             pose = camera_pose(self._mounts[name], position, orientation)
+            segmentation = spec.segmentation or ImageKind.SEGMENTATION in kinds
             rgb, depth, mask = render_raw(spec, pose, self._cid, self._renderer, self._projections[name], segmentation)
             if name not in self._checked:
                 self._check_not_blank(name, rgb, depth)
             rgb = self._atmospheres[name].apply(rgb, depth, pose)
+            metres = depth_metres(spec, depth) if spec.depth or ImageKind.DEPTH in kinds else None
             frames.append(
                 CameraFrame(
                     name,
@@ -110,11 +120,21 @@ class CameraRig:
                     spec.width_px,
                     spec.height_px,
                     rgb if ImageKind.RGB in kinds else None,
-                    depth_metres(spec, depth) if ImageKind.DEPTH in kinds else None,
-                    mask,
+                    metres if ImageKind.DEPTH in kinds else None,
+                    mask if ImageKind.SEGMENTATION in kinds else None,
+                    depth_image(metres, spec.depth) if spec.depth and metres is not None else None,
+                    self._label_map().apply(mask) if spec.segmentation and mask is not None else None,
                 )
             )
         return frames
+
+    def _label_map(self) -> LabelMap:
+        """Body ids -> segmentation labels, made at the first segmented frame (the scene's
+        vehicles are all there by then)."""
+        if self._labels is None:
+            bodies = self._labelled or (tuple(self._scene.body_names) if self._scene is not None else ())
+            self._labels = LabelMap(bodies)
+        return self._labels
 
     def _check_not_blank(self, name: str, rgb: np.ndarray, depth: np.ndarray) -> None:
         """A renderer that draws nothing (an EGL driver that is not really there) leaves one flat

@@ -158,7 +158,9 @@ class RecordedRun:
             workers=options.render_workers,
             ordered_delivery=options.ordered_delivery,
             scene_client=fleet.scene_client,
-            companions=Companions(tuple(other.vehicle for other in others), poses) if others else None,
+            companions=Companions(tuple(other.vehicle for other in others), poses, fleet.members.index(drone))
+            if others
+            else None,
         )
         self.pipelines[drone.name] = pipeline
         drone.add_tap(pipeline.tap_interval_steps, pipeline.capture)

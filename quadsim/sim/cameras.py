@@ -25,6 +25,7 @@ import numpy as np
 
 from quadsim.errors import ConfigError, QuadsimError
 from quadsim.sensors.camera import CameraFrame, CameraInfo, CameraSpec, ImageKind, RendererKind, default_cameras
+from quadsim.sensors.images import depth_metres_from_image
 from quadsim.sensors.pipeline import CameraPipeline
 from quadsim.sim.simulator import Simulator
 
@@ -77,6 +78,7 @@ class Cameras:
         self._sim = sim
         self._physics_hz = sim.config.rates.physics_hz
         self._infos = {spec.name: spec.camera_info() for spec in self.specs}
+        self._encodings = {spec.name: spec.depth for spec in self.specs}
         self._latest: dict[str, CameraFrame] = {}
         #: what each value of a segmentation mask is: the floor, each landmark, then the vehicle
         self.segment_names: tuple[str, ...] = ("floor", *(lm.name for lm in sim.world.landmarks), "vehicle")
@@ -130,8 +132,11 @@ class Cameras:
         if seg is not None:
             seg = seg.copy()  # PyBullet's body ids: the floor first, then the landmarks, then the vehicle
             seg[seg >= len(self.segment_names)] = -1
+        depth_m = frame.depth_m
+        if depth_m is None and frame.depth_pixels is not None:  # the camera records depth: the same, in metres
+            depth_m = depth_metres_from_image(frame.depth_pixels, self._encodings[camera])
         return CameraImage(
-            frame.camera, frame.step, frame.step / self._physics_hz, frame.rgb, self._infos[camera], frame.depth_m, seg
+            frame.camera, frame.step, frame.step / self._physics_hz, frame.rgb, self._infos[camera], depth_m, seg
         )
 
     def wait(self) -> None:

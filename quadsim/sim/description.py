@@ -327,6 +327,8 @@ def _camera(data: Any, where: str) -> CameraSpec:
             kwargs[spec_field.name] = f.integer(spec_field.name)
         elif spec_field.type in ("float", float):
             kwargs[spec_field.name] = f.number(spec_field.name)
+        elif spec_field.type in ("bool", bool):
+            kwargs[spec_field.name] = f.flag(spec_field.name)
         else:
             kwargs[spec_field.name] = f.text(spec_field.name)
     for required in ("name", "link_name"):
@@ -412,6 +414,12 @@ class _Fields:
             raise self._missing(key)
         if isinstance(value, bool) or not isinstance(value, int) or not low <= value <= high:
             raise self._wrong(key, f"a whole number within [{low}, {high}]", value)
+        return value
+
+    def flag(self, key: str) -> bool:
+        value = self.data.get(key)
+        if not isinstance(value, bool):
+            raise self._wrong(key, "true or false", value)
         return value
 
     def choice(self, key: str, enum_type: Any) -> Any:

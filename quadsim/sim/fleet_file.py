@@ -10,6 +10,8 @@ controller.
     z_mode = "velocity"           # optional: velocity | height (default: the script's, else velocity)
     gains = { velocity_p_xy_per_s = 2.0 }  # optional: replaces the named gains of its controller
     cameras = ["front", "floor"]  # optional: the onboard cameras it records (default: none)
+    depth = ["front"]             # optional: those that also record depth, NAME or NAME:32FC1 (16UC1 mm default)
+    segmentation = ["front"]      # optional: those that also record a segmentation image
 
 A bad file is refused with one line naming the file, the vehicle and the key. The inputs are
 read here (a script's text is loaded, so a missing script is said before anything flies); what
@@ -31,12 +33,24 @@ from quadsim.core.types import StartPose, ZMode
 from quadsim.drivers import InputDriver
 from quadsim.drivers.scripted import Script, load_script
 from quadsim.errors import ConfigError, QuadsimError
+from quadsim.sensors.camera import default_cameras, with_images
 from quadsim.sim.description import MAX_FLEET, VEHICLE_NAME
 from quadsim.sim.fleet import FleetVehicle
 from quadsim.vehicle.params import SHIPPED_VEHICLES
 
 #: the keys a vehicle may have
-VEHICLE_KEYS = ("name", "airframe", "start", "input", "controller", "z_mode", "gains", "cameras")
+VEHICLE_KEYS = (
+    "name",
+    "airframe",
+    "start",
+    "input",
+    "controller",
+    "z_mode",
+    "gains",
+    "cameras",
+    "depth",
+    "segmentation",
+)
 #: the onboard cameras a vehicle may record
 CAMERAS = ("front", "floor")
 #: the inputs a vehicle may be flown by (script:NAME_OR_FILE besides)
@@ -61,6 +75,8 @@ class FleetEntry:
     z_mode: ZMode | None = None
     gains: dict[str, float] = field(default_factory=dict)
     cameras: tuple[str, ...] = ()  # names of the onboard cameras it records
+    depth: tuple[str, ...] = ()  # of those, the ones that record depth: NAME or NAME:ENCODING
+    segmentation: tuple[str, ...] = ()  # of those, the ones that record a segmentation image
 
     @property
     def input_text(self) -> str:
@@ -150,6 +166,8 @@ def _entry(path: Path, index: int, data: dict[str, Any]) -> FleetEntry:
     input_name, script = _input(path, where, data.get("input", "idle"))
     controller = _choice(where, "controller", data.get("controller", "cascade"), ControllerKind)
     z_mode = _choice(where, "z_mode", data["z_mode"], ZMode) if "z_mode" in data else None
+    cameras = _cameras(where, data.get("cameras", []))
+    depth, segmentation = _images(where, data, cameras)
     return FleetEntry(
         name=name,
         airframe=str(data.get("airframe", "quad")),
@@ -160,8 +178,23 @@ def _entry(path: Path, index: int, data: dict[str, Any]) -> FleetEntry:
         controller=controller,
         z_mode=z_mode,
         gains=_gains(where, controller, data.get("gains", {})),
-        cameras=_cameras(where, data.get("cameras", [])),
+        cameras=cameras,
+        depth=depth,
+        segmentation=segmentation,
     )
+
+
+def _images(where: str, data: Mapping[str, Any], cameras: tuple[str, ...]) -> tuple[tuple[str, ...], ...]:
+    """The vehicle's `depth` and `segmentation` lists, checked against its cameras."""
+    lists = []
+    for key in ("depth", "segmentation"):
+        value = data.get(key, [])
+        if not isinstance(value, list) or not all(isinstance(v, str) for v in value):
+            raise ConfigError(f"{where}: {key}: expected a list of camera names, got {value!r:.40}")
+        lists.append(tuple(value))
+    specs = tuple(spec for spec in default_cameras() if spec.name in cameras)
+    with_images(specs, lists[0], lists[1], (f"{where}: depth", f"{where}: segmentation"))
+    return lists[0], lists[1]
 
 
 def _cameras(where: str, value: Any) -> tuple[str, ...]:

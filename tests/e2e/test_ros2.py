@@ -27,6 +27,7 @@ from tests.helpers.recording import commanded_motion
 from tests.helpers.ros2_env import DISTRIBUTIONS, PEER, free_domain, local_env, ros2_python
 
 #: (distribution, discovery range quadsim's environment exports, the node's: None is ROS 2's default, unset)
+FRONT = "front_camera_optical"
 CASES = [(d, r, r) for d in DISTRIBUTIONS for r in ("LOCALHOST", None)] + [("kilted", None, "LOCALHOST")]
 
 
@@ -90,6 +91,7 @@ def ros2_flight(
     folder = tmp_path_factory.mktemp(f"ros2_{distribution}")
     recording = folder / "flight.mcap"
     args = ["run", "--input", "ros2", "--duration", "11", "--cameras", "front,floor", "--camera-size", "160x120"]
+    args += ["--camera-depth", "front", "--camera-segmentation", "front"]
     args += ["--wind", "1,90", "--out", str(recording)]
     env = local_env(free_domain(CASES.index(request.param)), discovery)
     cmd_topic = "/quad_cmd_twist"
@@ -154,7 +156,23 @@ def test_a_ros2_node_flies_quadsim_and_reads_what_it_publishes(ros2_flight: tupl
     for topic in ("/quad/floor_camera/image_raw/compressed", "/quad/front_camera/camera_info"):
         assert counts[topic] > 20, (topic, counts)
     assert counts["/quad/floor_camera/camera_info"] > 20, counts
-    for topic in ("/robot_description", "/world/markers", "/rosout"):  # latched: they come to a late subscriber
+    for topic in ("/quad/front_camera/depth/image_raw", "/quad/front_camera/depth/camera_info"):
+        assert counts[topic] > 20, (topic, counts)
+    assert counts["/quad/front_camera/segmentation/image_raw"] > 20, counts
+    assert report["raw_images"] == {  # rclpy's own type support reads every byte of them
+        "/quad/front_camera/depth/image_raw": {"encoding": "16UC1", "size": [120, 160, 320, 38400], "frame": FRONT},
+        "/quad/front_camera/segmentation/image_raw": {
+            "encoding": "mono8",
+            "size": [120, 160, 160, 19200],
+            "frame": FRONT,
+        },
+    }
+    for topic in (
+        "/robot_description",
+        "/world/markers",
+        "/rosout",
+        "/world/segmentation_labels",
+    ):  # latched: they come to a late subscriber
         assert counts[topic] >= 1, (topic, counts)
 
     # a JPEG that decodes to the camera's size
@@ -300,7 +318,8 @@ def test_a_ros2_node_flies_a_namespaced_quadsim_on_the_topic_a_remap_rule_names(
     args += ["--ros-namespace", "t4ns", "--ros-remap", rule]
     env = local_env(free_domain(len(CASES) + 4 + NAMESPACED.index((distribution, rule, cmd_topic))))
     sim, report = _beside_peer(python, args, tmp_path, env, cmd_topic, prefix="/t4ns")
-    named = [line for line in (sim.stdout + sim.stderr).splitlines() if "Twist" in line or "live input" in line]
+    lines = (sim.stdout + sim.stderr).splitlines()
+    named = [line for line in lines if ("Twist" in line or "live input" in line) and not line.startswith("live: ")]
     assert len(named) == 3, named  # the bridge's start-up line, the headline, the summary's live input
     assert all(f" {cmd_topic}" in line and "quad_cmd_twist" not in line for line in named), named
     graph = report["graph"]

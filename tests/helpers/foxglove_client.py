@@ -71,6 +71,8 @@ def summarise(type_name: str, msg: Any) -> dict[str, Any]:
             "shape": list(image.shape) if image is not None else None,
             "mean": float(image.mean()) if image is not None else None,
         }
+    if type_name == "sensor_msgs/msg/Image":
+        return {"encoding": msg.encoding, "shape": [msg.height, msg.width], "frame": msg.header.frame_id}
     if type_name == "tf2_msgs/msg/TFMessage":
         return {"children": [t.child_frame_id for t in msg.transforms]}
     if type_name == "std_msgs/msg/String":

@@ -30,11 +30,13 @@ SHIPPED_RECORDINGS = [
 
 
 def record_flight(path: Path, workers: int = 0, size=(160, 120), cameras=True, script: str = SCRIPT) -> StateLog:
+    """`cameras`: front and floor at `size` (True), none (False), or these specs."""
     parsed = parse_script(script, "test")
+    specs = (default_cameras(*size, 30) if cameras else ()) if isinstance(cameras, bool) else tuple(cameras)
     log = StateLog()
     with Simulator(SimConfig(z_mode=parsed.z_mode or ZMode.VELOCITY), ScriptedDriver(parsed)) as sim:
         sim.add_sink(log)
-        options = OutputOptions(out=path, cameras=default_cameras(*size, 30) if cameras else (), render_workers=workers)
+        options = OutputOptions(out=path, cameras=specs, render_workers=workers)
         with RecordedRun(sim, options, "test", {"script": "test"}):
             sim.run_for(parsed.duration_s)
     return log

@@ -36,7 +36,7 @@ from rcl_interfaces.msg import Log
 from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 from rosgraph_msgs.msg import Clock
-from sensor_msgs.msg import CameraInfo, CompressedImage, Imu, Joy
+from sensor_msgs.msg import CameraInfo, CompressedImage, Image, Imu, Joy
 from std_msgs.msg import Float64MultiArray, String
 from visualization_msgs.msg import MarkerArray
 
@@ -50,6 +50,10 @@ TOPICS: dict[str, tuple[Any, Any]] = {
     "/quad/floor_camera/image_raw/compressed": (CompressedImage, 10),
     "/quad/front_camera/camera_info": (CameraInfo, 10),
     "/quad/floor_camera/camera_info": (CameraInfo, 10),
+    "/quad/front_camera/depth/image_raw": (Image, 10),
+    "/quad/front_camera/depth/camera_info": (CameraInfo, 10),
+    "/quad/front_camera/segmentation/image_raw": (Image, 10),
+    "/world/segmentation_labels": (String, LATCHED),
     "/robot_description": (String, LATCHED),
     "/world/markers": (MarkerArray, LATCHED),
     "/rosout": (Log, LATCHED),
@@ -116,8 +120,16 @@ def main() -> int:
         else:
             images.append(b"")  # counted, not kept
 
+    raw_images: dict[str, dict[str, Any]] = {}  # an Image topic -> what its last message said
+
     def counter(name: str) -> Any:
-        return lambda _m: counts.__setitem__(name, counts[name] + 1)
+        def count(m: Any) -> None:
+            counts[name] += 1
+            if isinstance(m, Image):
+                size = (m.height, m.width, m.step, len(m.data))
+                raw_images[name] = {"encoding": m.encoding, "size": size, "frame": m.header.frame_id}
+
+        return count
 
     node.create_subscription(Odometry, f"{prefix}/quad/odom", on_odom, 10)
     others_last: dict[str, dict[str, float]] = {}
@@ -229,6 +241,7 @@ def main() -> int:
         "image_format": formats[0] if formats else None,
         "image_hex": images[0].hex() if images else "",
         "counts": counts,
+        "raw_images": raw_images,
         "graph": graph,
         "sent": sent,
         "others_last": others_last,

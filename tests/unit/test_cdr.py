@@ -191,6 +191,24 @@ def test_compressed_image():
         assert cdr.compressed_image(ns, frame, fmt, data) == _ref(ref)
 
 
+def test_image():
+    """sensor_msgs/msg/Image: every padding case of the frame and encoding strings, either byte order."""
+    for rng in _rngs():
+        ns, frame, encoding = _ns(rng), _text(rng), rng.choice(["32FC1", "16UC1", "mono8", _text(rng, 6)])
+        h, w, step, bigendian = rng.randrange(2**32), rng.randrange(2**32), rng.randrange(2**32), rng.random() < 0.3
+        data = bytes(rng.randrange(256) for _ in range(rng.randint(0, 40)))
+        ref = T["sensor_msgs/msg/Image"](
+            header=_header(ns, frame),
+            height=h,
+            width=w,
+            encoding=encoding,
+            is_bigendian=bigendian,
+            step=step,
+            data=np.frombuffer(data, dtype=np.uint8),
+        )
+        assert cdr.image(ns, frame, h, w, encoding, step, data, bigendian) == _ref(ref)
+
+
 def test_camera_info():
     for rng in _rngs():
         ns, frame, model = _ns(rng), _text(rng), _text(rng)

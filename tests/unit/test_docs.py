@@ -76,7 +76,25 @@ def test_the_foxglove_pictures_show_every_vehicle_of_the_example_fleet(picture):
     assert vehicles_drawn(DOCS / "img" / picture, panel) >= 3
 
 
-def test_the_fleet_window_picture_shows_the_other_vehicles():
+def test_the_foxglove_depth_picture_shows_the_depth_of_what_the_camera_sees():
+    """docs/img/foxglove_depth.png (docs/recordings.md): Foxglove Studio 1.48's image panels on a
+    recording with depth and segmentation: the front camera's blue sky; in its depth beside it
+    (16UC1, grey by value) the sky black (no depth, 0) over a floor lightening toward the horizon;
+    the label image dark (ids 0 to 7 of 255)."""
+    image = cv2.imread(str(DOCS / "img" / "foxglove_depth.png")).astype(int)
+    third = image.shape[1] // 3
+    rgb, depth, labels = (
+        image[40:320, 10 : third - 10],
+        image[40:320, third + 10 : 2 * third - 10],
+        image[40:320, 2 * third + 10 :],
+    )
+    sky = rgb[10:60]
+    assert (sky[:, :, 0] > sky[:, :, 2] + 40).mean() > 0.9  # blue (BGR) above the horizon
+    assert depth[10:60].max() < 10  # no depth above the horizon
+    floor = [depth[row, :200].mean() for row in (160, 200, 240, 279)]  # away from the pillar, down
+    assert floor == sorted(floor, reverse=True) and floor[0] > floor[-1] + 60  # farther is lighter
+    assert labels.max() < 20
+
     """docs/img/fleet_window.png: the real fly --fleet window: the red tower in the front camera,
     the other vehicles in blue on the dark map, the HUD's text."""
     image = cv2.imread(str(DOCS / "img" / "fleet_window.png"))

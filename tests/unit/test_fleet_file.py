@@ -113,6 +113,15 @@ VEHICLE = '[[vehicle]]\nname = "{name}"\nstart = [{x}, 0, 0, 0]\n'
         ("seed = 3\n" + VEHICLE.format(name="alpha", x=0), ["unknown key 'seed'"]),
         (VEHICLE.format(name="alpha", x=0) + 'cameras = ["rear"]\n', ["vehicle 'alpha'", "unknown camera 'rear'"]),
         (VEHICLE.format(name="alpha", x=0) + 'cameras = "front"\n', ["vehicle 'alpha'", "cameras: expected a list"]),
+        (
+            VEHICLE.format(name="alpha", x=0) + 'cameras = ["front"]\ndepth = ["floor"]\n',
+            ["vehicle 'alpha'", "depth: 'floor' is not a camera of this run (front)"],
+        ),
+        (
+            VEHICLE.format(name="alpha", x=0) + 'cameras = ["front"]\ndepth = ["front:8UC1"]\n',
+            ["vehicle 'alpha'", "depth encoding '8UC1'"],
+        ),
+        (VEHICLE.format(name="alpha", x=0) + 'segmentation = "front"\n', ["vehicle 'alpha'", "segmentation: expected"]),
         ("", ["no [[vehicle]] tables"]),
     ],
 )

@@ -92,6 +92,12 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     )
     p.add_argument("--loop", action="store_true", help="start again at the end")
     p.add_argument(
+        "--depth",
+        action="store_true",
+        help="also load the cameras' depth images, colour-mapped: the window shows them in place of the "
+        "cameras' (V switches), --mp4 exports them too (RECORDING_front_depth.mp4)",
+    )
+    p.add_argument(
         "--vehicle",
         metavar="NAME",
         help="in a fleet's recording, the vehicle whose summary, plot and videos are shown (default: the first; "
@@ -127,7 +133,7 @@ def main(args: argparse.Namespace) -> int:
         option = "--out" if args.out is not None else "--no-record"
         raise QuadsimError(f"{option} is for the new flight of --resim; without --resim nothing is recorded")
     try:
-        flight = load_flight(args.file, args.vehicle)
+        flight = load_flight(args.file, args.vehicle, depth=args.depth and not args.resim)
         lost = flight.lost_for_resim()
         if lost is not None:  # commands or states are missing (a run killed mid-write): said as `info` says it
             raise QuadsimError(flight.damage_report or f"{args.file}: {lost}")

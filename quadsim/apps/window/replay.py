@@ -23,7 +23,7 @@ from quadsim.core.kinematics import clamp
 from quadsim.core.types import Twist, VehicleState
 from quadsim.live.playback import RecordingFeed
 from quadsim.physics.world_spec import FloorSpec, WorldSpec, load_world
-from quadsim.recording.flight import NS, RecordedFlight
+from quadsim.recording.flight import DEPTH_SUFFIX, NS, RecordedFlight
 from quadsim.sensors.camera import CameraFrame
 from quadsim.session.pacing import FixedStepPacer, Pacer, RealTimePacer, collect_start_up_garbage
 
@@ -37,6 +37,7 @@ KEYS = [
     "L          loop on / off",
     "Home/End   start / end",
     "C          a fleet: follow the next vehicle (its HUD and cameras)",
+    "V          depth images in place of the cameras' (replay --depth) on / off",
     "H, F1      this help;  Esc quit",
 ]
 
@@ -83,6 +84,8 @@ class ReplayApp:
         self.speed = min(SPEEDS, key=lambda s: abs(s - speed))
         self.loop = loop
         self.show_help = False
+        #: the cameras' depth images (colour-mapped) in place of their images, where loaded (--depth)
+        self.show_depth = True
         self.quit = False
         self.frame_count = 0
         #: how far playback moves each frame: the wall clock (times the speed), or `frame_s` (tests)
@@ -166,10 +169,20 @@ class ReplayApp:
                 self.show_help = not self.show_help
             elif k == pygame.K_c:
                 self.follow_next()
+            elif k == pygame.K_v:
+                self.toggle_depth()
         elif event.type == pygame.MOUSEBUTTONDOWN and event.button == 1:
             bar = self.view.layout(self.screen.get_size())["timeline"].inflate(0, 16)
             if bar.collidepoint(event.pos):
                 self.seek((event.pos[0] - bar.x) / bar.width * self.end_ns / NS)
+
+    def toggle_depth(self) -> None:
+        """Depth images in place of the camera images, or back (only what replay --depth loaded)."""
+        if not any(cam.endswith(DEPTH_SUFFIX) for cam in self.flight.frames):
+            self._say("no depth images loaded: replay --depth FILE shows a recording's depth images")
+            return
+        self.show_depth = not self.show_depth
+        self._say("depth images shown" if self.show_depth else "camera images shown")
 
     def follow_next(self) -> None:
         """A fleet's recording: follow the next vehicle in the fleet's order (the HUD, the
@@ -233,9 +246,12 @@ class ReplayApp:
         command = f.command_at(t)
         frames = {}
         for cam in f.frames:
-            got = f.frame_at(cam, t)
+            if cam.endswith(DEPTH_SUFFIX):
+                continue
+            shown = cam + DEPTH_SUFFIX if self.show_depth and cam + DEPTH_SUFFIX in f.frames else cam
+            got = f.frame_at(shown, t)
             if got is not None:
-                frames[cam] = CameraFrame(cam, got[0], got[1], 0, 0)
+                frames[cam] = CameraFrame(shown, got[0], got[1], 0, 0)
         d = f.description
         state_word = "PLAYING" if self.playing else "paused"
         warnings = [] if f.states else ["this file has no /quad/pose: nothing to show on the map or HUD"]

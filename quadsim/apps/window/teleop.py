@@ -31,6 +31,7 @@ from typing import Any
 os.environ.setdefault("PYGAME_HIDE_SUPPORT_PROMPT", "1")
 import pygame
 
+from quadsim.apps.window.depth_view import DepthView
 from quadsim.apps.window.display import close_display, lost, open_display, run_frames, show_starting
 from quadsim.apps.window.vehicles import WindowVehicles
 from quadsim.apps.window.view import TeleopView, ViewModel
@@ -68,6 +69,7 @@ APP_KEYS = [
     "Tab        switch z-mode (velocity <-> height)",
     "F5         stop / start a new recording",
     "C          a fleet: show the next vehicle's cameras",
+    "V          depth images in place of the cameras' (--camera-depth) on / off",
     "H, F1      this help",
 ]
 
@@ -286,6 +288,8 @@ class TeleopApp:
     def _init_window_state(self, pacer: RealTimePacer | FixedStepPacer) -> None:
         """What the window shows and counts, before its first frame."""
         self.view = TeleopView()
+        #: the depth of the cameras that have it, colour-mapped in place of their images (V)
+        self.depth_view = DepthView()
         self._flown_before_resets_s = 0.0
         self.pacer = pacer
         self.paused = False
@@ -384,6 +388,9 @@ class TeleopApp:
             if key == pygame.K_c and self.fleet is not None:
                 self.next_cameras()
                 return
+            if key == pygame.K_v:
+                self.toggle_depth()
+                return
         # both track their device; only the one that is the input driver is polled by the loop
         self.keyboard.handle_event(event)
         if self.options.input in ("auto", "joystick") or self.second_hand is self.joystick:
@@ -391,6 +398,14 @@ class TeleopApp:
             self.joystick.handle_event(event)
             if self.joystick.pad is not before:
                 self._pad_changed(before)
+
+    def toggle_depth(self) -> None:
+        """The cameras' depth images (colour-mapped) in place of their images, or back."""
+        if not any(spec.depth for p in self._pipelines() for spec in p.specs):
+            self._say("no camera with depth: fly with --camera-depth front (or a fleet file's depth = [...])")
+            return
+        self.depth_view.shown = not self.depth_view.shown
+        self._say("depth images shown" if self.depth_view.shown else "camera images shown")
 
     def _help_lines(self) -> list[str]:
         """The flying keys (or the gamepad's sticks) of the vehicle flown, then the window's own
@@ -599,7 +614,7 @@ class TeleopApp:
             fps=fps,
             real_time_factor=rtf,
             sim_time_s=self.sim.time_s,
-            frames=self.frames,
+            frames=self.depth_view.frames(self.frames),
             track=list(self.track.points),
             world=self.sim.world,
             help_lines=self._help_lines(),
