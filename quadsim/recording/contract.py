@@ -63,6 +63,15 @@ WORLD_MARKERS = Topic("/world/markers", "visualization_msgs/msg/MarkerArray", QO
 #: the wind at the vehicle, `world` frame, in runs with wind (a state's sixth message)
 WIND = Topic("/wind", "geometry_msgs/msg/Vector3Stamped")
 STATE_TOPICS = (POSE, ODOM, IMU, ROTOR_THRUSTS, TF)
+#: the range finder's readings, in runs with it (REP 117: +-inf out of range)
+RANGE = Topic("/quad/range", "sensor_msgs/msg/Range")
+#: the LiDAR's 2D scans, or its 3D scans as points in its frame, in runs with it
+SCAN = Topic("/quad/scan", "sensor_msgs/msg/LaserScan")
+POINTS = Topic("/quad/points", "sensor_msgs/msg/PointCloud2")
+#: the range finder's frame (x along its beam, as sensor_msgs/Range has it) and the LiDAR's
+#: (base_link's axes), each with a static transform from base_link
+RANGE_FRAME = "range_finder_link"
+LIDAR_FRAME = "lidar_link"
 #: topics every quadsim recording has (cameras and /joy depend on the run)
 CORE_TOPICS = (TWIST.name, *(t.name for t in STATE_TOPICS), TF_STATIC.name)
 
