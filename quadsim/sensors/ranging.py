@@ -33,17 +33,18 @@ class RangingSensor:
         limits_m: tuple[float, float],
         noise_std_m: float,
         scene: WorldClient,
-        own_body: int,
+        own_body: tuple[int, float],
         seed: np.random.SeedSequence,
     ) -> None:
-        """`scene`: the world the vehicle flies in; `own_body`: its body, which the beams do not see;
-        `seed`: the noise's random stream; `noise_std_m` 0: the true ranges."""
+        """`scene`: the world the vehicle flies in; `own_body`: its body, which the beams do not
+        see, and the radius about base_link that holds it (quadsim.sensors.rays.cast); `seed`: the
+        noise's random stream; `noise_std_m` 0: the true ranges."""
         self.mount_m = mount_m
         self.directions = directions
         self.min_range_m, self.max_range_m = limits_m
         self.noise_std_m = noise_std_m
         self._scene = scene
-        self._own_body = own_body
+        self._own_body, self._reach_m = own_body
         self._seed = seed
         #: called with every reading the tap takes (the run's topic producer)
         self.sinks: list[Callable[[Ranges], None]] = []
@@ -63,7 +64,8 @@ class RangingSensor:
     def measure(self, state: VehicleState) -> Ranges:
         """The reading for the vehicle at `state`."""
         origin, directions = world_rays(state.position_m, state.orientation_xyzw, self.mount_m, self.directions)
-        distances = cast(self._scene, self._own_body, origin, directions, self.max_range_m)
+        reach = (state.position_m, self._reach_m)
+        distances = cast(self._scene, self._own_body, origin, directions, self.max_range_m, reach)
         noise = self._rng.standard_normal(len(distances)) * self.noise_std_m if self.noise_std_m else 0.0
         self.latest = Ranges(state.step, scan_ranges(distances, noise, self.min_range_m, self.max_range_m))
         return self.latest
@@ -76,7 +78,11 @@ class RangingSensor:
 
 
 def range_finder(
-    params: RangeParams, scene: WorldClient, own_body: int, seed: np.random.SeedSequence, noise: bool = True
+    params: RangeParams,
+    scene: WorldClient,
+    own_body: tuple[int, float],
+    seed: np.random.SeedSequence,
+    noise: bool = True,
 ) -> RangingSensor:
     """The range finder of [range]: its one beam (`noise` False: no noise)."""
     return RangingSensor(
@@ -94,7 +100,7 @@ def lidar(
     params: LidarParams,
     mode: LidarMode,
     scene: WorldClient,
-    own_body: int,
+    own_body: tuple[int, float],
     seed: np.random.SeedSequence,
     noise: bool = True,
 ) -> RangingSensor:

@@ -1,57 +1,65 @@
 """Ray casts from a vehicle into its world: one batched PyBullet call, the vehicle's own body unseen.
 
-The range finder and the LiDAR cast through here. A ray that leaves its vehicle's body from inside
-does not hit it (Bullet's ray test skips a convex shape it starts in); one that meets a part of its
-own body on the way out (a rotor's disc under a LiDAR's downward beam) is cast again from just past
-that point, at most `MAX_OWN_PASSES` times, so the distances are those to the first thing that is
-not the vehicle. Every vehicle is posed first (quadsim.physics.client.WorldClient.posed): a vehicle
-that quadsim stepped itself is where it flew to, for this vehicle's rays and for the others'.
+The range finder and the LiDAR cast through here. A ray that meets its own vehicle's body on the way
+out (a rotor's disc under a LiDAR's lower beams) is cast again, in a second batch of those rays
+alone, from where it leaves the vehicle's reach (the sphere about base_link that holds the body in
+any attitude, PhysicsWorld.reach_m): Bullet's ray test reports a ray that starts inside a cylinder
+as hitting it at once, so a ray cannot simply go on from inside the part it met. Something else
+inside that sphere is unseen by those rays alone (it would be touching the vehicle). Every vehicle
+is posed first (quadsim.physics.client.WorldClient.posed): a vehicle that quadsim stepped itself
+is where it flew to, for this vehicle's rays and for the others'.
 """
 
 from __future__ import annotations
 
 import math
-from typing import Any
 
 import numpy as np
 
+from quadsim.core.kinematics import Vec3
 from quadsim.physics.client import WorldClient
 from quadsim.physics.pybullet_quiet import pb
 
-#: how many times a ray that met its own vehicle is cast again from past that point
-MAX_OWN_PASSES = 3
-#: how far past a hit on its own body a ray starts again, m
-_PAST_M = 1e-4
-
 
 def cast(
-    scene: WorldClient, own_body: int, origin: np.ndarray, directions: np.ndarray, max_range_m: float
+    scene: WorldClient,
+    own_body: int,
+    origin: np.ndarray,
+    directions: np.ndarray,
+    max_range_m: float,
+    reach: tuple[Vec3, float],
 ) -> np.ndarray:
     """The distance along each ray (rows of `directions`, unit vectors in `world`) from `origin` to
-    the first thing that is not body `own_body`, up to `max_range_m`; inf where there is none."""
+    the first thing that is not body `own_body`, up to `max_range_m`; inf where there is none.
+    `reach`: the centre (base_link's origin, `world`) and radius of the sphere holding that body."""
     cid = scene.posed()
     ends = origin + directions * max_range_m
     distances, hit = _batch(cid, np.broadcast_to(origin, ends.shape), ends, max_range_m)
-    start = np.zeros(len(directions))
-    for _ in range(MAX_OWN_PASSES):
-        own = np.flatnonzero(hit == own_body)
-        if not len(own):
-            break
-        start[own] = distances[own] + _PAST_M
-        left = start[own] < max_range_m
-        own, from_m = own[left], start[own][left]
-        distances[hit == own_body] = math.inf
-        hit[hit == own_body] = -1
-        if not len(own):
-            break
-        again, hit_again = _batch(cid, origin + directions[own] * from_m[:, None], ends[own], max_range_m - from_m)
-        distances[own] = from_m + again
-        hit[own] = hit_again
-    distances[hit == own_body] = math.inf  # still its own body after every pass
+    own = np.flatnonzero(hit == own_body)
+    if len(own):
+        distances[own] = math.inf
+        out_m = _leaving(origin, directions[own], reach)
+        going = out_m < max_range_m
+        own, out_m = own[going], out_m[going]
+        if len(own):
+            again, hit_again = _batch(cid, origin + directions[own] * out_m[:, None], ends[own], max_range_m - out_m)
+            distances[own] = np.where(hit_again == own_body, math.inf, out_m + again)
     return distances
 
 
-def _batch(cid: int, starts: np.ndarray, ends: np.ndarray, length_m: Any) -> tuple[np.ndarray, np.ndarray]:
+def _leaving(origin: np.ndarray, directions: np.ndarray, reach: tuple[Vec3, float]) -> np.ndarray:
+    """How far along each ray from `origin` it leaves the sphere `reach` (centre, radius), 0 where
+    it is outside it from the start."""
+    centre, radius = reach
+    offset = origin - np.asarray(centre, dtype=float)
+    b = directions @ offset
+    c = float(offset @ offset) - radius * radius
+    return np.maximum(-b + np.sqrt(np.maximum(b * b - c, 0.0)), 0.0)
+
+
+def _batch(
+    cid: int, starts: np.ndarray, ends: np.ndarray, length_m: float | np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
     """One rayTestBatch: each ray's distance from its start (inf: no hit) and the body it hit (-1: none)."""
     # arrays go in as they are: PyBullet reads them as sequences, twice as fast as lists made of them
     results = pb.rayTestBatch(np.ascontiguousarray(starts), ends, physicsClientId=cid)

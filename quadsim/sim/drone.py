@@ -97,7 +97,7 @@ class Drone:
             reset_on_crash=reset_on_crash,
             imu=imu,
         )
-        body, noisy = self.physics.body_id, config.sensor_noise
+        body, noisy = (self.physics.body_id, self.physics.reach_m), config.sensor_noise
         #: the range finder and the LiDAR, where the config turns them on (None: not carried)
         self.range_finder: ranging.RangingSensor | None = None
         self.lidar: ranging.RangingSensor | None = None
