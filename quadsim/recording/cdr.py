@@ -261,17 +261,22 @@ def compressed_image(ns: int, frame_id: str, image_format: str, data: bytes) -> 
 
 @lru_cache(maxsize=256)
 def range_encoder(
-    frame_id: str, radiation_type: int, field_of_view_rad: float, min_range_m: float, max_range_m: float
+    frame_id: str,
+    radiation_type: int,
+    field_of_view_rad: float,
+    min_range_m: float,
+    max_range_m: float,
+    variance_m2: float = 0.0,
 ) -> Callable[[int, float], bytes]:
-    """sensor_msgs/msg/Range from a fixed sensor in `frame_id` (radiation_type 0 ultrasound, 1
-    infrared): encode(ns, range_m)."""
+    """sensor_msgs/msg/Range as Jazzy has it (with `variance`, 0: unknown) from a fixed sensor in
+    `frame_id` (radiation_type 0 ultrasound, 1 infrared): encode(ns, range_m)."""
     frame = frame_id.encode()
-    pack, length = _Layout().header(len(frame)).scalars("B").scalars("f", 4).build().pack, len(frame) + 1
+    pack, length = _Layout().header(len(frame)).scalars("B").scalars("f", 5).build().pack, len(frame) + 1
     fixed = (radiation_type, field_of_view_rad, min_range_m, max_range_m)
 
     def encode(ns: int, range_m: float) -> bytes:
         sec, nanosec = divmod(ns, NS_PER_S)
-        return pack(ENCAPSULATION, sec, nanosec, length, frame, *fixed, range_m)
+        return pack(ENCAPSULATION, sec, nanosec, length, frame, *fixed, range_m, variance_m2)
 
     return encode
 

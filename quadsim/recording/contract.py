@@ -1,9 +1,10 @@
 """The recording contract (docs/recordings.md): topics, their ROS 2 types and QoS, frames, schemas.
 
 Messages are encoded by `quadsim.recording.cdr` (by hand, byte for byte what ROS 2 writes) and
-made once per step by `quadsim.recording.fanout`. rosbags' typestore (ROS 2 Humble) stays the
-reference: it gives the `ros2msg` schema texts (dependencies concatenated the way rosbag2 writes
-them) and decodes recordings; it is imported only when one of those is needed.
+made once per step by `quadsim.recording.fanout`. rosbags' typestore (ROS 2 Humble, with the few
+types that changed since taken from Jazzy: JAZZY_TYPES) stays the reference: it gives the
+`ros2msg` schema texts (dependencies concatenated the way rosbag2 writes them), the live ROS 2
+bridge's DDS types, and decodes recordings; it is imported only when one of those is needed.
 """
 
 from __future__ import annotations
@@ -114,12 +115,22 @@ def camera_info_topic(spec: CameraSpec) -> Topic:
     return Topic(f"{spec.topic_prefix}/camera_info", "sensor_msgs/msg/CameraInfo")
 
 
+#: the contract's types whose definition changed after Humble, as Jazzy and Kilted (the ROS 2
+#: releases the live bridge serves) have them: sensor_msgs/Range gained `variance` in Jazzy, and a
+#: Jazzy node cannot read a Humble Range (4 bytes short)
+JAZZY_TYPES = ("sensor_msgs/msg/Range",)
+
+
 @cache
 def typestore() -> Any:
-    """rosbags' ROS 2 Humble typestore: the reference for schemas and for decoding."""
+    """rosbags' ROS 2 Humble typestore with JAZZY_TYPES as Jazzy has them: the reference for
+    schemas, the live bridge's types and decoding."""
     from rosbags.typesys import Stores, get_typestore
 
-    return get_typestore(Stores.ROS2_HUMBLE)
+    humble, jazzy = get_typestore(Stores.ROS2_HUMBLE), get_typestore(Stores.ROS2_JAZZY)
+    store = get_typestore(Stores.EMPTY)
+    store.register({**humble.fielddefs, **{name: jazzy.fielddefs[name] for name in JAZZY_TYPES}})
+    return store
 
 
 @cache

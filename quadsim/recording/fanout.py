@@ -48,7 +48,7 @@ from quadsim.recording.contract import (
 from quadsim.recording.scene import link_transforms, robot_description, robot_markers, world_markers
 from quadsim.sensors.beams import Ranges, beam_directions, frame_rotation, xyz_points
 from quadsim.sensors.camera import CameraFrame, CameraSpec
-from quadsim.vehicle.params import CameraMount, VehicleParams
+from quadsim.vehicle.params import CameraMount, RangeParams, VehicleParams
 
 NS_PER_S = 1_000_000_000
 JOY_FRAME = "joy"
@@ -130,12 +130,12 @@ class TopicFanout:
         names: Names = ONE_VEHICLE,
         cameras: Sequence[tuple[CameraSpec, CameraMount]] = (),
         vehicle: VehicleParams | None = None,
-        range_finder: bool = False,
+        range_finder: RangeParams | None = None,
         lidar: LidarMode | None = None,
     ) -> VehicleTopics:
         """A vehicle's producer: its topics under `names` (a run of one vehicle: the contract's),
         its cameras' images and infos, and with `vehicle` its links and robot description, and
-        its range finder's and LiDAR's if it carries them. Every vehicle is added before the
+        its range finder's (as it flies: its noise 0 in a run without) and LiDAR's if it carries them. Every vehicle is added before the
         first consumer (which gets their latched messages)."""
         if self.consumers:
             raise RuntimeError("a run's vehicles are added to its fan-out before its consumers")
@@ -248,10 +248,11 @@ class VehicleTopics:
         names: Names = ONE_VEHICLE,
         cameras: Sequence[tuple[CameraSpec, CameraMount]] = (),
         vehicle: VehicleParams | None = None,
-        range_finder: bool = False,
+        range_finder: RangeParams | None = None,
         lidar: LidarMode | None = None,
     ) -> None:
-        """`range_finder`, `lidar`: the vehicle carries them (`vehicle`'s [range] and [lidar])."""
+        """`range_finder`: the vehicle's range finder as it flies (its [range]; noise 0 in a run
+        without); `lidar`: the scan its LiDAR ([lidar]) makes. None: it carries none."""
         self.fanout = fanout
         self.names = names
         t, body = names.topic, names.frame(BODY_FRAME)
@@ -281,7 +282,7 @@ class VehicleTopics:
             )
             for spec, mount in cameras
         ]
-        if (range_finder or lidar is not None) and vehicle is None:
+        if (range_finder is not None or lidar is not None) and vehicle is None:
             raise ValueError("a range finder's or LiDAR's topics need the vehicle's parameters")
         static += self._ranging(names, vehicle, range_finder, lidar)
         #: base_link -> every URDF link and camera (stamped when sent)
@@ -295,7 +296,7 @@ class VehicleTopics:
         self.topics += [self._description, self._markers] if vehicle is not None else []
 
     def _ranging(
-        self, names: Names, vehicle: VehicleParams | None, range_finder: bool, lidar: LidarMode | None
+        self, names: Names, vehicle: VehicleParams | None, r: RangeParams | None, lidar: LidarMode | None
     ) -> list[cdr.TransformStamped]:
         """The range finder's and the LiDAR's topics and encoders, where the vehicle carries them;
         their frames' static transforms from base_link."""
@@ -303,11 +304,15 @@ class VehicleTopics:
         self._range = self._scan = self._points = None
         if vehicle is None:
             return static
-        if range_finder:
-            r = vehicle.range_finder
+        if r is not None:
             self._range = names.topic(RANGE)
             self._range_encoder = cdr.range_encoder(
-                names.frame(RANGE_FRAME), r.radiation_type.wire, r.field_of_view_rad, r.min_range_m, r.max_range_m
+                names.frame(RANGE_FRAME),
+                r.radiation_type.wire,
+                r.field_of_view_rad,
+                r.min_range_m,
+                r.max_range_m,
+                r.noise_std_m**2,
             )
             self.topics.append(self._range)
             static.append(cdr.TransformStamped(0, BODY_FRAME, RANGE_FRAME, r.position_m, frame_rotation(r.direction)))

@@ -96,7 +96,9 @@ class RecordedRun:
                 Names(drone.name),
                 mounts,
                 drone.vehicle,
-                drone.range_finder is not None,
+                None
+                if (r := drone.range_finder) is None
+                else replace(drone.vehicle.range_finder, noise_std_m=r.noise_std_m),
                 drone.config.lidar,
             )
         #: each vehicle's camera pipeline, by name (those with cameras)

@@ -20,7 +20,7 @@ from quadsim.session.resim import resimulate
 from quadsim.sim.fleet import Fleet, FleetVehicle
 from tests.helpers.mcap import decoded_recording
 
-TS = get_typestore(Stores.ROS2_HUMBLE)
+TS = get_typestore(Stores.ROS2_JAZZY)  # a Jazzy user's (Range has its `variance` since Jazzy)
 #: up to 1.5 m (height z-mode) and hold: 2.5 s
 SCRIPT = "z_mode height\n2.5 linear.z=-0.5\n"
 TOWER_FACE_X_M = 5.6  # the default world's red tower: a 0.8 m box at x = 6, 3 m tall
@@ -91,6 +91,7 @@ def test_the_range_is_the_height_above_the_floor_rep_117_on_the_ground(recorded)
     first = ranges[0][1]
     assert (first.radiation_type, first.header.frame_id) == (1, "range_finder_link")  # INFRARED
     assert (first.min_range, first.max_range) == pytest.approx((p.min_range_m, p.max_range_m))
+    assert first.variance == pytest.approx(p.noise_std_m**2)  # Jazzy's field: the noise's, in m^2
     assert first.range == -math.inf  # resting: the floor nearer than its minimum range
     flying = [(poses[ns][0].z + p.position_m[2], msg.range) for ns, msg in ranges if poses[ns][0].z > 0.3]
     assert len(flying) > 60

@@ -302,20 +302,28 @@ def test_marker_array():
         assert cdr.marker_array(markers) == _ref(ref)
 
 
-def test_range():
+def test_range_as_jazzy_and_kilted_have_it():
+    """sensor_msgs/Range gained `variance` after Humble: the contract's is Jazzy's (what its live
+    peers read), the same in Kilted."""
+    jazzy, kilted = get_typestore(Stores.ROS2_JAZZY), get_typestore(Stores.ROS2_KILTED)
+    assert jazzy.fielddefs["sensor_msgs/msg/Range"] == kilted.fielddefs["sensor_msgs/msg/Range"]
+    assert schema_text("sensor_msgs/msg/Range") == jazzy.generate_msgdef("sensor_msgs/msg/Range", ros_version=2)[0]
     for rng in _rngs():
         ns, frame = _ns(rng), _text(rng)
         kind, fov, low, high = rng.randrange(2), rng.uniform(0, 1), rng.uniform(0, 1), rng.uniform(1, 50)
         value = rng.choice([rng.uniform(low, high), float("inf"), float("-inf")])
-        ref = T["sensor_msgs/msg/Range"](
+        variance = rng.choice([0.0, rng.uniform(0, 1)])
+        ref = jazzy.types["sensor_msgs/msg/Range"](
             header=_header(ns, frame),
             radiation_type=kind,
             field_of_view=fov,
             min_range=low,
             max_range=high,
             range=value,
+            variance=variance,
         )
-        assert cdr.range_encoder(frame, kind, fov, low, high)(ns, value) == _ref(ref)
+        reference = bytes(jazzy.serialize_cdr(ref, ref.__msgtype__))
+        assert cdr.range_encoder(frame, kind, fov, low, high, variance)(ns, value) == reference
 
 
 def test_laser_scan():
