@@ -280,7 +280,16 @@ def _plan(flights: Mapping[str, RecordedFlight], folder: Path, outputs: OutputOp
         driver = ReplayDriver(commands, label, command_timeout_s=own.command_timeout_s)
         vehicles.append(
             FleetVehicle(
-                name, own.start, own.urdf, own.vehicle_params, _controller(flight, own), own.z_mode, driver, gains
+                name,
+                own.start,
+                own.urdf,
+                own.vehicle_params,
+                _controller(flight, own),
+                own.z_mode,
+                driver,
+                gains,
+                own.range_finder,
+                own.lidar,
             )
         )
         switches += [(step, name, ZMode(value)) for step, kind, value in flight.events if kind == "z_mode"]

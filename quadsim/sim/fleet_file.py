@@ -10,6 +10,8 @@ controller.
     z_mode = "velocity"           # optional: velocity | height (default: the script's, else velocity)
     gains = { velocity_p_xy_per_s = 2.0 }  # optional: replaces the named gains of its controller
     cameras = ["front", "floor"]  # optional: the onboard cameras it records (default: none)
+    range = true                  # optional: a range finder on /alpha/quad/range (default: --range's)
+    lidar = "2d"                  # optional: a LiDAR, 2d (/alpha/quad/scan) or 3d (/alpha/quad/points)
 
 A bad file is refused with one line naming the file, the vehicle and the key. The inputs are
 read here (a script's text is loaded, so a missing script is said before anything flies); what
@@ -27,7 +29,7 @@ from typing import Any
 from quadsim.control import ControllerKind, gains_type
 from quadsim.control.gains import gain_problem
 from quadsim.core.toml_files import read_toml, refuse_unknown_keys
-from quadsim.core.types import StartPose, ZMode
+from quadsim.core.types import LidarMode, StartPose, ZMode
 from quadsim.drivers import InputDriver
 from quadsim.drivers.scripted import Script, load_script
 from quadsim.errors import ConfigError, QuadsimError
@@ -36,7 +38,7 @@ from quadsim.sim.fleet import FleetVehicle
 from quadsim.vehicle.params import SHIPPED_VEHICLES
 
 #: the keys a vehicle may have
-VEHICLE_KEYS = ("name", "airframe", "start", "input", "controller", "z_mode", "gains", "cameras")
+VEHICLE_KEYS = ("name", "airframe", "start", "input", "controller", "z_mode", "gains", "cameras", "range", "lidar")
 #: the onboard cameras a vehicle may record
 CAMERAS = ("front", "floor")
 #: the inputs a vehicle may be flown by (script:NAME_OR_FILE besides)
@@ -61,6 +63,8 @@ class FleetEntry:
     z_mode: ZMode | None = None
     gains: dict[str, float] = field(default_factory=dict)
     cameras: tuple[str, ...] = ()  # names of the onboard cameras it records
+    range_finder: bool | None = None  # None: as the command line says
+    lidar: LidarMode | None = None  # None: as the command line says
 
     @property
     def input_text(self) -> str:
@@ -77,6 +81,8 @@ class FleetEntry:
             z_mode=self.z_mode or (self.script.z_mode if self.script is not None else None),
             driver=driver,
             controller_gains=self.gains or None,
+            range_finder=self.range_finder,
+            lidar=self.lidar,
         )
 
 
@@ -161,7 +167,15 @@ def _entry(path: Path, index: int, data: dict[str, Any]) -> FleetEntry:
         z_mode=z_mode,
         gains=_gains(where, controller, data.get("gains", {})),
         cameras=_cameras(where, data.get("cameras", [])),
+        range_finder=_flag(where, "range", data.get("range")),
+        lidar=_choice(where, "lidar", data["lidar"], LidarMode) if "lidar" in data else None,
     )
+
+
+def _flag(where: str, key: str, value: Any) -> bool | None:
+    if value is not None and not isinstance(value, bool):
+        raise ConfigError(f"{where}: {key}: expected true or false, got {value!r:.40}")
+    return value
 
 
 def _cameras(where: str, value: Any) -> tuple[str, ...]:

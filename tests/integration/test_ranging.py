@@ -14,7 +14,7 @@ from quadsim import SimConfig, Simulator
 from quadsim.core.kinematics import matrix_from_quaternion
 from quadsim.core.types import LidarMode, StartPose, ZMode
 from quadsim.drivers.scripted import ScriptedDriver, parse_script
-from quadsim.recording.flight import load_flight
+from quadsim.recording.flight import load_flight, load_flights
 from quadsim.session.outputs import OutputOptions, RecordedRun
 from quadsim.session.resim import resimulate
 from quadsim.sim.fleet import Fleet, FleetVehicle
@@ -50,10 +50,10 @@ def recorded(tmp_path_factory):
     return paths, vehicle
 
 
-def _raw(path):
-    """(topic, schema name, log time, CDR bytes) of every message on the new topics."""
+def _raw(path, topics=tuple(NEW_TOPICS)):
+    """(topic, schema name, log time, CDR bytes) of every message on `topics` (the new ones)."""
     with open(path, "rb") as fh:
-        for schema, channel, message in make_reader(fh).iter_messages(topics=list(NEW_TOPICS)):
+        for schema, channel, message in make_reader(fh).iter_messages(topics=list(topics)):
             yield channel.topic, schema.name, message.log_time, bytes(message.data)
 
 
@@ -153,17 +153,18 @@ def test_a_recording_with_them_re_flies_to_the_same_bytes(recorded, tmp_path):
 def test_in_a_fleet_one_vehicles_lidar_sees_the_other(tmp_path):
     path = tmp_path / "fleet.mcap"
     parsed = parse_script(SCRIPT, "test")
-    vehicles = [
-        FleetVehicle(name, StartPose(x, 0.0, 0.0), driver=ScriptedDriver(parsed))
-        for name, x in (("alpha", 0.0), ("bravo", 2.5))
+    vehicles = [  # alpha alone carries a LiDAR (a fleet file's `lidar = "3d"`)
+        FleetVehicle("alpha", StartPose(0.0, 0.0, 0.0), driver=ScriptedDriver(parsed), lidar=LidarMode.SPATIAL),
+        FleetVehicle("bravo", StartPose(2.5, 0.0, 0.0), driver=ScriptedDriver(parsed)),
     ]
-    config = SimConfig(z_mode=ZMode.HEIGHT, lidar=LidarMode.SPATIAL, sensor_noise=False)
+    config = SimConfig(z_mode=ZMode.HEIGHT, sensor_noise=False)
     with Fleet(vehicles, config) as fleet:
         with RecordedRun(fleet, OutputOptions(out=path, cameras=()), "test"):
             fleet.run_for(parsed.duration_s)
         bravo_reach = fleet["bravo"].physics.reach_m
         mount = fleet["alpha"].vehicle.lidar.position_m
     topics, _, _ = decoded_recording(path)
+    assert "/bravo/quad/points" not in topics and "/bravo/quad/scan" not in topics
     ns, cloud = topics["/alpha/quad/points"][-1]
     assert cloud.header.frame_id == "alpha/lidar_link"
     alpha = {n: (m.pose.position, m.pose.orientation) for n, m in topics["/alpha/quad/pose"]}[ns]
@@ -175,3 +176,8 @@ def test_in_a_fleet_one_vehicles_lidar_sees_the_other(tmp_path):
     assert world[near_bravo, 0].min() > bravo.x - bravo_reach  # its near side, not beyond it
     # and alpha's own body is not: nothing within its own reach
     assert (np.linalg.norm(world - [alpha[0].x, alpha[0].y, alpha[0].z], axis=1) > 0.3).all()
+    again = resimulate(load_flights(path), out=tmp_path / "again.mcap")  # each vehicle with its own sensors
+    assert again.within(0.0, 0.0)
+    assert [m for t, *m in _raw(path, ["/alpha/quad/points"])] == [
+        m for t, *m in _raw(again.new_recording, ["/alpha/quad/points"])
+    ]
