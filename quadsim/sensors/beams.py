@@ -28,9 +28,18 @@ class Ranges(NamedTuple):
     ranges_m: np.ndarray
 
 
+def in_range(distance_m: float, noise_m: float, low_m: float, high_m: float) -> float:
+    """A true distance (inf: no hit) as a reading (REP 117): -inf nearer than `low_m`, +inf beyond
+    `high_m`, else the distance plus `noise_m`, kept within [low_m, high_m]."""
+    if distance_m < low_m:
+        return -math.inf
+    if not distance_m <= high_m:
+        return math.inf
+    return min(max(distance_m + noise_m, low_m), high_m)
+
+
 def scan_ranges(distances_m: np.ndarray, noise_m: np.ndarray | float, low_m: float, high_m: float) -> np.ndarray:
-    """True distances (inf: no hit) as readings (float32, REP 117): -inf nearer than `low_m`,
-    +inf beyond `high_m`, else the distance plus `noise_m`, kept within [low_m, high_m]."""
+    """True distances (inf: no hit) as readings (float32), `in_range` beam by beam."""
     ranges = np.clip(distances_m + noise_m, low_m, high_m)
     ranges[distances_m < low_m] = -math.inf
     ranges[~(distances_m <= high_m)] = math.inf

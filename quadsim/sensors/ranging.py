@@ -13,11 +13,11 @@ from collections.abc import Callable
 
 import numpy as np
 
-from quadsim.core.kinematics import Vec3
+from quadsim.core.kinematics import Vec3, matrix_from_quaternion, rotate
 from quadsim.core.types import LidarMode, VehicleState
 from quadsim.physics.client import WorldClient
-from quadsim.sensors.beams import Ranges, beam_directions, scan_ranges, world_rays
-from quadsim.sensors.rays import cast
+from quadsim.sensors.beams import Ranges, beam_directions, in_range, scan_ranges, world_rays
+from quadsim.sensors.rays import cast, cast_one
 from quadsim.vehicle.params import LidarParams, RangeParams
 
 
@@ -41,6 +41,8 @@ class RangingSensor:
         noise's random stream; `noise_std_m` 0: the true ranges."""
         self.mount_m = mount_m
         self.directions = directions
+        #: the one beam of a range finder, as a tuple (None: several beams)
+        self._beam: Vec3 | None = tuple(directions[0]) if len(directions) == 1 else None
         self.min_range_m, self.max_range_m = limits_m
         self.noise_std_m = noise_std_m
         self._scene = scene
@@ -63,11 +65,27 @@ class RangingSensor:
 
     def measure(self, state: VehicleState) -> Ranges:
         """The reading for the vehicle at `state`."""
+        if self._beam is not None:
+            return self._measure_one(state)
         origin, directions = world_rays(state.position_m, state.orientation_xyzw, self.mount_m, self.directions)
         reach = (state.position_m, self._reach_m)
         distances = cast(self._scene, self._own_body, origin, directions, self.max_range_m, reach)
         noise = self._rng.standard_normal(len(distances)) * self.noise_std_m if self.noise_std_m else 0.0
         self.latest = Ranges(state.step, scan_ranges(distances, noise, self.min_range_m, self.max_range_m))
+        return self.latest
+
+    def _measure_one(self, state: VehicleState) -> Ranges:
+        """`measure` of a single beam, in plain Python (about a fifth of the time)."""
+        rotation = matrix_from_quaternion(state.orientation_xyzw)
+        (px, py, pz), (mx, my, mz) = state.position_m, rotate(rotation, self.mount_m)
+        direction = rotate(rotation, self._beam)  # type: ignore[arg-type]  # set when there is one beam
+        reach = (state.position_m, self._reach_m)
+        distance = cast_one(
+            self._scene, self._own_body, (px + mx, py + my, pz + mz), direction, self.max_range_m, reach
+        )
+        noise = float(self._rng.standard_normal()) * self.noise_std_m if self.noise_std_m else 0.0
+        reading = in_range(distance, noise, self.min_range_m, self.max_range_m)
+        self.latest = Ranges(state.step, np.array([reading], dtype=np.float32))
         return self.latest
 
     def tap(self, state: VehicleState) -> None:

@@ -47,6 +47,25 @@ def cast(
     return distances
 
 
+def cast_one(
+    scene: WorldClient,
+    own_body: int,
+    origin: Vec3,
+    direction: Vec3,
+    max_range_m: float,
+    reach: tuple[Vec3, float],
+) -> float:
+    """`cast` for one ray, in plain Python (a range finder's reading: a numpy array of one
+    costs ten times its rayTest): the distance to the first thing that is not `own_body`."""
+    ox, oy, oz = origin
+    dx, dy, dz = direction
+    end = (ox + dx * max_range_m, oy + dy * max_range_m, oz + dz * max_range_m)
+    body, _, fraction, _, _ = pb.rayTest(origin, end, physicsClientId=scene.posed())[0]
+    if body == own_body:  # seldom: the beam starts inside a part that is not a box
+        return float(cast(scene, own_body, np.array(origin), np.array([direction]), max_range_m, reach)[0])
+    return fraction * max_range_m if body >= 0 else math.inf
+
+
 def _leaving(origin: np.ndarray, directions: np.ndarray, reach: tuple[Vec3, float]) -> np.ndarray:
     """How far along each ray from `origin` it leaves the sphere `reach` (centre, radius), 0 where
     it is outside it from the start."""

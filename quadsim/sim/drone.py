@@ -97,6 +97,14 @@ class Drone:
             reset_on_crash=reset_on_crash,
             imu=imu,
         )
+        self._add_ranging(client, range_seed, lidar_seed)
+
+    def _add_ranging(
+        self, client: WorldClient, range_seed: np.random.SeedSequence, lidar_seed: np.random.SeedSequence
+    ) -> None:
+        """The range finder and the LiDAR the config asks for, sampled by loop taps at their rates
+        whether or not anyone listens (their noise depends on the seed and the steps alone)."""
+        config, rates = self.config, self.config.rates
         body, noisy = (self.physics.body_id, self.physics.reach_m), config.sensor_noise
         #: the range finder and the LiDAR, where the config turns them on (None: not carried)
         self.range_finder: ranging.RangingSensor | None = None
@@ -115,7 +123,7 @@ class Drone:
                         f"{self.vehicle.params_path.name}: [{table}] rate_hz = {hz} does not divide the physics rate "
                         f"{rates.physics_hz} Hz; choose a divisor of it ({divisors_shown(rates.physics_hz)})"
                     )
-                self.loop.add_tap(rates.every(hz), sensor.tap)  # sampled whether or not anyone listens
+                self.loop.add_tap(rates.every(hz), sensor.tap)
 
     # --- commanding -------------------------------------------------------------------------
 
