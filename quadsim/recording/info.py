@@ -106,6 +106,16 @@ class RecordingInfo:
             noise = "IMU noise on" if cfg.sensor_noise else "IMU noise off"
             wind = f"wind of its own ({d.wind_model.import_path})" if d.wind_model is not None else cfg.wind.describe()
             out.append(f"  {wind}, {noise}, seed {cfg.seed}")
+            ranging = [
+                what
+                for what in (
+                    "range finder" if cfg.range_finder else "",
+                    f"{cfg.lidar.value} LiDAR" if cfg.lidar else "",
+                )
+                if what
+            ]
+            if ranging and not d.fleet:
+                out.append(f"  {' and '.join(ranging)}")
             for cam in d.cameras:
                 out.append(
                     f"  camera {cam.name}: {cam.width_px}x{cam.height_px} @ {cam.rate_hz} Hz, "

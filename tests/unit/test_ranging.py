@@ -8,7 +8,7 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from quadsim import SimConfig, Simulator
+from quadsim import SimConfig, Simulator, Twist
 from quadsim.core.kinematics import matrix_from_quaternion, rotate
 from quadsim.core.types import LidarMode
 from quadsim.physics.pybullet_quiet import pb
@@ -144,3 +144,16 @@ def test_a_rate_that_does_not_divide_the_physics_rate_is_refused(tmp_path):
     with pytest.raises(ConfigError, match=r"\[range\] rate_hz = 50 does not divide the physics rate 240"):
         Simulator(SimConfig(urdf=DEFAULT_URDF, vehicle_params=params, range_finder=True))
     assert ranging.RangingSensor is not None
+
+
+def test_the_api_pages_example():
+    """docs/reference/api.md: the newest readings of a climbing vehicle's sensors."""
+    with Simulator(SimConfig(range_finder=True, lidar=LidarMode.PLANAR)) as sim:
+        sim.send(Twist(linear_z=1.0))
+        sim.run_for(2.0)
+        height = sim.drone.range_finder.latest.ranges_m[0]
+        scan = sim.drone.lidar.latest.ranges_m
+        z = sim.state.position_m[2]
+        assert height == pytest.approx(z + sim.drone.vehicle.range_finder.position_m[2], abs=0.1)
+        assert scan[len(scan) // 2] == pytest.approx(TOWER_FACE_X_M - sim.state.position_m[0], abs=0.1)
+        assert sim.drone.lidar.latest.step == sim.step_count  # 2 s: a scan's step
