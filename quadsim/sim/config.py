@@ -141,8 +141,9 @@ class SimConfig:
             "sensor_noise": self.sensor_noise,
             "seed": self.seed,
             "physics": self.physics.value,
-            "range_finder": self.range_finder,
-            "lidar": None if self.lidar is None else self.lidar.value,
+            # the ranging sensors only where a run has them: a run without is written as before them
+            **({"range_finder": True} if self.range_finder else {}),
+            **({"lidar": self.lidar.value} if self.lidar is not None else {}),
         }
 
 

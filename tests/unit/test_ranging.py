@@ -140,7 +140,7 @@ def test_a_rate_that_does_not_divide_the_physics_rate_is_refused(tmp_path):
     from quadsim.vehicle.params import DEFAULT_URDF, default_params_path
 
     params = tmp_path / "quad.params.toml"
-    params.write_text(default_params_path(DEFAULT_URDF).read_text().replace("rate_hz = 60", "rate_hz = 50"))
+    params.write_text(default_params_path(DEFAULT_URDF).read_text() + "\n[range]\nrate_hz = 50\n")
     with pytest.raises(ConfigError, match=r"\[range\] rate_hz = 50 does not divide the physics rate 240"):
         Simulator(SimConfig(urdf=DEFAULT_URDF, vehicle_params=params, range_finder=True))
     assert ranging.RangingSensor is not None
@@ -157,3 +157,30 @@ def test_the_api_pages_example():
         assert height == pytest.approx(z + sim.drone.vehicle.range_finder.position_m[2], abs=0.1)
         assert scan[len(scan) // 2] == pytest.approx(TOWER_FACE_X_M - sim.state.position_m[0], abs=0.1)
         assert sim.drone.lidar.latest.step == sim.step_count  # 2 s: a scan's step
+
+
+def test_each_airframes_tables_and_bad_ones(tmp_path):
+    from quadsim.errors import ConfigError
+    from quadsim.vehicle.params import SHIPPED_VEHICLES, RadiationType, default_params_path, load_vehicle
+
+    quad, crazyflie = load_vehicle(SHIPPED_VEHICLES["quad"]), load_vehicle(SHIPPED_VEHICLES["crazyflie"])
+    assert quad.range_finder.max_range_m == 12.0 and quad.lidar.channels == 16  # the defaults: no tables
+    assert (crazyflie.range_finder.rate_hz, crazyflie.range_finder.max_range_m, crazyflie.lidar.max_range_m) == (
+        40,
+        4.0,
+        8.0,
+    )
+    assert crazyflie.range_finder.radiation_type is RadiationType.INFRARED
+    base = default_params_path(SHIPPED_VEHICLES["quad"]).read_text()
+    for table, words in (
+        ('[range]\nradiation_type = "sonar"\n', "radiation_type must be"),
+        ("[range]\ndirection = [0, 0, 0]\n", "direction must not be zero"),
+        ("[range]\nmin_range_m = 5.0\nmax_range_m = 1.0\n", "min_range_m must be below max_range_m"),
+        ("[lidar]\nsamples = 4096\nchannels = 8\n", "over 16384 rays"),
+        ("[lidar]\nchannels = 2.5\n", "channels must be a whole number"),
+        ("[lidar]\nbeams = 3\n", "beams"),
+    ):
+        params = tmp_path / "quad.params.toml"
+        params.write_text(base + "\n" + table)
+        with pytest.raises(ConfigError, match=words):
+            load_vehicle(SHIPPED_VEHICLES["quad"], params)
