@@ -9,6 +9,7 @@ flown again faithfully.
 from __future__ import annotations
 
 import math
+import struct
 from bisect import bisect_right
 from dataclasses import dataclass, field
 from functools import cached_property
@@ -38,6 +39,10 @@ class RecordedFlight:
     body_velocities: list[tuple[float, float, float]] = field(default_factory=list)  # as /quad/odom has them
     commands: list[tuple[int, Twist]] = field(default_factory=list)  # (log time ns, twist)
     frames: dict[str, list[tuple[int, bytes]]] = field(default_factory=dict)  # camera -> (ns, jpeg)
+    #: the range finder's and the LiDAR's readings by contract topic (/quad/range, /quad/scan,
+    #: /quad/points, whatever the vehicle's name): (log time ns, its message's ranges as float32 or,
+    #: for points, its bytes)
+    ranging: dict[str, list[tuple[int, bytes]]] = field(default_factory=dict)
     events: list[tuple[int, str, str]] = field(default_factory=list)  # (step, kind, value)
     attachments: dict[str, bytes] = field(default_factory=dict)
     topics: dict[str, int] = field(default_factory=dict)  # topic -> message count
@@ -172,6 +177,8 @@ def load_flights(path: Path | str) -> dict[str, RecordedFlight]:
                 flight.commands.append((ns, rm.twist_from_msg(msg)))
             elif what.startswith(_FRAME):
                 flight.frames.setdefault(what.removeprefix(_FRAME), []).append((ns, bytes(msg.data)))
+            elif what in _RANGING:
+                flight.ranging.setdefault(what, []).append((ns, _readings(what, msg)))
             elif _finite(what, msg):
                 parts[flight.vehicle][what][ns] = msg
             else:
@@ -184,6 +191,20 @@ def load_flights(path: Path | str) -> dict[str, RecordedFlight]:
 
 
 _COMMAND = "command"
+#: the ranging sensors' topics, as the contract names them for a vehicle alone
+_RANGING = (rm.RANGE.name, rm.SCAN.name, rm.POINTS.name)
+
+
+def _readings(topic: str, msg: Any) -> bytes:
+    """A ranging message's readings as bytes to compare: the range or the scan's ranges (float32),
+    the cloud's points."""
+    if topic == rm.RANGE.name:
+        return struct.pack("<f", msg.range)
+    if topic == rm.SCAN.name:
+        return struct.pack(f"<{len(msg.ranges)}f", *msg.ranges)
+    return bytes(msg.data)
+
+
 IMAGE_TYPE = "sensor_msgs/msg/CompressedImage"
 _FRAME = "frame:"
 
@@ -198,6 +219,8 @@ def _wanted(
     for part in parts:
         wanted[names.topic(rm.Topic(part, "")).name] = (flight, part)
     wanted[names.topic(rm.TWIST).name] = (flight, _COMMAND)
+    for ranging in (rm.RANGE, rm.SCAN, rm.POINTS):
+        wanted[names.topic(ranging).name] = (flight, ranging.name)
     prefix = f"/{flight.vehicle}/" if flight.vehicle else "/"
     for t in types:
         if t.startswith(prefix) and t.endswith("/image_raw/compressed") and types[t] == IMAGE_TYPE:

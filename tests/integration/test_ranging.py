@@ -150,6 +150,37 @@ def test_a_recording_with_them_re_flies_to_the_same_bytes(recorded, tmp_path):
         assert before == [(t, ns, data) for t, _, ns, data in _raw(report.new_recording)]
 
 
+def test_check_compares_the_readings_and_sees_them_change(recorded, tmp_path):
+    """`check` re-flies the readings too: with another seed the flight is the same to the bit (the
+    sensors' noise flies nothing) and the readings are not, which fails the check."""
+    import json
+
+    from quadsim.apps.regression import CheckTask, check_one
+    from tests.helpers.recording import copy_recording
+
+    paths, _ = recorded
+    path = paths[LidarMode.PLANAR]
+    same = resimulate(load_flight(path), record=False, position_tolerance_m=0.001, attitude_tolerance_rad=0.001)
+    assert same.readings_identical is True and same.within(0.001, 0.001)
+    assert "/quad/range, /quad/scan readings: max 0 m" in "\n".join(same.lines())
+
+    def other_seed(name, data):
+        if name == "quadsim":
+            parameters = json.loads(data["parameters"])
+            parameters["config"]["seed"] = 4
+            data = {**data, "parameters": json.dumps(parameters)}
+        return data
+
+    changed = copy_recording(path, tmp_path / "other_seed.mcap", metadata=other_seed)
+    report = resimulate(load_flight(changed), record=False, position_tolerance_m=0.001, attitude_tolerance_rad=0.001)
+    (vehicle,) = report.vehicles.values()
+    assert vehicle.position.max_error == 0.0 and vehicle.attitude.max_error == 0.0
+    assert report.readings_identical is False and not report.within(0.001, 0.001)
+    assert vehicle.readings.max_error > 0.001 and vehicle.readings.first_beyond_s is not None
+    outcome = check_one(CheckTask(changed, 0.001, 0.001))
+    assert outcome.status == "changed" and "readings" in "\n".join(outcome.lines)
+
+
 def test_in_a_fleet_one_vehicles_lidar_sees_the_other(tmp_path):
     path = tmp_path / "fleet.mcap"
     parsed = parse_script(SCRIPT, "test")
