@@ -32,6 +32,7 @@ _PUBLIC = {
     "Drone": "quadsim.sim.drone",
     "Fleet": "quadsim.sim.fleet",
     "FleetVehicle": "quadsim.sim.fleet",
+    "LidarMode": "quadsim.core.types",
     "QuadsimError": "quadsim.errors",
     "Rates": "quadsim.sim.config",
     "ScriptError": "quadsim.errors",
@@ -61,6 +62,7 @@ __all__ = [
     "Drone",
     "Fleet",
     "FleetVehicle",
+    "LidarMode",
     "QuadsimError",
     "Rates",
     "ScriptError",
@@ -98,7 +100,7 @@ if TYPE_CHECKING:  # for type checkers and IDEs: the same names, eagerly
     from typing import Any
 
     from quadsim.control import Controller, ControllerKind
-    from quadsim.core.types import ActiveCommand, StartPose, Twist, VehicleState, ZMode
+    from quadsim.core.types import ActiveCommand, LidarMode, StartPose, Twist, VehicleState, ZMode
     from quadsim.errors import ConfigError, QuadsimError, ScriptError
     from quadsim.physics.wind import Turbulence, WindModel, WindSettings
     from quadsim.sensors.camera import CameraInfo, CameraSpec

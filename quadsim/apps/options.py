@@ -15,7 +15,7 @@ from typing import TYPE_CHECKING, Any
 
 from quadsim.control import ControllerKind
 from quadsim.core.invocation import program
-from quadsim.core.types import StartPose, Stepping, ZMode
+from quadsim.core.types import LidarMode, StartPose, Stepping, ZMode
 from quadsim.errors import QuadsimError
 from quadsim.live import FOXGLOVE_DEFAULT_ENDPOINT
 from quadsim.physics.wind import Turbulence, wind_from_text
@@ -194,6 +194,20 @@ def _add_wind_options(w: argparse._ArgumentGroup) -> None:
         action="store_true",
         help="publish the true IMU values on /quad/imu (default: with the MEMS noise and bias random "
         "walk of the vehicle's parameter file; /quad/odom and /quad/pose are always ground truth)",
+    )
+    w.add_argument(
+        "--range",
+        action="store_true",
+        help="a range finder on /quad/range (sensor_msgs/Range; REP 117: -inf too close, +inf no return), "
+        "its rate, beam, range and noise from the vehicle's parameter file [range] (down from under the body)",
+    )
+    w.add_argument(
+        "--lidar",
+        choices=[m.value for m in LidarMode],
+        default=None,
+        help="a LiDAR from ray casts, its rate, rays, range and noise from the vehicle's parameter file [lidar]: "
+        "2d, one ring on /quad/scan (sensor_msgs/LaserScan); 3d, its rings as points on /quad/points "
+        "(sensor_msgs/PointCloud2), in its frame lidar_link (default: none)",
     )
     w.add_argument(
         "--seed",
@@ -404,6 +418,8 @@ def sim_config(args: argparse.Namespace, script_z_mode: ZMode | None) -> SimConf
         sensor_noise=not args.no_sensor_noise,
         seed=args.seed,
         physics=args.physics,
+        range_finder=args.range,
+        lidar=args.lidar,
     )
 
 

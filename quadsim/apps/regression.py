@@ -65,6 +65,8 @@ def check_one(task: CheckTask) -> CheckOutcome:
     what = f" (a fleet of {report.fleet_size})" if report.fleet_size else ""
     if position == 0.0 and attitude == 0.0:  # bit for bit: said as such, not as an error of 0
         how = "flies again identically (position and attitude as recorded, to the bit)"
+        if report.readings_identical:
+            how += ", and its range finder and LiDAR read the same"
     else:
         how = f"position off by up to {position:.3g} m, attitude by up to {attitude:.3g} rad"
     lines = [f"{'ok   ' if ok else 'FAIL '} {path}{what}: {how}"]

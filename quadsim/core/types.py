@@ -108,6 +108,14 @@ class StartPose:
     yaw_rad: float = 0.0
 
 
+class LidarMode(enum.Enum):
+    """Which scan a run's LiDAR makes (quadsim.sensors.lidar): one ring (sensor_msgs/LaserScan)
+    or all its rings (sensor_msgs/PointCloud2)."""
+
+    PLANAR = "2d"
+    SPATIAL = "3d"
+
+
 class Stepping(enum.Enum):
     """Who steps a vehicle that touches nothing (a run's `physics` setting, recorded with it)."""
 

@@ -310,6 +310,87 @@ def _image_head(ns: int, frame: bytes, height: int, width: int, text: bytes) -> 
     return (ENCAPSULATION, sec, nanosec, len(frame) + 1, frame, height, width, len(text) + 1, text)
 
 
+@lru_cache(maxsize=256)
+def range_encoder(
+    frame_id: str,
+    radiation_type: int,
+    field_of_view_rad: float,
+    min_range_m: float,
+    max_range_m: float,
+    variance_m2: float = 0.0,
+) -> Callable[[int, float], bytes]:
+    """sensor_msgs/msg/Range as Jazzy has it (with `variance`, 0: unknown) from a fixed sensor in
+    `frame_id` (radiation_type 0 ultrasound, 1 infrared): encode(ns, range_m)."""
+    frame = frame_id.encode()
+    pack, length = _Layout().header(len(frame)).scalars("B").scalars("f", 5).build().pack, len(frame) + 1
+    fixed = (radiation_type, field_of_view_rad, min_range_m, max_range_m)
+
+    def encode(ns: int, range_m: float) -> bytes:
+        sec, nanosec = divmod(ns, NS_PER_S)
+        return pack(ENCAPSULATION, sec, nanosec, length, frame, *fixed, range_m, variance_m2)
+
+    return encode
+
+
+@lru_cache(maxsize=256)
+def laser_scan_encoder(
+    frame_id: str, angles: tuple[float, float, float], times: tuple[float, float], limits: tuple[float, float]
+) -> Callable[[int, bytes], bytes]:
+    """sensor_msgs/msg/LaserScan in `frame_id` with `angles` (min, max, increment), `times`
+    (time_increment, scan_time) and `limits` (range_min, range_max), no intensities:
+    encode(ns, ranges), `ranges` the float32 values as little-endian bytes."""
+    frame = frame_id.encode()
+    pack = _Layout().header(len(frame)).scalars("f", 7).scalars("I").build().pack
+    fixed = (len(frame) + 1, frame, *angles, *times, *limits)
+    no_intensities = struct.pack("<I", 0)  # ranges end 4-aligned: the count follows them directly
+
+    def encode(ns: int, ranges: bytes) -> bytes:
+        sec, nanosec = divmod(ns, NS_PER_S)
+        return pack(ENCAPSULATION, sec, nanosec, *fixed, len(ranges) // 4) + ranges + no_intensities
+
+    return encode
+
+
+#: sensor_msgs/msg/PointField's datatype for float32
+FLOAT32 = 7
+
+
+@lru_cache(maxsize=256)
+def xyz_cloud_encoder(frame_id: str) -> Callable[[int, bytes], bytes]:
+    """sensor_msgs/msg/PointCloud2 in `frame_id` of unordered points (height 1) with float32 x, y,
+    z fields, little-endian, dense: encode(ns, points), `points` 12 bytes a point."""
+    frame = frame_id.encode()
+    layout = _Layout().header(len(frame)).scalars("I", 2).scalars("I")  # height, width, field count
+    fields: list[object] = []
+    for offset, name in enumerate((b"x", b"y", b"z")):
+        layout = layout.string(1).scalars("I").scalars("B").scalars("I")  # name, offset, datatype, count
+        fields += (2, name, 4 * offset, FLOAT32, 1)
+    pack = layout.scalars("?").scalars("I", 2).scalars("I").build().pack  # is_bigendian, steps, data count
+    dense = b"\x01"
+
+    def encode(ns: int, points: bytes) -> bytes:
+        sec, nanosec = divmod(ns, NS_PER_S)
+        width = len(points) // 12
+        head = pack(
+            ENCAPSULATION,
+            sec,
+            nanosec,
+            len(frame) + 1,
+            frame,
+            1,
+            width,
+            3,
+            *fields,
+            False,
+            12,
+            len(points),
+            len(points),
+        )
+        return head + points + dense
+
+    return encode
+
+
 class RegionOfInterest(NamedTuple):
     x_offset: int = 0
     y_offset: int = 0

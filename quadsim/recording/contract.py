@@ -1,9 +1,10 @@
 """The recording contract (docs/recordings.md): topics, their ROS 2 types and QoS, frames, schemas.
 
 Messages are encoded by `quadsim.recording.cdr` (by hand, byte for byte what ROS 2 writes) and
-made once per step by `quadsim.recording.fanout`. rosbags' typestore (ROS 2 Humble) stays the
-reference: it gives the `ros2msg` schema texts (dependencies concatenated the way rosbag2 writes
-them) and decodes recordings; it is imported only when one of those is needed.
+made once per step by `quadsim.recording.fanout`. rosbags' typestore (ROS 2 Humble, with the few
+types that changed since taken from Jazzy: JAZZY_TYPES) stays the reference: it gives the
+`ros2msg` schema texts (dependencies concatenated the way rosbag2 writes them), the live ROS 2
+bridge's DDS types, and decodes recordings; it is imported only when one of those is needed.
 """
 
 from __future__ import annotations
@@ -71,6 +72,15 @@ GOALS = (
 #: (quadsim.sensors.images.segment_names); the run's one, in runs with a segmenting camera
 SEGMENTATION_LABELS = Topic("/world/segmentation_labels", "std_msgs/msg/String", QOS_LATCHED)
 STATE_TOPICS = (POSE, ODOM, IMU, ROTOR_THRUSTS, TF)
+#: the range finder's readings, in runs with it (REP 117: +-inf out of range)
+RANGE = Topic("/quad/range", "sensor_msgs/msg/Range")
+#: the LiDAR's 2D scans, or its 3D scans as points in its frame, in runs with it
+SCAN = Topic("/quad/scan", "sensor_msgs/msg/LaserScan")
+POINTS = Topic("/quad/points", "sensor_msgs/msg/PointCloud2")
+#: the range finder's frame (x along its beam, as sensor_msgs/Range has it) and the LiDAR's
+#: (base_link's axes), each with a static transform from base_link
+RANGE_FRAME = "range_finder_link"
+LIDAR_FRAME = "lidar_link"
 #: topics every quadsim recording has (cameras and /joy depend on the run)
 CORE_TOPICS = (TWIST.name, *(t.name for t in STATE_TOPICS), TF_STATIC.name)
 
@@ -140,12 +150,22 @@ def frame_topics(spec: CameraSpec) -> tuple[Topic, ...]:
     return tuple(topics)
 
 
+#: the contract's types whose definition changed after Humble, as Jazzy and Kilted (the ROS 2
+#: releases the live bridge serves) have them: sensor_msgs/Range gained `variance` in Jazzy, and a
+#: Jazzy node cannot read a Humble Range (4 bytes short)
+JAZZY_TYPES = ("sensor_msgs/msg/Range",)
+
+
 @cache
 def typestore() -> Any:
-    """rosbags' ROS 2 Humble typestore: the reference for schemas and for decoding."""
+    """rosbags' ROS 2 Humble typestore with JAZZY_TYPES as Jazzy has them: the reference for
+    schemas, the live bridge's types and decoding."""
     from rosbags.typesys import Stores, get_typestore
 
-    return get_typestore(Stores.ROS2_HUMBLE)
+    humble, jazzy = get_typestore(Stores.ROS2_HUMBLE), get_typestore(Stores.ROS2_JAZZY)
+    store = get_typestore(Stores.EMPTY)
+    store.register({**humble.fielddefs, **{name: jazzy.fielddefs[name] for name in JAZZY_TYPES}})
+    return store
 
 
 @cache

@@ -14,6 +14,7 @@ would on a live bus.
 from __future__ import annotations
 
 import json
+import math
 from collections.abc import Callable, Sequence
 from functools import lru_cache
 from typing import NamedTuple, Protocol
@@ -21,15 +22,20 @@ from typing import NamedTuple, Protocol
 import numpy as np
 
 from quadsim.core.kinematics import body_velocity, quaternion_from_matrix
-from quadsim.core.types import Twist, VehicleState
+from quadsim.core.types import LidarMode, Twist, VehicleState
 from quadsim.physics.world_spec import WorldSpec
 from quadsim.recording import cdr
 from quadsim.recording.contract import (
     BODY_FRAME,
     JOY,
+    LIDAR_FRAME,
+    POINTS,
+    RANGE,
+    RANGE_FRAME,
     ROBOT_DESCRIPTION,
     ROBOT_MARKERS,
     ROSOUT,
+    SCAN,
     SEGMENTATION_LABELS,
     STATE_TOPICS,
     TF_STATIC,
@@ -47,9 +53,10 @@ from quadsim.recording.contract import (
     segmentation_image_topic,
 )
 from quadsim.recording.scene import link_transforms, robot_description, robot_markers, world_markers
+from quadsim.sensors.beams import Ranges, beam_directions, frame_rotation, xyz_points
 from quadsim.sensors.camera import CameraFrame, CameraSpec
 from quadsim.sensors.images import segment_names
-from quadsim.vehicle.params import CameraMount, VehicleParams
+from quadsim.vehicle.params import CameraMount, RangeParams, VehicleParams
 
 NS_PER_S = 1_000_000_000
 JOY_FRAME = "joy"
@@ -154,13 +161,16 @@ class TopicFanout:
         names: Names = ONE_VEHICLE,
         cameras: Sequence[tuple[CameraSpec, CameraMount]] = (),
         vehicle: VehicleParams | None = None,
+        range_finder: RangeParams | None = None,
+        lidar: LidarMode | None = None,
     ) -> VehicleTopics:
         """A vehicle's producer: its topics under `names` (a run of one vehicle: the contract's),
-        its cameras' images and infos, and with `vehicle` its links and robot description. Every
-        vehicle is added before the first consumer (which gets their latched messages)."""
+        its cameras' images and infos, and with `vehicle` its links and robot description, and
+        its range finder's (as it flies: its noise 0 in a run without) and LiDAR's if it carries them. Every vehicle is added before the
+        first consumer (which gets their latched messages)."""
         if self.consumers:
             raise RuntimeError("a run's vehicles are added to its fan-out before its consumers")
-        topics = VehicleTopics(self, names, cameras, vehicle)
+        topics = VehicleTopics(self, names, cameras, vehicle, range_finder, lidar)
         self.vehicles.append(topics)
         self._known.update(topic.name for topic in topics.topics)
         return topics
@@ -281,7 +291,11 @@ class VehicleTopics:
         names: Names = ONE_VEHICLE,
         cameras: Sequence[tuple[CameraSpec, CameraMount]] = (),
         vehicle: VehicleParams | None = None,
+        range_finder: RangeParams | None = None,
+        lidar: LidarMode | None = None,
     ) -> None:
+        """`range_finder`: the vehicle's range finder as it flies (its [range]; noise 0 in a run
+        without); `lidar`: the scan its LiDAR ([lidar]) makes. None: it carries none."""
         self.fanout = fanout
         self.names = names
         t, body = names.topic, names.frame(BODY_FRAME)
@@ -311,6 +325,9 @@ class VehicleTopics:
             )
             for spec, mount in cameras
         ]
+        if (range_finder is not None or lidar is not None) and vehicle is None:
+            raise ValueError("a range finder's or LiDAR's topics need the vehicle's parameters")
+        static += self._ranging(names, vehicle, range_finder, lidar)
         #: base_link -> every URDF link and camera (stamped when sent)
         self.static_transforms = [
             s._replace(frame_id=names.frame(s.frame_id), child_frame_id=names.frame(s.child_frame_id)) for s in static
@@ -320,6 +337,46 @@ class VehicleTopics:
         self._robot_description: dict[bool, bytes] = {}
         self._robot_markers: dict[bool, list[cdr.Marker]] = {}
         self.topics += [self._description, self._markers] if vehicle is not None else []
+
+    def _ranging(
+        self, names: Names, vehicle: VehicleParams | None, r: RangeParams | None, lidar: LidarMode | None
+    ) -> list[cdr.TransformStamped]:
+        """The range finder's and the LiDAR's topics and encoders, where the vehicle carries them;
+        their frames' static transforms from base_link."""
+        static: list[cdr.TransformStamped] = []
+        self._range = self._scan = self._points = None
+        if vehicle is None:
+            return static
+        if r is not None:
+            self._range = names.topic(RANGE)
+            self._range_encoder = cdr.range_encoder(
+                names.frame(RANGE_FRAME),
+                r.radiation_type.wire,
+                r.field_of_view_rad,
+                r.min_range_m,
+                r.max_range_m,
+                r.noise_std_m**2,
+            )
+            self.topics.append(self._range)
+            static.append(cdr.TransformStamped(0, BODY_FRAME, RANGE_FRAME, r.position_m, frame_rotation(r.direction)))
+        if lidar is not None:
+            p, frame = vehicle.lidar, names.frame(LIDAR_FRAME)
+            static.append(cdr.TransformStamped(0, BODY_FRAME, LIDAR_FRAME, p.position_m, (0.0, 0.0, 0.0, 1.0)))
+            if lidar is LidarMode.PLANAR:
+                increment = 2.0 * math.pi / p.samples
+                angles = (-math.pi, -math.pi + (p.samples - 1) * increment, increment)
+                # every beam of a scan is cast at once: no time between them
+                self._scan_encoder = cdr.laser_scan_encoder(
+                    frame, angles, (0.0, 1.0 / p.rate_hz), (p.min_range_m, p.max_range_m)
+                )
+                self._scan = names.topic(SCAN)
+                self.topics.append(self._scan)
+            else:
+                self._cloud_encoder = cdr.xyz_cloud_encoder(frame)
+                self._beams = beam_directions(p, lidar)
+                self._points = names.topic(POINTS)
+                self.topics.append(self._points)
+        return static
 
     def own_latched(self, step: int, local_files: bool = False) -> tuple[Message, ...]:
         """The latched messages that are this vehicle's alone: its robot description and its
@@ -399,6 +456,25 @@ class VehicleTopics:
             encoding = "mono8" if frame.labels.dtype == np.uint8 else "16UC1"
             messages.append((camera.segmentation, ns, _image(ns, camera.frame, encoding, frame.labels)))
         fanout.publish(messages)
+
+    def on_range(self, reading: Ranges) -> None:
+        """A range finder's reading (its one beam) -> /quad/range."""
+        fanout = self.fanout
+        if self._range is not None and fanout.consumers:
+            ns = fanout.ns(reading.step)
+            fanout.publish(((self._range, ns, self._range_encoder(ns, float(reading.ranges_m[0]))),))
+
+    def on_scan(self, scan: Ranges) -> None:
+        """A LiDAR's scan -> /quad/scan (2D), or its returns as points in its frame -> /quad/points (3D)."""
+        fanout = self.fanout
+        if not fanout.consumers:
+            return
+        ns = fanout.ns(scan.step)
+        if self._scan is not None:
+            fanout.publish(((self._scan, ns, self._scan_encoder(ns, scan.ranges_m.astype("<f4").tobytes())),))
+        elif self._points is not None:
+            points = xyz_points(self._beams, scan.ranges_m)
+            fanout.publish(((self._points, ns, self._cloud_encoder(ns, points.astype("<f4").tobytes())),))
 
     def on_joy(self, step: int, axes: Sequence[float], buttons: Sequence[int]) -> None:
         """Joystick axes and buttons in the ROS `joy` convention -> /joy."""

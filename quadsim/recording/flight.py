@@ -9,6 +9,7 @@ flown again faithfully.
 from __future__ import annotations
 
 import math
+import struct
 from bisect import bisect_right
 from dataclasses import dataclass, field
 from functools import cached_property
@@ -40,6 +41,10 @@ class RecordedFlight:
     #: camera -> (ns, jpeg); with `load_flights(depth=True)`, also CAMERA_depth: its depth images
     #: colour-mapped (quadsim.sensors.images.depth_colour_mapped), as JPEG
     frames: dict[str, list[tuple[int, bytes]]] = field(default_factory=dict)
+    #: the range finder's and the LiDAR's readings by contract topic (/quad/range, /quad/scan,
+    #: /quad/points, whatever the vehicle's name): (log time ns, its message's ranges as float32 or,
+    #: for points, its bytes)
+    ranging: dict[str, list[tuple[int, bytes]]] = field(default_factory=dict)
     events: list[tuple[int, str, str]] = field(default_factory=list)  # (step, kind, value)
     attachments: dict[str, bytes] = field(default_factory=dict)
     topics: dict[str, int] = field(default_factory=dict)  # topic -> message count
@@ -182,6 +187,8 @@ def load_flights(path: Path | str, depth: bool = False) -> dict[str, RecordedFli
                     reader.undecodable[topic] = reader.undecodable.get(topic, 0) + 1
                 else:
                     flight.frames.setdefault(what.removeprefix(_DEPTH) + DEPTH_SUFFIX, []).append((ns, jpeg))
+            elif what in _RANGING:
+                flight.ranging.setdefault(what, []).append((ns, _readings(what, msg)))
             elif _finite(what, msg):
                 parts[flight.vehicle][what][ns] = msg
             else:
@@ -194,6 +201,20 @@ def load_flights(path: Path | str, depth: bool = False) -> dict[str, RecordedFli
 
 
 _COMMAND = "command"
+#: the ranging sensors' topics, as the contract names them for a vehicle alone
+_RANGING = (rm.RANGE.name, rm.SCAN.name, rm.POINTS.name)
+
+
+def _readings(topic: str, msg: Any) -> bytes:
+    """A ranging message's readings as bytes to compare: the range or the scan's ranges (float32),
+    the cloud's points."""
+    if topic == rm.RANGE.name:
+        return struct.pack("<f", msg.range)
+    if topic == rm.SCAN.name:
+        return struct.pack(f"<{len(msg.ranges)}f", *msg.ranges)
+    return bytes(msg.data)
+
+
 IMAGE_TYPE = "sensor_msgs/msg/CompressedImage"
 _FRAME = "frame:"
 _DEPTH = "depth:"
@@ -227,6 +248,8 @@ def _wanted(
     for part in parts:
         wanted[names.topic(rm.Topic(part, "")).name] = (flight, part)
     wanted[names.topic(rm.TWIST).name] = (flight, _COMMAND)
+    for ranging in (rm.RANGE, rm.SCAN, rm.POINTS):
+        wanted[names.topic(ranging).name] = (flight, ranging.name)
     prefix = f"/{flight.vehicle}/" if flight.vehicle else "/"
     for t in types:
         if t.startswith(prefix) and t.endswith("/image_raw/compressed") and types[t] == IMAGE_TYPE:

@@ -4,7 +4,7 @@ plots, the log, and Teleop panels on the command topic of each vehicle a Foxglov
 A Foxglove 3D panel draws no topic until it is turned on, in every app from Foxglove Studio 1.x
 to the current Foxglove app and Lichtblick; the layout turns on each vehicle's model markers
 (/robot_markers, /alpha/robot_markers: scene.robot_markers) and /world/markers, which every one
-of them draws in the vehicle's own frames. A URDF layer cannot do that in Studio 1.x (it reads
+of them draws in the vehicle's own frames, and each vehicle's LiDAR (/quad/scan, /quad/points). A URDF layer cannot do that in Studio 1.x (it reads
 /robot_description alone, with no frame prefix), so the layout uses none. Its /robot_description
 stays off for the same reason: with both on, a vehicle alone would be drawn twice.
 
@@ -29,10 +29,12 @@ from typing import Any
 from quadsim.recording.contract import (
     BODY_FRAME,
     ODOM,
+    POINTS,
     POSE,
     ROBOT_DESCRIPTION,
     ROBOT_MARKERS,
     ROSOUT,
+    SCAN,
     TWIST,
     WORLD_FRAME,
     WORLD_MARKERS,
@@ -59,9 +61,10 @@ MIN_FLEET_DISTANCE_M = 8.0
 class LayoutVehicle:
     """What the layout shows of one vehicle: its name ("" for a vehicle alone), the topic its
     model is drawn from (None: nothing to draw it with), its cameras' image topics, where it
-    starts (x, y, m), whether a Foxglove client flies it (a Teleop panel), and its TF frames
+    starts (x, y, m), whether a Foxglove client flies it (a Teleop panel), its TF frames
     (base_link, its links', its cameras'), whose axes the layout hides: a fleet's forty arrows
-    and the lines from `world` to each vehicle would hide the models."""
+    and the lines from `world` to each vehicle would hide the models, and its LiDAR's topics
+    (a LaserScan's, a PointCloud2's), which the 3D panel draws around it."""
 
     name: str
     model_topic: str | None
@@ -69,6 +72,7 @@ class LayoutVehicle:
     start_xy_m: tuple[float, float] = (0.0, 0.0)
     teleop: bool = False
     frames: tuple[str, ...] = ()
+    scan_topics: tuple[str, ...] = ()
 
     @property
     def names(self) -> Names:
@@ -106,7 +110,8 @@ def vehicles_from_topics(
         images = tuple(t for t in names if t.startswith(f"{prefix}/quad/") and t.endswith(IMAGE_SUFFIX))
         start = (starts or {}).get(name, (0.0, 0.0))
         own_frames = tuple(f for f in all_frames if not name or f.startswith(f"{name}/"))
-        vehicles.append(LayoutVehicle(name, model, images, start, name in teleop, own_frames))
+        scans = tuple(t for t in (own.topic(SCAN).name, own.topic(POINTS).name) if t in present)
+        vehicles.append(LayoutVehicle(name, model, images, start, name in teleop, own_frames, scans))
     return vehicles
 
 
@@ -183,6 +188,8 @@ def _three_dee(vehicles: Sequence[LayoutVehicle], world: bool) -> dict[str, Any]
     topics = {v.model_topic: {"visible": True} for v in vehicles if v.model_topic is not None}
     if world:
         topics[WORLD_MARKERS.name] = {"visible": True}
+    for vehicle in vehicles:
+        topics.update({topic: {"visible": True} for topic in vehicle.scan_topics})
     if len(vehicles) == 1:
         follow, target, distance = vehicles[0].names.frame(BODY_FRAME), (0.0, 0.0), FOLLOW_DISTANCE_M
     else:

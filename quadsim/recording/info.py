@@ -8,6 +8,7 @@ import math
 from dataclasses import dataclass
 from pathlib import Path
 
+from quadsim.core.types import LidarMode
 from quadsim.recording.contract import CORE_TOPICS
 from quadsim.recording.mcap_scan import Damage
 from quadsim.recording.reader import RecordingReader
@@ -106,6 +107,8 @@ class RecordingInfo:
             noise = "IMU noise on" if cfg.sensor_noise else "IMU noise off"
             wind = f"wind of its own ({d.wind_model.import_path})" if d.wind_model is not None else cfg.wind.describe()
             out.append(f"  {wind}, {noise}, seed {cfg.seed}")
+            if (cfg.range_finder or cfg.lidar) and not d.fleet:
+                out.append(_ranging_line(cfg.range_finder, cfg.lidar))
             for cam in d.cameras:
                 out.append(
                     f"  camera {cam.name}: {cam.width_px}x{cam.height_px} @ {cam.rate_hz} Hz, "
@@ -171,3 +174,9 @@ def read_info(path: Path) -> RecordingInfo:
             tuple(reader.notes),
             f.damage_report() if reader.damage else "",
         )
+
+
+def _ranging_line(range_finder: bool, lidar: LidarMode | None) -> str:
+    """The ranging sensors a vehicle carried: "  range finder and 3d LiDAR"."""
+    carried = ["range finder"] if range_finder else []
+    return "  " + " and ".join([*carried, *([f"{lidar.value} LiDAR"] if lidar is not None else [])])

@@ -92,7 +92,15 @@ class RecordedRun:
         self.topics: dict[str, VehicleTopics] = {}
         for drone in fleet.members:
             mounts = tuple((spec, drone.vehicle.camera_mount(spec.link_name)) for spec in specs.get(drone.name, ()))
-            self.topics[drone.name] = self.fanout.add_vehicle(Names(drone.name), mounts, drone.vehicle)
+            self.topics[drone.name] = self.fanout.add_vehicle(
+                Names(drone.name),
+                mounts,
+                drone.vehicle,
+                None
+                if (r := drone.range_finder) is None
+                else replace(drone.vehicle.range_finder, noise_std_m=r.noise_std_m),
+                drone.config.lidar,
+            )
         #: each vehicle's camera pipeline, by name (those with cameras)
         self.pipelines: dict[str, CameraPipeline] = {}
         self._said_dropping: set[str] = set()  # the vehicles whose dropped frames /rosout has heard of
@@ -187,14 +195,22 @@ class RecordedRun:
         self._listening = on
         for drone in self.fleet.members:
             topics, pipeline = self.topics[drone.name], self.pipelines.get(drone.name)
+            ranging = [
+                (s.sinks, f) for s, f in ((drone.range_finder, topics.on_range), (drone.lidar, topics.on_scan)) if s
+            ]
             if on:
                 drone.add_sink(topics)
                 if pipeline is not None:
                     pipeline.sinks.append(topics)
+                for sinks, sink in ranging:
+                    sinks.append(sink)
             else:
                 drone.remove_sink(topics)
                 if pipeline is not None and topics in pipeline.sinks:
                     pipeline.sinks.remove(topics)
+                for sinks, sink in ranging:
+                    if sink in sinks:
+                        sinks.remove(sink)
 
     # --- recording ------------------------------------------------------------------------------
 

@@ -10,19 +10,22 @@ import tempfile
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, fields, replace
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
 
 from quadsim.control import Controller, ControllerKind, remake_controller
 from quadsim.control.landing import LandingSettings
 from quadsim.core.invocation import program
 from quadsim.core.kinematics import body_velocity
 from quadsim.core.parts import part_class
-from quadsim.core.types import VehicleState, ZMode
+from quadsim.core.types import LidarMode, VehicleState, ZMode
 from quadsim.drivers.replay import ReplayDriver
 from quadsim.errors import QuadsimError
 from quadsim.physics.wind import WIND_MODEL_METHODS, WindModel
-from quadsim.recording.contract import ODOM, POSE, Names
+from quadsim.recording.contract import ODOM, POINTS, POSE, RANGE, SCAN, Names, Topic
 from quadsim.recording.flight import RecordedFlight
+from quadsim.sensors.beams import xyz_points
 from quadsim.session.outputs import OutputOptions
 from quadsim.session.plan import RunPlan
 from quadsim.session.run import Run, to_the_end
@@ -31,6 +34,9 @@ from quadsim.sim.description import WindModelDescription
 from quadsim.sim.fleet import Fleet, FleetVehicle
 from quadsim.sim.loop import StateLog
 from quadsim.vehicle.params import load_vehicle
+
+if TYPE_CHECKING:
+    from quadsim.sim.drone import Drone
 
 
 @dataclass(frozen=True)
@@ -54,13 +60,17 @@ class VehicleReport:
     position: Deviation
     attitude: Deviation
     velocity: Deviation
+    #: the range finder's and the LiDAR's readings against the recorded ones, each a distance
+    #: judged by the position tolerance (None: the vehicle had neither)
+    readings: Deviation | None = None
 
     def within(self, position_m: float, attitude_rad: float) -> bool:
-        return self.position.max_error <= position_m and self.attitude.max_error <= attitude_rad
+        readings = self.readings is None or self.readings.max_error <= position_m
+        return self.position.max_error <= position_m and self.attitude.max_error <= attitude_rad and readings
 
     def lines(self) -> list[str]:
         out = []
-        for d in (self.position, self.attitude, self.velocity):
+        for d in (self.position, self.attitude, self.velocity, *((self.readings,) if self.readings else ())):
             where = f", first beyond tolerance at t={d.first_beyond_s:.2f} s" if d.first_beyond_s is not None else ""
             out.append(
                 f"  {d.topic} {d.quantity}: max {d.max_error:.6g} {d.unit} at t={d.max_at_s:.2f} s, "
@@ -95,6 +105,12 @@ class ResimReport:
     def attitude(self) -> Deviation:
         """The attitude deviation of the vehicle that turned furthest from its recording."""
         return max((r.attitude for r in self.vehicles.values()), key=lambda d: d.max_error)
+
+    @property
+    def readings_identical(self) -> bool | None:
+        """Whether every ranging reading re-flew to the bit (None: no vehicle had a ranging sensor)."""
+        found = [r.readings.max_error == 0.0 for r in self.vehicles.values() if r.readings is not None]
+        return all(found) if found else None
 
     @property
     def fleet_size(self) -> int:
@@ -252,15 +268,20 @@ def resimulate(
     with tempfile.TemporaryDirectory(prefix="quadsim-resim-") as tmp:
         plan = _plan(flights, Path(tmp), OutputOptions(record=record, out=out, cameras=()))
         logs = {name: StateLog() for name in flights}
+        readings: dict[str, ReadingLog] = {}
         with _rebuild(plan, first, tmp) as fleet, Run(plan, fleet) as run:
             for name, log in logs.items():
                 fleet[name].add_sink(log)
+                readings[name] = ReadingLog(fleet[name])
             run.fly(progress=progress, stop=to_the_end)
             new_path = run.outputs.path
             stepping_wall_s = run.wall_s
     hz = plan.config.rates.physics_hz
     reports = {
-        name: compare_states(flight, logs[name], hz, position_tolerance_m, attitude_tolerance_rad)
+        name: replace(
+            compare_states(flight, logs[name], hz, position_tolerance_m, attitude_tolerance_rad),
+            readings=readings[name].compared(flight, position_tolerance_m),
+        )
         for name, flight in flights.items()
     }
     return ResimReport(first.path, reports, new_path, run.end_step / hz, stepping_wall_s)
@@ -280,7 +301,16 @@ def _plan(flights: Mapping[str, RecordedFlight], folder: Path, outputs: OutputOp
         driver = ReplayDriver(commands, label, command_timeout_s=own.command_timeout_s)
         vehicles.append(
             FleetVehicle(
-                name, own.start, own.urdf, own.vehicle_params, _controller(flight, own), own.z_mode, driver, gains
+                name,
+                own.start,
+                own.urdf,
+                own.vehicle_params,
+                _controller(flight, own),
+                own.z_mode,
+                driver,
+                gains,
+                own.range_finder,
+                own.lidar,
             )
         )
         switches += [(step, name, ZMode(value)) for step, kind, value in flight.events if kind == "z_mode"]
@@ -347,6 +377,58 @@ def _rebuild(plan: RunPlan, first: RecordedFlight, folder: str) -> Fleet:
         raise QuadsimError(
             f"{first.path}: cannot rebuild the {what} from its parameters and attachments: {why}"
         ) from None
+
+
+class ReadingLog:
+    """A re-flown vehicle's ranging readings, kept as the recording has them (RecordedFlight.ranging):
+    by contract topic, log time ns -> the range or ranges as float32 bytes, a cloud's points."""
+
+    def __init__(self, drone: Drone) -> None:
+        self.readings: dict[str, dict[int, bytes]] = {}
+        self._ns = drone.loop.rates.physics_hz
+        if drone.range_finder is not None:
+            drone.range_finder.sinks.append(
+                lambda r: self._keep(RANGE.name, r.step, r.ranges_m.astype("<f4").tobytes())
+            )
+        lidar = drone.lidar
+        if lidar is not None:
+            if drone.config.lidar is LidarMode.PLANAR:
+                lidar.sinks.append(lambda r: self._keep(SCAN.name, r.step, r.ranges_m.astype("<f4").tobytes()))
+            else:
+                directions = lidar.directions
+                lidar.sinks.append(
+                    lambda r: self._keep(
+                        POINTS.name, r.step, xyz_points(directions, r.ranges_m).astype("<f4").tobytes()
+                    )
+                )
+
+    def _keep(self, topic: str, step: int, data: bytes) -> None:
+        self.readings.setdefault(topic, {})[step * 1_000_000_000 // self._ns] = data
+
+    def compared(self, flight: RecordedFlight, tolerance_m: float | None) -> Deviation | None:
+        """The recorded readings against these, message by message: the largest difference of a
+        range (or a point's coordinate) in m; a reading missing, or finite on one side alone, is
+        an infinite one. None: the recording has no ranging readings."""
+        if not flight.ranging:
+            return None
+        names = Names(flight.vehicle)
+        errors: list[tuple[float, float]] = []
+        for topic, recorded in flight.ranging.items():
+            mine = self.readings.get(topic, {})
+            errors += [(ns / 1e9, _reading_error(data, mine.get(ns))) for ns, data in recorded]
+        topics = ", ".join(names.topic(Topic(t, "")).name for t in flight.ranging)
+        return _deviation(topics, "readings", "m", errors, tolerance_m)
+
+
+def _reading_error(recorded: bytes, again: bytes | None) -> float:
+    """The largest difference between two readings' float32 values (0: the same bytes)."""
+    if recorded == again:
+        return 0.0
+    if again is None or len(again) != len(recorded):
+        return math.inf
+    a, b = np.frombuffer(recorded, "<f4").astype(float), np.frombuffer(again, "<f4").astype(float)
+    differ = ~((a == b) | (np.isnan(a) & np.isnan(b)))
+    return float(np.abs(a[differ] - b[differ]).max())  # inf where one side is finite and the other not
 
 
 def compare_states(

@@ -11,7 +11,7 @@ from pathlib import Path
 from typing import Any, TypeVar
 
 from quadsim.control import ControllerKind
-from quadsim.core.types import StartPose, Stepping, ZMode
+from quadsim.core.types import LidarMode, StartPose, Stepping, ZMode
 from quadsim.errors import ConfigError
 from quadsim.physics.wind import WindSettings
 
@@ -80,6 +80,10 @@ class SimConfig:
     #: default, about twice as fast) or PyBullet itself (for checking; recordings made before
     #: quadsim had its own step re-fly this way)
     physics: Stepping = Stepping.QUADSIM
+    #: a range finder on /quad/range (the vehicle parameter file's [range])
+    range_finder: bool = False
+    #: a LiDAR (the vehicle parameter file's [lidar]): 2D scans on /quad/scan, 3D on /quad/points; None: none
+    lidar: LidarMode | None = None
 
     def __post_init__(self) -> None:
         # the names the command line takes are accepted for the enumerations ("height", "seed")
@@ -87,13 +91,15 @@ class SimConfig:
         object.__setattr__(self, "physics", enum_choice(Stepping, self.physics, "physics"))
         if self.z_mode is not None:
             object.__setattr__(self, "z_mode", enum_choice(ZMode, self.z_mode, "z_mode"))
+        if self.lidar is not None:
+            object.__setattr__(self, "lidar", enum_choice(LidarMode, self.lidar, "lidar"))
         seed = self.seed
         if isinstance(seed, bool) or not isinstance(seed, int) or not 0 <= seed <= MAX_SEED:
             raise ConfigError(f"seed must be a whole number in [0, 2^63 - 1], got {seed!r}")
         for name, kind in (("wind", WindSettings), ("rates", Rates), ("start", StartPose)):
             if not isinstance(getattr(self, name), kind):
                 raise ConfigError(f"{name} must be a {kind.__name__}, got {type(getattr(self, name)).__name__}")
-        for name in ("gui", "sensor_noise"):
+        for name in ("gui", "sensor_noise", "range_finder"):
             if not isinstance(getattr(self, name), bool):
                 raise ConfigError(f"{name} must be True or False, got {getattr(self, name)!r}")
         for name in ("x_m", "y_m", "yaw_rad"):
@@ -135,6 +141,9 @@ class SimConfig:
             "sensor_noise": self.sensor_noise,
             "seed": self.seed,
             "physics": self.physics.value,
+            # the ranging sensors only where a run has them: a run without is written as before them
+            **({"range_finder": True} if self.range_finder else {}),
+            **({"lidar": self.lidar.value} if self.lidar is not None else {}),
         }
 
 

@@ -25,7 +25,7 @@ from typing import Any
 
 from quadsim.control import ControllerKind
 from quadsim.core.parts import IMPORT_PATH, import_path
-from quadsim.core.types import StartPose, Stepping, ZMode
+from quadsim.core.types import LidarMode, StartPose, Stepping, ZMode
 from quadsim.errors import QuadsimError
 from quadsim.physics.wind import Turbulence, WindSettings
 from quadsim.physics.world_spec import WorldSpec
@@ -274,8 +274,10 @@ def _config(cfg: _Fields, version: int) -> SimConfig:
         wind_f.where,
     )
     noise = cfg.raw("sensor_noise", default=version >= 2)
-    if not isinstance(noise, bool):
-        raise DescriptionError(f"{cfg.where}.sensor_noise: expected true or false, got {noise!r}")
+    ranging = cfg.raw("range_finder", default=False)  # a recording made before the range finder had none
+    for key, value in (("sensor_noise", noise), ("range_finder", ranging)):
+        if not isinstance(value, bool):
+            raise DescriptionError(f"{cfg.where}.{key}: expected true or false, got {value!r:.40}")
     return SimConfig(
         urdf=cfg.path("urdf"),
         vehicle_params=cfg.path("vehicle_params"),
@@ -294,6 +296,8 @@ def _config(cfg: _Fields, version: int) -> SimConfig:
         seed=cfg.integer("seed", default=0, low=0, high=MAX_SEED),
         # a recording made before quadsim had its own step was flown by PyBullet's alone
         physics=cfg.choice("physics", Stepping) if cfg.raw("physics") is not None else Stepping.PYBULLET,
+        range_finder=ranging,
+        lidar=cfg.choice("lidar", LidarMode) if cfg.raw("lidar") is not None else None,
     )
 
 

@@ -23,12 +23,13 @@ from quadsim.core.types import Twist, VehicleState, ZMode
 from quadsim.drivers import InputDriver
 from quadsim.drivers.goal import Goal
 from quadsim.drivers.programmatic import ProgrammaticDriver
-from quadsim.errors import QuadsimError
+from quadsim.errors import ConfigError, QuadsimError
 from quadsim.physics.client import WorldClient
 from quadsim.physics.pybullet_world import PhysicsWorld
 from quadsim.physics.wind import WindModel
+from quadsim.sensors import ranging
 from quadsim.sensors.imu import ImuNoise
-from quadsim.sim.config import SimConfig, enum_choice
+from quadsim.sim.config import SimConfig, divisors_shown, enum_choice
 from quadsim.sim.description import ControllerDescription, RunDescription, VehicleDescription
 from quadsim.sim.flight_events import FlightEvent
 from quadsim.sim.loop import SimLoop, Sink
@@ -74,7 +75,7 @@ class Drone:
         )
         timeout_steps = None if timeout is None else round(timeout * rates.physics_hz)
         self.gate = CommandGate(self.vehicle.limits, self.z_mode, timeout_steps)
-        wind_seed, imu_seed = _streams(config.seed)
+        wind_seed, imu_seed, range_seed, lidar_seed = _streams(config.seed)
         self.physics = PhysicsWorld(
             self.vehicle,
             client,
@@ -97,6 +98,33 @@ class Drone:
             reset_on_crash=reset_on_crash,
             imu=imu,
         )
+        self._add_ranging(client, range_seed, lidar_seed)
+
+    def _add_ranging(
+        self, client: WorldClient, range_seed: np.random.SeedSequence, lidar_seed: np.random.SeedSequence
+    ) -> None:
+        """The range finder and the LiDAR the config asks for, sampled by loop taps at their rates
+        whether or not anyone listens (their noise depends on the seed and the steps alone)."""
+        config, rates = self.config, self.config.rates
+        body, noisy = (self.physics.body_id, self.physics.reach_m), config.sensor_noise
+        #: the range finder and the LiDAR, where the config turns them on (None: not carried)
+        self.range_finder: ranging.RangingSensor | None = None
+        self.lidar: ranging.RangingSensor | None = None
+        if config.range_finder:
+            self.range_finder = ranging.range_finder(self.vehicle.range_finder, client, body, range_seed, noisy)
+        if config.lidar is not None:
+            self.lidar = ranging.lidar(self.vehicle.lidar, config.lidar, client, body, lidar_seed, noisy)
+        for sensor, table, hz in (
+            (self.range_finder, "range", self.vehicle.range_finder.rate_hz),
+            (self.lidar, "lidar", self.vehicle.lidar.rate_hz),
+        ):
+            if sensor is not None:
+                if rates.physics_hz % hz:
+                    raise ConfigError(
+                        f"{self.vehicle.params_path.name}: [{table}] rate_hz = {hz} does not divide the physics rate "
+                        f"{rates.physics_hz} Hz; choose a divisor of it ({divisors_shown(rates.physics_hz)})"
+                    )
+                self.loop.add_tap(rates.every(hz), sensor.tap)
 
     # --- commanding -------------------------------------------------------------------------
 
@@ -200,11 +228,18 @@ class Drone:
         self._check_open()
         if seed is not None:
             self.config = replace(self.config, seed=seed)  # validated like any SimConfig
-            wind_seed, imu_seed = _streams(seed)
+            wind_seed, imu_seed, range_seed, lidar_seed = _streams(seed)
             self.physics.reseed(wind_seed)
             if self.loop.imu is not None:
                 self.loop.imu.reseed(imu_seed)
+            if self.range_finder is not None:
+                self.range_finder.reseed(range_seed)
+            if self.lidar is not None:
+                self.lidar.reseed(lidar_seed)
         self.loop.reset()
+        for sensor in (self.range_finder, self.lidar):
+            if sensor is not None:
+                sensor.reset()
         rewind = getattr(self.driver, "rewind", None)
         if rewind is not None:  # a script plays from its start again, as the clock does
             rewind()
@@ -272,8 +307,8 @@ def _as_driven(config: SimConfig, driver: InputDriver) -> SimConfig:
     return config
 
 
-def _streams(seed: int) -> tuple[np.random.SeedSequence, np.random.SeedSequence]:
-    """One seed per vehicle; each random stream (wind, IMU noise) gets its own child of it, so
-    adding a stream or turning one off leaves the others unchanged."""
-    wind_seed, imu_seed = np.random.SeedSequence(seed).spawn(2)
-    return wind_seed, imu_seed
+def _streams(seed: int) -> tuple[np.random.SeedSequence, ...]:
+    """One seed per vehicle; each random stream (wind, IMU noise, range finder, LiDAR) gets its own
+    child of it, so adding a stream or turning one off leaves the others unchanged (SeedSequence's
+    children are numbered: the first two are what they were before the ranging sensors)."""
+    return tuple(np.random.SeedSequence(seed).spawn(4))

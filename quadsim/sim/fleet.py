@@ -28,7 +28,7 @@ import numpy as np
 from quadsim.control import Controller, ControllerKind
 from quadsim.control.cascade import CascadeController
 from quadsim.control.landing import LandingSettings
-from quadsim.core.types import StartPose, VehicleState, ZMode
+from quadsim.core.types import LidarMode, StartPose, VehicleState, ZMode
 from quadsim.drivers import InputDriver
 from quadsim.errors import ConfigError, QuadsimError
 from quadsim.physics.client import WorldClient
@@ -55,8 +55,9 @@ class FleetVehicle:
     """One vehicle of a fleet: its name, start pose, input and gains, and where it differs from
     the fleet's config: airframe (URDF and parameter file), controller (a built-in kind, or a
     controller object of one's own: the Controller protocol, one per vehicle), z-mode (None: the
-    fleet's). The name "" is a vehicle flying alone (a Simulator's): the contract's topics,
-    unprefixed."""
+    fleet's), a range finder and a LiDAR (None: the fleet's config says; a vehicle may add a LiDAR
+    to a fleet without, not take the fleet's away). The name "" is a vehicle flying alone (a
+    Simulator's): the contract's topics, unprefixed."""
 
     name: str
     start: StartPose = StartPose()
@@ -66,6 +67,8 @@ class FleetVehicle:
     z_mode: ZMode | None = None
     driver: InputDriver | None = None
     controller_gains: dict[str, Any] | None = field(default=None, compare=False)
+    range_finder: bool | None = None
+    lidar: LidarMode | None = None
 
 
 class Fleet:
@@ -280,6 +283,8 @@ def _own_config(config: SimConfig, v: FleetVehicle, index: int) -> SimConfig:
         z_mode=v.z_mode if v.z_mode is not None else config.z_mode,
         start=v.start,
         seed=_vehicle_seed(config.seed, index, v.name),
+        range_finder=v.range_finder if v.range_finder is not None else config.range_finder,
+        lidar=v.lidar if v.lidar is not None else config.lidar,
     )
 
 

@@ -12,6 +12,8 @@ controller.
     cameras = ["front", "floor"]  # optional: the onboard cameras it records (default: none)
     depth = ["front"]             # optional: those that also record depth, NAME or NAME:32FC1 (16UC1 mm default)
     segmentation = ["front"]      # optional: those that also record a segmentation image
+    range = true                  # optional: a range finder on /alpha/quad/range (default: --range's)
+    lidar = "2d"                  # optional: a LiDAR, 2d (/alpha/quad/scan) or 3d (/alpha/quad/points)
 
 A bad file is refused with one line naming the file, the vehicle and the key. The inputs are
 read here (a script's text is loaded, so a missing script is said before anything flies); what
@@ -29,7 +31,7 @@ from typing import Any
 from quadsim.control import ControllerKind, gains_type
 from quadsim.control.gains import gain_problem
 from quadsim.core.toml_files import read_toml, refuse_unknown_keys
-from quadsim.core.types import StartPose, ZMode
+from quadsim.core.types import LidarMode, StartPose, ZMode
 from quadsim.drivers import InputDriver
 from quadsim.drivers.scripted import Script, load_script
 from quadsim.errors import ConfigError, QuadsimError
@@ -50,6 +52,8 @@ VEHICLE_KEYS = (
     "cameras",
     "depth",
     "segmentation",
+    "range",
+    "lidar",
 )
 #: the onboard cameras a vehicle may record
 CAMERAS = ("front", "floor")
@@ -77,6 +81,8 @@ class FleetEntry:
     cameras: tuple[str, ...] = ()  # names of the onboard cameras it records
     depth: tuple[str, ...] = ()  # of those, the ones that record depth: NAME or NAME:ENCODING
     segmentation: tuple[str, ...] = ()  # of those, the ones that record a segmentation image
+    range_finder: bool | None = None  # None: as the command line says
+    lidar: LidarMode | None = None  # None: as the command line says
 
     @property
     def input_text(self) -> str:
@@ -93,6 +99,8 @@ class FleetEntry:
             z_mode=self.z_mode or (self.script.z_mode if self.script is not None else None),
             driver=driver,
             controller_gains=self.gains or None,
+            range_finder=self.range_finder,
+            lidar=self.lidar,
         )
 
 
@@ -181,6 +189,8 @@ def _entry(path: Path, index: int, data: dict[str, Any]) -> FleetEntry:
         cameras=cameras,
         depth=depth,
         segmentation=segmentation,
+        range_finder=_flag(where, "range", data.get("range")),
+        lidar=_choice(where, "lidar", data["lidar"], LidarMode) if "lidar" in data else None,
     )
 
 
@@ -195,6 +205,12 @@ def _images(where: str, data: Mapping[str, Any], cameras: tuple[str, ...]) -> tu
     specs = tuple(spec for spec in default_cameras() if spec.name in cameras)
     with_images(specs, lists[0], lists[1], (f"{where}: depth", f"{where}: segmentation"))
     return lists[0], lists[1]
+
+
+def _flag(where: str, key: str, value: Any) -> bool | None:
+    if value is not None and not isinstance(value, bool):
+        raise ConfigError(f"{where}: {key}: expected true or false, got {value!r:.40}")
+    return value
 
 
 def _cameras(where: str, value: Any) -> tuple[str, ...]:

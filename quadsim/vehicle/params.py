@@ -1,5 +1,6 @@
 """Vehicle parameters: read once from the URDF (mass, inertia, rotor and camera links) and the
-parameter file beside it (rotor coefficients, limits, aerodynamics, IMU noise), validated, frozen.
+parameter file beside it (rotor coefficients, limits, aerodynamics, IMU noise, range finder and
+LiDAR), validated, frozen.
 Every table of the parameter file refuses a key it does not know."""
 
 from __future__ import annotations
@@ -130,6 +131,67 @@ class ImuNoiseParams:
         return vars(self).copy()
 
 
+class RadiationType(enum.Enum):
+    """sensor_msgs/Range's radiation_type: what the range finder measures with."""
+
+    ULTRASOUND = "ultrasound"  # 0 on the wire
+    INFRARED = "infrared"  # 1 on the wire (a time-of-flight laser such as the VL53L1x)
+
+    @property
+    def wire(self) -> int:
+        return 0 if self is RadiationType.ULTRASOUND else 1
+
+
+@dataclass(frozen=True)
+class RangeParams:
+    """The [range] table: a single-beam range finder (sensor_msgs/Range), its beam from
+    `position_m` along `direction` (both in base_link), Gaussian noise of `noise_std_m` on each
+    reading in range.
+
+    A file without the table (or a key) takes these: the quad's (and the hexacopter's), a PX4
+    downward rangefinder of the Benewake TFmini Plus kind (its datasheet: 0.1-12 m indoors, a
+    3.6 deg field of view, +-5 cm to 6 m; PX4 reads it at up to 100 Hz) at 60 Hz, a divisor of
+    the physics rate, inside the body's box 5 mm above its bottom (a ray leaves its own body's
+    box unseen), pointing down."""
+
+    rate_hz: int = 60
+    min_range_m: float = 0.1
+    max_range_m: float = 12.0
+    field_of_view_rad: float = 0.063
+    noise_std_m: float = 0.02
+    radiation_type: RadiationType = RadiationType.INFRARED
+    position_m: Vec3 = (0.0, 0.0, -0.045)
+    direction: Vec3 = (0.0, 0.0, -1.0)
+
+
+@dataclass(frozen=True)
+class LidarParams:
+    """The [lidar] table: a scanning LiDAR at `position_m` in base_link (its frame's axes are
+    base_link's). A 2D scan is one ring of `samples` beams in the x-y plane; a 3D scan has
+    `channels` rings spread evenly over [-vertical_fov_rad / 2, +vertical_fov_rad / 2] of
+    elevation, `samples` beams each. Ranges in [min_range_m, max_range_m], Gaussian noise of
+    `noise_std_m` on each return.
+
+    A file without the table (or a key) takes these: the quad's (and the hexacopter's), a
+    16-channel spinning LiDAR of the Velodyne VLP-16 kind (its datasheet: 100 m, +-15 deg
+    vertically, 3 cm accuracy, 5-20 Hz) at 10 Hz, in 1 deg steps across (a VLP-16's are 0.2 deg
+    at 10 Hz: five times the rays and the cost), 30 m of range (the worlds are rooms), on top of
+    the body above the rotors' discs."""
+
+    rate_hz: int = 10
+    samples: int = 360
+    channels: int = 16
+    vertical_fov_rad: float = 0.5236  # 30 deg
+    min_range_m: float = 0.1
+    max_range_m: float = 30.0
+    noise_std_m: float = 0.015
+    position_m: Vec3 = (0.0, 0.0, 0.06)
+
+
+#: the most rays one scan may cast: PyBullet's rayTestBatch takes at most 16,384 at a time
+MAX_LIDAR_RAYS = 16_384
+
+
 @dataclass(frozen=True)
 class VehicleParams:
     """Everything physical about the vehicle, in SI units. Built by `load_vehicle`."""
@@ -153,6 +215,9 @@ class VehicleParams:
     gravity_mps2: float = 9.81
     #: every link but base_link, in the URDF's order
     link_frames: tuple[LinkFrame, ...] = ()
+    #: the range finder and the LiDAR it carries when a run turns them on ([range], [lidar])
+    range_finder: RangeParams = RangeParams()
+    lidar: LidarParams = LidarParams()
     #: the URDF PyBullet loads, when it is not urdf_path: a copy naming binary STL versions of its
     #: ASCII STL meshes (vehicle/meshes.py)
     pybullet_copy: Path | None = field(default=None, compare=False)
@@ -403,6 +468,8 @@ PARAM_KEYS: dict[str, tuple[str, ...]] = {
     "imu": tuple(f.name for f in fields(ImuNoiseParams)),
     "limits": tuple(f.name for f in fields(CommandLimits)),
     "contact": tuple(f.name for f in fields(ContactParams)),
+    "range": tuple(f.name for f in fields(RangeParams)),
+    "lidar": tuple(f.name for f in fields(LidarParams)),
 }
 
 
@@ -553,6 +620,81 @@ def _contact(table: dict[str, Any], params: Path) -> ContactParams:
     )
 
 
+def _whole(table: dict[str, Any], section: str, key: str, path: Path, *, low: int, high: int, default: int) -> int:
+    """[section] key, a whole number in [low, high], `default` when the file leaves it out."""
+    sec = table.get(section)
+    value = sec.get(key, default) if isinstance(sec, dict) else default
+    if isinstance(value, bool) or not isinstance(value, int) or not low <= value <= high:
+        raise ConfigError(f"{path}: [{section}] {key} must be a whole number in [{low}, {high}], got {value!r}")
+    return value
+
+
+def _range(table: dict[str, Any], path: Path) -> RangeParams:
+    """The [range] table; what the file leaves out (or a file without the table) takes RangeParams' defaults."""
+    d, sec = RangeParams(), table.get("range", {})
+    low, high = _span(table, "range", path, (d.min_range_m, d.max_range_m))
+    kind = sec.get("radiation_type", d.radiation_type.value) if isinstance(sec, dict) else d.radiation_type.value
+    if kind not in {r.value for r in RadiationType}:
+        raise ConfigError(f'{path}: [range] radiation_type must be "infrared" or "ultrasound", got {kind!r:.40}')
+    direction = _vector_or(table, "range", "direction", path, d.direction, low=-1.0, high=1.0)
+    norm = math.sqrt(sum(c * c for c in direction))
+    if norm < 1e-6:
+        raise ConfigError(f"{path}: [range] direction must not be zero")
+    return RangeParams(
+        rate_hz=_whole(table, "range", "rate_hz", path, low=1, high=10_000, default=d.rate_hz),
+        min_range_m=low,
+        max_range_m=high,
+        field_of_view_rad=_number(
+            table, "range", "field_of_view_rad", path, low=0.0, high=math.pi, default=d.field_of_view_rad
+        ),
+        noise_std_m=_number(table, "range", "noise_std_m", path, low=0.0, high=10.0, default=d.noise_std_m),
+        radiation_type=RadiationType(kind),
+        position_m=_vector_or(table, "range", "position_m", path, d.position_m, low=-10.0, high=10.0),
+        direction=(direction[0] / norm, direction[1] / norm, direction[2] / norm),
+    )
+
+
+def _lidar(table: dict[str, Any], path: Path) -> LidarParams:
+    """The [lidar] table; what the file leaves out (or a file without the table) takes LidarParams' defaults."""
+    d = LidarParams()
+    samples = _whole(table, "lidar", "samples", path, low=1, high=MAX_LIDAR_RAYS, default=d.samples)
+    channels = _whole(table, "lidar", "channels", path, low=1, high=128, default=d.channels)
+    if samples * channels > MAX_LIDAR_RAYS:
+        raise ConfigError(f"{path}: [lidar] samples x channels = {samples * channels} is over {MAX_LIDAR_RAYS} rays")
+    low, high = _span(table, "lidar", path, (d.min_range_m, d.max_range_m))
+    return LidarParams(
+        rate_hz=_whole(table, "lidar", "rate_hz", path, low=1, high=1000, default=d.rate_hz),
+        samples=samples,
+        channels=channels,
+        vertical_fov_rad=_number(
+            table, "lidar", "vertical_fov_rad", path, low=0.0, high=math.pi, default=d.vertical_fov_rad
+        ),
+        min_range_m=low,
+        max_range_m=high,
+        noise_std_m=_number(table, "lidar", "noise_std_m", path, low=0.0, high=10.0, default=d.noise_std_m),
+        position_m=_vector_or(table, "lidar", "position_m", path, d.position_m, low=-10.0, high=10.0),
+    )
+
+
+def _span(table: dict[str, Any], section: str, path: Path, default: tuple[float, float]) -> tuple[float, float]:
+    """[section] min_range_m and max_range_m, the first below the second."""
+    low = _number(table, section, "min_range_m", path, low=0.0, high=1000.0, default=default[0])
+    high = _number(table, section, "max_range_m", path, low=0.0, high=1000.0, default=default[1])
+    if not low < high:
+        raise ConfigError(f"{path}: [{section}] min_range_m must be below max_range_m")
+    return low, high
+
+
+def _vector_or(
+    table: dict[str, Any], section: str, key: str, path: Path, default: Vec3, *, low: float, high: float
+) -> Vec3:
+    """[section] key as `_vector` reads it, `default` when the file leaves it out."""
+    sec = table.get(section)
+    if not isinstance(sec, dict) or key not in sec:
+        return default
+    return _vector(table, section, key, path, low=low, high=high)
+
+
 def _limits(table: dict[str, Any], params: Path) -> CommandLimits:
     return CommandLimits(
         max_horizontal_speed_mps=_number(table, "limits", "max_horizontal_speed_mps", params, low=0.1, high=50.0),
@@ -614,6 +756,8 @@ def _build(urdf: Path, params: Path, links: dict[str, _Link], table: dict[str, A
         limits=limits,
         camera_mounts=cameras,
         contact=_contact(table, params),
+        range_finder=_range(table, params),
+        lidar=_lidar(table, params),
         link_frames=tuple(
             LinkFrame(n, link.origin_in_base_m, link.rotation_in_base) for n, link in links.items() if n != "base_link"
         ),

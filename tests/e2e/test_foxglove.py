@@ -91,7 +91,7 @@ def _x_at(odom: list, ns: int) -> float:
 def test_a_client_watches_every_topic_and_flies_it_with_twists(tmp_path: Path) -> None:
     proc = _quadsim(
         *("run", "--input", "foxglove", "--foxglove", "127.0.0.1:0", "--duration", "60", "--out", str(tmp_path)),
-        *("--camera-depth", "front", "--camera-segmentation", "front"),
+        *("--camera-depth", "front", "--camera-segmentation", "front", "--range", "--lidar", "2d"),
     )
     try:
         url = _served_url(proc)
@@ -117,6 +117,7 @@ def test_a_client_watches_every_topic_and_flies_it_with_twists(tmp_path: Path) -
     expected |= {"/robot_description", "/robot_markers", "/world/markers"}
     expected |= {*IMAGES, "/quad/front_camera/camera_info", "/quad/floor_camera/camera_info"}
     expected |= {*DEPTH_AND_LABELS, "/quad/front_camera/depth/camera_info", "/world/segmentation_labels"}
+    expected |= {"/quad/range", "/quad/scan"}
     assert expected <= set(topics), sorted(set(expected) - set(topics))
     assert flown["undecodable"] == 0
     for name, entry in topics.items():
@@ -130,6 +131,16 @@ def test_a_client_watches_every_topic_and_flies_it_with_twists(tmp_path: Path) -
     for report in (flown, left):  # latched, though both joined after it was published
         children = report["topics"]["/tf_static"]["first"]["children"]
         assert {"front_camera_optical", "floor_camera_optical", "rotor_1", "front_camera_link"} <= set(children)
+        assert {"range_finder_link", "lidar_link"} <= set(children)
+    ranged, scanned = topics["/quad/range"], topics["/quad/scan"]  # at their rates, decoded by their schemas
+    assert ranged["count"] >= 60 and ranged["last"]["frame"] == "range_finder_link"
+    assert ranged["last"]["range"] > 0.5 and ranged["last"]["variance"] > 0  # up in the air: the height
+    assert scanned["count"] >= 10 and scanned["last"] == {
+        "frame": "lidar_link",
+        "beams": 360,
+        "returns": scanned["last"]["returns"],
+    }
+    assert scanned["last"]["returns"] > 0  # the landmarks around
     odom = flown["odom"]
     stop_ns = odom[0][0] + 2_000_000_000
     assert _x_at(odom, stop_ns) > 1.0  # x forward -> position x grew

@@ -2,7 +2,8 @@
 
 Written from the protocol's specification (foxglove/ws-protocol docs/spec.md) on a generic
 WebSocket library (`websockets`), not with foxglove-sdk: it subscribes to every channel the
-server advertises, decodes what arrives (CDR with rosbags), and may advertise /quad_cmd_twist
+server advertises, decodes what arrives (CDR, by the ros2msg schema the server advertises with
+the channel, as the Foxglove apps do: mcap-ros2-support's decoder), and may advertise /quad_cmd_twist
 (or --topic) and publish Twists on it, then go quiet. It prints one JSON report on stdout.
 
     python foxglove_client.py ws://127.0.0.1:8765 --listen-s 3 [--publish json|cdr --twist 1,0,0,0 --publish-s 2]
@@ -29,7 +30,7 @@ from typing import Any
 
 import cv2
 import numpy as np
-from rosbags.typesys import Stores, get_typestore
+from mcap_ros2._dynamic import generate_dynamic
 from websockets.exceptions import ConnectionClosed
 from websockets.sync.client import connect
 
@@ -77,6 +78,13 @@ def summarise(type_name: str, msg: Any) -> dict[str, Any]:
         return {"children": [t.child_frame_id for t in msg.transforms]}
     if type_name == "std_msgs/msg/String":
         return {"length": len(msg.data)}
+    if type_name == "sensor_msgs/msg/Range":
+        return {"frame": msg.header.frame_id, "range": msg.range, "variance": msg.variance}
+    if type_name == "sensor_msgs/msg/LaserScan":
+        finite = [r for r in msg.ranges if math.isfinite(r)]
+        return {"frame": msg.header.frame_id, "beams": len(msg.ranges), "returns": len(finite)}
+    if type_name == "sensor_msgs/msg/PointCloud2":
+        return {"frame": msg.header.frame_id, "points": msg.width, "bytes": len(msg.data)}
     if type_name == "visualization_msgs/msg/MarkerArray":
         return {"markers": len(msg.markers), "frames": sorted({m.header.frame_id for m in msg.markers})}
     return {}
@@ -99,7 +107,7 @@ def main() -> None:
     ap.add_argument("--subprotocol", choices=SUBPROTOCOLS, action="append", help="offer this name (default: both)")
     ap.add_argument("--wall-limit-s", type=float, default=50.0, help="give up after this long on the wall clock")
     args = ap.parse_args()
-    store = get_typestore(Stores.ROS2_HUMBLE)
+    decoders: dict[int, Any] = {}  # channel id -> its schema's decoder
     channels: dict[int, dict[str, Any]] = {}
     subscriptions: dict[int, int] = {}  # subscription id -> channel id
     topics: dict[str, dict[str, Any]] = {}
@@ -214,7 +222,9 @@ def main() -> None:
             )
             entry["count"] += 1
             try:
-                decoded = store.deserialize_cdr(payload, ch["schemaName"])
+                if ch["id"] not in decoders:
+                    decoders[ch["id"]] = generate_dynamic(ch["schemaName"], ch["schema"])[ch["schemaName"]]
+                decoded = decoders[ch["id"]](payload)
             except Exception:
                 report["undecodable"] += 1
                 continue

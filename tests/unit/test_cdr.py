@@ -343,3 +343,66 @@ def test_marker_array():
             ]
         )
         assert cdr.marker_array(markers) == _ref(ref)
+
+
+def test_range_as_jazzy_and_kilted_have_it():
+    """sensor_msgs/Range gained `variance` after Humble: the contract's is Jazzy's (what its live
+    peers read), the same in Kilted."""
+    jazzy, kilted = get_typestore(Stores.ROS2_JAZZY), get_typestore(Stores.ROS2_KILTED)
+    assert jazzy.fielddefs["sensor_msgs/msg/Range"] == kilted.fielddefs["sensor_msgs/msg/Range"]
+    assert schema_text("sensor_msgs/msg/Range") == jazzy.generate_msgdef("sensor_msgs/msg/Range", ros_version=2)[0]
+    for rng in _rngs():
+        ns, frame = _ns(rng), _text(rng)
+        kind, fov, low, high = rng.randrange(2), rng.uniform(0, 1), rng.uniform(0, 1), rng.uniform(1, 50)
+        value = rng.choice([rng.uniform(low, high), float("inf"), float("-inf")])
+        variance = rng.choice([0.0, rng.uniform(0, 1)])
+        ref = jazzy.types["sensor_msgs/msg/Range"](
+            header=_header(ns, frame),
+            radiation_type=kind,
+            field_of_view=fov,
+            min_range=low,
+            max_range=high,
+            range=value,
+            variance=variance,
+        )
+        reference = bytes(jazzy.serialize_cdr(ref, ref.__msgtype__))
+        assert cdr.range_encoder(frame, kind, fov, low, high, variance)(ns, value) == reference
+
+
+def test_laser_scan():
+    for rng in _rngs():
+        ns, frame = _ns(rng), _text(rng)
+        ranges = np.asarray((*_floats(rng, rng.randint(0, 12)), float("inf"), float("-inf")), dtype=np.float32)
+        angles, times, limits = _floats(rng, 3), _floats(rng, 2), _floats(rng, 2)
+        ref = T["sensor_msgs/msg/LaserScan"](
+            header=_header(ns, frame),
+            angle_min=angles[0],
+            angle_max=angles[1],
+            angle_increment=angles[2],
+            time_increment=times[0],
+            scan_time=times[1],
+            range_min=limits[0],
+            range_max=limits[1],
+            ranges=ranges,
+            intensities=np.zeros(0, dtype=np.float32),
+        )
+        assert cdr.laser_scan_encoder(frame, angles, times, limits)(ns, ranges.astype("<f4").tobytes()) == _ref(ref)
+
+
+def test_xyz_cloud():
+    for rng in _rngs():
+        ns, frame = _ns(rng), _text(rng)
+        points = np.asarray(_floats(rng, 3 * rng.randint(0, 9)), dtype="<f4")
+        field = T["sensor_msgs/msg/PointField"]
+        ref = T["sensor_msgs/msg/PointCloud2"](
+            header=_header(ns, frame),
+            height=1,
+            width=len(points) // 3,
+            fields=[field(name=n, offset=4 * i, datatype=field.FLOAT32, count=1) for i, n in enumerate("xyz")],
+            is_bigendian=False,
+            point_step=12,
+            row_step=4 * len(points),
+            data=np.frombuffer(points.tobytes(), dtype=np.uint8),
+            is_dense=True,
+        )
+        assert cdr.xyz_cloud_encoder(frame)(ns, points.tobytes()) == _ref(ref)

@@ -9,7 +9,7 @@ from pathlib import Path
 import pytest
 
 from quadsim.control import ControllerKind
-from quadsim.core.types import ZMode
+from quadsim.core.types import LidarMode, ZMode
 from quadsim.errors import ConfigError
 from quadsim.sim.fleet_file import load_fleet_file
 from quadsim.vehicle.params import SHIPPED_VEHICLES
@@ -47,6 +47,8 @@ name = "charlie"
 airframe = "crazyflie"
 start = [-4.0, 0.0, 0.0, 0.0]
 input = "ros2"
+range = true
+lidar = "3d"
 
 [[vehicle]]
 name = "delta"
@@ -69,6 +71,14 @@ start = [4.0, 0.0, 0.0, 0.0]
     assert (charlie.input, charlie.script, charlie.urdf) == ("ros2", None, SHIPPED_VEHICLES["crazyflie"])
     assert (delta.input, delta.airframe, delta.controller) == ("idle", "quad", ControllerKind.CASCADE)
     assert fleet.held_by("keyboard") is None
+    assert (charlie.range_finder, charlie.lidar, delta.range_finder, delta.lidar) == (
+        True,
+        LidarMode.SPATIAL,
+        None,
+        None,
+    )
+    made = charlie.fleet_vehicle(None)
+    assert (made.range_finder, made.lidar) == (True, LidarMode.SPATIAL)
 
 
 VEHICLE = '[[vehicle]]\nname = "{name}"\nstart = [{x}, 0, 0, 0]\n'
@@ -123,6 +133,8 @@ VEHICLE = '[[vehicle]]\nname = "{name}"\nstart = [{x}, 0, 0, 0]\n'
         ),
         (VEHICLE.format(name="alpha", x=0) + 'segmentation = "front"\n', ["vehicle 'alpha'", "segmentation: expected"]),
         ("", ["no [[vehicle]] tables"]),
+        (VEHICLE.format(name="alpha", x=0) + 'lidar = "4d"\n', ["vehicle 'alpha'", "lidar '4d'", "2d, 3d"]),
+        (VEHICLE.format(name="alpha", x=0) + "range = 1\n", ["vehicle 'alpha'", "range: expected true or false"]),
     ],
 )
 def test_a_bad_fleet_file_is_one_line_naming_the_file_vehicle_and_key(tmp_path, body, words):

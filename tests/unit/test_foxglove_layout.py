@@ -45,3 +45,15 @@ def test_a_urdf_with_endless_shapes_sends_a_bounded_message(tmp_path):
     shapes = '<visual><geometry><box size="1 1 1"/></geometry></visual>' * (scene.MAX_ROBOT_MARKERS + 500)
     urdf.write_text(f'<robot name="many"><link name="base_link">{shapes}</link></robot>')
     assert len(scene.robot_markers(urdf, label="big")) == scene.MAX_ROBOT_MARKERS + 1  # and its name
+
+
+def test_the_3d_panel_draws_each_vehicles_lidar():
+    from quadsim.recording.foxglove_layout import foxglove_layout, vehicles_from_topics
+
+    topics = ["/alpha/quad/odom", "/alpha/quad/points", "/alpha/robot_markers", "/bravo/quad/odom", "/bravo/quad/scan"]
+    topics += ["/bravo/quad/range", "/quad/scan"]  # a range finder the 3D panel does not draw; no vehicle alone here
+    vehicles = vehicles_from_topics(topics)
+    assert [v.scan_topics for v in vehicles] == [("/alpha/quad/points",), ("/bravo/quad/scan",)]
+    (three_dee,) = [c for key, c in foxglove_layout(vehicles)["configById"].items() if key.startswith("3D!")]
+    assert {"/alpha/quad/points", "/bravo/quad/scan"} <= set(three_dee["topics"])
+    assert all(three_dee["topics"][t] == {"visible": True} for t in ("/alpha/quad/points", "/bravo/quad/scan"))

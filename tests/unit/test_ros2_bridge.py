@@ -4,8 +4,10 @@ Its unit tests (in-process, one part at a time); the others are in tests/e2e/tes
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from quadsim.errors import QuadsimError
@@ -36,10 +38,18 @@ def test_every_recorded_type_is_a_dds_type_that_reads_and_writes_the_recorded_by
         "rcl_interfaces/msg/Log": cdr.log(5, cdr.LogLevel.INFO, "quadsim", "z-mode: height"),
         "std_msgs/msg/String": cdr.string("<robot/>"),
         "geometry_msgs/msg/Vector3Stamped": cdr.vector3_stamped(5, "world", (1.0, 2.0, 3.0)),
+        "sensor_msgs/msg/Range": cdr.range_encoder("range_finder_link", 1, 0.06, 0.1, 12.0, 4e-4)(5, -math.inf),
+        "sensor_msgs/msg/LaserScan": cdr.laser_scan_encoder("lidar_link", (-3.1, 3.1, 0.1), (0.0, 0.1), (0.1, 30.0))(
+            5, np.array([1.5, math.inf], "<f4").tobytes()
+        ),
+        "sensor_msgs/msg/PointCloud2": cdr.xyz_cloud_encoder("lidar_link")(5, np.arange(6, dtype="<f4").tobytes()),
     }
     for name, data in encoded.items():
         assert idl_type(name).deserialize(data).serialize() == data, name
     assert dds_type_name("tf2_msgs/msg/TFMessage") == "tf2_msgs::msg::dds_::TFMessage_"
+    assert idl_type("sensor_msgs/msg/Range").deserialize(encoded["sensor_msgs/msg/Range"]).variance == pytest.approx(
+        4e-4
+    )
 
 
 def test_the_ros2_environment_is_read_as_ros2_reads_it() -> None:

@@ -126,7 +126,7 @@ PARAMS_CASES = [
         "a_top_level_key",
         lambda t: "bogus_key = 3\n" + t,
         "mine.params.toml: unknown key 'bogus_key' (a vehicle parameter file has the tables [rotors], [aero], "
-        "[imu], [limits], [contact])",
+        "[imu], [limits], [contact], [range], [lidar])",
     ),
     (
         "a_misspelt_key",

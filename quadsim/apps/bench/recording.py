@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 from quadsim.apps.bench.figures import best_of
@@ -111,9 +111,12 @@ class FlightFigure:
     size_bytes: int
 
 
-def recorded_flight(duration_s: float, cameras: bool, workers: int, record: bool = True) -> FlightFigure:
+def recorded_flight(
+    duration_s: float, cameras: bool, workers: int, record: bool = True, config: SimConfig | None = None
+) -> FlightFigure:
     """The square scenario flown headless, recorded or not (not recorded and without cameras:
-    the unrecorded loop, what `run --cameras none --no-record` flies)."""
+    the unrecorded loop, what `run --cameras none --no-record` flies); `config`: its settings
+    (default: SimConfig's, height z-mode)."""
     import tempfile
 
     from quadsim.drivers.scripted import ScriptedDriver, load_script
@@ -128,7 +131,7 @@ def recorded_flight(duration_s: float, cameras: bool, workers: int, record: bool
         cams = default_cameras() if cameras else ()
         options = OutputOptions(record=record, out=path, cameras=cams, render_workers=workers)
         plan = RunPlan.alone(
-            SimConfig(z_mode=ZMode.HEIGHT),
+            replace(config or SimConfig(), z_mode=ZMode.HEIGHT),
             ScriptedDriver(script),
             duration_s=duration_s,
             outputs=options,

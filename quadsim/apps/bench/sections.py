@@ -10,6 +10,7 @@ from quadsim.apps.bench.autonomy import run_autonomy_bench
 from quadsim.apps.bench.fleet import run_fleet_bench
 from quadsim.apps.bench.flight import run_flight_core_bench
 from quadsim.apps.bench.live import run_live_bench
+from quadsim.apps.bench.ranging import run_ranging_bench
 from quadsim.apps.bench.recording import run_recording_bench
 from quadsim.apps.bench.replay import run_replay_bench
 from quadsim.apps.bench.ros2 import run_ros2_bench
@@ -25,6 +26,7 @@ class Section(NamedTuple):
 SECTIONS: dict[str, Section] = {
     "flight": Section("the flight core", run_flight_core_bench),
     "recording": Section("cameras and recording", run_recording_bench),
+    "ranging": Section("the range finder and the LiDAR: per reading, and in a recorded flight", run_ranging_bench),
     "window": Section("the teleop window headless", run_interactive_bench),
     "autonomy": Section("camera images in code, the Gymnasium envs", run_autonomy_bench),
     "replay": Section("playback and re-simulation", run_replay_bench),
