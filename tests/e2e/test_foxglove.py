@@ -107,6 +107,7 @@ def test_a_client_watches_every_topic_and_flies_it_with_twists(tmp_path: Path) -
     assert flown["subprotocol"] == "foxglove.websocket.v1" and left["subprotocol"] == "foxglove.sdk.v1"
     assert "clientPublish" in flown["serverInfo"]["capabilities"]
     assert set(flown["serverInfo"]["supportedEncodings"]) >= {"json", "cdr"}
+    assert flown["serverInfo"]["metadata"]["ROS_DISTRO"] == "jazzy"  # a ROS 2 source: the 3D panel can publish
     topics = flown["topics"]
     expected = {"/quad_cmd_twist", "/quad/pose", "/quad/odom", "/quad/imu", "/quad/rotor_thrusts", "/tf", "/tf_static"}
     expected |= {"/robot_description", "/robot_markers", "/world/markers"}
