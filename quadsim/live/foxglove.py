@@ -60,6 +60,11 @@ TwistFields = tuple[tuple[float, float, float], float]  # linear x y z, angular 
 #: pose estimate, a goal) and ROS 2's Nav2 goal topic: taken quietly where no input flies them
 #: (a run without --input foxglove; a pose estimate, a clicked point)
 PANEL_TOPICS = frozenset({"/clicked_point", "/move_base_simple/goal", "/initialpose", "/goal_pose"})
+#: told to clients in serverInfo's metadata: the ROS 2 distribution quadsim's messages are those
+#: of (its ROS 2 node is checked against Jazzy and Kilted). Foxglove Studio 1.x and Lichtblick take
+#: a server that names one for a ROS 2 source, and only there does their 3D panel offer its publish
+#: tools (publish point, pose, pose estimate)
+SERVER_METADATA = {"ROS_DISTRO": "jazzy"}
 #: the SDK's per-client queue of outgoing messages: oldest data dropped past it (its default is
 #: 1024, ~50 MB of camera frames for a client that stopped reading)
 BACKLOG_MESSAGES = 256
@@ -207,7 +212,7 @@ class FoxgloveBridge:
             message_backlog_size=BACKLOG_MESSAGES,
         )
         try:
-            self.front = FoxgloveFront(host, port, int(self.server.port), self)
+            self.front = FoxgloveFront(host, port, int(self.server.port), self, SERVER_METADATA)
         except OSError as exc:
             self.server.stop()
             reason = (exc.strerror or str(exc)).lower()

@@ -7,7 +7,8 @@ in its handshake, no option) and answers HTTP 400 to `foxglove.websocket.v1`, th
 Foxglove Studio 1.x, Lichtblick up to 1.21 and the npm `@foxglove/ws-protocol` client offer;
 the protocol under both names is the same. The front answers with the name the client offered
 and relays frames unchanged, so the SDK keeps doing what it does well (channels, subscriptions,
-latched messages, backlogs, assets). What clients publish stops here: its Python API can only
+latched messages, backlogs, assets), but for the server's `metadata` it adds to the SDK's
+serverInfo (its Python API takes none). What clients publish stops here: its Python API can only
 send a status to every client and keeps client channels whatever their size, so the front takes
 client advertisements and message data itself and hands them to a `ClientInput`, with a status
 channel to that one client.
@@ -38,6 +39,7 @@ import re
 import struct
 import threading
 import time
+from collections.abc import Mapping
 from typing import Any, Protocol
 
 from websockets.asyncio.client import connect
@@ -183,11 +185,15 @@ def _short(value: Any) -> str:
 
 class FoxgloveFront:
     """Serves `host:port` in a thread of its own, relaying each client to the foxglove-sdk server
-    at `ws://127.0.0.1:upstream_port`; `inputs` takes what clients publish. `close` stops it."""
+    at `ws://127.0.0.1:upstream_port`; `inputs` takes what clients publish; `metadata` goes into
+    the serverInfo clients get. `close` stops it."""
 
-    def __init__(self, host: str, port: int, upstream_port: int, inputs: ClientInput) -> None:
+    def __init__(
+        self, host: str, port: int, upstream_port: int, inputs: ClientInput, metadata: Mapping[str, str] | None = None
+    ) -> None:
         self.upstream = f"ws://127.0.0.1:{upstream_port}"
         self.inputs = inputs
+        self.metadata = dict(metadata or {})
         self._ids = itertools.count(1)
         self._clients = 0
         self._logger = _LogLimiter()
@@ -260,14 +266,18 @@ class FoxgloveFront:
             for channel_id in client.channels:
                 self.inputs.unadvertised(client, channel_id)
 
-    @staticmethod
-    async def _downstream(upstream: Any, ws: ServerConnection, client: FrontClient) -> None:
+    async def _downstream(self, upstream: Any, ws: ServerConnection, client: FrontClient) -> None:
         """The SDK's frames to the client as they are (send waits while the client is slow, so
         the SDK's backlog for it, bounded and dropping the oldest data, is where they wait),
-        but its status answers, one per bad request, at most one a second as ours."""
+        but its status answers, one per bad request, at most one a second as ours, and its
+        serverInfo with our metadata."""
         async for frame in upstream:
             if isinstance(frame, str):
-                if frame.startswith('{"op":"status"'):
+                if frame.startswith('{"op":"serverInfo"') and self.metadata:
+                    info = json.loads(frame)
+                    info["metadata"] = {**(info.get("metadata") or {}), **self.metadata}
+                    frame = json.dumps(info, separators=(",", ":"))
+                elif frame.startswith('{"op":"status"'):
                     if _resubscribed(upstream, client, frame) or client.status_allowed() is None:
                         continue
                 elif frame.startswith(('{"op":"advertise"', '{"op":"unadvertise"')):

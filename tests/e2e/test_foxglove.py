@@ -1,6 +1,7 @@
 """The Foxglove bridge, from outside: quadsim runs as its own process with --foxglove, and an
 independent WebSocket client (tests/helpers/foxglove_client.py, another process, written from the
-protocol's spec) watches it and flies it."""
+protocol's spec) watches it and flies it; a real Foxglove Studio 1.48 (tests/helpers/foxglove_studio.py)
+publishes a goal from its 3D panel as a person would."""
 
 from __future__ import annotations
 
@@ -19,7 +20,7 @@ from pathlib import Path
 
 import pytest
 
-from tests.helpers import HELPERS, ROOT
+from tests.helpers import HELPERS, ROOT, foxglove_studio
 from tests.helpers import proc as procfs
 from tests.helpers.fleets import fleet_toml, vehicle
 from tests.helpers.mcap import topic_messages
@@ -112,6 +113,7 @@ def test_a_client_watches_every_topic_and_flies_it_with_twists(tmp_path: Path) -
     assert flown["subprotocol"] == "foxglove.websocket.v1" and left["subprotocol"] == "foxglove.sdk.v1"
     assert "clientPublish" in flown["serverInfo"]["capabilities"]
     assert set(flown["serverInfo"]["supportedEncodings"]) >= {"json", "cdr"}
+    assert flown["serverInfo"]["metadata"]["ROS_DISTRO"] == "jazzy"  # a ROS 2 source: the 3D panel can publish
     topics = flown["topics"]
     expected = {"/quad_cmd_twist", "/quad/pose", "/quad/odom", "/quad/imu", "/quad/rotor_thrusts", "/tf", "/tf_static"}
     expected |= {"/robot_description", "/robot_markers", "/world/markers"}
@@ -202,6 +204,49 @@ def test_the_3d_panels_publish_pose_flies_the_vehicle_there_in_either_encoding(t
         "goal_reached: at x=2.00 y=-1.50 z=1.00 yaw=90.0deg",
         "goal_reached: at x=-1.00 y=0.50 z=1.60 yaw=-45.0deg",
     ]
+
+
+@pytest.mark.slow
+def test_studio_148s_publish_pose_flies_the_vehicle_to_the_place_clicked(tmp_path: Path) -> None:
+    """docs/foxglove.md's "Fly there" in a real Foxglove Studio 1.48, connected live with quadsim's
+    layout imported: the 3D panel's publish button -> "Publish pose", a click on the ground and one
+    toward a heading. Studio sends it in JSON in the panel's display frame, base_link; the vehicle
+    takes off and flies there (the place is the click's: the goal event names it in the world)."""
+    try:
+        foxglove_studio.studio()
+    except foxglove_studio.NoStudio as exc:
+        pytest.skip(str(exc))
+    layout, shot, recording = tmp_path / "quadsim.layout.json", tmp_path / "flown.png", tmp_path / "studio.mcap"
+    written = _quadsim("layout", "--cameras", "none", "-o", str(layout))
+    assert written.communicate(timeout=60) and written.returncode == 0
+    proc = _quadsim(
+        "run", "--input", "foxglove", "--foxglove", "127.0.0.1:0", "--cameras", "none", "--duration", "600",
+        "--out", str(recording),
+    )  # fmt: skip
+    try:
+        url = _served_url(proc)
+        with foxglove_studio.served({"quadsim.layout.json": layout}) as studio:
+            steps = [f"connect={url}", "import-layout=/data/quadsim.layout.json", "sidebar=layouts"]
+            # up and left of the vehicle, then toward the lower left: 2.6 m away, facing about -130 deg
+            steps += ["publish-pose=0.2,0.35,0.1,0.5", "see=goal_reached", f"shot={shot}"]
+            foxglove_studio.follow_steps(studio, tmp_path / "steps.log", *steps)
+        out, err = _ended_by_ctrl_c(proc)
+    finally:
+        proc.kill()
+    assert proc.returncode == 130, err
+    assert "1 goal, 0 refused" in out, out
+    logs = [msg.msg for _, msg in topic_messages(recording, "/rosout")]
+    (goal,) = [text.split("goal: flying to ")[1] for text in logs if text.startswith("goal:")]
+    assert f"goal_reached: at {goal}" in logs, logs
+    found = re.fullmatch(r"x=(\S+) y=(\S+) z=(\S+) yaw=(\S+)deg", goal)
+    assert found is not None, goal
+    x, y, z, yaw_deg = map(float, found.groups())
+    odom = [msg.pose.pose for _, msg in topic_messages(recording, "/quad/odom")]
+    start, end = odom[0].position, odom[-1].position
+    assert math.dist((start.x, start.y), (x, y)) > 1.0 and z == 1.0  # clicked away from it, at the take-off altitude
+    q = odom[-1].orientation
+    turn = (math.degrees(_yaw((q.x, q.y, q.z, q.w))) - yaw_deg + 180.0) % 360.0 - 180.0
+    assert math.dist((end.x, end.y, end.z), (x, y, z)) < 0.1 and abs(turn) < 5.0, (end, turn)
 
 
 def test_replay_streams_the_recorded_messages_as_they_are_played(tmp_path: Path) -> None:

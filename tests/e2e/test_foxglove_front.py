@@ -13,6 +13,7 @@ from typing import Any
 from websockets.asyncio.client import connect
 from websockets.asyncio.server import ServerConnection, serve
 
+from quadsim.live.foxglove import SERVER_METADATA
 from quadsim.live.foxglove_front import SDK_SUBPROTOCOL, FoxgloveFront
 
 RACED, NEVER = 7, 99  # a channel advertised but filed late, and one never advertised
@@ -31,7 +32,8 @@ class _NoInput:
 async def _late_filing_sdk(ws: ServerConnection) -> None:
     """Advertises RACED, answers its first subscription as unknown and the next with a message;
     answers a subscription to any other channel as unknown."""
-    await ws.send(_sdk_json({"op": "serverInfo", "name": "fake", "capabilities": []}))
+    info = {"op": "serverInfo", "name": "fake", "capabilities": [], "metadata": {"fg-library": "fake"}}
+    await ws.send(_sdk_json(info))
     channel = {
         "id": RACED,
         "topic": "/quad/odom",
@@ -89,3 +91,21 @@ def test_a_subscription_the_sdk_answers_too_early_is_sent_again_and_its_messages
         assert data == [struct.pack("<BIQ", 1, 1, 123) + b"odom"], subprotocol
         # the client heard only of the channel that was never advertised
         assert statuses == [f"Unknown channel ID: {NEVER}"], subprotocol
+
+
+async def _server_info() -> dict[str, Any]:
+    async with serve(_late_filing_sdk, "127.0.0.1", 0, subprotocols=[SDK_SUBPROTOCOL]) as sdk:  # type: ignore[list-item]
+        front = FoxgloveFront("127.0.0.1", 0, sdk.sockets[0].getsockname()[1], _NoInput(), SERVER_METADATA)
+        try:
+            async with connect(f"ws://127.0.0.1:{front.port}", subprotocols=["foxglove.websocket.v1"]) as ws:  # type: ignore[list-item]
+                info: dict[str, Any] = json.loads(await asyncio.wait_for(ws.recv(), 3.0))
+        finally:
+            await asyncio.to_thread(front.close)
+    return info
+
+
+def test_the_server_says_it_is_a_ros_2_source_so_studios_3d_panel_offers_publish_pose() -> None:
+    """Foxglove Studio 1.x and Lichtblick show the 3D panel's publish tools only for a server whose
+    serverInfo names a ROS_DISTRO (Studio 1.48 was seen without them before the front said so)."""
+    info = asyncio.run(_server_info())
+    assert info["op"] == "serverInfo" and info["metadata"] == {"fg-library": "fake", "ROS_DISTRO": "jazzy"}

@@ -6,9 +6,10 @@
 //
 //   NODE_PATH=<harness>/node_modules node foxglove_studio_steps.js STUDIO_URL LOG_FILE STEP...
 //
-// STEP: open-file=URL | connect=WS_URL | import-layout=URL | show-all | hold=N,MS | wait=S |
-// seek=FRACTION | shot=FILE.png | sidebar=KEY. Each step's outcome goes to LOG_FILE; the exit code is 0 when
-// every step was carried out.
+// STEP: open-file=URL | connect=WS_URL | import-layout=URL | show-all | hold=N,MS |
+// publish-pose=FX,FY,TX,TY | see=TEXT | wait=S | seek=FRACTION | shot=FILE.png | sidebar=KEY. Each
+// step's outcome goes to LOG_FILE (with STEPS_DEBUG=1 also the browser's console and the text frames
+// and message data the page sends over WebSockets); the exit code is 0 when every step was carried out.
 
 "use strict";
 const { chromium } = require("playwright-core");
@@ -61,6 +62,31 @@ async function run(page, step) {
     await page.mouse.down();
     await page.waitForTimeout(ms);
     await page.mouse.up();
+  } else if (name === "publish-pose") {
+    // the 3D panel's publish tool as a person uses it in Studio 1.48: hold its button (in the
+    // panel's toolbar) for its menu, choose "Publish pose" (that starts the tool), click the place
+    // on the ground, then click again toward the heading (the tool takes two clicks; a drag turns
+    // the camera instead). FX,FY then TX,TY: the two clicks, in fractions of the panel's canvas
+    const [fx, fy, tx, ty] = value.split(",").map(Number);
+    const button = page.locator('[data-testid="publish-button"]').first();
+    const b = await button.boundingBox();
+    await page.mouse.move(b.x + b.width / 2, b.y + b.height / 2);
+    await page.mouse.down();
+    await page.waitForTimeout(800);
+    await page.mouse.up();
+    await page.getByRole("menuitem", { name: "Publish pose", exact: true }).click();
+    const box = await page.locator("canvas").first().boundingBox(); // the layout's first panel is the 3D
+    const at = [box.x + box.width * fx, box.y + box.height * fy];
+    // once the menu (and its backdrop, which takes a click) is gone from where the person clicks
+    await page.waitForFunction(([x, y]) => document.elementFromPoint(x, y)?.tagName === "CANVAS", at);
+    await page.mouse.click(...at);
+    await page.mouse.move(box.x + box.width * tx, box.y + box.height * ty, { steps: 5 });
+    await page.mouse.click(box.x + box.width * tx, box.y + box.height * ty);
+    // published: the tool is done (when it missed a click it still waits for one, "Click to cancel")
+    await page.locator('[data-testid="publish-button"][title="Click to publish"]').waitFor({ timeout: 10000 });
+  } else if (name === "see") {
+    // wait until the page shows TEXT (e.g. a line of the Log panel)
+    await page.getByText(value).first().waitFor();
   } else if (name === "wait") {
     await page.waitForTimeout(Number(value) * 1000);
   } else if (name === "seek") {
@@ -87,6 +113,13 @@ async function run(page, step) {
     page.setDefaultTimeout(120000);
     page.on("pageerror", (e) => say(`[pageerror] ${e.message.slice(0, 300)}`));
     page.on("console", (m) => { if (m.type() === "error" || process.env.STEPS_DEBUG) say(`[console.${m.type()}] ${m.text().slice(0, 300)}`); });
+    if (process.env.STEPS_DEBUG) {
+      page.on("websocket", (w) => w.on("framesent", (f) => {
+        const p = f.payload; // a message's data: opcode 1, the channel id (u32), the message
+        const text = typeof p === "string" ? p : `data on channel ${p.readUInt32LE(1)}: ${p.subarray(5).toString("latin1")}`;
+        say(`[ws sent] ${text.slice(0, 600)}`);
+      }));
+    }
     await page.addInitScript(() => {
       window.showOpenFilePicker = async () => {
         const url = window.__quadsimPick;

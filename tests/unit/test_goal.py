@@ -139,6 +139,26 @@ def test_foxglove_json_goals_are_read_field_by_field() -> None:
             pose_from_json(bad)
 
 
+#: what Foxglove Studio 1.48's 3D panel sent for "publish pose" (clicks on its ground grid while it
+#: followed the vehicle), as the page sent it: JSON on /move_base_simple/goal, schema
+#: geometry_msgs/PoseStamped, a ROS 1 style stamp (nsec), the panel's display frame
+STUDIO_148_POSE = (
+    b'{"header":{"stamp":{"sec":1795872013,"nsec":616000000},"frame_id":"base_link"},"pose":{"position":'
+    b'{"x":-0.027825911996732566,"y":2.5810688071896983,"z":0},"orientation":{"x":0,"y":0,'
+    b'"z":-0.9058956783665475,"w":0.42350090899171966}}}'
+)
+
+
+def test_studio_148s_publish_pose_is_a_goal_from_where_the_vehicle_is() -> None:
+    driver = SubscribedDriver("foxglove")
+    assert driver.deliver_goal(*pose_from_json(STUDIO_148_POSE)) is None
+    goal = driver.take_goal()
+    assert goal is not None and goal.relative and goal.z is None  # on the panel's ground: keep the altitude
+    # from the ground at the origin, facing +x: take off to 1 m and fly 2.6 m left, turned to -130 deg
+    flown = GoalPilot(LIMITS).start(goal, _state(0.0, 0.0, 0.05, 0.0), on_ground=True)
+    assert flown.describe() == "x=-0.03 y=2.58 z=1.00 yaw=-129.9deg"
+
+
 def test_a_script_goto_line_gives_its_goal_once_when_it_starts() -> None:
     script = parse_script("2.0 linear.z=1\n5.0 goto x=3 y=-1 yaw_deg=90\n1.0 linear.x=1\n")
     assert script.segments[1].goal == Goal(3.0, -1.0, None, math.radians(90))
