@@ -84,38 +84,7 @@ class RecordingInfo:
             out.append(f"attachments {', '.join(self.attachments)}")
         d = self.description
         if d is not None:
-            cfg = d.config
-            script = d.driver.get("script")
-            out.append("run parameters:")
-            if d.fleet:
-                out.append(f"  a fleet of {len(d.fleet)} vehicles:")
-                out += [f"    {name}: {_vehicle_line(own)}" for name, own in d.fleet]
-            else:
-                out.append(
-                    f"  controller {d.controller.name}, z-mode {d.z_mode.value}, driver {d.driver_name}"
-                    + (f" ({script})" if isinstance(script, str) and script else "")
-                )
-            out.append("  rates " + ", ".join(f"{k.replace('_hz', '')} {v} Hz" for k, v in cfg.rates.to_dict().items()))
-            timeout = "off" if cfg.command_timeout_s is None else f"{cfg.command_timeout_s} s"
-            if d.fleet:
-                out.append(f"  command timeout {timeout}")
-            else:
-                out.append(
-                    f"  vehicle {d.vehicle.name} ({d.vehicle.rotor_count} rotors), mass {d.vehicle.mass_kg:.3f} kg, "
-                    f"command timeout {timeout}"
-                )
-            noise = "IMU noise on" if cfg.sensor_noise else "IMU noise off"
-            wind = f"wind of its own ({d.wind_model.import_path})" if d.wind_model is not None else cfg.wind.describe()
-            out.append(f"  {wind}, {noise}, seed {cfg.seed}")
-            if (cfg.range_finder or cfg.lidar) and not d.fleet:
-                out.append(_ranging_line(cfg.range_finder, cfg.lidar))
-            for cam in d.cameras:
-                out.append(
-                    f"  camera {cam.name}: {cam.width_px}x{cam.height_px} @ {cam.rate_hz} Hz, "
-                    f"vertical FOV {cam.vertical_fov_deg} deg, JPEG quality {cam.jpeg_quality}"
-                    + (f", depth {cam.depth}" if cam.depth else "")
-                    + (", segmentation" if cam.segmentation else "")
-                )
+            out += _parameter_lines(d)
         elif self.description_error:
             out.append(f"run parameters: unreadable ({self.description_error})")
         else:
@@ -127,6 +96,44 @@ class RecordingInfo:
             out.append("notes:")
             out += [f"  {n}" for n in self.notes]
         return out
+
+
+def _parameter_lines(d: RunDescription) -> list[str]:
+    """What a recording's run description says: its vehicles, rates, wind, sensors and cameras."""
+    out: list[str] = []
+    cfg = d.config
+    script = d.driver.get("script")
+    out.append("run parameters:")
+    if d.fleet:
+        out.append(f"  a fleet of {len(d.fleet)} vehicles:")
+        out += [f"    {name}: {_vehicle_line(own)}" for name, own in d.fleet]
+    else:
+        out.append(
+            f"  controller {d.controller.name}, z-mode {d.z_mode.value}, driver {d.driver_name}"
+            + (f" ({script})" if isinstance(script, str) and script else "")
+        )
+    out.append("  rates " + ", ".join(f"{k.replace('_hz', '')} {v} Hz" for k, v in cfg.rates.to_dict().items()))
+    timeout = "off" if cfg.command_timeout_s is None else f"{cfg.command_timeout_s} s"
+    if d.fleet:
+        out.append(f"  command timeout {timeout}")
+    else:
+        out.append(
+            f"  vehicle {d.vehicle.name} ({d.vehicle.rotor_count} rotors), mass {d.vehicle.mass_kg:.3f} kg, "
+            f"command timeout {timeout}"
+        )
+    noise = "IMU noise on" if cfg.sensor_noise else "IMU noise off"
+    wind = f"wind of its own ({d.wind_model.import_path})" if d.wind_model is not None else cfg.wind.describe()
+    out.append(f"  {wind}, {noise}, seed {cfg.seed}")
+    if (cfg.range_finder or cfg.lidar) and not d.fleet:
+        out.append(_ranging_line(cfg.range_finder, cfg.lidar))
+    for cam in d.cameras:
+        out.append(
+            f"  camera {cam.name}: {cam.width_px}x{cam.height_px} @ {cam.rate_hz} Hz, "
+            f"vertical FOV {cam.vertical_fov_deg} deg, JPEG quality {cam.jpeg_quality}"
+            + (f", depth {cam.depth}" if cam.depth else "")
+            + (", segmentation" if cam.segmentation else "")
+        )
+    return out
 
 
 def _vehicle_line(d: RunDescription) -> str:

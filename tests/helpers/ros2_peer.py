@@ -36,7 +36,7 @@ from rcl_interfaces.msg import Log
 from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 from rosgraph_msgs.msg import Clock
-from sensor_msgs.msg import CameraInfo, CompressedImage, Image, Imu, Joy
+from sensor_msgs.msg import CameraInfo, CompressedImage, Image, Imu, Joy, LaserScan, PointCloud2, Range
 from std_msgs.msg import Float64MultiArray, String
 from visualization_msgs.msg import MarkerArray
 
@@ -59,6 +59,9 @@ TOPICS: dict[str, tuple[Any, Any]] = {
     "/rosout": (Log, LATCHED),
     "/wind": (Vector3Stamped, 10),
     "/joy": (Joy, 10),
+    "/quad/range": (Range, 10),
+    "/quad/scan": (LaserScan, 10),
+    "/quad/points": (PointCloud2, 10),
 }
 GRAPH_TOPICS = ("/quad/odom", "/tf", "/tf_static", "/clock")
 
@@ -121,6 +124,7 @@ def main() -> int:
             images.append(b"")  # counted, not kept
 
     raw_images: dict[str, dict[str, Any]] = {}  # an Image topic -> what its last message said
+    ranging: dict[str, dict[str, Any]] = {}  # a ranging topic -> what its last message said
 
     def counter(name: str) -> Any:
         def count(m: Any) -> None:
@@ -128,6 +132,16 @@ def main() -> int:
             if isinstance(m, Image):
                 size = (m.height, m.width, m.step, len(m.data))
                 raw_images[name] = {"encoding": m.encoding, "size": size, "frame": m.header.frame_id}
+            elif isinstance(m, Range):  # the variance field is Jazzy's and Kilted's: it must read
+                ranging[name] = {"range": m.range, "variance": m.variance, "frame": m.header.frame_id}
+            elif isinstance(m, LaserScan):
+                ranging[name] = {
+                    "beams": len(m.ranges),
+                    "ahead": m.ranges[len(m.ranges) // 2],
+                    "frame": m.header.frame_id,
+                }
+            elif isinstance(m, PointCloud2):
+                ranging[name] = {"points": m.width * m.height, "bytes": len(m.data), "frame": m.header.frame_id}
 
         return count
 
@@ -144,7 +158,7 @@ def main() -> int:
     for other in others:
         node.create_subscription(Odometry, f"/{other}/quad/odom", other_odom(other), 10)
     node.create_subscription(CompressedImage, "/quad/front_camera/image_raw/compressed", on_image, 10)
-    if mode == "fly":
+    if mode in ("fly", "goal"):
         for name, (kind, qos) in TOPICS.items():
             node.create_subscription(kind, name, counter(name), qos)
     pub = node.create_publisher(Twist, cmd_topic, 10)
@@ -242,6 +256,7 @@ def main() -> int:
         "image_hex": images[0].hex() if images else "",
         "counts": counts,
         "raw_images": raw_images,
+        "ranging": ranging,
         "graph": graph,
         "sent": sent,
         "others_last": others_last,
