@@ -62,6 +62,8 @@ def _beside_peer(
         mode = ["fleet", str(report_path), *fleet]
     if goal is not None:
         mode = ["goal", str(report_path), *goal]
+    if program == "stop":
+        mode = ["stop", str(report_path)]
     peer = subprocess.Popen(
         [str(python), str(PEER), *mode],
         env=node_env or env,
@@ -412,3 +414,18 @@ def test_a_ros2_nodes_goal_pose_flies_the_vehicle_there_and_holds_it(distributio
         logs = [msg.msg for _, msg in reader.messages("/rosout")]
     assert "goal: flying to x=2.00 y=-1.50 z=1.00 yaw=-90.0deg" in logs, logs
     assert "goal_reached: at x=2.00 y=-1.50 z=1.00 yaw=-90.0deg" in logs, logs
+
+
+@pytest.mark.parametrize("distribution", DISTRIBUTIONS)
+def test_a_ros2_node_stops_one_metre_before_the_tower_seeing_it_in_the_scan(distribution: str, tmp_path: Path) -> None:
+    """examples/stop_before_tower.py's loop as a node: /quad/scan in, /quad_cmd_twist out; it
+    stops 1 m before the red tower's face and never touches it."""
+    python = _peer_python(distribution)
+    recording = tmp_path / "stop.mcap"
+    args = ["run", "--input", "ros2", "--duration", "13", "--cameras", "none", "--lidar", "2d", "--out", str(recording)]
+    env = local_env(free_domain(len(CASES) + 40 + DISTRIBUTIONS.index(distribution)), "LOCALHOST")
+    sim, report = _beside_peer(python, args, tmp_path, env, program="stop")
+    assert "flight events   1 takeoff" in sim.stdout and "crash" not in sim.stdout, sim.stdout
+    last = report["odom_last"]
+    assert abs((5.6 - last["x"]) - 1.0) < 0.15 and abs(last["y"]) < 0.1, last  # the tower's face is at x = 5.6 m
+    assert abs(report["graph"]["nearest_ahead_m"] - 1.0) < 0.15, report["graph"]

@@ -241,6 +241,7 @@ def test_the_examples_ship_in_the_wheel_and_copy_out(installed):
         "fleet.toml",
         "fly_to_tower.py",
         "own_controller.py",
+        "stop_before_tower.py",
         "sweep_controllers.toml",
         "sweep_wind.toml",
     ]

@@ -11,6 +11,8 @@ quadsim publishes. Not a test module: tests/e2e/test_ros2.py and the benchmark s
     python ros2_peer.py goal OUT.json X,Y,Z,YAW_DEG TOPIC
                                                publish one PoseStamped goal (frame map) on TOPIC, as
                                                RViz's 2D Goal Pose does, and watch 9 s of the flight
+    python ros2_peer.py stop OUT.json          fly at what is ahead and stop 1 m before it, seeing it in
+                                               /quad/scan alone (examples/stop_before_tower.py's loop)
     python ros2_peer.py fleet OUT.json NAME OTHER,...
                                                fly vehicle NAME of a fleet as `fly` does, on its
                                                /NAME/quad_cmd_twist; read its /NAME/quad/odom and
@@ -226,6 +228,32 @@ def main() -> int:
         spin_for(0.2)  # the match is seen from both sides
         goal_pub.publish(goal)
         until_sim(9.0)
+    elif clock_ns and mode == "stop":
+        scans: list[Any] = []
+        node.create_subscription(LaserScan, "/quad/scan", scans.append, 10)
+
+        def nearest_ahead() -> float:
+            """The nearest return within 15 deg of straight ahead (REP 117: -inf is nearer than the minimum)."""
+            if not scans:
+                return math.inf
+            m = scans[-1]
+            ahead = [r for i, r in enumerate(m.ranges) if abs(m.angle_min + i * m.angle_increment) <= math.radians(15)]
+            return (
+                0.0
+                if any(r == -math.inf for r in ahead)
+                else min((r for r in ahead if math.isfinite(r)), default=math.inf)
+            )
+
+        def steer() -> None:
+            z = odoms[-1]["z"] if odoms else 0.0
+            m = Twist()
+            m.linear.z = max(-1.0, min(1.0, 1.5 * (1.2 - z)))
+            if z >= 0.96:
+                m.linear.x = max(0.0, min(1.0, 0.8 * (nearest_ahead() - 1.0)))
+            pub.publish(m)
+
+        until_sim(12.0, steer)
+        graph["nearest_ahead_m"] = nearest_ahead()
     elif clock_ns and mode == "program":
         for seconds, fields in program:
             send(seconds, **fields)
