@@ -82,7 +82,7 @@ class QuadEnv(gym.Env):
         self._view: Cameras | None = None
         self._events_before = 0
         #: the sensors the observation adds (None: none)
-        self.sensors = SensorObservation(self.sim, names) if names else None
+        self.sensors = SensorObservation(self.sim.drone, names, self.sim) if names else None
 
     # --- what the subclasses say ----------------------------------------------------------
 

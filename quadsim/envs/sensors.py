@@ -1,5 +1,6 @@
-"""The sensors an env's observation may add (`gymnasium.make("quadsim/Hover-v0", sensors=("range", "scan"))`):
-a depth image, the range finder, a 2D or a 3D LiDAR scan, each a bounded Box of float32.
+"""The sensors an env's observation may add (`gymnasium.make("quadsim/Hover-v0", sensors=("range", "scan"))`,
+TowerVision-v0's, `make_vec`'s, the PettingZoo fleet's but for "depth"): a depth image, the range
+finder, a 2D or a 3D LiDAR scan, each a bounded Box of float32.
 
 - "depth": (DEPTH.height_px, DEPTH.width_px) metres along the front camera's optical axis, rendered
   in SYNC mode at every agent step (the image of the step's last physics step); nothing drawn
@@ -30,6 +31,7 @@ from quadsim.core.types import LidarMode, VehicleState
 from quadsim.sensors.camera import CameraSpec
 from quadsim.sensors.ranging import RangingSensor
 from quadsim.sim.cameras import Cameras
+from quadsim.sim.drone import Drone
 from quadsim.sim.simulator import Simulator
 
 #: the sensors an observation may add
@@ -40,8 +42,9 @@ DEPTH_FAR_M = 30.0
 DEPTH = CameraSpec("depth", "front_camera_link", 64, 48, rate_hz=30, far_m=DEPTH_FAR_M)
 
 
-def sensor_names(sensors: Iterable[str] | str) -> tuple[str, ...]:
-    """`sensors` checked: a name or names of SENSORS, each once, at most one LiDAR."""
+def sensor_names(sensors: Iterable[str] | str, cameras: bool = True) -> tuple[str, ...]:
+    """`sensors` checked: a name or names of SENSORS, each once, at most one LiDAR; `cameras`
+    False: not "depth" (a fleet's vehicles have no cameras)."""
     names = (sensors,) if isinstance(sensors, str) else tuple(sensors)
     for name in names:
         if name not in SENSORS:
@@ -50,6 +53,8 @@ def sensor_names(sensors: Iterable[str] | str) -> tuple[str, ...]:
         raise ValueError(f"sensors: each sensor once, got {', '.join(names)}")
     if "scan" in names and "scan3d" in names:
         raise ValueError("sensors: one LiDAR, 'scan' (2D) or 'scan3d' (3D), not both")
+    if "depth" in names and not cameras:
+        raise ValueError("sensors: 'depth' is a single vehicle's (gymnasium.make); a fleet's are range, scan, scan3d")
     return names
 
 
@@ -60,14 +65,15 @@ def sim_options(names: tuple[str, ...]) -> dict[str, Any]:
 
 
 class SensorObservation:
-    """The readings of `names` (checked by sensor_names) on `sim` (made with sim_options), as
-    entries of a Dict observation."""
+    """The readings of `names` (checked by sensor_names) on `drone` (made with sim_options), as
+    entries of a Dict observation; "depth" needs `sim`, the drone's Simulator (the cameras are
+    a Simulator's: a fleet's vehicles have none)."""
 
-    def __init__(self, sim: Simulator, names: tuple[str, ...]) -> None:
+    def __init__(self, drone: Drone, names: tuple[str, ...], sim: Simulator | None = None) -> None:
+        assert sim is not None or "depth" not in names  # sensor_names(cameras=False) says so
         self.names = names
-        self._sim = sim
+        self._drone = drone
         self._ranging: dict[str, RangingSensor] = {}
-        drone = sim.drone
         if "range" in names:
             assert drone.range_finder is not None  # made with sim_options
             self._ranging["range"] = drone.range_finder
@@ -75,9 +81,9 @@ class SensorObservation:
             if name in names:
                 assert drone.lidar is not None
                 self._ranging[name] = drone.lidar
-        lidar = sim.vehicle.lidar
+        lidar = drone.vehicle.lidar
         self._shapes = {"range": (1,), "scan": (lidar.samples,), "scan3d": (lidar.channels, lidar.samples)}
-        self.cameras = Cameras(sim, (DEPTH,), depth=True) if "depth" in names else None
+        self.cameras = Cameras(sim, (DEPTH,), depth=True) if sim is not None and "depth" in names else None
 
     def spaces(self) -> dict[str, spaces.Box]:
         """A Box for each sensor, by name."""
@@ -90,7 +96,7 @@ class SensorObservation:
 
     def reset(self) -> None:
         """After the simulator's reset: a reading of each sensor at step 0."""
-        state = self._sim.state
+        state = self._drone.state
         for sensor in self._ranging.values():
             if sensor.latest is None:
                 sensor.measure(state)

@@ -1,7 +1,7 @@
 """The sensors an env's observation may add (quadsim.envs.sensors): the checker with each, clear
 errors for names it does not know, readings that see the world (the altitude, the red tower) and
-are clipped into their Boxes, the same episode from the same seed, and the vector env's batches
-the same as gymnasium's SyncVectorEnv's."""
+are clipped into their Boxes, the same episode from the same seed, the vector env's batches the
+same as gymnasium's SyncVectorEnv's, and the PettingZoo fleet's agents with sensors of their own."""
 
 from __future__ import annotations
 
@@ -118,3 +118,22 @@ def test_the_vector_env_batches_them_as_gymnasiums_sync_vector_env_would():
     finally:
         ours.close()
         theirs.close()
+
+
+def test_a_fleets_agents_each_read_their_own_sensors():
+    from pettingzoo.test import parallel_api_test, parallel_seed_test
+
+    from quadsim.envs.fleet import HoverFleetEnv
+
+    env = HoverFleetEnv(agents=2, episode_s=1.0, sensors=("range", "scan"))
+    try:
+        assert env.observation_space("drone_1")["scan"].shape == (360,)
+        parallel_api_test(env, num_cycles=40)
+        observations, _ = env.reset(seed=4)
+        low = env.observation_space("drone_0")["range"].low[0]
+        assert all(observations[agent]["range"][0] == low for agent in env.agents)  # on the ground: below the minimum
+    finally:
+        env.close()
+    parallel_seed_test(lambda: HoverFleetEnv(agents=2, episode_s=0.5, sensors="scan"), num_cycles=20)
+    with pytest.raises(ValueError, match="'depth' is a single vehicle's"):
+        HoverFleetEnv(agents=2, sensors=("depth",))
