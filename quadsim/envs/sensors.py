@@ -45,7 +45,10 @@ DEPTH = CameraSpec("depth", "front_camera_link", 64, 48, rate_hz=30, far_m=DEPTH
 def sensor_names(sensors: Iterable[str] | str, cameras: bool = True) -> tuple[str, ...]:
     """`sensors` checked: a name or names of SENSORS, each once, at most one LiDAR; `cameras`
     False: not "depth" (a fleet's vehicles have no cameras)."""
-    names = (sensors,) if isinstance(sensors, str) else tuple(sensors)
+    try:
+        names = (sensors,) if isinstance(sensors, str) else tuple(sensors)
+    except TypeError:
+        raise ValueError(f"sensors: a name or names of {', '.join(SENSORS)}; got {sensors!r:.30}") from None
     for name in names:
         if name not in SENSORS:
             raise ValueError(f"sensors: unknown sensor {name!r:.30}; the choices are {', '.join(SENSORS)}")

@@ -43,6 +43,7 @@ def test_each_sensor_passes_the_checker(env_id, sensors):
         (("range", "sonar"), "unknown sensor 'sonar'; the choices are depth, range, scan, scan3d"),
         (("scan", "scan3d"), "one LiDAR, 'scan' (2D) or 'scan3d' (3D), not both"),
         (("range", "range"), "each sensor once"),
+        (None, "sensors: a name or names of depth, range, scan, scan3d; got None"),
     ],
 )
 def test_a_sensor_it_does_not_know_is_one_clear_error(sensors, said):
@@ -68,6 +69,7 @@ def test_readings_see_the_ground_and_the_tower_and_are_clipped_into_their_boxes(
         assert scan[0] == 30.0  # straight behind: nothing within range (+inf), the Box's high
         assert env.observation_space["scan"].high[0] == 30.0
         assert sim.state.step - sim.drone.lidar.latest.step < 24  # at most one LiDAR period old (10 Hz)
+        assert sim.drone.range_finder.latest.step == sim.state.step  # 60 Hz: taken at the step's last physics step
         depth = observation["depth"]
         assert depth.shape == (48, 64)
         assert depth[24, 32] == pytest.approx(5.5, abs=0.2)  # the tower, a camera's offset nearer
