@@ -16,11 +16,15 @@ crashes (into the ground, a landmark or another vehicle: both are), leaves the a
 and truncated after `episode_s`. A finished agent leaves `agents`; its vehicle holds its last
 command. Starts are on a line `spacing_m` apart, x and y each within 0.5 m of its slot; each
 target's x and y are each within 1 m of its start's, its height 1 to 2.5 m.
+
+With `sensors` (quadsim.envs.sensors: "range", "scan" or "scan3d"; "depth" is a single
+vehicle's), each agent's observation is a Dict, as Hover-v0's: "state", the Box(15), and a Box
+for each of its own vehicle's sensors (whose beams see the other vehicles).
 """
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Iterable, Sequence
 from typing import Any
 
 import numpy as np
@@ -37,6 +41,7 @@ from quadsim.envs.quad import (
     hover_observation_space,
     hover_reward,
 )
+from quadsim.envs.sensors import SensorObservation, sensor_names, sim_options
 from quadsim.errors import QuadsimError
 from quadsim.physics.wind import WindModel, WindSettings
 from quadsim.sim.config import Rates, SimConfig
@@ -65,9 +70,12 @@ class HoverFleetEnv(ParallelEnv):
         episode_s: float = HOVER_EPISODE_S,
         wind: WindSettings | WindModel | None = None,
         controllers: Sequence[Controller] | None = None,
+        sensors: Iterable[str] | str = (),
     ) -> None:
         """`wind`: WindSettings, or a wind of your own (a WindModel) for every agent;
-        `controllers`: a controller of your own for each agent, in order (one object each)."""
+        `controllers`: a controller of your own for each agent, in order (one object each);
+        `sensors`: what each agent's observation adds (see the module)."""
+        names = sensor_names(sensors, cameras=False)
         if not 1 <= agents <= 100:
             raise ValueError(f"agents must be within 1..100, got {agents}")
         if spacing_m < 1.5:
@@ -79,7 +87,7 @@ class HoverFleetEnv(ParallelEnv):
         if controllers is not None and len(controllers) != agents:
             raise ValueError(f"controllers: one for each of the {agents} agents, got {len(controllers)}")
         settings = wind if isinstance(wind, WindSettings) else WindSettings()
-        config = SimConfig(z_mode=ZMode.VELOCITY, rates=Rates(input_hz=AGENT_HZ), wind=settings)
+        config = SimConfig(z_mode=ZMode.VELOCITY, rates=Rates(input_hz=AGENT_HZ), wind=settings, **sim_options(names))
         own = list(controllers) if controllers is not None else [None] * agents
         self.fleet = Fleet(
             [
@@ -93,13 +101,20 @@ class HoverFleetEnv(ParallelEnv):
         self.max_cycles = round(episode_s * AGENT_HZ)
         self._scale = {name: ActionScale(self.fleet[name].vehicle.limits) for name in self.possible_agents}
         self._space = hover_observation_space()
-        self._observation_spaces = {name: hover_observation_space() for name in self.possible_agents}
+        #: each agent's sensors (none without `sensors`)
+        self.sensors = {name: SensorObservation(self.fleet[name], names) for name in self.possible_agents if names}
+        self._observation_spaces: dict[str, spaces.Box | spaces.Dict] = {
+            name: spaces.Dict({"state": hover_observation_space(), **self.sensors[name].spaces()})
+            if names
+            else hover_observation_space()
+            for name in self.possible_agents
+        }
         self._action_spaces = {name: spaces.Box(-1.0, 1.0, (4,), np.float32) for name in self.possible_agents}
         self.targets_m = {name: np.zeros(3) for name in self.possible_agents}
         self._cycles = 0
         self._rng = np.random.default_rng()
 
-    def observation_space(self, agent: str) -> spaces.Box:
+    def observation_space(self, agent: str) -> spaces.Box | spaces.Dict:
         return self._observation_spaces[agent]  # the same object each time, as PettingZoo asks
 
     def action_space(self, agent: str) -> spaces.Box:
@@ -111,7 +126,7 @@ class HoverFleetEnv(ParallelEnv):
 
     def reset(
         self, seed: int | None = None, options: dict[str, Any] | None = None
-    ) -> tuple[dict[str, np.ndarray], dict[str, dict[str, Any]]]:
+    ) -> tuple[dict[str, Any], dict[str, dict[str, Any]]]:
         if seed is not None:
             self._rng = np.random.default_rng(seed)
         rng = self._rng
@@ -122,6 +137,8 @@ class HoverFleetEnv(ParallelEnv):
         self.fleet.reset(seed=int(rng.integers(_SIM_SEEDS)))
         for name in self.possible_agents:
             self.fleet[name].send(Twist())
+        for sensors in self.sensors.values():
+            sensors.reset()
         self.agents = list(self.possible_agents)
         self._cycles = 0
         return {a: self._observe(a) for a in self.agents}, {a: self._info(a) for a in self.agents}
@@ -146,8 +163,12 @@ class HoverFleetEnv(ParallelEnv):
         self.agents = [a for a in self.agents if not (terminations[a] or truncations[a])]
         return observations, rewards, terminations, truncations, infos
 
-    def _observe(self, agent: str) -> np.ndarray:
-        return hover_observation(self.fleet[agent].state, self.targets_m[agent], self._space)
+    def _observe(self, agent: str) -> np.ndarray | dict[str, np.ndarray]:
+        state = self.fleet[agent].state
+        observation = hover_observation(state, self.targets_m[agent], self._space)
+        if agent not in self.sensors:
+            return observation
+        return {"state": observation, **self.sensors[agent].observe(state)}
 
     def _info(self, agent: str) -> dict[str, Any]:
         state = self.fleet[agent].state

@@ -19,6 +19,7 @@ from the episode's seed).
 from __future__ import annotations
 
 import math
+from collections.abc import Iterable
 from typing import Any
 
 import gymnasium as gym
@@ -28,6 +29,7 @@ from gymnasium import spaces
 from quadsim.control import Controller
 from quadsim.core.kinematics import body_velocity
 from quadsim.core.types import StartPose, Twist, VehicleState, ZMode
+from quadsim.envs.sensors import SensorObservation, sensor_names, sim_options
 from quadsim.physics.wind import WindModel, WindSettings
 from quadsim.sensors.camera import CameraSpec
 from quadsim.sim.cameras import Cameras
@@ -60,15 +62,18 @@ class QuadEnv(gym.Env):
         render_mode: str | None = None,
         wind: WindSettings | WindModel | None = None,
         controller: Controller | None = None,
+        sensors: Iterable[str] | str = (),
     ) -> None:
         """`wind`: WindSettings, or a wind of your own (a WindModel); `controller`: a controller
-        of your own (the Controller protocol) in place of the cascade."""
+        of your own (the Controller protocol) in place of the cascade; `sensors`: what the
+        observation adds, of quadsim.envs.sensors.SENSORS ("depth", "range", "scan", "scan3d")."""
+        names = sensor_names(sensors)
         if render_mode is not None and render_mode not in self.metadata["render_modes"]:
             raise ValueError(f"render_mode must be one of {self.metadata['render_modes']}, got {render_mode!r}")
         self.render_mode = render_mode
         # commands are polled at the agent rate: an action reaches the gate at its first physics step
         settings = wind if isinstance(wind, WindSettings) else WindSettings()
-        config = SimConfig(z_mode=ZMode.VELOCITY, rates=Rates(input_hz=AGENT_HZ), wind=settings)
+        config = SimConfig(z_mode=ZMode.VELOCITY, rates=Rates(input_hz=AGENT_HZ), wind=settings, **sim_options(names))
         model = None if wind is None or isinstance(wind, WindSettings) else wind
         self.sim = Simulator(config, controller=controller, wind=model)
         self.steps_per_action = config.rates.physics_hz // AGENT_HZ
@@ -76,6 +81,8 @@ class QuadEnv(gym.Env):
         self.action_space: spaces.Box = spaces.Box(-1.0, 1.0, (4,), np.float32)
         self._view: Cameras | None = None
         self._events_before = 0
+        #: the sensors the observation adds (None: none)
+        self.sensors = SensorObservation(self.sim.drone, names, self.sim) if names else None
 
     # --- what the subclasses say ----------------------------------------------------------
 
@@ -104,6 +111,8 @@ class QuadEnv(gym.Env):
     def _after_reset(self) -> None:
         if self._view is not None:
             self._view.capture_now()
+        if self.sensors is not None:
+            self.sensors.reset()
 
     def twist_of(self, action: Any) -> np.ndarray:
         """The command an action stands for: forward, left, climb (m/s) and yaw rate (rad/s)."""
@@ -156,6 +165,8 @@ class QuadEnv(gym.Env):
         if self._view is not None:
             self._view.close()
             self._view = None
+        if self.sensors is not None:
+            self.sensors.close()
         self.sim.close()
 
     # --- termination ------------------------------------------------------------------------
@@ -183,25 +194,36 @@ class HoverEnv(QuadEnv):
     yaw (rad), body rates (3, rad/s), target position (3, m, world). Reward per step: minus the
     distance to the target (m) and a little of the speed. Starts on the ground at x and y each
     uniform in [-1, 1] m, any heading; the target's x and y are each uniform in [-2, 2] m, its
-    height in [1, 2.5] m."""
+    height in [1, 2.5] m; reset's options "start_xy_m" and "start_yaw_rad" choose the start instead.
+
+    With `sensors` (quadsim.envs.sensors), the observation is a Dict: "state", the Box(15), and a
+    Box for each sensor."""
 
     def __init__(
         self,
         render_mode: str | None = None,
         wind: WindSettings | WindModel | None = None,
         controller: Controller | None = None,
+        sensors: Iterable[str] | str = (),
     ) -> None:
-        super().__init__(render_mode, wind, controller)
+        super().__init__(render_mode, wind, controller, sensors)
         self._space = hover_observation_space()
-        self.observation_space = self._space
+        self.observation_space: spaces.Box | spaces.Dict = self._space
+        if self.sensors is not None:
+            self.observation_space = spaces.Dict({"state": self._space, **self.sensors.spaces()})
         self.target_m = np.zeros(3)
 
     def _start(self, rng: np.random.Generator, options: dict[str, Any]) -> StartPose:
         self.target_m = np.array([rng.uniform(-2, 2), rng.uniform(-2, 2), rng.uniform(1.0, 2.5)])
-        return StartPose(float(rng.uniform(-1, 1)), float(rng.uniform(-1, 1)), float(rng.uniform(-math.pi, math.pi)))
+        x, y, yaw = rng.uniform(-1, 1), rng.uniform(-1, 1), rng.uniform(-math.pi, math.pi)
+        x, y = options.get("start_xy_m", (x, y))
+        return StartPose(float(x), float(y), float(options.get("start_yaw_rad", yaw)))
 
-    def _observe(self, state: VehicleState) -> np.ndarray:
-        return hover_observation(state, self.target_m, self._space)
+    def _observe(self, state: VehicleState) -> np.ndarray | dict[str, np.ndarray]:
+        observation = hover_observation(state, self.target_m, self._space)
+        if self.sensors is None:
+            return observation
+        return {"state": observation, **self.sensors.observe(state)}
 
     def _reward(self, state: VehicleState) -> tuple[float, bool]:
         return hover_reward(state, self.target_m), False
@@ -307,7 +329,8 @@ class TowerVisionEnv(QuadEnv):
     "velocity" (3, m/s, in base_link). Reward per step: the metres closed on the tower's face;
     +10 and the end of the episode on stopping within 1.5 m of it. Starts on the ground within
     1 m of the origin, heading within 20 deg of the tower (6 m ahead: in view); reset's options
-    "start_xy_m" and "start_yaw_rad" choose them instead."""
+    "start_xy_m" and "start_yaw_rad" choose them instead. With `sensors` (quadsim.envs.sensors),
+    the Dict has a Box for each sensor too."""
 
     IMAGE = CameraSpec("front", "front_camera_link", 64, 64, rate_hz=AGENT_HZ)
 
@@ -316,12 +339,14 @@ class TowerVisionEnv(QuadEnv):
         render_mode: str | None = None,
         wind: WindSettings | WindModel | None = None,
         controller: Controller | None = None,
+        sensors: Iterable[str] | str = (),
     ) -> None:
-        super().__init__(render_mode, wind, controller)
+        super().__init__(render_mode, wind, controller, sensors)
         self.observation_space = spaces.Dict(
             {
                 "image": spaces.Box(0, 255, (64, 64, 3), np.uint8),
                 "velocity": spaces.Box(-MAX_SPEED_MPS, MAX_SPEED_MPS, (3,), np.float32),
+                **(self.sensors.spaces() if self.sensors is not None else {}),
             }
         )
         tower = next(lm for lm in self.sim.world.landmarks if lm.name == "red_tower")
@@ -350,7 +375,8 @@ class TowerVisionEnv(QuadEnv):
         assert image is not None and image.step == state.step  # SYNC, captured at the agent rate
         velocity = body_velocity(state.orientation_xyzw, state.linear_velocity_mps)
         clipped = np.clip(np.array(velocity, np.float32), -MAX_SPEED_MPS, MAX_SPEED_MPS)
-        return {"image": image.rgb, "velocity": clipped}
+        observation = {"image": image.rgb, "velocity": clipped}
+        return observation if self.sensors is None else {**observation, **self.sensors.observe(state)}
 
     def _reward(self, state: VehicleState) -> tuple[float, bool]:
         distance = self.distance_to_tower_m(state)

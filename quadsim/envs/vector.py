@@ -13,17 +13,21 @@ env step is its vehicle's flight, compiled where the vehicle is clear of everyth
 (quadsim.sim.clear_flight); the envs are stepped one after another on this process's core
 (`vectorization_mode="async"` spreads envs over processes instead).
 
+With `sensors` (quadsim.envs.sensors), each env's observation is HoverEnv's Dict and the
+batch is a dict of arrays, one row per env (gymnasium.vector.utils.batch_space).
+
 Autoreset is Gymnasium's next-step mode: an env that ended is reset at the next `step`, whose
 action it ignores, giving its first observation with reward 0.
 """
 
 from __future__ import annotations
 
+from collections.abc import Iterable
 from typing import Any
 
 import numpy as np
 from gymnasium.vector import AutoresetMode, VectorEnv
-from gymnasium.vector.utils import batch_space
+from gymnasium.vector.utils import batch_space, create_empty_array
 
 from quadsim.control import Controller
 from quadsim.core.types import VehicleState
@@ -50,11 +54,13 @@ class HoverVectorEnv(VectorEnv):
         wind: WindSettings | None = None,
         controller: Controller | None = None,
         render_mode: str | None = None,
+        sensors: Iterable[str] | str = (),
     ) -> None:
         """`max_episode_steps`: each env's episode is truncated after this many steps (Hover-v0's
         time limit by default); `wind`: WindSettings for every env (each env's gusts from its
-        own seed). A controller or a wind model of one's own is one object flying one vehicle:
-        give them to `gymnasium.make` for one env."""
+        own seed); `sensors`: what each observation adds (HoverEnv's). A controller or a wind
+        model of one's own is one object flying one vehicle: give them to `gymnasium.make` for
+        one env."""
         if isinstance(num_envs, bool) or not isinstance(num_envs, int) or num_envs < 1:
             raise ValueError(f"num_envs must be a whole number of at least 1, got {num_envs!r}")
         if render_mode is not None:
@@ -67,7 +73,7 @@ class HoverVectorEnv(VectorEnv):
         self.envs: list[HoverEnv] = []
         try:
             for _ in range(num_envs):
-                self.envs.append(HoverEnv(wind=wind))
+                self.envs.append(HoverEnv(wind=wind, sensors=sensors))
         except BaseException:
             self.close()
             raise
@@ -80,12 +86,14 @@ class HoverVectorEnv(VectorEnv):
         self._scale = first._scale
         self._elapsed = np.zeros(num_envs, np.int64)
         self._ended = np.zeros(num_envs, np.bool_)
-        self._observations = np.zeros((num_envs, 15), np.float32)  # hover_observation_space()
+        #: with sensors, a dict of arrays (HoverEnv's Dict, batched)
+        self._with_sensors = first.sensors is not None
+        self._observations: Any = create_empty_array(self.single_observation_space, num_envs, np.zeros)
         self._space = first._space
 
     def reset(
         self, *, seed: int | list[int | None] | None = None, options: dict[str, Any] | None = None
-    ) -> tuple[np.ndarray, dict[str, Any]]:
+    ) -> tuple[Any, dict[str, Any]]:
         """Every env reset (seed: env i gets seed + i, or the i-th of a list); with
         options["reset_mask"], only the envs it marks."""
         super().reset(seed=seed if isinstance(seed, int) else None)
@@ -102,13 +110,13 @@ class HoverVectorEnv(VectorEnv):
         states: list[VehicleState | None] = [None] * n
         for i, env in enumerate(self.envs):
             if mask is None or mask[i]:
-                self._observations[i], _ = env.reset(seed=seeds[i], options=options)
+                self._put(i, env.reset(seed=seeds[i], options=options)[0])
                 states[i] = env.sim.state
                 self._elapsed[i] = 0
                 self._ended[i] = False
-        return self._observations.copy(), self._infos(states)
+        return self._batch(), self._infos(states)
 
-    def step(self, actions: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, dict[str, Any]]:
+    def step(self, actions: Any) -> tuple[Any, np.ndarray, np.ndarray, np.ndarray, dict[str, Any]]:
         n = self.num_envs
         commands = self._scale.twist_of(actions, (n, 4)).tolist()
         rewards = np.zeros(n)
@@ -118,20 +126,37 @@ class HoverVectorEnv(VectorEnv):
         for i, env in enumerate(self.envs):
             env._check_open()
             if self._ended[i]:  # next-step autoreset: this step's action is ignored
-                self._observations[i], _ = env.reset()
+                self._put(i, env.reset()[0])
                 self._elapsed[i] = 0
                 states[i] = env.sim.state
             else:
                 state = states[i] = env.fly(twist_command(commands[i]))
                 rewards[i], terminations[i] = env.judge(state)
-                rows.append(hover_observation_row(state, env.target_m))
-                flown.append(i)
+                if self._with_sensors:
+                    self._put(i, env._observe(state))
+                else:
+                    rows.append(hover_observation_row(state, env.target_m))
+                    flown.append(i)
                 self._elapsed[i] += 1
         if rows:
             self._observations[flown] = hover_observations(rows, self._space)
         truncations = self._elapsed >= self.max_episode_steps  # as gymnasium's TimeLimit
         self._ended = terminations | truncations
-        return self._observations.copy(), rewards, terminations, truncations, self._infos(states)
+        return self._batch(), rewards, terminations, truncations, self._infos(states)
+
+    def _put(self, i: int, observation: Any) -> None:
+        """Env i's observation into its row of the batch."""
+        if self._with_sensors:
+            for key, value in observation.items():
+                self._observations[key][i] = value
+        else:
+            self._observations[i] = observation
+
+    def _batch(self) -> Any:
+        """A copy of the batch of observations (the caller may keep it)."""
+        if self._with_sensors:
+            return {key: value.copy() for key, value in self._observations.items()}
+        return self._observations.copy()
 
     def _infos(self, states: list[VehicleState | None]) -> dict[str, Any]:
         """What each env's info says (its step and position), as Gymnasium's vector envs give
