@@ -100,6 +100,15 @@ def image_pixels(encoding: str, height: int, width: int, step: int, is_bigendian
     return np.ascontiguousarray(rows).view(dtype).reshape(height, width).astype(dtype.newbyteorder("="))
 
 
+def depth_colormap_jpeg(pixels: np.ndarray, encoding: str, quality: int) -> bytes:
+    """A depth image's pixels (in its contract `encoding`) colour-mapped for people
+    (`depth_colour_mapped`: turbo, log scale 0.2 m to 50 m, black where there is no depth) as a
+    JPEG of `quality`."""
+    from quadsim.sensors.rendering import encode_jpeg
+
+    return encode_jpeg(depth_colour_mapped(depth_metres_from_image(pixels, encoding)), quality)
+
+
 def depth_colour_mapped(depth_m: np.ndarray, near_m: float = 0.2, far_m: float = 50.0) -> np.ndarray:
     """Depth in metres as an RGB image for people (height x width x 3 uint8): the turbo colour
     map on a log scale, red near `near_m`, blue toward `far_m`; black where there is no depth."""
