@@ -27,6 +27,9 @@ ALONE = "vehicle"
 MAX_16UC1_MM = 65535
 #: the largest image a message may describe when read back (hostile files): 4096 x 4096 x 4 bytes
 MAX_IMAGE_BYTES = 4096 * 4096 * 4
+#: the depth colour map's scale (depth_colour_mapped): turbo on a log scale, red at NEAR, blue at FAR
+COLORMAP_NEAR_M = 0.2
+COLORMAP_FAR_M = 50.0
 #: the bytes per pixel of each image encoding the contract uses
 BYTES_PER_PIXEL = {"32FC1": 4, "16UC1": 2, "mono8": 1}
 
@@ -109,7 +112,9 @@ def depth_colormap_jpeg(pixels: np.ndarray, encoding: str, quality: int) -> byte
     return encode_jpeg(depth_colour_mapped(depth_metres_from_image(pixels, encoding)), quality)
 
 
-def depth_colour_mapped(depth_m: np.ndarray, near_m: float = 0.2, far_m: float = 50.0) -> np.ndarray:
+def depth_colour_mapped(
+    depth_m: np.ndarray, near_m: float = COLORMAP_NEAR_M, far_m: float = COLORMAP_FAR_M
+) -> np.ndarray:
     """Depth in metres as an RGB image for people (height x width x 3 uint8): the turbo colour
     map on a log scale, red near `near_m`, blue toward `far_m`; black where there is no depth."""
     import cv2  # only the viewers need it

@@ -128,6 +128,20 @@ def test_the_depth_colour_map_shows_the_recorded_depth_in_turbo(recorded):
     assert shown[:10].max() <= 16  # the sky: black
 
 
+def test_the_layout_of_a_recording_with_a_depth_colour_map_shows_it_beside_its_camera(recorded, tmp_path):
+    done = cli("layout", str(recorded[0]), "-o", str(tmp_path / "depth.json"))
+    assert done.returncode == 0, done.stderr
+    panels = json.loads((tmp_path / "depth.json").read_text())["configById"]
+    images = [config for panel, config in panels.items() if panel.startswith("ImageViewPanel!")]
+    assert [p["cameraTopic"] for p in images] == [
+        "/quad/front_camera/image_raw/compressed",
+        "/quad/front_camera/depth/colormap/compressed",
+        "/quad/floor_camera/image_raw/compressed",  # its depth is not colour-mapped: Studio 1.x shows it grey
+    ]
+    assert images[1]["foxglovePanelTitle"] == "front depth (turbo, log 0.2-50 m, black: none)"
+    assert "foxglovePanelTitle" not in images[0]
+
+
 def test_the_legend_names_the_towers_pixels(recorded):
     topics, _, _ = decoded_recording(recorded[0])
     (_, legend_msg), *more = topics["/world/segmentation_labels"]
@@ -270,6 +284,15 @@ def test_a_fleet_files_vehicles_choose_their_images_and_the_legend_names_each_ve
     assert not (labels == legend.index("alpha")).any()  # and not itself
     _, depth = topics["/bravo/quad/floor_camera/depth/image_raw"][-1]
     assert depth.encoding == "16UC1" and depth.header.frame_id == "bravo/floor_camera_optical"
+    done = cli("layout", str(tmp_path / "fleet.toml"))  # for its live run: the colour map too
+    assert done.returncode == 0, done.stderr
+    panels = json.loads((tmp_path / "fleet.layout.json").read_text())["configById"]
+    assert [c["cameraTopic"] for p, c in panels.items() if p.startswith("ImageViewPanel!")] == [
+        "/alpha/quad/front_camera/image_raw/compressed",
+        "/bravo/quad/front_camera/image_raw/compressed",
+        "/bravo/quad/floor_camera/image_raw/compressed",
+        "/bravo/quad/floor_camera/depth/colormap/compressed",
+    ]
 
 
 def test_v_in_the_flying_window_shows_the_depth_of_the_cameras_that_have_it(tmp_path):
