@@ -101,6 +101,18 @@ def test_images_are_chosen_per_camera_by_name_with_an_optional_encoding():
         CameraSpec("front", "front_camera_link", depth_colormap=True)
 
 
+def test_16uc1_depth_is_colour_mapped_from_a_table_with_the_very_colours_of_the_map():
+    from quadsim.sensors.images import depth_colormap_rgb, depth_colour_mapped
+
+    mm = np.array([[0, 1, 200, 1234, 5500], [20_000, 50_000, 50_001, 65_535, 7]], np.uint16)
+    rgb = depth_colormap_rgb(mm, "16UC1")
+    assert rgb.shape == (2, 5, 3) and rgb.flags.c_contiguous
+    assert np.array_equal(rgb, depth_colour_mapped(depth_metres_from_image(mm, "16UC1")))
+    assert rgb[0, 0].tolist() == [0, 0, 0]  # no depth: black
+    metres = depth_metres_from_image(mm, "16UC1")
+    assert np.array_equal(depth_colormap_rgb(metres, "32FC1"), rgb)
+
+
 def test_the_command_line_names_the_cameras_whose_depth_is_colour_mapped():
     from argparse import Namespace
 
