@@ -258,6 +258,13 @@ def _add_recording_options(o: argparse._ArgumentGroup) -> None:
         "millimetres (default) or 32FC1 metres, e.g. front or front:32FC1,floor",
     )
     o.add_argument(
+        "--camera-depth-colormap",
+        default=None,
+        metavar="LIST",
+        help="cameras of --camera-depth that also publish their depth colour-mapped for people, a JPEG on "
+        ".../depth/colormap/compressed (turbo, log scale 0.2-50 m, black: no depth), e.g. front",
+    )
+    o.add_argument(
         "--camera-segmentation",
         default=None,
         metavar="LIST",
@@ -439,6 +446,7 @@ def camera_options_given(args: argparse.Namespace) -> list[str]:
             ("--camera-size", args.camera_size),
             ("--camera-hz", args.camera_hz),
             ("--camera-depth", args.camera_depth),
+            ("--camera-depth-colormap", args.camera_depth_colormap),
             ("--camera-segmentation", args.camera_segmentation),
         )
         if value is not None
@@ -459,14 +467,15 @@ def camera_specs(args: argparse.Namespace) -> dict[str, CameraSpec]:
 
 
 def camera_images(args: argparse.Namespace, cameras: tuple[CameraSpec, ...]) -> tuple[CameraSpec, ...]:
-    """`cameras` with the depth and segmentation images of --camera-depth and --camera-segmentation."""
+    """`cameras` with the images of --camera-depth, --camera-segmentation and --camera-depth-colormap."""
     from quadsim.sensors.camera import with_images
 
     def items(value: str | None) -> list[str]:
         return [item.strip() for item in (value or "").split(",") if item.strip()]
 
-    where = ("--camera-depth", "--camera-segmentation")
-    return with_images(cameras, items(args.camera_depth), items(args.camera_segmentation), where)
+    where = ("--camera-depth", "--camera-segmentation", "--camera-depth-colormap")
+    depth, segmentation = items(args.camera_depth), items(args.camera_segmentation)
+    return with_images(cameras, depth, segmentation, items(args.camera_depth_colormap), where)
 
 
 def output_options(args: argparse.Namespace) -> OutputOptions:

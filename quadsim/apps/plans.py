@@ -190,6 +190,7 @@ def check_fleet_options(args: argparse.Namespace) -> None:
         raise QuadsimError("--cameras with --fleet: each vehicle's cameras are in the fleet file (cameras = [...])")
     for option, value, key in (
         ("--camera-depth", args.camera_depth, "depth"),
+        ("--camera-depth-colormap", args.camera_depth_colormap, "depth_colormap"),
         ("--camera-segmentation", args.camera_segmentation, "segmentation"),
     ):
         if value is not None:
@@ -205,12 +206,12 @@ def fleet_drivers(fleet_file: FleetFile, live_timeout_s: float | None = None) ->
 
 
 def fleet_cameras(args: argparse.Namespace, fleet_file: FleetFile) -> dict[str, tuple]:
-    """Each vehicle's cameras, at --camera-size and --camera-hz, with the depth and segmentation
-    images its entry asks for."""
+    """Each vehicle's cameras, at --camera-size and --camera-hz, with the depth, segmentation and
+    depth colour-map images its entry asks for."""
     specs = camera_specs(args)
-    where = ("depth", "segmentation")
+    where = ("depth", "segmentation", "depth_colormap")
     return {
-        v.name: with_images(tuple(specs[c] for c in v.cameras), v.depth, v.segmentation, where)
+        v.name: with_images(tuple(specs[c] for c in v.cameras), v.depth, v.segmentation, v.depth_colormap, where)
         for v in fleet_file.vehicles
         if v.cameras
     }

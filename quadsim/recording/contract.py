@@ -134,6 +134,12 @@ def depth_camera_info_topic(spec: CameraSpec) -> Topic:
     return Topic(f"{spec.topic_prefix}/depth/camera_info", "sensor_msgs/msg/CameraInfo")
 
 
+def depth_colormap_topic(spec: CameraSpec) -> Topic:
+    """A camera's depth colour-mapped for people (spec.depth_colormap): a JPEG of the depth image,
+    turbo on a log scale from 0.2 m (red) to 50 m (blue), black where there is no depth."""
+    return Topic(f"{spec.topic_prefix}/depth/colormap/compressed", "sensor_msgs/msg/CompressedImage")
+
+
 def segmentation_image_topic(spec: CameraSpec) -> Topic:
     """A camera's segmentation image: label ids (SEGMENTATION_LABELS says which is which body)."""
     return Topic(f"{spec.topic_prefix}/segmentation/image_raw", "sensor_msgs/msg/Image")
@@ -141,10 +147,13 @@ def segmentation_image_topic(spec: CameraSpec) -> Topic:
 
 def frame_topics(spec: CameraSpec) -> tuple[Topic, ...]:
     """Every topic one of the camera's frames becomes, in the order its messages come: the
-    image and its info, then the depth image and its info, the segmentation, where it has them."""
+    image and its info, then the depth image and its info, the depth colour map, the
+    segmentation, where it has them."""
     topics = [image_topic(spec), camera_info_topic(spec)]
     if spec.depth:
         topics += [depth_image_topic(spec), depth_camera_info_topic(spec)]
+    if spec.depth_colormap:
+        topics.append(depth_colormap_topic(spec))
     if spec.segmentation:
         topics.append(segmentation_image_topic(spec))
     return tuple(topics)

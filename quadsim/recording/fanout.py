@@ -47,6 +47,7 @@ from quadsim.recording.contract import (
     Topic,
     camera_info_topic,
     depth_camera_info_topic,
+    depth_colormap_topic,
     depth_image_topic,
     image_topic,
     optical_rotation,
@@ -55,7 +56,7 @@ from quadsim.recording.contract import (
 from quadsim.recording.scene import link_transforms, robot_description, robot_markers, world_markers
 from quadsim.sensors.beams import Ranges, beam_directions, frame_rotation, xyz_points
 from quadsim.sensors.camera import CameraFrame, CameraSpec
-from quadsim.sensors.images import segment_names
+from quadsim.sensors.images import depth_colormap_jpeg, segment_names
 from quadsim.vehicle.params import CameraMount, RangeParams, VehicleParams
 
 NS_PER_S = 1_000_000_000
@@ -112,6 +113,7 @@ class _Camera(NamedTuple):
     frame: str  # its optical frame's name on the wire
     depth: Topic | None  # its depth image and that image's CameraInfo, if it has depth
     depth_info: Topic | None
+    colormap: Topic | None  # its depth colour-mapped for people, if it has that
     segmentation: Topic | None  # its segmentation image, if it has one
 
 
@@ -124,6 +126,7 @@ def _camera(spec: CameraSpec, names: Names) -> _Camera:
         names.frame(spec.optical_frame),
         t(depth_image_topic(spec)) if spec.depth else None,
         t(depth_camera_info_topic(spec)) if spec.depth else None,
+        t(depth_colormap_topic(spec)) if spec.depth_colormap else None,
         t(segmentation_image_topic(spec)) if spec.segmentation else None,
     )
 
@@ -317,7 +320,8 @@ class VehicleTopics:
         self.topics: list[Topic] = [self._twist, *self._state_topics, TF_STATIC]
         for camera in self._cameras.values():
             self.topics += [camera.image, camera.info]
-            self.topics += [t for t in (camera.depth, camera.depth_info, camera.segmentation) if t is not None]
+            images = (camera.depth, camera.depth_info, camera.colormap, camera.segmentation)
+            self.topics += [t for t in images if t is not None]
         static = link_transforms(vehicle) if vehicle is not None else []
         static += [
             cdr.TransformStamped(
@@ -431,8 +435,9 @@ class VehicleTopics:
 
     def on_camera_frame(self, frame: CameraFrame) -> None:
         """A rendered frame -> its CompressedImage and the matching CameraInfo, then its depth
-        image and CameraInfo and its segmentation image where the camera has them (a frame
-        rendered before they were asked for has none)."""
+        image and CameraInfo, the depth colour-mapped (a JPEG: the render worker's, else made
+        here) and its segmentation image where the camera has them (a frame rendered before
+        they were asked for has none)."""
         camera = self._cameras.get(frame.camera)
         fanout = self.fanout
         if camera is None or not fanout.consumers:
@@ -452,6 +457,11 @@ class VehicleTopics:
             pixels = frame.depth_pixels
             messages.append((camera.depth, ns, _image(ns, camera.frame, camera.spec.depth, pixels)))
             messages.append((camera.depth_info, ns, info))
+            if camera.colormap is not None:
+                colormap = frame.depth_colormap_jpeg
+                if colormap is None:  # rendered before JPEG was asked for, or by no rig
+                    colormap = depth_colormap_jpeg(pixels, camera.spec.depth, camera.spec.jpeg_quality)
+                messages.append((camera.colormap, ns, cdr.compressed_image(ns, camera.frame, "jpeg", colormap)))
         if camera.segmentation is not None and frame.labels is not None:
             encoding = "mono8" if frame.labels.dtype == np.uint8 else "16UC1"
             messages.append((camera.segmentation, ns, _image(ns, camera.frame, encoding, frame.labels)))

@@ -225,8 +225,7 @@ DEPTH_TYPE = "sensor_msgs/msg/Image"
 
 def _depth_jpeg(msg: Any) -> bytes | None:
     """A depth image message colour-mapped as JPEG; None for one that does not add up."""
-    from quadsim.sensors.images import depth_colour_mapped, depth_metres_from_image, image_pixels
-    from quadsim.sensors.rendering import encode_jpeg
+    from quadsim.sensors.images import depth_colormap_jpeg, image_pixels
 
     try:
         pixels = image_pixels(msg.encoding, msg.height, msg.width, msg.step, bool(msg.is_bigendian), bytes(msg.data))
@@ -234,7 +233,7 @@ def _depth_jpeg(msg: Any) -> bytes | None:
         return None
     if msg.encoding not in ("32FC1", "16UC1"):
         return None
-    return encode_jpeg(depth_colour_mapped(depth_metres_from_image(pixels, msg.encoding)), 90)
+    return depth_colormap_jpeg(pixels, msg.encoding, 90)
 
 
 def _wanted(

@@ -1,4 +1,5 @@
-"""A Foxglove layout for a run's topics: every vehicle's model, the world, the cameras, altitude
+"""A Foxglove layout for a run's topics: every vehicle's model, the world, the cameras (and the
+depth of those that colour-map it: Studio 1.x draws a 16UC1 or 32FC1 image in grey), altitude
 plots, the log, and Teleop panels on the command topic of each vehicle a Foxglove client flies.
 
 A Foxglove 3D panel draws no topic until it is turned on, in every app from Foxglove Studio 1.x
@@ -40,8 +41,11 @@ from quadsim.recording.contract import (
     WORLD_MARKERS,
     Names,
 )
+from quadsim.sensors.images import COLORMAP_FAR_M, COLORMAP_NEAR_M
 
 IMAGE_SUFFIX = "/image_raw/compressed"
+#: a camera's depth colour-mapped (contract.depth_colormap_topic), shown beside the cameras
+COLORMAP_SUFFIX = "/depth/colormap/compressed"
 #: at most this many camera images and vehicles' altitudes in one layout (a fleet of ten with
 #: two cameras each would leave each image a stamp)
 MAX_IMAGES = 4
@@ -60,9 +64,9 @@ MIN_FLEET_DISTANCE_M = 8.0
 @dataclass(frozen=True)
 class LayoutVehicle:
     """What the layout shows of one vehicle: its name ("" for a vehicle alone), the topic its
-    model is drawn from (None: nothing to draw it with), its cameras' image topics, where it
-    starts (x, y, m), whether a Foxglove client flies it (a Teleop panel), its TF frames
-    (base_link, its links', its cameras'), whose axes the layout hides: a fleet's forty arrows
+    model is drawn from (None: nothing to draw it with), its cameras' image topics (and their
+    depth colour maps), where it starts (x, y, m), whether a Foxglove client flies it (a Teleop
+    panel), its TF frames (base_link, its links', its cameras'), whose axes the layout hides: a fleet's forty arrows
     and the lines from `world` to each vehicle would hide the models, and its LiDAR's topics
     (a LaserScan's, a PointCloud2's), which the 3D panel draws around it."""
 
@@ -107,7 +111,9 @@ def vehicles_from_topics(
         model: str | None = markers if markers in present else None
         if model is None and not name and description in present:
             model = description
-        images = tuple(t for t in names if t.startswith(f"{prefix}/quad/") and t.endswith(IMAGE_SUFFIX))
+        images = tuple(
+            t for t in names if t.startswith(f"{prefix}/quad/") and t.endswith((IMAGE_SUFFIX, COLORMAP_SUFFIX))
+        )
         start = (starts or {}).get(name, (0.0, 0.0))
         own_frames = tuple(f for f in all_frames if not name or f.startswith(f"{name}/"))
         scans = tuple(t for t in (own.topic(SCAN).name, own.topic(POINTS).name) if t in present)
@@ -131,6 +137,10 @@ def foxglove_layout(vehicles: Sequence[LayoutVehicle], world: bool = True) -> di
             "transformMarkers": False,
             "mode": "fit",
         }
+        if topic.endswith(COLORMAP_SUFFIX):  # the scale, which the image cannot say
+            camera = topic.removesuffix(COLORMAP_SUFFIX).rpartition("/")[2].removesuffix("_camera")
+            scale = f"turbo, log {COLORMAP_NEAR_M:g}-{COLORMAP_FAR_M:g} m, black: none"
+            panels[panel][TITLE_KEY] = f"{camera} depth ({scale})"
         right.append(panel)
     for i, vehicle in enumerate(v for v in vehicles if v.teleop):
         for kind, (title, buttons) in _TELEOP_BUTTONS.items():

@@ -131,6 +131,7 @@ def _parameter_lines(d: RunDescription) -> list[str]:
             f"  camera {cam.name}: {cam.width_px}x{cam.height_px} @ {cam.rate_hz} Hz, "
             f"vertical FOV {cam.vertical_fov_deg} deg, JPEG quality {cam.jpeg_quality}"
             + (f", depth {cam.depth}" if cam.depth else "")
+            + (" colour-mapped" if cam.depth_colormap else "")
             + (", segmentation" if cam.segmentation else "")
         )
     return out

@@ -76,7 +76,7 @@ def _own_type(topic: str) -> str | None:
     ):
         if t.name == topic:
             return t.type_name
-    if topic.endswith("/image_raw/compressed"):
+    if topic.endswith(("/image_raw/compressed", "/depth/colormap/compressed")):
         return "sensor_msgs/msg/CompressedImage"
     if topic.endswith(("/depth/image_raw", "/segmentation/image_raw")):
         return "sensor_msgs/msg/Image"

@@ -50,8 +50,9 @@ class CameraSpec:
     """One onboard camera. `name` makes the topics: /quad/<name>_camera/...
 
     Besides its JPEG images, a camera may publish a depth image (`depth`: one of
-    DEPTH_ENCODINGS, "" for none) and a segmentation image (`segmentation`), rendered with the
-    same frame (docs/recordings.md)."""
+    DEPTH_ENCODINGS, "" for none), that depth colour-mapped for people as a JPEG
+    (`depth_colormap`: quadsim.sensors.images.depth_colour_mapped; only with depth) and a
+    segmentation image (`segmentation`), rendered with the same frame (docs/recordings.md)."""
 
     name: str
     link_name: str
@@ -64,14 +65,18 @@ class CameraSpec:
     jpeg_quality: int = 85
     depth: str = ""
     segmentation: bool = False
+    depth_colormap: bool = False
 
     def __post_init__(self) -> None:
         if self.depth not in ("", *DEPTH_ENCODINGS):
             raise ConfigError(
                 f"camera {self.name}: depth encoding {self.depth!r:.20} must be one of {', '.join(DEPTH_ENCODINGS)}"
             )
-        if not isinstance(self.segmentation, bool):
-            raise ConfigError(f"camera {self.name}: segmentation must be true or false, got {self.segmentation!r:.20}")
+        for key in ("segmentation", "depth_colormap"):
+            if not isinstance(getattr(self, key), bool):
+                raise ConfigError(f"camera {self.name}: {key} must be true or false, got {getattr(self, key)!r:.20}")
+        if self.depth_colormap and not self.depth:
+            raise ConfigError(f"camera {self.name}: a depth colour map needs the camera's depth image (depth)")
         if not (16 <= self.width_px <= 4096 and 16 <= self.height_px <= 4096):
             raise ConfigError(f"camera {self.name}: size {self.width_px}x{self.height_px} must be within 16..4096 px")
         if not 1.0 <= self.vertical_fov_deg <= 170.0:
@@ -165,22 +170,32 @@ def default_cameras(width_px: int = 320, height_px: int = 240, rate_hz: int = 30
 
 
 def with_images(
-    specs: Sequence[CameraSpec], depth: Iterable[str], segmentation: Iterable[str], where: tuple[str, str]
+    specs: Sequence[CameraSpec],
+    depth: Iterable[str],
+    segmentation: Iterable[str],
+    colormap: Iterable[str],
+    where: tuple[str, str, str],
 ) -> tuple[CameraSpec, ...]:
-    """`specs` with the depth and segmentation images asked for by lists of camera names, as
-    the command line and fleet files give them: depth as NAME or NAME:ENCODING (`front`,
-    `floor:32FC1`; DEFAULT_DEPTH_ENCODING when none is said), segmentation as NAME. A ConfigError
-    starting with `where` (what says depth, what says segmentation: an option, a key) names an
-    unknown camera, encoding, or a camera named twice."""
+    """`specs` with the depth, segmentation and colour-mapped depth images asked for by lists of
+    camera names, as the command line and fleet files give them: depth as NAME or NAME:ENCODING
+    (`front`, `floor:32FC1`; DEFAULT_DEPTH_ENCODING when none is said), segmentation and the
+    depth colour map as NAME. A ConfigError starting with `where` (what says depth, segmentation,
+    the colour map: an option, a key) names an unknown camera, encoding, a camera named twice, or
+    a colour map for a camera without depth."""
     names = [s.name for s in specs]
     choices: dict[str, dict[str, Any]] = {name: {} for name in names}
-    for key, items, what in (("depth", depth, where[0]), ("segmentation", segmentation, where[1])):
+    lists = (
+        ("depth", depth, where[0]),
+        ("segmentation", segmentation, where[1]),
+        ("depth_colormap", colormap, where[2]),
+    )
+    for key, items, what in lists:
         for item in items:
             if not isinstance(item, str):
                 raise ConfigError(f"{what}: expected camera names, got {item!r:.40}")
             name, _, encoding = item.strip().partition(":")
-            if key == "segmentation" and encoding:
-                raise ConfigError(f"{what}: {item!r:.40}: a segmentation image has no encoding to choose")
+            if key != "depth" and encoding:
+                raise ConfigError(f"{what}: {item!r:.40}: a {key.replace('_', ' ')} image has no encoding to choose")
             if name not in choices:
                 known = ", ".join(names) or "no camera"
                 raise ConfigError(f"{what}: {name!r:.40} is not a camera of this run ({known})")
@@ -188,6 +203,8 @@ def with_images(
                 raise ConfigError(f"{what}: {name} is named twice")
             if key == "depth" and encoding not in ("", *DEPTH_ENCODINGS):
                 raise ConfigError(f"{what}: depth encoding {encoding!r:.20}: choose {' or '.join(DEPTH_ENCODINGS)}")
+            if key == "depth_colormap" and "depth" not in choices[name]:
+                raise ConfigError(f"{what}: {name} has no depth image to colour-map (name it in {where[0]} too)")
             choices[name][key] = (encoding or DEFAULT_DEPTH_ENCODING) if key == "depth" else True
     return tuple(replace(spec, **choices[spec.name]) for spec in specs)
 
@@ -234,3 +251,6 @@ class CameraFrame:
     #: the segmentation as the contract's label ids (uint8 or uint16; 0: nothing drawn), for a
     #: camera whose spec asks for it (quadsim.sensors.labels)
     labels: np.ndarray | None = None
+    #: the depth colour-mapped for people, JPEG-encoded (quadsim.sensors.images.depth_jpeg), for a
+    #: camera whose spec asks for it, made where the frame was rendered when JPEG was asked for
+    depth_colormap_jpeg: bytes | None = None

@@ -14,6 +14,7 @@ floor, each landmark of the world file in its order, and each vehicle of the run
 from __future__ import annotations
 
 from collections.abc import Sequence
+from functools import cache
 
 import numpy as np
 
@@ -27,6 +28,9 @@ ALONE = "vehicle"
 MAX_16UC1_MM = 65535
 #: the largest image a message may describe when read back (hostile files): 4096 x 4096 x 4 bytes
 MAX_IMAGE_BYTES = 4096 * 4096 * 4
+#: the depth colour map's scale (depth_colour_mapped): turbo on a log scale, red at NEAR, blue at FAR
+COLORMAP_NEAR_M = 0.2
+COLORMAP_FAR_M = 50.0
 #: the bytes per pixel of each image encoding the contract uses
 BYTES_PER_PIXEL = {"32FC1": 4, "16UC1": 2, "mono8": 1}
 
@@ -100,7 +104,38 @@ def image_pixels(encoding: str, height: int, width: int, step: int, is_bigendian
     return np.ascontiguousarray(rows).view(dtype).reshape(height, width).astype(dtype.newbyteorder("="))
 
 
-def depth_colour_mapped(depth_m: np.ndarray, near_m: float = 0.2, far_m: float = 50.0) -> np.ndarray:
+def depth_colormap_jpeg(pixels: np.ndarray, encoding: str, quality: int) -> bytes:
+    """A depth image's pixels (in its contract `encoding`) colour-mapped for people
+    (`depth_colormap_rgb`) as a JPEG of `quality`."""
+    from quadsim.sensors.rendering import encode_jpeg
+
+    return encode_jpeg(depth_colormap_rgb(pixels, encoding), quality)
+
+
+def depth_colormap_rgb(pixels: np.ndarray, encoding: str) -> np.ndarray:
+    """A depth image's pixels (in its contract `encoding`) as `depth_colour_mapped` shows them
+    (turbo, log scale 0.2 m to 50 m, black where there is no depth). 16UC1 takes each pixel's
+    colour from a table of every millimetre: the same colours, in a sixth of the time."""
+    if encoding != "16UC1":
+        return depth_colour_mapped(depth_metres_from_image(pixels, encoding))
+    import cv2
+
+    rgba = _colour_of_each_mm()[pixels].view(np.uint8).reshape(*pixels.shape, 4)
+    return cv2.cvtColor(rgba, cv2.COLOR_RGBA2RGB)
+
+
+@cache
+def _colour_of_each_mm() -> np.ndarray:
+    """depth_colour_mapped of every 16UC1 value, one RGBA colour packed in a uint32 each."""
+    mm = np.arange(MAX_16UC1_MM + 1, dtype=np.uint16).reshape(1, -1)
+    rgba = np.zeros((MAX_16UC1_MM + 1, 4), np.uint8)
+    rgba[:, :3] = depth_colour_mapped(depth_metres_from_image(mm, "16UC1"))[0]
+    return rgba.view(np.uint32).ravel()
+
+
+def depth_colour_mapped(
+    depth_m: np.ndarray, near_m: float = COLORMAP_NEAR_M, far_m: float = COLORMAP_FAR_M
+) -> np.ndarray:
     """Depth in metres as an RGB image for people (height x width x 3 uint8): the turbo colour
     map on a log scale, red near `near_m`, blue toward `far_m`; black where there is no depth."""
     import cv2  # only the viewers need it

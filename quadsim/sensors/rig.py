@@ -15,7 +15,7 @@ from quadsim.physics.pybullet_quiet import c_output_silenced, pb
 from quadsim.physics.scene import build_world, load_vehicle_body
 from quadsim.physics.world_spec import WorldSpec
 from quadsim.sensors.camera import CameraFrame, CameraSpec, ImageKind, RendererKind, camera_pose
-from quadsim.sensors.images import LabelMap, depth_image
+from quadsim.sensors.images import LabelMap, depth_colormap_jpeg, depth_image
 from quadsim.sensors.rendering import (
     Atmosphere,
     depth_metres,
@@ -112,18 +112,23 @@ class CameraRig:
                 self._check_not_blank(name, rgb, depth)
             rgb = self._atmospheres[name].apply(rgb, depth, pose)
             metres = depth_metres(spec, depth) if spec.depth or ImageKind.DEPTH in kinds else None
+            pixels = depth_image(metres, spec.depth) if spec.depth and metres is not None else None
+            jpeg = ImageKind.JPEG in kinds  # for a recording or live viewers: the depth colour map too
             frames.append(
                 CameraFrame(
                     name,
                     step,
-                    encode_jpeg(rgb, spec.jpeg_quality) if ImageKind.JPEG in kinds else None,
+                    encode_jpeg(rgb, spec.jpeg_quality) if jpeg else None,
                     spec.width_px,
                     spec.height_px,
                     rgb if ImageKind.RGB in kinds else None,
                     metres if ImageKind.DEPTH in kinds else None,
                     mask if ImageKind.SEGMENTATION in kinds else None,
-                    depth_image(metres, spec.depth) if spec.depth and metres is not None else None,
+                    pixels,
                     self._label_map().apply(mask) if spec.segmentation and mask is not None else None,
+                    depth_colormap_jpeg(pixels, spec.depth, spec.jpeg_quality)
+                    if jpeg and spec.depth_colormap and pixels is not None
+                    else None,
                 )
             )
         return frames

@@ -12,6 +12,7 @@ controller.
     cameras = ["front", "floor"]  # optional: the onboard cameras it records (default: none)
     depth = ["front"]             # optional: those that also record depth, NAME or NAME:32FC1 (16UC1 mm default)
     segmentation = ["front"]      # optional: those that also record a segmentation image
+    depth_colormap = ["front"]    # optional: of the depth ones, those that also record it colour-mapped (JPEG)
     range = true                  # optional: a range finder on /alpha/quad/range (default: --range's)
     lidar = "2d"                  # optional: a LiDAR, 2d (/alpha/quad/scan) or 3d (/alpha/quad/points)
 
@@ -52,6 +53,7 @@ VEHICLE_KEYS = (
     "cameras",
     "depth",
     "segmentation",
+    "depth_colormap",
     "range",
     "lidar",
 )
@@ -81,6 +83,7 @@ class FleetEntry:
     cameras: tuple[str, ...] = ()  # names of the onboard cameras it records
     depth: tuple[str, ...] = ()  # of those, the ones that record depth: NAME or NAME:ENCODING
     segmentation: tuple[str, ...] = ()  # of those, the ones that record a segmentation image
+    depth_colormap: tuple[str, ...] = ()  # of the depth ones, those that record it colour-mapped too
     range_finder: bool | None = None  # None: as the command line says
     lidar: LidarMode | None = None  # None: as the command line says
 
@@ -175,7 +178,7 @@ def _entry(path: Path, index: int, data: dict[str, Any]) -> FleetEntry:
     controller = _choice(where, "controller", data.get("controller", "cascade"), ControllerKind)
     z_mode = _choice(where, "z_mode", data["z_mode"], ZMode) if "z_mode" in data else None
     cameras = _cameras(where, data.get("cameras", []))
-    depth, segmentation = _images(where, data, cameras)
+    depth, segmentation, depth_colormap = _images(where, data, cameras)
     return FleetEntry(
         name=name,
         airframe=str(data.get("airframe", "quad")),
@@ -189,22 +192,26 @@ def _entry(path: Path, index: int, data: dict[str, Any]) -> FleetEntry:
         cameras=cameras,
         depth=depth,
         segmentation=segmentation,
+        depth_colormap=depth_colormap,
         range_finder=_flag(where, "range", data.get("range")),
         lidar=_choice(where, "lidar", data["lidar"], LidarMode) if "lidar" in data else None,
     )
 
 
 def _images(where: str, data: Mapping[str, Any], cameras: tuple[str, ...]) -> tuple[tuple[str, ...], ...]:
-    """The vehicle's `depth` and `segmentation` lists, checked against its cameras."""
+    """The vehicle's `depth`, `segmentation` and `depth_colormap` lists, checked against its cameras."""
+    keys = ("depth", "segmentation", "depth_colormap")
     lists = []
-    for key in ("depth", "segmentation"):
+    for key in keys:
         value = data.get(key, [])
         if not isinstance(value, list) or not all(isinstance(v, str) for v in value):
             raise ConfigError(f"{where}: {key}: expected a list of camera names, got {value!r:.40}")
         lists.append(tuple(value))
     specs = tuple(spec for spec in default_cameras() if spec.name in cameras)
-    with_images(specs, lists[0], lists[1], (f"{where}: depth", f"{where}: segmentation"))
-    return lists[0], lists[1]
+    with_images(
+        specs, lists[0], lists[1], lists[2], (f"{where}: depth", f"{where}: segmentation", f"{where}: depth_colormap")
+    )
+    return lists[0], lists[1], lists[2]
 
 
 def _flag(where: str, key: str, value: Any) -> bool | None:

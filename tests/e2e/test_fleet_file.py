@@ -18,6 +18,7 @@ def test_run_refuses_what_a_fleet_file_says_per_vehicle_and_a_held_input(tmp_pat
     for extra, word in (
         (("--vehicle", "hexa"), "--vehicle with --fleet"),
         (("--cameras", "front"), "--cameras with --fleet"),
+        (("--camera-depth-colormap", "front"), "--camera-depth-colormap with --fleet: each vehicle's images"),
         (("--input", "ros2"), "--input ros2 with --fleet"),
         ((), "no vehicle flies a script: say how long"),
     ):

@@ -31,6 +31,8 @@ ENV = {**os.environ, "SDL_VIDEODRIVER": "dummy", "SDL_AUDIODRIVER": "dummy", "PY
 OLD_NAME = ("--subprotocol", "foxglove.websocket.v1")
 NEW_NAME = ("--subprotocol", "foxglove.sdk.v1")
 IMAGES = ("/quad/front_camera/image_raw/compressed", "/quad/floor_camera/image_raw/compressed")
+#: the front camera's depth colour-mapped for people (--camera-depth-colormap)
+COLORMAP = "/quad/front_camera/depth/colormap/compressed"
 DEPTH_AND_LABELS = {
     "/quad/front_camera/depth/image_raw": "16UC1",
     "/quad/front_camera/segmentation/image_raw": "mono8",
@@ -92,7 +94,8 @@ def _x_at(odom: list, ns: int) -> float:
 def test_a_client_watches_every_topic_and_flies_it_with_twists(tmp_path: Path) -> None:
     proc = _quadsim(
         *("run", "--input", "foxglove", "--foxglove", "127.0.0.1:0", "--duration", "60", "--out", str(tmp_path)),
-        *("--camera-depth", "front", "--camera-segmentation", "front", "--range", "--lidar", "2d"),
+        *("--camera-depth", "front", "--camera-segmentation", "front", "--camera-depth-colormap", "front"),
+        *("--range", "--lidar", "2d"),
     )
     try:
         url = _served_url(proc)
@@ -118,13 +121,13 @@ def test_a_client_watches_every_topic_and_flies_it_with_twists(tmp_path: Path) -
     expected = {"/quad_cmd_twist", "/quad/pose", "/quad/odom", "/quad/imu", "/quad/rotor_thrusts", "/tf", "/tf_static"}
     expected |= {"/robot_description", "/robot_markers", "/world/markers"}
     expected |= {*IMAGES, "/quad/front_camera/camera_info", "/quad/floor_camera/camera_info"}
-    expected |= {*DEPTH_AND_LABELS, "/quad/front_camera/depth/camera_info", "/world/segmentation_labels"}
+    expected |= {*DEPTH_AND_LABELS, "/quad/front_camera/depth/camera_info", "/world/segmentation_labels", COLORMAP}
     expected |= {"/quad/range", "/quad/scan"}
     assert expected <= set(topics), sorted(set(expected) - set(topics))
     assert flown["undecodable"] == 0
     for name, entry in topics.items():
         assert entry["encoding"] == "cdr" and entry["schemaEncoding"] == "ros2msg", name
-    for name in IMAGES:  # real JPEGs of the scene, not black frames
+    for name in (*IMAGES, COLORMAP):  # real JPEGs of the scene, not black frames
         image = topics[name]["last"]
         assert image["format"] == "jpeg" and image["shape"] == [240, 320, 3] and image["mean"] > 20.0, name
     for name, encoding in DEPTH_AND_LABELS.items():  # rendered with the front image, on its frame

@@ -93,7 +93,8 @@ def ros2_flight(
     folder = tmp_path_factory.mktemp(f"ros2_{distribution}")
     recording = folder / "flight.mcap"
     args = ["run", "--input", "ros2", "--duration", "11", "--cameras", "front,floor", "--camera-size", "160x120"]
-    args += ["--camera-depth", "front", "--camera-segmentation", "front", "--range", "--lidar", "2d"]
+    args += ["--camera-depth", "front", "--camera-segmentation", "front", "--camera-depth-colormap", "front"]
+    args += ["--range", "--lidar", "2d"]
     args += ["--wind", "1,90", "--out", str(recording)]
     env = local_env(free_domain(CASES.index(request.param)), discovery)
     cmd_topic = "/quad_cmd_twist"
@@ -159,7 +160,8 @@ def test_a_ros2_node_flies_quadsim_and_reads_what_it_publishes(ros2_flight: tupl
     for topic in ("/quad/floor_camera/image_raw/compressed", "/quad/front_camera/camera_info"):
         assert counts[topic] > 20, (topic, counts)
     assert counts["/quad/floor_camera/camera_info"] > 20, counts
-    for topic in ("/quad/front_camera/depth/image_raw", "/quad/front_camera/depth/camera_info"):
+    depth = ("/quad/front_camera/depth/image_raw", "/quad/front_camera/depth/camera_info")
+    for topic in (*depth, "/quad/front_camera/depth/colormap/compressed"):
         assert counts[topic] > 20, (topic, counts)
     assert counts["/quad/front_camera/segmentation/image_raw"] > 20, counts
     # the range finder down and the 2D scan, as Jazzy's and Kilted's sensor_msgs have them

@@ -55,6 +55,7 @@ TOPICS: dict[str, tuple[Any, Any]] = {
     "/quad/front_camera/depth/image_raw": (Image, 10),
     "/quad/front_camera/depth/camera_info": (CameraInfo, 10),
     "/quad/front_camera/segmentation/image_raw": (Image, 10),
+    "/quad/front_camera/depth/colormap/compressed": (CompressedImage, 10),
     "/world/segmentation_labels": (String, LATCHED),
     "/robot_description": (String, LATCHED),
     "/world/markers": (MarkerArray, LATCHED),

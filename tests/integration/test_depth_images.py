@@ -1,7 +1,8 @@
 """A recorded run with depth and segmentation images (their conventions alone:
 tests/unit/test_depth_images.py): every new message decodes with rosbags and mcap-ros2-support,
-the depth is the known distance to the red tower and to the floor, the labels name the tower's
-pixels, a render worker gives the bytes this process gives, and `check` re-flies the run."""
+the depth is the known distance to the red tower and to the floor, its colour map shows that
+depth in turbo, the labels name the tower's pixels, a render worker gives the bytes this process
+gives, and `check` re-flies the run."""
 
 import json
 
@@ -17,7 +18,7 @@ from quadsim.apps.window.teleop import TeleopOptions
 from quadsim.recording.flight import load_flight
 from quadsim.recording.info import read_info
 from quadsim.sensors.camera import CameraSpec
-from quadsim.sensors.images import depth_metres_from_image, image_pixels
+from quadsim.sensors.images import depth_colour_mapped, depth_metres_from_image, image_pixels
 from quadsim.sensors.rendering import decode_jpeg
 from quadsim.session.resim import resimulate
 from tests.helpers.mcap import decoded_recording
@@ -26,11 +27,14 @@ from tests.integration.test_cli import cli
 from tests.integration.test_teleop import key, make_app, run_with
 
 HOVER = "z_mode height\n2.5 linear.z=0\n"  # climbs to 2 m and holds
-FRONT = CameraSpec("front", "front_camera_link", 160, 120, rate_hz=10, depth="32FC1", segmentation=True)
+FRONT = CameraSpec(
+    "front", "front_camera_link", 160, 120, rate_hz=10, depth="32FC1", segmentation=True, depth_colormap=True
+)
 FLOOR = CameraSpec("floor", "floor_camera_link", 160, 120, rate_hz=10, near_m=0.01, depth="16UC1")
 NEW_TOPICS = {
     "/quad/front_camera/depth/image_raw": "sensor_msgs/msg/Image",
     "/quad/front_camera/depth/camera_info": "sensor_msgs/msg/CameraInfo",
+    "/quad/front_camera/depth/colormap/compressed": "sensor_msgs/msg/CompressedImage",
     "/quad/front_camera/segmentation/image_raw": "sensor_msgs/msg/Image",
     "/quad/floor_camera/depth/image_raw": "sensor_msgs/msg/Image",
     "/quad/floor_camera/depth/camera_info": "sensor_msgs/msg/CameraInfo",
@@ -58,11 +62,16 @@ def test_every_new_message_decodes_with_both_readers_on_the_cameras_frame(record
     for topic in NEW_TOPICS:
         assert topics.get(topic), topic
     assert len(topics["/quad/front_camera/depth/image_raw"]) == len(topics["/quad/front_camera/image_raw/compressed"])
-    for topic in (t for t, type_name in NEW_TOPICS.items() if type_name == "sensor_msgs/msg/Image"):
+    colormap = topics["/quad/front_camera/depth/colormap/compressed"]
+    assert [ns for ns, _ in colormap] == [ns for ns, _ in topics["/quad/front_camera/depth/image_raw"]]
+    for topic in (t for t, type_name in NEW_TOPICS.items() if type_name.endswith("Image")):
         for ns, msg in topics[topic]:
             assert msg.header.frame_id == topic.split("/")[2] + "_optical"  # front_camera_optical
             assert msg.header.stamp.sec * 10**9 + msg.header.stamp.nanosec == ns
-            assert (msg.width, msg.height, msg.is_bigendian) == (160, 120, 0)
+            if topic.endswith("/compressed"):
+                assert msg.format == "jpeg" and decode_jpeg(bytes(msg.data)).shape == (120, 160, 3)
+            else:
+                assert (msg.width, msg.height, msg.is_bigendian) == (160, 120, 0)
     encodings = {t: topics[t][0][1].encoding for t in NEW_TOPICS if t.endswith("image_raw")}
     assert encodings == {
         "/quad/front_camera/depth/image_raw": "32FC1",
@@ -102,6 +111,37 @@ def test_depth_is_the_distance_to_the_tower_and_to_the_floor(recorded):
     assert below == pytest.approx(z_m + FLOOR_CAMERA_Z_M, abs=0.01)
 
 
+def test_the_depth_colour_map_shows_the_recorded_depth_in_turbo(recorded):
+    """The colour map of a frame is depth_colour_mapped of that frame's depth: at the tower (red,
+    near), on the floor below it, and black in the sky (no depth), within JPEG's error."""
+    topics, _, _ = decoded_recording(recorded[0])
+    ns, depth_msg = topics["/quad/front_camera/depth/image_raw"][-1]
+    colormap_ns, colormap = topics["/quad/front_camera/depth/colormap/compressed"][-1]
+    assert colormap_ns == ns
+    expected = depth_colour_mapped(depth_metres_from_image(_pixels(depth_msg), "32FC1")).astype(int)
+    shown = decode_jpeg(bytes(colormap.data)).astype(int)
+    for row, column in ((60, 80), (110, 20)):  # the tower; the floor in front of the vehicle
+        assert np.abs(shown[row, column] - expected[row, column]).max() <= 16, (row, column)
+    red, green, blue = shown[60, 80]
+    assert green > 200 and green > red and green > blue  # the tower, 5.4 m away: turbo's green
+    assert shown[67, 20, 2] > shown[115, 20, 2] + 60  # the floor toward the horizon: bluer (farther)
+    assert shown[:10].max() <= 16  # the sky: black
+
+
+def test_the_layout_of_a_recording_with_a_depth_colour_map_shows_it_beside_its_camera(recorded, tmp_path):
+    done = cli("layout", str(recorded[0]), "-o", str(tmp_path / "depth.json"))
+    assert done.returncode == 0, done.stderr
+    panels = json.loads((tmp_path / "depth.json").read_text())["configById"]
+    images = [config for panel, config in panels.items() if panel.startswith("ImageViewPanel!")]
+    assert [p["cameraTopic"] for p in images] == [
+        "/quad/front_camera/image_raw/compressed",
+        "/quad/front_camera/depth/colormap/compressed",
+        "/quad/floor_camera/image_raw/compressed",  # its depth is not colour-mapped: Studio 1.x shows it grey
+    ]
+    assert images[1]["foxglovePanelTitle"] == "front depth (turbo, log 0.2-50 m, black: none)"
+    assert "foxglovePanelTitle" not in images[0]
+
+
 def test_the_legend_names_the_towers_pixels(recorded):
     topics, _, _ = decoded_recording(recorded[0])
     (_, legend_msg), *more = topics["/world/segmentation_labels"]
@@ -122,7 +162,13 @@ def test_a_render_worker_gives_the_same_images(recorded):
     images = []
     for path in recorded.values():
         topics, _, _ = decoded_recording(path)
-        images.append({t: [(ns, bytes(m.data)) for ns, m in topics[t]] for t in NEW_TOPICS if t.endswith("/image_raw")})
+        images.append(
+            {
+                t: [(ns, bytes(m.data)) for ns, m in topics[t]]
+                for t in NEW_TOPICS
+                if "image_raw" in t or "/colormap/" in t
+            }
+        )
     assert images[0] == images[1]
 
 
@@ -130,7 +176,10 @@ def test_the_run_description_keeps_each_cameras_images_and_info_says_them(record
     cameras = load_flight(recorded[0]).description.cameras
     assert cameras == (FRONT, FLOOR)  # read back from the metadata, field for field
     lines = read_info(recorded[0]).lines()
-    assert "  camera front: 160x120 @ 10 Hz, vertical FOV 60.0 deg, JPEG quality 85, depth 32FC1, segmentation" in lines
+    assert (
+        "  camera front: 160x120 @ 10 Hz, vertical FOV 60.0 deg, JPEG quality 85, depth 32FC1 colour-mapped, segmentation"
+        in lines
+    )
     assert "  camera floor: 160x120 @ 10 Hz, vertical FOV 60.0 deg, JPEG quality 85, depth 16UC1" in lines
 
 
@@ -205,6 +254,7 @@ start = [2.0, 0.0, 0.0, 0.0]
 input = "idle"
 cameras = ["front", "floor"]
 depth = ["floor"]
+depth_colormap = ["floor"]
 """
 
 
@@ -221,6 +271,7 @@ def test_a_fleet_files_vehicles_choose_their_images_and_the_legend_names_each_ve
         "/alpha/quad/front_camera/depth/image_raw",
         "/alpha/quad/front_camera/segmentation/image_raw",
         "/bravo/quad/floor_camera/depth/camera_info",
+        "/bravo/quad/floor_camera/depth/colormap/compressed",
         "/bravo/quad/floor_camera/depth/image_raw",
         "/world/segmentation_labels",
     ]
@@ -233,6 +284,15 @@ def test_a_fleet_files_vehicles_choose_their_images_and_the_legend_names_each_ve
     assert not (labels == legend.index("alpha")).any()  # and not itself
     _, depth = topics["/bravo/quad/floor_camera/depth/image_raw"][-1]
     assert depth.encoding == "16UC1" and depth.header.frame_id == "bravo/floor_camera_optical"
+    done = cli("layout", str(tmp_path / "fleet.toml"))  # for its live run: the colour map too
+    assert done.returncode == 0, done.stderr
+    panels = json.loads((tmp_path / "fleet.layout.json").read_text())["configById"]
+    assert [c["cameraTopic"] for p, c in panels.items() if p.startswith("ImageViewPanel!")] == [
+        "/alpha/quad/front_camera/image_raw/compressed",
+        "/bravo/quad/front_camera/image_raw/compressed",
+        "/bravo/quad/floor_camera/image_raw/compressed",
+        "/bravo/quad/floor_camera/depth/colormap/compressed",
+    ]
 
 
 def test_v_in_the_flying_window_shows_the_depth_of_the_cameras_that_have_it(tmp_path):

@@ -73,17 +73,121 @@ def test_image_pixels_refuses_what_does_not_add_up(encoding, height, width, step
 
 def test_images_are_chosen_per_camera_by_name_with_an_optional_encoding():
     front, floor = default_cameras()
-    where = ("--camera-depth", "--camera-segmentation")
-    chosen = with_images((front, floor), ["front", "floor:32FC1"], ["front"], where)
-    assert [(s.depth, s.segmentation) for s in chosen] == [("16UC1", True), ("32FC1", False)]
-    assert with_images((front,), [], [], where) == (front,)
-    for depth, segmentation, says in [
-        (["rear"], [], "--camera-depth: 'rear' is not a camera of this run \\(front\\)"),
-        (["front:8UC1"], [], "depth encoding '8UC1': choose 32FC1 or 16UC1"),
-        (["front", "front:32FC1"], [], "front is named twice"),
-        ([], ["front:mono8"], "--camera-segmentation: 'front:mono8': a segmentation image has no encoding"),
+    where = ("--camera-depth", "--camera-segmentation", "--camera-depth-colormap")
+    chosen = with_images((front, floor), ["front", "floor:32FC1"], ["front"], ["floor"], where)
+    assert [(s.depth, s.segmentation, s.depth_colormap) for s in chosen] == [
+        ("16UC1", True, False),
+        ("32FC1", False, True),
+    ]
+    assert with_images((front,), [], [], [], where) == (front,)
+    for depth, segmentation, colormap, says in [
+        (["rear"], [], [], "--camera-depth: 'rear' is not a camera of this run \\(front\\)"),
+        (["front:8UC1"], [], [], "depth encoding '8UC1': choose 32FC1 or 16UC1"),
+        (["front", "front:32FC1"], [], [], "front is named twice"),
+        ([], ["front:mono8"], [], "--camera-segmentation: 'front:mono8': a segmentation image has no encoding"),
+        (
+            [],
+            [],
+            ["front"],
+            "--camera-depth-colormap: front has no depth image to colour-map \\(name it in --camera-depth",
+        ),
+        (["front"], [], ["front:jet"], "--camera-depth-colormap: 'front:jet': a depth colormap image has no encoding"),
     ]:
         with pytest.raises(ConfigError, match=says):
-            with_images((front,), depth, segmentation, where)
+            with_images((front,), depth, segmentation, colormap, where)
     with pytest.raises(ConfigError, match="depth encoding"):
         CameraSpec("front", "front_camera_link", depth="32FC2")
+    with pytest.raises(ConfigError, match="camera front: a depth colour map needs the camera's depth image"):
+        CameraSpec("front", "front_camera_link", depth_colormap=True)
+
+
+def test_16uc1_depth_is_colour_mapped_from_a_table_with_the_very_colours_of_the_map():
+    from quadsim.sensors.images import depth_colormap_rgb, depth_colour_mapped
+
+    mm = np.array([[0, 1, 200, 1234, 5500], [20_000, 50_000, 50_001, 65_535, 7]], np.uint16)
+    rgb = depth_colormap_rgb(mm, "16UC1")
+    assert rgb.shape == (2, 5, 3) and rgb.flags.c_contiguous
+    assert np.array_equal(rgb, depth_colour_mapped(depth_metres_from_image(mm, "16UC1")))
+    assert rgb[0, 0].tolist() == [0, 0, 0]  # no depth: black
+    metres = depth_metres_from_image(mm, "16UC1")
+    assert np.array_equal(depth_colormap_rgb(metres, "32FC1"), rgb)
+
+
+def test_the_command_line_names_the_cameras_whose_depth_is_colour_mapped():
+    from argparse import Namespace
+
+    from quadsim.apps.options import camera_images
+
+    def chosen(depth, colormap):
+        args = Namespace(camera_depth=depth, camera_segmentation=None, camera_depth_colormap=colormap)
+        return [(s.depth, s.depth_colormap) for s in camera_images(args, default_cameras())]
+
+    assert chosen("front:32FC1,floor", " front ") == [("32FC1", True), ("16UC1", False)]
+    with pytest.raises(ConfigError) as refused:
+        chosen("front", "front,floor")
+    assert str(refused.value) == (
+        "--camera-depth-colormap: floor has no depth image to colour-map (name it in --camera-depth too)"
+    )
+
+
+def test_the_depth_colour_map_is_a_jpeg_of_the_same_frame_in_turbo_with_its_stamp_and_frame():
+    """--camera-depth-colormap: the depth image's frame colour-mapped (turbo, log 0.2-50 m) as a
+    JPEG at the camera's quality on .../depth/colormap/compressed, stamped and framed as the
+    depth image; made in the fan-out unless the render worker made it already."""
+    from quadsim.recording.contract import typestore
+    from quadsim.recording.fanout import TopicFanout
+    from quadsim.sensors.camera import CameraFrame
+    from quadsim.sensors.images import depth_colour_mapped
+    from quadsim.sensors.rendering import decode_jpeg
+    from quadsim.vehicle.params import CameraMount
+
+    class Consumer:
+        def __init__(self) -> None:
+            self.messages: list = []
+
+        def add_topic(self, topic) -> None:
+            pass
+
+        def on_messages(self, messages) -> None:
+            self.messages += messages
+
+        def on_event(self, *args) -> None:
+            pass
+
+    spec = CameraSpec("front", "front_camera_link", 64, 48, depth="16UC1", depth_colormap=True, jpeg_quality=90)
+    mount = CameraMount("front_camera_link", (0.1, 0.0, 0.0), ((1.0, 0.0, 0.0), (0.0, 1.0, 0.0), (0.0, 0.0, 1.0)))
+    fanout, consumer = TopicFanout(240), Consumer()
+    producer = fanout.add_vehicle(cameras=[(spec, mount)])
+    fanout.add_consumer(consumer)
+    consumer.messages.clear()
+    mm = np.full((48, 64), 20_000, np.uint16)  # 20 m away, with a tower 1.5 m away in the middle
+    mm[12:36, 16:48] = 1500
+    mm[:4] = 0  # no depth at the top: black
+    producer.on_camera_frame(CameraFrame("front", 24, b"\xff\xd8rgb", 64, 48, depth_pixels=mm))
+    producer.on_camera_frame(
+        CameraFrame("front", 48, b"\xff\xd8rgb", 64, 48, depth_pixels=mm, depth_colormap_jpeg=b"w")
+    )
+    names = [topic.name for topic, _, _ in consumer.messages]
+    colormap = "/quad/front_camera/depth/colormap/compressed"
+    assert (
+        names[:4]
+        == [
+            "/quad/front_camera/image_raw/compressed",
+            "/quad/front_camera/camera_info",
+            "/quad/front_camera/depth/image_raw",
+            "/quad/front_camera/depth/camera_info",
+        ]
+        and names[4] == colormap
+    )
+    (topic, ns, data), depth = consumer.messages[4], consumer.messages[2]
+    assert topic.type_name == "sensor_msgs/msg/CompressedImage" and ns == depth[1] == 100_000_000
+    message = typestore().deserialize_cdr(data, topic.type_name)
+    depth_message = typestore().deserialize_cdr(depth[2], "sensor_msgs/msg/Image")
+    assert message.format == "jpeg" and message.header == depth_message.header
+    assert message.header.frame_id == "front_camera_optical"
+    rgb = decode_jpeg(bytes(message.data)).astype(int)
+    expected = depth_colour_mapped(np.array([[1.5, 20.0]], np.float32)).astype(int)
+    assert np.abs(rgb[24, 32] - expected[0, 0]).max() <= 12  # the tower: its turbo colour, within JPEG's error
+    assert np.abs(rgb[44, 4] - expected[0, 1]).max() <= 12  # beyond it
+    assert rgb[1, 32].max() <= 12  # no depth: black
+    assert bytes(typestore().deserialize_cdr(consumer.messages[-1][2], topic.type_name).data) == b"w"  # the worker's

@@ -95,6 +95,23 @@ def test_the_foxglove_depth_picture_shows_the_depth_of_what_the_camera_sees():
     assert floor == sorted(floor, reverse=True) and floor[0] > floor[-1] + 60  # farther is lighter
     assert labels.max() < 20
 
+
+def test_the_foxglove_colour_mapped_depth_picture_shows_near_and_far_in_turbo():
+    """docs/img/foxglove_depth_colormap.png (docs/foxglove.md): Foxglove Studio 1.48 with quadsim's
+    layout on a recording with --camera-depth-colormap front: the camera's blue sky; under it
+    its depth colour-mapped, the sky black (no depth), the floor green below the camera and blue
+    toward the horizon (farther), the green pillar another colour than the floor beside it."""
+    image = cv2.imread(str(DOCS / "img" / "foxglove_depth_colormap.png")).astype(int)  # BGR
+    camera, depth = image[32:228, 215:425], image[262:460, 165:425]
+    sky = camera[10:40, :150]
+    assert (sky[:, :, 0] > sky[:, :, 2] + 40).mean() > 0.9  # blue
+    assert depth[5:70].max() < 20  # no depth above the horizon: black
+    near, far = depth[190, 30], depth[100, 30]  # the floor below, the floor toward the horizon
+    assert near[1] > 200 and near[1] > near[0] + 50 and near[1] > near[2] + 50  # green
+    assert far[0] > 200 and far[0] > far[2] + 100  # blue
+    pillar, floor = depth[130, 230], depth[130, 30]
+    assert pillar[1] > 200 and abs(pillar - floor).sum() > 100
+
     """docs/img/fleet_window.png: the real fly --fleet window: the red tower in the front camera,
     the other vehicles in blue on the dark map, the HUD's text."""
     image = cv2.imread(str(DOCS / "img" / "fleet_window.png"))

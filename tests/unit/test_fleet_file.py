@@ -132,6 +132,10 @@ VEHICLE = '[[vehicle]]\nname = "{name}"\nstart = [{x}, 0, 0, 0]\n'
             ["vehicle 'alpha'", "depth encoding '8UC1'"],
         ),
         (VEHICLE.format(name="alpha", x=0) + 'segmentation = "front"\n', ["vehicle 'alpha'", "segmentation: expected"]),
+        (
+            VEHICLE.format(name="alpha", x=0) + 'cameras = ["front"]\ndepth_colormap = ["front"]\n',
+            ["vehicle 'alpha'", "depth_colormap: front has no depth image to colour-map (name it in", ": depth too)"],
+        ),
         ("", ["no [[vehicle]] tables"]),
         (VEHICLE.format(name="alpha", x=0) + 'lidar = "4d"\n', ["vehicle 'alpha'", "lidar '4d'", "2d, 3d"]),
         (VEHICLE.format(name="alpha", x=0) + "range = 1\n", ["vehicle 'alpha'", "range: expected true or false"]),

@@ -29,17 +29,17 @@ def test_a_frame_later_than_the_hold_is_left_out_not_written_out_of_order():
 
 
 def test_a_late_frames_depth_and_segmentation_are_left_out_with_it():
-    """A camera's depth and segmentation images are its frame's messages: held and left out as
+    """A camera's depth (and its colour map) and segmentation images are its frame's messages: held and left out as
     the frame is, never written out of log-time order."""
     from quadsim.recording.contract import POSE, frame_topics
     from quadsim.recording.writer import _camera_topics, _LogTimeOrder
     from quadsim.sensors.camera import CameraSpec
 
-    spec = CameraSpec("front", "front_camera_link", depth="16UC1", segmentation=True)
+    spec = CameraSpec("front", "front_camera_link", depth="16UC1", segmentation=True, depth_colormap=True)
     with Simulator(SimConfig()) as sim:
         described = sim.description().with_outputs((spec,), 0)
     topics = frame_topics(spec)
-    assert _camera_topics(described) == {t.name for t in topics} and len(topics) == 5
+    assert _camera_topics(described) == {t.name for t in topics} and len(topics) == 6
     order = _LogTimeOrder(_camera_topics(described), start_ns=0)
     written = []
     for i in range(1, 61):
@@ -47,7 +47,7 @@ def test_a_late_frames_depth_and_segmentation_are_left_out_with_it():
     written += order.push([(topic, 100_000_000, b"late") for topic in topics])
     written += order.drain()
     times = [ns for _, ns, _ in written]
-    assert times == sorted(times) and order.late == 5 and all(data == b"" for _, _, data in written)
+    assert times == sorted(times) and order.late == 6 and all(data == b"" for _, _, data in written)
 
 
 def test_a_slow_run_closes_a_chunk_every_wall_second(tmp_path):

@@ -107,7 +107,8 @@ def _fleet_file(path: Path) -> list[LayoutVehicle]:
     fleet = load_fleet_file(path)
     fanout = TopicFanout(physics_hz=240)
     for entry in fleet.vehicles:
-        _add_vehicle(fanout, Names(entry.name), entry.urdf, entry.cameras)
+        images = (entry.depth, entry.segmentation, entry.depth_colormap)
+        _add_vehicle(fanout, Names(entry.name), entry.urdf, entry.cameras, images)
     teleop = {e.name for e in fleet.vehicles if e.input == "foxglove"}
     starts = {e.name: (e.start.x_m, e.start.y_m) for e in fleet.vehicles}
     return _from_fanout(fanout, teleop, starts)
@@ -121,8 +122,16 @@ def _one_vehicle(cameras: str) -> list[LayoutVehicle]:
     return _from_fanout(fanout, {""}, {})
 
 
-def _add_vehicle(fanout: TopicFanout, names: Names, urdf: Path | None, cameras: Sequence[str]) -> None:
-    from quadsim.sensors.camera import default_cameras
+def _add_vehicle(
+    fanout: TopicFanout,
+    names: Names,
+    urdf: Path | None,
+    cameras: Sequence[str],
+    images: tuple[Sequence[str], Sequence[str], Sequence[str]] = ((), (), ()),
+) -> None:
+    """A vehicle with `cameras` and the `images` (depth, segmentation, depth colour map: camera
+    names, as a fleet file's entry has them) added to `fanout`."""
+    from quadsim.sensors.camera import default_cameras, with_images
     from quadsim.vehicle.params import load_vehicle
 
     vehicle = load_vehicle(urdf)
@@ -130,7 +139,8 @@ def _add_vehicle(fanout: TopicFanout, names: Names, urdf: Path | None, cameras: 
     unknown = sorted(set(cameras) - set(specs))
     if unknown:
         raise QuadsimError(f"--cameras: no camera {', '.join(unknown)} (there are {', '.join(specs)})")
-    mounts = [(specs[name], vehicle.camera_mount(specs[name].link_name)) for name in cameras]
+    chosen = with_images([specs[name] for name in cameras], *images, ("depth", "segmentation", "depth_colormap"))
+    mounts = [(spec, vehicle.camera_mount(spec.link_name)) for spec in chosen]
     fanout.add_vehicle(names, mounts, vehicle)
 
 

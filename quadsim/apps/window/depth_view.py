@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 from quadsim.sensors.camera import CameraFrame
-from quadsim.sensors.images import depth_colour_mapped, depth_metres_from_image
+from quadsim.sensors.images import depth_colormap_rgb
 
 #: what a camera's depth images are called among the frames the view draws (its cache is by name)
 SUFFIX = "_depth"
@@ -33,8 +33,7 @@ class DepthView:
                 continue
             kept = self._mapped.get(camera)
             if kept is None or kept[0] is not frame:
-                metres = depth_metres_from_image(pixels, "16UC1" if pixels.dtype == np.uint16 else "32FC1")
-                rgb = depth_colour_mapped(metres)
+                rgb = depth_colormap_rgb(pixels, "16UC1" if pixels.dtype == np.uint16 else "32FC1")
                 kept = (frame, CameraFrame(camera + SUFFIX, frame.step, None, frame.width_px, frame.height_px, rgb))
                 self._mapped[camera] = kept
             out[camera] = kept[1]
