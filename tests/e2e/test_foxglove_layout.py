@@ -12,6 +12,7 @@ from pathlib import Path
 
 import pytest
 
+from quadsim.recording.foxglove_layout import SCAN_DRAWING
 from tests.e2e.test_foxglove import npm_packages
 from tests.helpers import foxglove_studio
 from tests.helpers.fleets import fleet_toml, vehicle
@@ -93,10 +94,14 @@ def _type_check(layout: dict, folder: Path) -> subprocess.CompletedProcess:
     literal: a key the schema does not have is an error too)."""
     modules = _schema_modules()
     lines = [f'import type {{ {", ".join(sorted(SCHEMA_TYPES.values()))} }} from "@foxglove/embed";']
+    drawing = {key for keys in SCAN_DRAWING.values() for key in keys}
     for i, (panel, config) in enumerate(layout["configById"].items()):
         kind = SCHEMA_TYPES.get(panel.split("!")[0])
         if kind is not None:  # a title is the panel's, beside its settings in the schema
             settings = {k: v for k, v in config.items() if k != "foxglovePanelTitle"}
+            if "topics" in settings:  # the scans' drawing, which the schema types by no layer's settings
+                topics = settings["topics"].items()
+                settings["topics"] = {t: {k: v for k, v in c.items() if k not in drawing} for t, c in topics}
             assert isinstance(config.get("foxglovePanelTitle", ""), str)
             lines.append(f"export const panel{i}: {kind} = {json.dumps(settings)};")
     (folder / "layout.ts").write_text("\n".join(lines) + "\n")
