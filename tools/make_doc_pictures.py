@@ -241,31 +241,12 @@ def foxglove() -> None:
         _small_png(tmp / "live.png", IMG / "foxglove_live.png")
 
 
-SCANS_FLEET = """
-[[vehicle]]
-name = "alpha"
-start = [1.5, -1.0, 0.0, 0.0]
-input = "script:takeoff"
-range = true
-lidar = "2d"
-cameras = ["front"]
-depth = ["front"]
-depth_colormap = ["front"]
-
-[[vehicle]]
-name = "bravo"
-airframe = "hexa"
-start = [1.5, 1.0, 0.0, 0.0]
-input = "script:takeoff"
-lidar = "3d"
-"""
-
-
 def foxglove_scans() -> None:
     sys.path.insert(0, str(ROOT))
     from PIL import Image
 
     from tests.helpers import foxglove_studio
+    from tests.helpers.fleets import SCANS_FLEET
 
     main_py = [sys.executable, str(ROOT / "main.py")]
     with tempfile.TemporaryDirectory(prefix="quadsim-doc-") as folder:
