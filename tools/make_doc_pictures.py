@@ -1,5 +1,5 @@
 """The documentation's pictures, made from the simulator itself. Run from the clone:
-`python tools/make_doc_pictures.py [cameras|window|fleet|fleet_window|foxglove]`; tests/unit/test_docs.py checks each
+`python tools/make_doc_pictures.py [cameras|window|fleet|fleet_window|foxglove|foxglove_scans]`; tests/unit/test_docs.py checks each
 is there and shows what it should.
 
 - docs/img/cameras.png: what the two onboard cameras see a few seconds into a flight toward the
@@ -14,6 +14,9 @@ is there and shows what it should.
   ../shared/foxglove-studio, tests/helpers/foxglove_studio.py) following docs/foxglove.md's steps: the
   example fleet's recording opened and its `quadsim layout` imported; then the fleet flown live
   with delta on Foxglove, connected, its layout imported and delta climbing on its Teleop panel.
+- docs/img/foxglove_scans.png: the same steps on a fleet of two that climbed before the red tower,
+  alpha with a 2D LiDAR, a range finder and the front camera's depth colour-mapped, bravo with a
+  3D LiDAR: the scans in the 3D panel, the colour-mapped depth beside it.
 
 (The sweep plot in docs/sweeps.md is the one the wind example's sweep draws.)
 """
@@ -238,7 +241,33 @@ def foxglove() -> None:
         _small_png(tmp / "live.png", IMG / "foxglove_live.png")
 
 
+def foxglove_scans() -> None:
+    sys.path.insert(0, str(ROOT))
+    from PIL import Image
+
+    from tests.helpers import foxglove_studio
+    from tests.helpers.fleets import SCANS_FLEET
+
+    main_py = [sys.executable, str(ROOT / "main.py")]
+    with tempfile.TemporaryDirectory(prefix="quadsim-doc-") as folder:
+        tmp = Path(folder)
+        (tmp / "scans.toml").write_text(SCANS_FLEET)
+        run = [*main_py, "run", "--fleet", str(tmp / "scans.toml"), "--duration", "4", "--out", str(tmp / "scans.mcap")]
+        subprocess.run(run, check=True, capture_output=True)
+        subprocess.run([*main_py, "layout", str(tmp / "scans.mcap")], check=True, capture_output=True)
+        files = {p.name: p for p in (tmp / "scans.mcap", tmp / "scans.layout.json")}
+        with foxglove_studio.served(files) as url:
+            steps = ["open-file=/data/scans.mcap", "wait=5", "import-layout=/data/scans.layout.json"]
+            steps += ["sidebar=layouts", "seek=0.9", "wait=8", f"shot={tmp / 'scans.png'}"]
+            foxglove_studio.follow_steps(url, tmp / "scans.log", *steps)
+        with Image.open(tmp / "scans.png") as image:  # the 3D panel, the camera and its depth
+            small = image.convert("RGB").crop((50, 30, 1600, 462)).resize((1200, 334), Image.Resampling.LANCZOS)
+            small.quantize(128, dither=Image.Dither.NONE).save(IMG / "foxglove_scans.png", optimize=True)
+        print(f"wrote {IMG / 'foxglove_scans.png'}")
+
+
 PICTURES = {"cameras": cameras, "window": window, "fleet": fleet, "fleet_window": fleet_window, "foxglove": foxglove}
+PICTURES["foxglove_scans"] = foxglove_scans
 
 
 def main(names: list[str]) -> None:

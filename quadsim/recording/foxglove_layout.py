@@ -5,7 +5,9 @@ plots, the log, and Teleop panels on the command topic of each vehicle a Foxglov
 A Foxglove 3D panel draws no topic until it is turned on, in every app from Foxglove Studio 1.x
 to the current Foxglove app and Lichtblick; the layout turns on each vehicle's model markers
 (/robot_markers, /alpha/robot_markers: scene.robot_markers) and /world/markers, which every one
-of them draws in the vehicle's own frames, and each vehicle's LiDAR (/quad/scan, /quad/points). A URDF layer cannot do that in Studio 1.x (it reads
+of them draws in the vehicle's own frames, and each vehicle's LiDAR (/quad/scan, /quad/points),
+drawn larger and in a colour of its own (`SCAN_DRAWING`: Studio 1.48's default, 2-pixel points
+colour-mapped, cannot be seen from above a fleet). A URDF layer cannot do that in Studio 1.x (it reads
 /robot_description alone, with no frame prefix), so the layout uses none. Its /robot_description
 stays off for the same reason: with both on, a vehicle alone would be drawn twice.
 
@@ -15,7 +17,8 @@ places the panels (a split is {direction, first, second, splitPercentage}), `glo
 `userNodes` and `playbackConfig`. Only settings that Studio 1.48 and the current app's published
 layout schema (@foxglove/embed) both know are written, and a panel's title, which the layout data
 keeps among the panel's settings as `foxglovePanelTitle` (the schema puts it beside them, as
-`title`); the images use Studio 1.x's image panel (`ImageViewPanel`), which later apps turn into
+`title`), and the scans' point size and colour (`SCAN_DRAWING`), which Studio 1.48 reads and the
+schema leaves out (it types a topic's settings only by what every layer has: `visible`); the images use Studio 1.x's image panel (`ImageViewPanel`), which later apps turn into
 their own Image panel when they import it.
 """
 
@@ -59,6 +62,13 @@ TELEOP_YAW_RATE_RADPS = 0.5
 #: the 3D view: a vehicle alone is followed from this far; a fleet is seen whole from above
 FOLLOW_DISTANCE_M = 3.0
 MIN_FLEET_DISTANCE_M = 8.0
+#: how the 3D panel draws a LiDAR's returns (by the topic's last name): points in pixels, in one
+#: colour, a 2D scan's ring yellow and a 3D scan's cloud cyan, apart from the world's red, green
+#: and blue (without a `colorField` Studio 1.48 picks one and colour-maps by it instead)
+SCAN_DRAWING: dict[str, dict[str, Any]] = {
+    SCAN.name: {"pointSize": 5, "colorMode": "flat", "flatColor": "#ffff00ff", "colorField": "range"},
+    POINTS.name: {"pointSize": 4, "colorMode": "flat", "flatColor": "#00ffffff", "colorField": "z"},
+}
 
 
 @dataclass(frozen=True)
@@ -199,7 +209,9 @@ def _three_dee(vehicles: Sequence[LayoutVehicle], world: bool) -> dict[str, Any]
     if world:
         topics[WORLD_MARKERS.name] = {"visible": True}
     for vehicle in vehicles:
-        topics.update({topic: {"visible": True} for topic in vehicle.scan_topics})
+        for topic in vehicle.scan_topics:
+            drawing = next(d for name, d in SCAN_DRAWING.items() if topic.endswith(name))
+            topics[topic] = {"visible": True, **drawing}
     if len(vehicles) == 1:
         follow, target, distance = vehicles[0].names.frame(BODY_FRAME), (0.0, 0.0), FOLLOW_DISTANCE_M
     else:

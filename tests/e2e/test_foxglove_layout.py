@@ -10,11 +10,13 @@ import json
 import subprocess
 from pathlib import Path
 
+import cv2
 import pytest
 
+from quadsim.recording.foxglove_layout import SCAN_DRAWING
 from tests.e2e.test_foxglove import npm_packages
 from tests.helpers import foxglove_studio
-from tests.helpers.fleets import fleet_toml, vehicle
+from tests.helpers.fleets import SCANS_FLEET, fleet_toml, vehicle
 from tests.integration.test_cli import cli
 
 FLEET = fleet_toml(
@@ -93,10 +95,14 @@ def _type_check(layout: dict, folder: Path) -> subprocess.CompletedProcess:
     literal: a key the schema does not have is an error too)."""
     modules = _schema_modules()
     lines = [f'import type {{ {", ".join(sorted(SCHEMA_TYPES.values()))} }} from "@foxglove/embed";']
+    drawing = {key for keys in SCAN_DRAWING.values() for key in keys}
     for i, (panel, config) in enumerate(layout["configById"].items()):
         kind = SCHEMA_TYPES.get(panel.split("!")[0])
         if kind is not None:  # a title is the panel's, beside its settings in the schema
             settings = {k: v for k, v in config.items() if k != "foxglovePanelTitle"}
+            if "topics" in settings:  # the scans' drawing, which the schema types by no layer's settings
+                topics = settings["topics"].items()
+                settings["topics"] = {t: {k: v for k, v in c.items() if k not in drawing} for t, c in topics}
             assert isinstance(config.get("foxglovePanelTitle", ""), str)
             lines.append(f"export const panel{i}: {kind} = {json.dumps(settings)};")
     (folder / "layout.ts").write_text("\n".join(lines) + "\n")
@@ -148,3 +154,27 @@ def test_studio_148_draws_every_vehicle_of_a_fleet_after_importing_its_layout(tm
         foxglove_studio.follow_steps(url, tmp_path / "steps.log", *steps, "wait=6", f"shot={shot}")
     panel = (60, 40, 1000, 900)  # the 3D panel, left of the plot and the log
     assert foxglove_studio.vehicles_drawn(shot, panel) == 2 and foxglove_studio.vehicle_names_drawn(shot, panel) == 2
+
+
+@pytest.mark.slow
+def test_studio_148_draws_both_scans_around_the_vehicles_after_importing_the_layout(tmp_path):
+    """The same steps on a fleet of two with a 2D and a 3D LiDAR before the red tower: the 3D panel
+    draws the 3D scan's returns in cyan and the 2D scan's in yellow (the layout's SCAN_DRAWING) on
+    the pillar and the tower's face (docs/img/foxglove_scans.png is such a picture)."""
+    try:
+        foxglove_studio.studio()
+    except foxglove_studio.NoStudio as exc:
+        pytest.skip(str(exc))
+    (tmp_path / "scans.toml").write_text(SCANS_FLEET)
+    scans = tmp_path / "scans.mcap"
+    out = cli("run", "--fleet", str(tmp_path / "scans.toml"), "--duration", "3", "--out", str(scans))
+    assert out.returncode == 0, out.stderr
+    _layout(str(scans), cwd=tmp_path)
+    shot = tmp_path / "shot.png"
+    with foxglove_studio.served({"scans.mcap": scans, "scans.layout.json": tmp_path / "scans.layout.json"}) as url:
+        steps = ["open-file=/data/scans.mcap", "wait=5", "import-layout=/data/scans.layout.json", "sidebar=layouts"]
+        foxglove_studio.follow_steps(url, tmp_path / "steps.log", *steps, "seek=0.9", "wait=8", f"shot={shot}")
+    image = cv2.imread(str(shot))[40:900, 60:1000].astype(int)  # the 3D panel
+    b, g, r = image[:, :, 0], image[:, :, 1], image[:, :, 2]
+    cyan, yellow = (b > 220) & (g > 220) & (r < 60), (r > 220) & (g > 220) & (b < 60)  # Studio's own: ~0 of each
+    assert cyan.sum() > 500 and yellow.sum() > 20, (cyan.sum(), yellow.sum())

@@ -36,6 +36,28 @@ def fleet_toml(*vehicles: str) -> str:
     return "".join(f"\n{table}" for table in vehicles)
 
 
+#: a fleet of two before the default world's red tower, climbing (script:takeoff): alpha with a 2D
+#: LiDAR, a range finder and the front camera's depth colour-mapped, bravo with a 3D LiDAR
+SCANS_FLEET = """
+[[vehicle]]
+name = "alpha"
+start = [1.5, -1.0, 0.0, 0.0]
+input = "script:takeoff"
+range = true
+lidar = "2d"
+cameras = ["front"]
+depth = ["front"]
+depth_colormap = ["front"]
+
+[[vehicle]]
+name = "bravo"
+airframe = "hexa"
+start = [1.5, 1.0, 0.0, 0.0]
+input = "script:takeoff"
+lidar = "3d"
+"""
+
+
 def under(name: str, topic: str) -> str:
     """A vehicle's topic: /NAME/TOPIC in a fleet, /TOPIC for a vehicle flying alone (name "")."""
     return f"/{name}/{topic}" if name else f"/{topic}"

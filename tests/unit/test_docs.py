@@ -96,6 +96,24 @@ def test_the_foxglove_depth_picture_shows_the_depth_of_what_the_camera_sees():
     assert labels.max() < 20
 
 
+def test_the_foxglove_scans_picture_shows_both_scans_on_the_tower_and_the_depth_in_turbo():
+    """docs/img/foxglove_scans.png (docs/recordings.md): Foxglove Studio 1.48 with quadsim's layout
+    on a fleet of two before the red tower: in the 3D panel bravo's 3D scan in cyan on the green
+    pillar, the floor and the tower's face, alpha's 2D ring in yellow on both; beside it alpha's
+    depth colour-mapped: the sky black, the floor green below and cyan farther."""
+    image = cv2.imread(str(DOCS / "img" / "foxglove_scans.png")).astype(int)  # BGR
+    three_dee, depth = image[:, :740], image[180:334, 872:1072]
+    b, g, r = three_dee[:, :, 0], three_dee[:, :, 1], three_dee[:, :, 2]
+    cyan, yellow = (b > 180) & (g > 180) & (r < 120), (r > 220) & (g > 220) & (b < 60)
+    assert cyan[:, :370].sum() > 300 and cyan[:, 370:].sum() > 300  # the pillar's side, the tower's
+    assert cyan[60:300, 640:].sum() > 100 and yellow[60:300, 640:].sum() > 15  # on the tower's face
+    assert yellow[:, :370].sum() > 10  # the ring on the pillar too
+    assert depth[:70, :40].max() < 20 and depth[:70, 120:].max() < 20  # no depth in the sky, beside the pillar
+    near, far = depth[150, 30], depth[100, 30]  # the floor below, the floor farther
+    assert near[1] > 200 and near[1] > near[0] + 50 and near[1] > near[2] + 50  # green
+    assert far[0] > 180 and far[1] > 180 and far[2] < 100  # cyan
+
+
 def test_the_foxglove_colour_mapped_depth_picture_shows_near_and_far_in_turbo():
     """docs/img/foxglove_depth_colormap.png (docs/foxglove.md): Foxglove Studio 1.48 with quadsim's
     layout on a recording with --camera-depth-colormap front: the camera's blue sky; under it
@@ -112,6 +130,8 @@ def test_the_foxglove_colour_mapped_depth_picture_shows_near_and_far_in_turbo():
     pillar, floor = depth[130, 230], depth[130, 30]
     assert pillar[1] > 200 and abs(pillar - floor).sum() > 100
 
+
+def test_the_fleet_window_picture_shows_the_other_vehicles():
     """docs/img/fleet_window.png: the real fly --fleet window: the red tower in the front camera,
     the other vehicles in blue on the dark map, the HUD's text."""
     image = cv2.imread(str(DOCS / "img" / "fleet_window.png"))

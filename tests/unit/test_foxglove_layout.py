@@ -56,4 +56,7 @@ def test_the_3d_panel_draws_each_vehicles_lidar():
     assert [v.scan_topics for v in vehicles] == [("/alpha/quad/points",), ("/bravo/quad/scan",)]
     (three_dee,) = [c for key, c in foxglove_layout(vehicles)["configById"].items() if key.startswith("3D!")]
     assert {"/alpha/quad/points", "/bravo/quad/scan"} <= set(three_dee["topics"])
-    assert all(three_dee["topics"][t] == {"visible": True} for t in ("/alpha/quad/points", "/bravo/quad/scan"))
+    points, scan = three_dee["topics"]["/alpha/quad/points"], three_dee["topics"]["/bravo/quad/scan"]
+    assert points["visible"] and scan["visible"] and points["flatColor"] != scan["flatColor"]
+    for drawing, field in ((points, "z"), (scan, "range")):  # a field of each, else Studio 1.48 picks one
+        assert drawing["colorMode"] == "flat" and drawing["colorField"] == field and drawing["pointSize"] >= 4
