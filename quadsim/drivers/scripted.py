@@ -91,16 +91,7 @@ def parse_script(text: str, name: str = "<script>") -> Script:
             if len(words) != 1:
                 raise ScriptError(f"{where}: expected 'silence DURATION_S', got {line!r}")
         duration = _duration(words[0], where)
-        values = dict.fromkeys(_FIELDS, 0.0)
-        given: set[str] = set()
-        for word in words[1:]:
-            key, sep, value = word.partition("=")
-            if not sep or key not in values:
-                raise ScriptError(f"{where}: expected FIELD=VALUE with FIELD one of {', '.join(_FIELDS)}, got {word!r}")
-            if key in given:
-                raise ScriptError(f"{where}: {key} is given twice")
-            given.add(key)
-            values[key] = _number(value, where, key)
+        values = {**dict.fromkeys(_FIELDS, 0.0), **_assignments(words[1:], _FIELDS, where)}
         segments.append(
             Segment(duration, None if silence else Twist(**{f.replace(".", "_"): v for f, v in values.items()}))
         )
@@ -124,16 +115,7 @@ def _duration(text: str, where: str) -> float:
 
 def _goal(words: list[str], where: str, line: str) -> Goal:
     """A goto line's goal: x=.. y=.. (needed), z=.. yaw_deg=.. (optional)."""
-    values: dict[str, float] = {}
-    for word in words:
-        key, sep, value = word.partition("=")
-        if not sep or key not in _GOAL_FIELDS:
-            raise ScriptError(
-                f"{where}: expected FIELD=VALUE with FIELD one of {', '.join(_GOAL_FIELDS)}, got {word!r}"
-            )
-        if key in values:
-            raise ScriptError(f"{where}: {key} is given twice")
-        values[key] = _number(value, where, key)
+    values = _assignments(words, _GOAL_FIELDS, where)
     if "x" not in values or "y" not in values:
         raise ScriptError(f"{where}: a goto line needs x= and y= (z= and yaw_deg= are optional), got {line!r}")
     yaw = values.get("yaw_deg")
@@ -141,6 +123,19 @@ def _goal(words: list[str], where: str, line: str) -> Goal:
         return Goal(values["x"], values["y"], values.get("z"), None if yaw is None else math.radians(yaw)).checked()
     except ValueError as exc:
         raise ScriptError(f"{where}: {exc}") from None
+
+
+def _assignments(words: list[str], fields: tuple[str, ...], where: str) -> dict[str, float]:
+    """A line's FIELD=VALUE words, each FIELD one of `fields` and given once, as numbers."""
+    values: dict[str, float] = {}
+    for word in words:
+        key, sep, value = word.partition("=")
+        if not sep or key not in fields:
+            raise ScriptError(f"{where}: expected FIELD=VALUE with FIELD one of {', '.join(fields)}, got {word!r}")
+        if key in values:
+            raise ScriptError(f"{where}: {key} is given twice")
+        values[key] = _number(value, where, key)
+    return values
 
 
 def _number(text: str, where: str, what: str) -> float:
