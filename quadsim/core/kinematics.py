@@ -26,6 +26,13 @@ def clamp(value: float, low: float, high: float) -> float:
 _last: tuple[Quat | None, Mat3] = (None, IDENTITY)
 
 
+def yaw_of(q: Quat) -> float:
+    """The heading of a world <- body quaternion (x, y, z, w): rotation about world z,
+    counter-clockwise from world x, in (-pi, pi]."""
+    x, y, z, w = q
+    return math.atan2(2.0 * (w * z + x * y), 1.0 - 2.0 * (y * y + z * z))
+
+
 def matrix_from_quaternion(q: Quat) -> Mat3:
     """The rotation matrix of a unit quaternion (x, y, z, w), rows first: world <- body."""
     global _last

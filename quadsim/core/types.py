@@ -7,7 +7,7 @@ import math
 from dataclasses import dataclass
 from typing import NamedTuple
 
-from quadsim.core.kinematics import clamp
+from quadsim.core.kinematics import clamp, yaw_of
 
 
 class ZMode(enum.Enum):
@@ -84,8 +84,7 @@ class VehicleState(NamedTuple):
 
     def yaw_rad(self) -> float:
         """Heading: rotation about world z, counter-clockwise from world x, in (-pi, pi]."""
-        x, y, z, w = self.orientation_xyzw
-        return math.atan2(2.0 * (w * z + x * y), 1.0 - 2.0 * (y * y + z * z))
+        return yaw_of(self.orientation_xyzw)
 
     def roll_pitch_rad(self) -> tuple[float, float]:
         """Roll and pitch of the ZYX Euler angles (rad)."""

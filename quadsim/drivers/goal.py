@@ -24,7 +24,7 @@ from __future__ import annotations
 import math
 from typing import NamedTuple
 
-from quadsim.core.kinematics import clamp
+from quadsim.core.kinematics import clamp, yaw_of
 from quadsim.core.types import HEIGHT_MODE_BASE_M, Twist, VehicleState, ZMode
 from quadsim.vehicle.params import CommandLimits
 
@@ -44,12 +44,6 @@ HEADING_GAIN = 1.5
 CRUISE_SPEED_MPS = 2.0
 #: the largest goal coordinate taken (a goal 10 km away is a typo, not a flight)
 MAX_GOAL_M = 10_000.0
-
-
-def _yaw(q: tuple[float, float, float, float]) -> float:
-    """The heading of a world <- body quaternion (x, y, z, w), as VehicleState.yaw_rad."""
-    x, y, z, w = q
-    return math.atan2(2.0 * (w * z + x * y), 1.0 - 2.0 * (y * y + z * z))
 
 
 def _wrapped(angle: float) -> float:
@@ -113,7 +107,7 @@ def goal_from_pose(
     norm = math.sqrt(qx * qx + qy * qy + qz * qz + qw * qw)
     if not math.isfinite(norm):
         raise ValueError("the goal's orientation is not finite")
-    yaw = _yaw((qx / norm, qy / norm, qz / norm, qw / norm)) if norm > 1e-9 else None
+    yaw = yaw_of((qx / norm, qy / norm, qz / norm, qw / norm)) if norm > 1e-9 else None
     return Goal(x, y, None if z == 0.0 else z, yaw, relative=frame == body_frame).checked()
 
 

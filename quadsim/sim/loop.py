@@ -341,24 +341,24 @@ class SimLoop:
         once), a Twist from the driver drops the goal, and at input ticks the pilot's Twist is
         published while the driver says nothing."""
         pilot, goal = self.pilot, self._next_goal
+        if goal is None and twist is not None:  # a Twist comes from a driver
+            pilot.stop()
+            self._emit(FlightEvent(n, EventKind.GOAL, f"dropped: {self.driver.name} published a Twist"))  # type: ignore[union-attr]
+            return twist
+        if goal is None and n % self._input_every:  # the pilot speaks at input ticks
+            return None
+        state = self.physics.state(n)
         if goal is not None:
             self._next_goal = None
-            flown = pilot.start(goal, self.physics.state(n), self.landing.phase is not FlightPhase.FLYING)
+            flown = pilot.start(goal, state, self.landing.phase is not FlightPhase.FLYING)
             self._emit(FlightEvent(n, EventKind.GOAL, f"flying to {flown.describe()}"))
-        elif twist is not None:
-            pilot.stop()
-            self._emit(FlightEvent(n, EventKind.GOAL, f"dropped: {self.driver_name} published a Twist"))
-            return twist
-        if twist is None and (goal is not None or n % self._input_every == 0):
-            reached = pilot.reached
-            twist = pilot.command(self.physics.state(n), self.gate.z_mode)
-            if pilot.reached and not reached:
-                self._emit(FlightEvent(n, EventKind.GOAL_REACHED, f"at {pilot.goal.describe()}"))  # type: ignore[union-attr]
+            if twist is not None:  # came with the goal: published, the goal flown from the next tick
+                return twist
+        reached = pilot.reached
+        twist = pilot.command(state, self.gate.z_mode)
+        if pilot.reached and not reached:
+            self._emit(FlightEvent(n, EventKind.GOAL_REACHED, f"at {pilot.goal.describe()}"))  # type: ignore[union-attr]
         return twist
-
-    @property
-    def driver_name(self) -> str:
-        return self.driver.name if self.driver is not None else "the driver"
 
     def _control(self, state: VehicleState | None) -> RotorForces:
         """Stage 2 at step n: the landing layer and the controller's rotor forces, if a control
