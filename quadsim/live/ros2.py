@@ -419,58 +419,51 @@ class Ros2Bridge:
 
     def subscribe_twist(self, driver: SubscribedDriver, on_twist: Callable[[], None] | None = None) -> None:
         """Feed `driver` the geometry_msgs/Twist messages on its topic (/quad_cmd_twist, or a fleet
-        vehicle's /NAME/quad_cmd_twist), as they arrive (on Cyclone's receive thread). Best
-        effort, so reliable and best-effort publishers both match."""
-        from cyclonedds.core import Listener
-        from cyclonedds.sub import DataReader
-        from cyclonedds.topic import Topic as DdsTopic
+        vehicle's /NAME/quad_cmd_twist), as they arrive."""
 
-        kind = idl_type(TWIST.type_name)
+        def on_sample(twist: Any) -> None:
+            driver.deliver((twist.linear.x, twist.linear.y, twist.linear.z), twist.angular.z)
+            if on_twist is not None:
+                on_twist()
 
-        def on_data_available(reader: Any) -> None:
-            for twist in reader.take(32):
-                if isinstance(twist, kind):  # not an invalid sample (a writer gone)
-                    driver.deliver((twist.linear.x, twist.linear.y, twist.linear.z), twist.angular.z)
-                    if on_twist is not None:
-                        on_twist()
-
-        Policy = self._Policy
-        qos = self._Qos(Policy.Reliability.BestEffort, Policy.History.KeepLast(10))
         driver.heard_on = self.graph_name(driver.topic)
-        dds_topic = DdsTopic(self._participant, dds_topic_name(driver.heard_on), kind)
-        self._readers.append(
-            DataReader(self._participant, dds_topic, qos=qos, listener=Listener(on_data_available=on_data_available))
-        )
-        with self._lock:
-            self._announce()
+        self._read(driver.heard_on, TWIST.type_name, 10, on_sample)
 
     def subscribe_goals(self, driver: SubscribedDriver) -> None:
         """Feed `driver` the geometry_msgs/PoseStamped goals on its goal topics (/goal_pose and
-        /move_base_simple/goal, or a fleet vehicle's under its name), as they arrive; a goal that
-        is not one is said on /rosout, rate-limited by the driver's count."""
+        /move_base_simple/goal, or a fleet vehicle's under its name), as they arrive. The first
+        goal refused is logged with its reason; the summary counts the rest (a node sending bad
+        goals cannot flood the log)."""
+
+        def on_sample(goal: Any) -> None:
+            p, q = goal.pose.position, goal.pose.orientation
+            why = driver.deliver_goal(goal.header.frame_id, (p.x, p.y, p.z), (q.x, q.y, q.z, q.w))
+            if why is not None and driver.goals_rejected == 1:
+                log.warning("a goal for %s is ignored: %s (the summary counts any more)", driver.topic, why)
+
+        for topic in driver.goal_topics:
+            self._read(self.graph_name(topic), "geometry_msgs/msg/PoseStamped", 1, on_sample)
+
+    def _read(self, topic: str, type_name: str, depth: int, on_sample: Callable[[Any], None]) -> None:
+        """Call `on_sample` with each `type_name` message on the graph's `topic` as it arrives (on
+        Cyclone's receive thread). Best effort, so reliable and best-effort publishers both match."""
         from cyclonedds.core import Listener
         from cyclonedds.sub import DataReader
         from cyclonedds.topic import Topic as DdsTopic
 
-        kind = idl_type("geometry_msgs/msg/PoseStamped")
+        kind = idl_type(type_name)
 
         def on_data_available(reader: Any) -> None:
-            for goal in reader.take(8):
-                if isinstance(goal, kind):
-                    p, q = goal.pose.position, goal.pose.orientation
-                    why = driver.deliver_goal(goal.header.frame_id, (p.x, p.y, p.z), (q.x, q.y, q.z, q.w))
-                    if why is not None:
-                        log.warning("a goal for %s is ignored: %s", driver.topic, why)
+            for sample in reader.take(32):
+                if isinstance(sample, kind):  # not an invalid sample (a writer gone)
+                    on_sample(sample)
 
         Policy = self._Policy
-        qos = self._Qos(Policy.Reliability.BestEffort, Policy.History.KeepLast(1))
-        for topic in driver.goal_topics:
-            dds_topic = DdsTopic(self._participant, dds_topic_name(self.graph_name(topic)), kind)
-            self._readers.append(
-                DataReader(
-                    self._participant, dds_topic, qos=qos, listener=Listener(on_data_available=on_data_available)
-                )
-            )
+        qos = self._Qos(Policy.Reliability.BestEffort, Policy.History.KeepLast(depth))
+        dds_topic = DdsTopic(self._participant, dds_topic_name(topic), kind)
+        self._readers.append(
+            DataReader(self._participant, dds_topic, qos=qos, listener=Listener(on_data_available=on_data_available))
+        )
         with self._lock:
             self._announce()
 
