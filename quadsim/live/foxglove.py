@@ -27,7 +27,6 @@ import ipaddress
 import json
 import logging
 import math
-import struct
 import threading
 from collections.abc import Callable, Sequence
 from typing import TYPE_CHECKING, Any
@@ -314,7 +313,7 @@ class FoxgloveBridge:
     def _goal_received(self, client: FrontClient, decoder: Callable[[bytes], Any], driver: Any, data: bytes) -> None:
         try:
             frame_id, position, orientation = decoder(data)
-        except (ValueError, TypeError, OverflowError, RecursionError, struct.error) as exc:
+        except (ValueError, TypeError, OverflowError, RecursionError) as exc:
             self._tell(client, f"a goal was not a PoseStamped ({_reason(exc)}); it is ignored")
             return
         why = driver.deliver_goal(frame_id, position, orientation)
