@@ -103,15 +103,7 @@ def range_finder(
     noise: bool = True,
 ) -> RangingSensor:
     """The range finder of [range]: its one beam (`noise` False: no noise)."""
-    return RangingSensor(
-        params.position_m,
-        np.asarray([params.direction], dtype=float),
-        (params.min_range_m, params.max_range_m),
-        params.noise_std_m if noise else 0.0,
-        scene,
-        own_body,
-        seed,
-    )
+    return _mounted(params, np.asarray([params.direction], dtype=float), scene, own_body, seed, noise)
 
 
 def lidar(
@@ -123,9 +115,21 @@ def lidar(
     noise: bool = True,
 ) -> RangingSensor:
     """The LiDAR of [lidar], scanning its one ring (2D) or all of them (3D) (`noise` False: no noise)."""
+    return _mounted(params, beam_directions(params, mode), scene, own_body, seed, noise)
+
+
+def _mounted(
+    params: RangeParams | LidarParams,
+    directions: np.ndarray,
+    scene: WorldClient,
+    own_body: tuple[int, float],
+    seed: np.random.SeedSequence,
+    noise: bool,
+) -> RangingSensor:
+    """A sensor of `params` (its mount, ranges and noise) casting along `directions`."""
     return RangingSensor(
         params.position_m,
-        beam_directions(params, mode),
+        directions,
         (params.min_range_m, params.max_range_m),
         params.noise_std_m if noise else 0.0,
         scene,
