@@ -32,6 +32,8 @@ import pytest
 from mcap.reader import make_reader
 
 from quadsim.apps.window.x11_guard import EXIT_DISPLAY_LOST, LEGACY_ENV
+from quadsim.errors import QuadsimError
+from quadsim.recording.mcap_scan import McapFile
 from tests.helpers import ROOT
 
 LOST = "the window's display was lost ("
@@ -145,8 +147,27 @@ def _fly(xserver: XServer, tmp_path: Path, *extra: str, legacy: bool = False) ->
     out = tmp_path / "flight.mcap"
     flight = _start(xserver, tmp_path, ["fly", "--input", "keyboard", "--out", str(out), *extra], legacy)
     _wait_for_window(xserver, flight, lambda: out.exists())
-    time.sleep(1.0)  # a second of flight in the file
+    _wait_until(flight, lambda: _intact_messages(out) > 100, "a hundred messages in its recording")
     return flight
+
+
+def _intact_messages(path: Path) -> int:
+    """How many messages the recording being written holds in whole chunks so far (0 before its
+    magic bytes are all written)."""
+    try:
+        with McapFile(path) as growing:
+            return growing.message_count
+    except QuadsimError:
+        return 0
+
+
+def _wait_until(flight: Flight, done: Callable[[], bool], what: str) -> None:
+    deadline = time.monotonic() + 90  # generous: a bound on a hang, not a moment
+    while not done():
+        if flight.proc.poll() is not None or time.monotonic() > deadline:
+            out, err = flight.killed_output() if flight.proc.poll() is None else flight.output(10)
+            pytest.fail(f"the flight never had {what}:\n{out}\n{err}")
+        time.sleep(0.1)  # polling: nothing is judged by how long it took
 
 
 def _wait_for_window(xserver: XServer, flight: Flight, ready: Callable[[], bool] | None = None) -> None:
@@ -206,11 +227,12 @@ def _leftovers(flight: Flight) -> list[str]:
     return alive + [f"folder {p.name}" for p in flight.tmpdir.iterdir()]
 
 
-def _assert_finished_recording(path: Path) -> None:
+def _assert_finished_recording(path: Path, messages: int = 100) -> None:
+    """A recording with its summary and more than `messages` messages, that `info` reads."""
     with path.open("rb") as f:
         summary = make_reader(f).get_summary()
     assert summary is not None, "the recording has no summary (it would need `recover`)"
-    assert summary.statistics is not None and summary.statistics.message_count > 100
+    assert summary.statistics is not None and summary.statistics.message_count > messages
     info = subprocess.run(
         [sys.executable, str(ROOT / "main.py"), "info", str(path)], capture_output=True, text=True, timeout=60
     )
@@ -253,6 +275,26 @@ def test_window_killed(xserver, tmp_path, cameras):
     flight = _fly(xserver, tmp_path, *cameras)
     _xdotool(xserver, "windowkill", str(flight.window))
     _assert_lost_cleanly(flight, f"the connection to the X server {xserver.display} was closed")
+
+
+@pytest.mark.parametrize("cameras", [["--cameras", "none"], ["--camera-size", "64x48"]], ids=["no-cameras", "cameras"])
+def test_window_killed_while_starting(xserver, tmp_path, cameras):
+    """Killed as soon as it is mapped, while it still says "quadsim is starting" (loading the
+    world, starting the cameras): the same clean end as in flight. The guard used to be installed
+    after the start-up, and Xlib printed "X connection to :N broken" and exited 1 there."""
+    out = tmp_path / "flight.mcap"
+    flight = _start(xserver, tmp_path, ["fly", "--input", "keyboard", "--out", str(out), *cameras])
+    _wait_for_window(xserver, flight)  # mapped: start-up is under way, or only just over
+    _xdotool(xserver, "windowkill", str(flight.window))
+    code, stdout, err = _finish(flight)
+    assert "Traceback" not in stdout + err, err
+    assert code == EXIT_DISPLAY_LOST, (code, stdout, err)
+    assert _said(err) == [
+        f"{LOST}the connection to the X server {xserver.display} was closed); the recording is finished"
+    ]
+    assert f"recording       {out}" in stdout, stdout
+    _assert_finished_recording(out, messages=0)
+    assert not _leftovers(flight)
 
 
 @pytest.mark.skipif(shutil.which("xkill") is None, reason="xkill is not installed (apt-get install x11-utils)")
@@ -352,8 +394,7 @@ def test_window_closed_normally(xserver, tmp_path):
 def test_replay_window_killed(xserver, tmp_path):
     recording = ROOT / "tests" / "recordings" / "climb_cascade.mcap"
     flight = _start(xserver, tmp_path, ["replay", str(recording), "--loop"])
-    _wait_for_window(xserver, flight)
-    time.sleep(0.5)
+    _wait_for_window(xserver, flight)  # mapped: the replay is playing
     _xdotool(xserver, "windowkill", str(flight.window))
     code, out, err = _finish(flight)
     assert "Traceback" not in out + err, err
@@ -367,8 +408,7 @@ def test_a_signal_ends_the_replay_window_at_its_next_frame(xserver, tmp_path, si
     one line (it used to go on playing, ignoring the first signal)."""
     recording = ROOT / "tests" / "recordings" / "climb_cascade.mcap"
     flight = _start(xserver, tmp_path, ["replay", str(recording), "--loop"])
-    _wait_for_window(xserver, flight)
-    time.sleep(0.5)
+    _wait_for_window(xserver, flight)  # mapped: the replay is playing
     flight.proc.send_signal(signum)
     code, out, err = _finish(flight)
     assert code == 128 + signum, (code, out, err)

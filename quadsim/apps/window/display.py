@@ -23,13 +23,19 @@ class FrameLoop(Protocol):
 W = TypeVar("W", bound=FrameLoop)
 
 
-def open_display(size: tuple[int, int], caption: str) -> pygame.Surface:
-    """A resizable window of `size`, titled `caption`."""
+def open_display(
+    size: tuple[int, int], caption: str, on_fatal: Callable[[str], None] | None = None
+) -> tuple[pygame.Surface, X11Guard | None]:
+    """A resizable window of `size`, titled `caption`, and its X11 guard (None off X11), installed
+    as soon as the window exists: a window destroyed from outside while the app still starts up
+    (loading the world, a first compile: seconds) ends it as cleanly as in flight, where Xlib
+    would print its own line and exit. `on_fatal`: see X11Guard.install."""
     pygame.display.init()
     pygame.font.init()
     screen = pygame.display.set_mode(size, pygame.RESIZABLE)
+    guard = X11Guard.install(on_fatal=on_fatal)
     pygame.display.set_caption(caption)
-    return screen
+    return screen, guard
 
 
 def show_starting(screen: pygame.Surface, lines: list[str]) -> None:

@@ -18,7 +18,6 @@ import pygame
 
 from quadsim.apps.window.display import close_display, lost, open_display, run_frames
 from quadsim.apps.window.view import TeleopView, ViewModel
-from quadsim.apps.window.x11_guard import X11Guard
 from quadsim.core.kinematics import clamp
 from quadsim.core.types import Twist, VehicleState
 from quadsim.live.playback import RecordingFeed
@@ -73,7 +72,7 @@ class ReplayApp:
         `others`: a fleet's other vehicles, by name, drawn on the map."""
         import tempfile
 
-        self.screen = open_display(window_size, f"quadsim replay: {flight.path.name}")
+        self.screen, self._x11 = open_display(window_size, f"quadsim replay: {flight.path.name}", self._say_lost)
         self.flight = flight
         with tempfile.TemporaryDirectory() as tmp:
             self.world = _world_of(flight, Path(tmp))
@@ -99,7 +98,6 @@ class ReplayApp:
         self._notice, self._notice_until = "", 0.0
         self._walls: list[float] = []
         self._clock = pygame.time.Clock()
-        self._x11 = X11Guard.install(on_fatal=self._say_lost)
 
     @property
     def display_lost(self) -> str | None:

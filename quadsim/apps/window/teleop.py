@@ -35,7 +35,6 @@ from quadsim.apps.window.depth_view import DepthView
 from quadsim.apps.window.display import close_display, lost, open_display, run_frames, show_starting
 from quadsim.apps.window.vehicles import WindowVehicles
 from quadsim.apps.window.view import TeleopView, ViewModel
-from quadsim.apps.window.x11_guard import X11Guard
 from quadsim.control.landing import LandingSettings
 from quadsim.core.types import Twist, VehicleState, ZMode
 from quadsim.drivers import ASAP
@@ -183,7 +182,25 @@ class TeleopApp:
         `fleet`: fly one vehicle of a fleet file among the others (fly --fleet)."""
         _check_options(options, commands)
         pygame.joystick.init()
-        self.screen = open_display(options.window_size, "quadsim")
+        self.screen, self._x11 = open_display(options.window_size, "quadsim", self._finish_after_fatal_loss)
+        try:
+            self._start(options, config, outputs, pacer, live, commands, fleet)
+        except BaseException:
+            if self._x11 is not None and not self._x11.lost:
+                self._x11.uninstall()  # the caller closes the display
+            raise
+
+    def _start(
+        self,
+        options: TeleopOptions,
+        config: SimConfig,
+        outputs: OutputOptions,
+        pacer: RealTimePacer | FixedStepPacer | None,
+        live: Sequence[LiveOutput],
+        commands: SubscribedDriver | None,
+        fleet: FleetSetup | None,
+    ) -> None:
+        """Everything the window needs to fly, built while it says so (show_starting)."""
         self.options = options
         z_mode = config.z_mode or ZMode.VELOCITY
         self.keyboard = KeyboardDriver(LAYOUTS[options.keyboard_layout], z_mode=z_mode)
@@ -226,8 +243,6 @@ class TeleopApp:
         self._init_window_state(pacer or RealTimePacer(config.rates.physics_hz))
         self.session.paced = isinstance(self.pacer, RealTimePacer)  # its cameras drop frames rather than wait
         self.recordings: list[Path] = [self.session.outputs.path] if self.session.outputs.path else []
-        # last, so nothing after it can fail with the handlers installed
-        self._x11 = X11Guard.install(on_fatal=self._finish_after_fatal_loss)
 
     @property
     def fleet(self) -> WindowVehicles | None:
@@ -342,7 +357,11 @@ class TeleopApp:
 
     def _finish_after_fatal_loss(self, reason: str) -> None:
         """With a libX11 older than 1.7 the process ends inside the X call that met the loss:
-        finish the recording and say what `fly` says after a loss, from there."""
+        finish the recording and say what `fly` says after a loss, from there (during start-up,
+        before there is a run: only that the display was lost)."""
+        if getattr(self, "recordings", None) is None:
+            print(f"the window's display was lost ({reason}) while quadsim was starting", file=sys.stderr)
+            return
         self.session.outputs.close()
         print(f"flew {self.sim.time_s:.1f} s of simulation time")
         for path in self.recordings:

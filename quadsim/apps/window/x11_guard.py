@@ -110,12 +110,14 @@ def _pointer(callback: Any) -> int:
 
 
 def _load_libx11() -> ctypes.CDLL | None:
-    """The libX11 already in the process (the one SDL loaded), never a second copy."""
-    names = ["libX11.so.6"]
-    found = ctypes.util.find_library("X11")
-    if found and found not in names:
-        names.append(found)
-    for name in names:
+    """The libX11 already in the process (the one SDL loaded), never a second copy. Its usual
+    name first: looking it up (ctypes.util.find_library runs ldconfig) takes a tenth of a second,
+    while the window is open and unguarded."""
+    for name in ("libX11.so.6", None):
+        if name is None:
+            name = ctypes.util.find_library("X11")
+            if not name or name == "libX11.so.6":
+                return None
         try:
             return ctypes.CDLL(name, mode=os.RTLD_NOLOAD | os.RTLD_LAZY)
         except (OSError, AttributeError):
