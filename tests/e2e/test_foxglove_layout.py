@@ -148,12 +148,17 @@ def test_studio_148_draws_every_vehicle_of_a_fleet_after_importing_its_layout(tm
     layout, _ = _layout(str(fleet), cwd=tmp_path)
     layout["configById"]["3D!quadsim"]["transforms"]["frame:world"] = {"visible": False}  # its axes are red and blue
     (tmp_path / "two.layout.json").write_text(json.dumps(layout))
-    shot = tmp_path / "shot.png"
-    with foxglove_studio.served({"two.mcap": fleet, "two.layout.json": tmp_path / "two.layout.json"}) as url:
-        steps = ["open-file=/data/two.mcap", "wait=5", "import-layout=/data/two.layout.json", "sidebar=layouts"]
-        foxglove_studio.follow_steps(url, tmp_path / "steps.log", *steps, "wait=6", f"shot={shot}")
     panel = (60, 40, 1000, 900)  # the 3D panel, left of the plot and the log
-    assert foxglove_studio.vehicles_drawn(shot, panel) == 2 and foxglove_studio.vehicle_names_drawn(shot, panel) == 2
+
+    def both_drawn(shot: Path) -> bool:
+        return (
+            foxglove_studio.vehicles_drawn(shot, panel) == 2 and foxglove_studio.vehicle_names_drawn(shot, panel) == 2
+        )
+
+    with foxglove_studio.served({"two.mcap": fleet, "two.layout.json": tmp_path / "two.layout.json"}) as url:
+        steps = ["open-file=/data/two.mcap", "import-layout=/data/two.layout.json", "sidebar=layouts"]
+        shot = foxglove_studio.shot_showing(url, tmp_path / "steps.log", tmp_path / "shots", both_drawn, *steps)
+    assert both_drawn(shot)  # (shot_showing raises when no screenshot shows them)
 
 
 @pytest.mark.slow
@@ -170,11 +175,18 @@ def test_studio_148_draws_both_scans_around_the_vehicles_after_importing_the_lay
     out = cli("run", "--fleet", str(tmp_path / "scans.toml"), "--duration", "3", "--out", str(scans))
     assert out.returncode == 0, out.stderr
     _layout(str(scans), cwd=tmp_path)
-    shot = tmp_path / "shot.png"
+
+    def scan_pixels(shot: Path) -> tuple[int, int]:
+        image = cv2.imread(str(shot))[40:900, 60:1000].astype(int)  # the 3D panel
+        b, g, r = image[:, :, 0], image[:, :, 1], image[:, :, 2]
+        cyan, yellow = (b > 220) & (g > 220) & (r < 60), (r > 220) & (g > 220) & (b < 60)  # Studio's own: ~0 of each
+        return int(cyan.sum()), int(yellow.sum())
+
+    def both_drawn(shot: Path) -> bool:
+        cyan, yellow = scan_pixels(shot)
+        return cyan > 500 and yellow > 20
+
     with foxglove_studio.served({"scans.mcap": scans, "scans.layout.json": tmp_path / "scans.layout.json"}) as url:
-        steps = ["open-file=/data/scans.mcap", "wait=5", "import-layout=/data/scans.layout.json", "sidebar=layouts"]
-        foxglove_studio.follow_steps(url, tmp_path / "steps.log", *steps, "seek=0.9", "wait=8", f"shot={shot}")
-    image = cv2.imread(str(shot))[40:900, 60:1000].astype(int)  # the 3D panel
-    b, g, r = image[:, :, 0], image[:, :, 1], image[:, :, 2]
-    cyan, yellow = (b > 220) & (g > 220) & (r < 60), (r > 220) & (g > 220) & (b < 60)  # Studio's own: ~0 of each
-    assert cyan.sum() > 500 and yellow.sum() > 20, (cyan.sum(), yellow.sum())
+        steps = ["open-file=/data/scans.mcap", "import-layout=/data/scans.layout.json", "sidebar=layouts", "seek=0.9"]
+        shot = foxglove_studio.shot_showing(url, tmp_path / "steps.log", tmp_path / "shots", both_drawn, *steps)
+    assert both_drawn(shot), scan_pixels(shot)  # (shot_showing raises when no screenshot shows them)

@@ -296,7 +296,7 @@ def _first_second_trial(folder: Path, signum: int, delay_s: float) -> tuple[bool
         cwd=folder,
         env=_env(folder),
     )
-    time.sleep(delay_s)
+    time.sleep(delay_s)  # the moment (drawn at random)
     handled = _handlers_in(proc.pid)
     proc.send_signal(signum)
     _, stderr = proc.communicate(timeout=120)
@@ -385,7 +385,7 @@ def _signalled_after_first_act(folder: Path, entry: str, signum: int, delay_s: f
     deadline = time.monotonic() + 30.0
     while not _handlers_in(proc.pid):  # Python's own start-up, and the lines of pip's script before ours
         assert proc.poll() is None and time.monotonic() < deadline, f"{entry}: quadsim never took the signals"
-    time.sleep(delay_s)
+    time.sleep(delay_s)  # the moment (drawn at random)
     proc.send_signal(signum)
     _, stderr = proc.communicate(timeout=120)
     return proc.returncode, stderr

@@ -291,7 +291,7 @@ def test_ctrl_c_at_random_moments_keeps_finished_runs_and_resume_completes(tmp_p
         )
         line, count, low, high = anchors[trial]
         _, errs, readers = wait_for_line(proc, line, count)
-        if high:  # a random moment after the line: no outcome depends on its length
+        if high:  # the moment: at random after the line; no outcome depends on its length
             time.sleep(rng.uniform(low, high))
         os.killpg(proc.pid, signum)  # as a terminal's Ctrl-C does: the whole group
         proc.wait(timeout=120)
@@ -498,8 +498,7 @@ def _long_sweep(tmp_path: Path) -> subprocess.Popen:
     )
     deadline = time.monotonic() + 60
     while len(_workers_of(proc.pid)) < 2 and time.monotonic() < deadline:
-        time.sleep(0.1)
-    time.sleep(1.0)  # flying
+        time.sleep(0.1)  # polling for the workers, with a deadline
     assert len(_workers_of(proc.pid)) == 2, _group_members(proc.pid)
     return proc
 

@@ -9,7 +9,8 @@ import os
 import shutil
 import socket
 import subprocess
-from collections.abc import Iterator, Mapping
+import time
+from collections.abc import Callable, Iterator, Mapping
 from contextlib import contextmanager
 from pathlib import Path
 
@@ -68,6 +69,41 @@ def follow_steps(url: str, log: Path, *steps: str) -> None:
     )
     if done.returncode != 0:
         raise AssertionError(f"a step failed: {(log.read_text() if log.exists() else done.stderr)[:2000]}")
+
+
+def shot_showing(url: str, log: Path, folder: Path, shows: Callable[[Path], bool], *steps: str) -> Path:
+    """A person's `steps`, then screenshots one after another until one `shows` what the test
+    waits for (a drawing appears when Studio has loaded and drawn it, later on a busy machine):
+    that screenshot. Raises with the log's start when none did (Studio gives up after 300)."""
+    folder.mkdir(parents=True, exist_ok=True)
+    env = {**os.environ, "NODE_PATH": str(studio() / "node_modules")}
+    node = subprocess.Popen(
+        ["node", str(STEPS), url, str(log), *steps, f"shots-until={folder}"],
+        env=env,
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+    try:
+        seen = 0
+        while True:
+            shot = folder / f"shot-{seen}.png"
+            if shot.exists():
+                seen += 1
+                if shows(shot):
+                    (folder / "enough").touch()
+                    node.wait(timeout=240)
+                    return shot
+            elif node.poll() is not None:
+                if (folder / f"shot-{seen}.png").exists():
+                    continue  # the last one, written as it ended
+                start = log.read_text()[:2000] if log.exists() else node.stderr.read() if node.stderr else ""
+                raise AssertionError(f"{seen} screenshots and none showed it: {start}")
+            else:
+                time.sleep(0.1)  # polling for the next screenshot, not a moment: nothing is judged by it
+    finally:
+        node.kill()
+        node.wait()
 
 
 def vehicles_drawn(png: Path, box: tuple[int, int, int, int]) -> int:

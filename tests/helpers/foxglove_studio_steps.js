@@ -7,7 +7,9 @@
 //   NODE_PATH=<harness>/node_modules node foxglove_studio_steps.js STUDIO_URL LOG_FILE STEP...
 //
 // STEP: open-file=URL | connect=WS_URL | import-layout=URL | show-all | hold=N,MS |
-// publish-pose=FX,FY,TX,TY | see=TEXT | wait=S | seek=FRACTION | shot=FILE.png | sidebar=KEY. Each
+// publish-pose=FX,FY,TX,TY | see=TEXT | wait=S | seek=FRACTION | shot=FILE.png | sidebar=KEY |
+// shots-until=DIR (screenshots DIR/shot-N.png, one after another, until the file DIR/enough appears:
+// the caller looks at each and says when one shows what it waits for; at most 300). Each
 // step's outcome goes to LOG_FILE (with STEPS_DEBUG=1 also the browser's console and the text frames
 // and message data the page sends over WebSockets); the exit code is 0 when every step was carried out.
 
@@ -95,6 +97,14 @@ async function run(page, step) {
   } else if (name === "shot") {
     await page.mouse.move(1, 999);
     await page.screenshot({ path: value, timeout: 240000 });
+  } else if (name === "shots-until") {
+    await page.mouse.move(1, 999);
+    for (let n = 0; !fs.existsSync(`${value}/enough`); n++) {
+      if (n >= 300) throw new Error("300 screenshots and none showed what the caller waits for");
+      await page.screenshot({ path: `${value}/.shot-${n}.png`, timeout: 240000 });
+      fs.renameSync(`${value}/.shot-${n}.png`, `${value}/shot-${n}.png`); // whole when it appears
+      await page.waitForTimeout(250);
+    }
   } else {
     throw new Error(`unknown step ${step}`);
   }

@@ -43,5 +43,5 @@ def test_the_environment_variable_names_the_peer_interpreter(monkeypatch: pytest
 def test_the_timing_loop_resets_ended_episodes() -> None:
     times = step_randomly(ThreeStepEnv(), 10)
     assert (times.steps, times.resets) == (10, 3)
-    assert 0.0 <= times.reset_s < times.elapsed_s
+    assert 0.0 <= times.reset_s < times.elapsed_s  # consistency (a part within its whole), not a bound
     assert times.stepping_steps_per_s >= times.steps_per_s > 0
