@@ -37,13 +37,13 @@ docs-serve: $(STAMP)
 	NO_MKDOCS_2_WARNING=1 $(VENV)/bin/mkdocs serve
 
 ## test: set up, lint, build the docs, then run the whole test suite headless: in parallel on every
-## core (a worker that runs out of tests takes half of another's: the end-to-end tests come first
-## and are long), then the tests that need the machine to themselves one after another
-## (tests/conftest.py); both parts run, and a failure in either fails
+## core (one test at a time, the longest first: tests/helpers/scheduling.py), then the tests that
+## need the machine to themselves one after another (tests/conftest.py); both parts run, and a
+## failure in either fails
 HEADLESS := SDL_VIDEODRIVER=dummy SDL_AUDIODRIVER=dummy
 test: lint docs
 	@status=0; \
-	$(HEADLESS) $(PY) -m pytest -n auto --dist worksteal -m "not whole_machine" || status=1; \
+	$(HEADLESS) $(PY) -m pytest -n auto -m "not whole_machine" || status=1; \
 	$(HEADLESS) $(PY) -m pytest -m whole_machine || status=1; \
 	exit $$status
 
@@ -52,7 +52,7 @@ test: lint docs
 ## lint, no docs, no end-to-end tests (tests/e2e/: `make test` runs those)
 test-fast: $(STAMP)
 	@status=0; \
-	$(HEADLESS) $(PY) -m pytest -n auto --dist worksteal -m "(unit or integration) and not whole_machine" || status=1; \
+	$(HEADLESS) $(PY) -m pytest -n auto -m "(unit or integration) and not whole_machine" || status=1; \
 	$(HEADLESS) $(PY) -m pytest -m "(unit or integration) and whole_machine" || status=1; \
 	exit $$status
 

@@ -11,6 +11,8 @@ from pathlib import Path
 
 import pytest
 
+from tests.helpers.scheduling import SharedSetupScheduling, unit_of
+
 os.environ.setdefault("SDL_VIDEODRIVER", "dummy")
 os.environ.setdefault("SDL_AUDIODRIVER", "dummy")
 os.environ.setdefault("PYGAME_HIDE_SUPPORT_PROMPT", "1")
@@ -97,10 +99,56 @@ def _compile_the_flight_core() -> None:
             sim.step(1)
 
 
+#: the longest tests (or files), longest first: a parallel run hands tests out one at a time in
+#: this order (tests/helpers/scheduling.py), so that no long test starts last while the other
+#: workers have run out of work. Only the order depends on it; a test missing here runs after
+#: these, the end-to-end ones first.
+LONG_FIRST = (
+    "e2e/test_signals.py::test_no_traceback",  # the signal trials, two at a time (130 s)
+    "e2e/test_damaged_corpus.py",  # on two processes of its own (85 s)
+    "e2e/test_foxglove.py::test_studio",  # a real Foxglove Studio (45 s)
+    "e2e/test_foxglove_layout.py::test_studio",
+    "e2e/test_sweep.py::test_ctrl_c_at_random",
+    "e2e/test_wheel.py",  # built and installed once for its tests (70 s)
+    "e2e/test_ros2.py::test_a_ros2_node_flies_quadsim",
+    "e2e/test_replay.py::test_ctrl_c",
+    "e2e/test_killed_camera_run.py",
+    "e2e/test_one_path.py",
+    "e2e/test_twist_matrix.py",
+    "e2e/test_ros2.py",
+    "e2e/test_foxglove.py",
+    "e2e/test_sweep.py",
+)
+KIND_ORDER = {"e2e": 0, "integration": 1, "unit": 2}
+
+
+def _rank(item: pytest.Item) -> tuple[int, int]:
+    """Where the item goes in the order tests are handed out: LONG_FIRST, then by kind."""
+    name = f"{_where(item)}::{item.name}"
+    for index, entry in enumerate(LONG_FIRST):
+        if name.startswith(entry):
+            return index, 0
+    return len(LONG_FIRST), KIND_ORDER.get(_kind(item) or "", 1)
+
+
 def pytest_collection_modifyitems(config, items):
+    # the tests of one unit (a setup they share) stay together, where the first of them goes
+    unit_rank: dict[str, tuple[int, int]] = {}
+    for item in items:
+        unit = unit_of(item.nodeid)
+        unit_rank[unit] = min(unit_rank.get(unit, _rank(item)), _rank(item))
+    items.sort(key=lambda item: unit_rank[unit_of(item.nodeid)])
     for item in items:
         kind = _kind(item)
         if kind is not None:
             item.add_marker(getattr(pytest.mark, kind))
         if _needs_the_whole_machine(item):
             item.add_marker(pytest.mark.whole_machine)
+
+
+@pytest.hookimpl(tryfirst=True)
+def pytest_xdist_make_scheduler(config, log):
+    """A parallel run hands out one test (or one unit of tests sharing a setup) at a time."""
+    if config.getvalue("dist") == "load":  # what -n gives unless told otherwise
+        return SharedSetupScheduling(config, log)
+    return None

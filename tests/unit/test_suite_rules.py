@@ -12,6 +12,7 @@ from __future__ import annotations
 import ast
 
 from tests.helpers import ROOT
+from tests.helpers.scheduling import SHARED_SETUP, unit_of
 
 TESTS = ROOT / "tests"
 CLOCKS = {"monotonic", "monotonic_ns", "perf_counter", "perf_counter_ns", "time", "time_ns"}
@@ -126,3 +127,32 @@ def test_b():
     time.sleep(0.2)  # the moment
 """
     assert broken_rules(allowed) == []
+
+
+def _shares_a_setup(source: str) -> bool:
+    """Whether a test file defines a fixture made once for the file (module- or class-scoped)."""
+    for node in ast.walk(ast.parse(source)):
+        if isinstance(node, ast.FunctionDef):
+            for decorator in node.decorator_list:
+                if isinstance(decorator, ast.Call) and any(
+                    k.arg == "scope" and isinstance(k.value, ast.Constant) and k.value.value in ("module", "class")
+                    for k in decorator.keywords
+                ):
+                    return True
+    return False
+
+
+def test_every_file_with_a_setup_for_all_its_tests_hands_them_out_together():
+    """A parallel run gives the tests that share a file's setup to one worker (SHARED_SETUP),
+    or each worker that runs one of them would make it again (the signal trials: 170 s of CPU)."""
+    sharing = {
+        path.relative_to(TESTS).as_posix()
+        for kind in ("unit", "integration", "e2e")
+        for path in sorted((TESTS / kind).glob("test_*.py"))
+        if _shares_a_setup(path.read_text())
+    }
+    assert sharing == set(SHARED_SETUP)
+    assert unit_of("tests/e2e/test_signals.py::test_a") == unit_of("tests/e2e/test_signals.py::test_b")
+    assert unit_of("tests/e2e/test_ros2.py::test_a[jazzy-x]") == unit_of("tests/e2e/test_ros2.py::test_b[jazzy-x]")
+    assert unit_of("tests/e2e/test_ros2.py::test_a[jazzy-x]") != unit_of("tests/e2e/test_ros2.py::test_a[kilted-x]")
+    assert unit_of("tests/unit/test_mixer.py::test_a") != unit_of("tests/unit/test_mixer.py::test_b")
