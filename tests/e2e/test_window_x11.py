@@ -170,6 +170,15 @@ def _wait_until(flight: Flight, done: Callable[[], bool], what: str) -> None:
         time.sleep(0.1)  # polling: nothing is judged by how long it took
 
 
+def _wait_for_title(xserver: XServer, flight: Flight, title: str) -> None:
+    """Until the window bears quadsim's title: it is set right after the X11 guard is installed
+    (before it, SDL's "pygame window"), so a kill from then on meets the guard."""
+    deadline = time.monotonic() + 90
+    while not _xdotool(xserver, "getwindowname", str(flight.window)).startswith(title):
+        assert flight.proc.poll() is None and time.monotonic() < deadline, "the window never took its title"
+        time.sleep(0.02)  # polling
+
+
 def _wait_for_window(xserver: XServer, flight: Flight, ready: Callable[[], bool] | None = None) -> None:
     # by pid: this xdotool's `search --name` does not match SDL's UTF8_STRING window names
     deadline = time.monotonic() + 90
@@ -285,6 +294,7 @@ def test_window_killed_while_starting(xserver, tmp_path, cameras):
     out = tmp_path / "flight.mcap"
     flight = _start(xserver, tmp_path, ["fly", "--input", "keyboard", "--out", str(out), *cameras])
     _wait_for_window(xserver, flight)  # mapped: start-up is under way, or only just over
+    _wait_for_title(xserver, flight, "quadsim")
     _xdotool(xserver, "windowkill", str(flight.window))
     code, stdout, err = _finish(flight)
     assert "Traceback" not in stdout + err, err
@@ -394,7 +404,8 @@ def test_window_closed_normally(xserver, tmp_path):
 def test_replay_window_killed(xserver, tmp_path):
     recording = ROOT / "tests" / "recordings" / "climb_cascade.mcap"
     flight = _start(xserver, tmp_path, ["replay", str(recording), "--loop"])
-    _wait_for_window(xserver, flight)  # mapped: the replay is playing
+    _wait_for_window(xserver, flight)
+    _wait_for_title(xserver, flight, "quadsim replay")  # guarded: the replay is playing
     _xdotool(xserver, "windowkill", str(flight.window))
     code, out, err = _finish(flight)
     assert "Traceback" not in out + err, err
@@ -408,7 +419,8 @@ def test_a_signal_ends_the_replay_window_at_its_next_frame(xserver, tmp_path, si
     one line (it used to go on playing, ignoring the first signal)."""
     recording = ROOT / "tests" / "recordings" / "climb_cascade.mcap"
     flight = _start(xserver, tmp_path, ["replay", str(recording), "--loop"])
-    _wait_for_window(xserver, flight)  # mapped: the replay is playing
+    _wait_for_window(xserver, flight)
+    _wait_for_title(xserver, flight, "quadsim replay")  # guarded: the replay is playing
     flight.proc.send_signal(signum)
     code, out, err = _finish(flight)
     assert code == 128 + signum, (code, out, err)
