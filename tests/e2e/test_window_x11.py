@@ -173,10 +173,8 @@ def _wait_until(flight: Flight, done: Callable[[], bool], what: str) -> None:
 def _wait_for_title(xserver: XServer, flight: Flight, title: str) -> None:
     """Until the window bears quadsim's title: it is set right after the X11 guard is installed
     (before it, SDL's "pygame window"), so a kill from then on meets the guard."""
-    deadline = time.monotonic() + 90
-    while not _xdotool(xserver, "getwindowname", str(flight.window)).startswith(title):
-        assert flight.proc.poll() is None and time.monotonic() < deadline, "the window never took its title"
-        time.sleep(0.02)  # polling
+    window = str(flight.window)
+    _wait_until(flight, lambda: _xdotool(xserver, "getwindowname", window).startswith(title), f"the title {title!r}")
 
 
 def _wait_for_window(xserver: XServer, flight: Flight, ready: Callable[[], bool] | None = None) -> None:
