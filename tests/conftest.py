@@ -11,7 +11,20 @@ from pathlib import Path
 
 import pytest
 
+from tests.helpers import FLIGHT_CORE_VARIABLE
 from tests.helpers.scheduling import SharedSetupScheduling, unit_of
+
+# The flight core: compiled in the test processes themselves (numba is in the test extras), plain
+# Python in the processes tests start. Importing numba and loading its cached code costs a process
+# 0.7 CPU-s, most of what a short run costs, and the suite starts some 400 such runs. The two are
+# the same to the bit (tests/unit/test_compiled.py, tests/e2e/test_compiled.py); tests of the
+# compiled path in a process of its own, and of what a user meets by default (the wheel, the
+# window), start it with tests.helpers.default_core(env).
+os.environ.pop(FLIGHT_CORE_VARIABLE, None)  # a worker inherits it: this process is compiled
+from quadsim.core.compiled import CHOICE  # chosen at import: before the variable is set
+
+assert CHOICE == "", "the tests' own process flies the compiled core"
+os.environ[FLIGHT_CORE_VARIABLE] = "python"
 
 os.environ.setdefault("SDL_VIDEODRIVER", "dummy")
 os.environ.setdefault("SDL_AUDIODRIVER", "dummy")

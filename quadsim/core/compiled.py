@@ -1,5 +1,5 @@
 """Compiled arithmetic where numba is installed (with quadsim, where it has wheels; the `fast`
-extra installs it too), plain Python where it is not.
+extra installs it too), plain Python where it is not, or where QUADSIM_FLIGHT_CORE=python says so.
 
 `jit` marks a function of floats, tuples of floats and float arrays as compilable: with numba,
 it is compiled to machine code on its first call (and cached on disk); without numba, or with
@@ -32,31 +32,46 @@ Floats = Sequence[float]
 #: what they write into (the same)
 MutableFloats = MutableSequence[float]
 
-numba: Any
+#: the environment variable that chooses the flight core: `python` flies it as plain Python and
+#: does not import numba at all (importing numba and loading its cached code costs a process about
+#: 0.7 CPU-s, more than a short run's flight gains from it: docs/reference/performance.md);
+#: `compiled` or unset: compiled wherever numba imports
+CHOICE_VARIABLE = "QUADSIM_FLIGHT_CORE"
+#: the value of CHOICE_VARIABLE this process started with ("" when unset)
+CHOICE = os.environ.get(CHOICE_VARIABLE, "").strip().lower()
+
+numba: Any = None
 #: why numba, though installed, did not import (None: it imported, or it is not installed)
 NUMBA_PROBLEM: str | None = None
-try:
-    import numba
-except Exception as exc:  # numba is not installed, or is broken: everything runs as Python
-    numba = None
-    if not (isinstance(exc, ImportError) and exc.name == "numba"):
-        NUMBA_PROBLEM = f"{type(exc).__name__}: {exc}"
+if CHOICE != "python":
+    try:
+        import numba
+    except Exception as exc:  # numba is not installed, or is broken: everything runs as Python
+        numba = None
+        if not (isinstance(exc, ImportError) and exc.name == "numba"):
+            NUMBA_PROBLEM = f"{type(exc).__name__}: {exc}"
 
 #: numba's version when it is installed, else None
 NUMBA_VERSION: str | None = None if numba is None else str(numba.__version__)
-#: True when `jit` compiles (numba is installed and NUMBA_DISABLE_JIT is not set)
+#: True when `jit` compiles (numba is installed and imported, and NUMBA_DISABLE_JIT is not set)
 COMPILED: bool = numba is not None and not numba.config.DISABLE_JIT
 
 
 def status() -> str:
     """Whether the flight core's arithmetic is compiled in this process, or why not (one line)."""
     if COMPILED:
-        return f"flight core compiled by numba {NUMBA_VERSION}"
-    if NUMBA_VERSION is not None:
-        return "flight core as plain Python: NUMBA_DISABLE_JIT is set"
-    if NUMBA_PROBLEM is not None:
-        return f"flight core as plain Python: numba is installed but did not import ({NUMBA_PROBLEM})"
-    return f"flight core as plain Python: {install_extra('fast')} (numba) to compile it"
+        said = f"flight core compiled by numba {NUMBA_VERSION}"
+    elif CHOICE == "python":
+        said = f"flight core as plain Python: {CHOICE_VARIABLE}=python is set"
+    elif NUMBA_VERSION is not None:
+        said = "flight core as plain Python: NUMBA_DISABLE_JIT is set"
+    elif NUMBA_PROBLEM is not None:
+        said = f"flight core as plain Python: numba is installed but did not import ({NUMBA_PROBLEM})"
+    else:
+        said = f"flight core as plain Python: {install_extra('fast')} (numba) to compile it"
+    if CHOICE not in ("", "python", "compiled"):
+        said += f" ({CHOICE_VARIABLE}={CHOICE} is neither python nor compiled: ignored)"
+    return said
 
 
 #: every module of the package with compiled functions (tests/unit/test_compiled.py checks the list)

@@ -14,7 +14,7 @@ from pathlib import Path
 import pytest
 
 from quadsim.core import compiled
-from tests.helpers import ROOT
+from tests.helpers import ROOT, default_core
 
 # every scenario flown both ways: turns, climbs, holds after the dead-man, take-off and landing
 # near the ground (ground effect), wind with turbulence, the seed controller, six rotors
@@ -43,7 +43,7 @@ print(json.dumps({"compiled": compiled.COMPILED, **{k: [len(f.states), digest(f.
 
 
 def _flown(disable_jit: bool) -> dict:
-    env = {k: v for k, v in os.environ.items() if k != "NUMBA_DISABLE_JIT"}
+    env = {k: v for k, v in default_core(os.environ).items() if k != "NUMBA_DISABLE_JIT"}
     if disable_jit:
         env["NUMBA_DISABLE_JIT"] = "1"
     done = subprocess.run(
@@ -78,7 +78,7 @@ def test_an_edit_to_a_compiled_function_another_one_calls_is_not_hidden_by_the_c
     shutil.copytree(ROOT / "quadsim", package, ignore=shutil.ignore_patterns("__pycache__"))
 
     def forces() -> tuple[float, ...]:
-        env = {k: v for k, v in os.environ.items() if k != "NUMBA_DISABLE_JIT"}
+        env = {k: v for k, v in default_core(os.environ).items() if k != "NUMBA_DISABLE_JIT"}
         env["PYTHONPATH"] = str(tmp_path)
         done = subprocess.run(
             [sys.executable, "-c", EDITED], capture_output=True, text=True, env=env, cwd=tmp_path, timeout=300
@@ -118,7 +118,12 @@ def test_the_cache_names_do_not_depend_on_what_was_imported_first():
         "import quadsim.control.cascade",
     ):
         done = subprocess.run(
-            [sys.executable, "-c", ORDER, first], capture_output=True, text=True, cwd=ROOT, timeout=120
+            [sys.executable, "-c", ORDER, first],
+            capture_output=True,
+            text=True,
+            cwd=ROOT,
+            env=default_core(os.environ),
+            timeout=120,
         )
         assert done.returncode == 0, done.stderr[-2000:]
         names.add(done.stdout.strip())
@@ -131,7 +136,7 @@ def test_a_first_compile_is_said_once_before_its_wait_and_never_before_a_bad_fil
     """With no cached flight core (a fresh install: an empty NUMBA_CACHE_DIR), a run says on
     stderr that it compiles, before its headline; a run whose vehicle file is bad says only the
     file's error (it never reaches the compile); the next run, compiled code cached, says nothing."""
-    env = {**os.environ, "NUMBA_CACHE_DIR": str(tmp_path / "numba-cache")}
+    env = {**default_core(os.environ), "NUMBA_CACHE_DIR": str(tmp_path / "numba-cache")}
     shipped = ROOT / "quadsim" / "assets" / "urdf"
     for name in ("quadsim_x.urdf", "quadsim_x.params.toml", "quadsim_x.gains.toml"):
         shutil.copy(shipped / name, tmp_path / name)

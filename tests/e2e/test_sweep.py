@@ -19,7 +19,7 @@ from quadsim.apps.sweep.metrics import METRICS
 from quadsim.apps.sweep.table import existing_table, read_table
 from quadsim.core.invocation import install_extra
 from quadsim.recording.flight import load_flight
-from tests.helpers import ROOT
+from tests.helpers import ROOT, default_core
 from tests.helpers import proc as procfs
 from tests.helpers.cli import run_main, wait_for_line
 from tests.helpers.fleets import fleet_toml, vehicle
@@ -390,6 +390,7 @@ def test_without_numba_a_long_sweep_says_how_to_fly_it_faster_and_a_short_one_do
             text=True,
             timeout=300,
             cwd=ROOT,
+            env=default_core(os.environ),  # numba gone, not set aside
         )
         assert done.returncode == 0, done.stderr[-2000:]
         said[seconds] = done.stdout.splitlines()[1]

@@ -22,7 +22,7 @@ from pathlib import Path
 import pytest
 
 import quadsim
-from tests.helpers import ROOT
+from tests.helpers import ROOT, default_core
 
 CAMERA_TOPICS = [
     "/quad/front_camera/image_raw/compressed",
@@ -121,10 +121,11 @@ def install(wheel: Path, venv: Path) -> None:
 
 
 def clean_env(venv: Path, data: Path) -> dict[str, str]:
-    """The environment of a user who activated the venv: nothing points at the repo."""
+    """The environment of a user who activated the venv: nothing points at the repo, and the
+    flight core is chosen as a user's is (compiled: the wheel installs numba)."""
     env = {
         k: v
-        for k, v in os.environ.items()
+        for k, v in default_core(os.environ).items()
         if not k.startswith("PYTHON") and k not in ("VIRTUAL_ENV", "QUADSIM_RECORDINGS")
     }
     env.update(

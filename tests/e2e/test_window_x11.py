@@ -34,7 +34,7 @@ from mcap.reader import make_reader
 from quadsim.apps.window.x11_guard import EXIT_DISPLAY_LOST, LEGACY_ENV
 from quadsim.errors import QuadsimError
 from quadsim.recording.mcap_scan import McapFile
-from tests.helpers import ROOT
+from tests.helpers import ROOT, default_core
 
 LOST = "the window's display was lost ("
 START_UP_NOTES = ("quadsim: starting ", "quadsim: compiling ")
@@ -107,8 +107,10 @@ class Flight:
 
 
 def _env(xserver: XServer, tmpdir: Path, legacy: bool = False) -> dict[str, str]:
-    env = {
-        k: v for k, v in os.environ.items() if not k.startswith("PYTEST") and k not in ("SDL_VIDEODRIVER", LEGACY_ENV)
+    env = {  # the flight core as a user's window has it by default: compiled
+        k: v
+        for k, v in default_core(os.environ).items()
+        if not k.startswith("PYTEST") and k not in ("SDL_VIDEODRIVER", LEGACY_ENV)
     }
     env.update(xserver.env(), TMPDIR=str(tmpdir), SDL_AUDIODRIVER="dummy", PYTHONPATH=str(ROOT))
     env["PYTHONFAULTHANDLER"] = "1"
