@@ -36,8 +36,9 @@ docs: $(STAMP)
 docs-serve: $(STAMP)
 	NO_MKDOCS_2_WARNING=1 $(VENV)/bin/mkdocs serve
 
-## test: set up, lint, build the docs, then run the whole test suite headless: in parallel on every
-## core (one test at a time, the longest first: tests/helpers/scheduling.py), then the tests that
+## test: set up, lint, build the docs, then run the whole test suite headless: in parallel on one
+## worker more than the cores (one test at a time, the longest first: tests/helpers/scheduling.py;
+## -n auto's count: tests/conftest.py), then the tests that
 ## need the machine to themselves one after another (tests/conftest.py); both parts run, and a
 ## failure in either fails
 HEADLESS := SDL_VIDEODRIVER=dummy SDL_AUDIODRIVER=dummy
@@ -48,7 +49,7 @@ test: lint docs
 	exit $$status
 
 ## test-fast: the unit and integration tests alone (tests/unit/, tests/integration/, the shipped
-## recordings), in parallel on every core, then their few that need the machine to themselves; no
+## recordings), in parallel (as test's), then their few that need the machine to themselves; no
 ## lint, no docs, no end-to-end tests (tests/e2e/: `make test` runs those)
 test-fast: $(STAMP)
 	@status=0; \
