@@ -46,6 +46,7 @@ from websockets.asyncio.client import connect
 from websockets.asyncio.server import Server, ServerConnection, serve
 from websockets.exceptions import ConnectionClosed
 from websockets.http11 import Request, Response
+from websockets.protocol import State
 from websockets.typing import Subprotocol
 
 log = logging.getLogger(__name__)
@@ -195,7 +196,7 @@ class FoxgloveFront:
         self.inputs = inputs
         self.metadata = dict(metadata or {})
         self._ids = itertools.count(1)
-        self._clients = 0
+        self._admitted: set[ServerConnection] = set()
         self._logger = _LogLimiter()
         for name in SDK_LOGGERS:
             logging.getLogger(name).addFilter(self._logger)
@@ -241,12 +242,13 @@ class FoxgloveFront:
         offered = {n.strip() for h in request.headers.get_all("Sec-WebSocket-Protocol") for n in h.split(",")}
         if not offered & set(SUBPROTOCOLS):  # as the SDK answers a client that offers none of its names
             return ws.respond(400, f"offer the subprotocol {' or '.join(SUBPROTOCOLS)}\n")
-        if self._clients >= MAX_CLIENTS:
+        self._admitted = {c for c in self._admitted if c.state is not State.CLOSED}
+        if len(self._admitted) >= MAX_CLIENTS:
             return ws.respond(503, f"{MAX_CLIENTS} clients are connected already\n")
+        self._admitted.add(ws)
         return None
 
     async def _serve(self, ws: ServerConnection) -> None:
-        self._clients += 1
         client = FrontClient(next(self._ids), ws, self._logger)
         try:
             async with connect(
@@ -262,7 +264,7 @@ class FoxgloveFront:
         except (OSError, ConnectionClosed):
             pass
         finally:
-            self._clients -= 1
+            self._admitted.discard(ws)
             for channel_id in client.channels:
                 self.inputs.unadvertised(client, channel_id)
 

@@ -442,8 +442,11 @@ def test_hostile_clients_neither_grow_nor_flood_the_server(tmp_path: Path) -> No
     for case, messages in said.items():  # rate-limited: one a second at most
         assert len(messages) <= hostile["seconds"][case] + 1, (case, len(messages))
     assert hostile["status_bytes"] < 20_000
-    # at most 16 clients at once (the legitimate one among them): the rest are refused with 503
-    assert hostile["connections"]["held"] <= 15 and set(hostile["connections"]["refused"]) == {503}
+    # at most 16 clients at once: the rest are refused with 503. (15 of the hostile client's while
+    # the legitimate one flies; on a loaded machine it may have ended its 14 s first, so 16: the
+    # exact count is tests/e2e/test_foxglove_front.py's, where no clock decides it)
+    connections = hostile["connections"]
+    assert connections["held"] in (15, 16) and connections["refused"] == [503] * (24 - connections["held"])
     assert re.search(r"commands\s+\d+ received", run["stdout"])
 
 

@@ -109,3 +109,39 @@ def test_the_server_says_it_is_a_ros_2_source_so_studios_3d_panel_offers_publish
     serverInfo names a ROS_DISTRO (Studio 1.48 was seen without them before the front said so)."""
     info = asyncio.run(_server_info())
     assert info["op"] == "serverInfo" and info["metadata"] == {"fg-library": "fake", "ROS_DISTRO": "jazzy"}
+
+
+class _Handshaking:
+    """A connection whose handshake the front is answering: its handler has not started yet."""
+
+    def __init__(self) -> None:
+        from websockets.protocol import State
+
+        self.state = State.CONNECTING
+
+    def respond(self, status: int, text: str) -> Any:
+        return status
+
+
+def test_a_place_is_taken_when_a_connection_is_admitted_not_when_its_handler_starts() -> None:
+    """Connections admitted one after another while none of their handlers has run yet (a place
+    was taken only when the handler started, so these were all admitted): the 17th is refused;
+    one whose handshake then failed (closed without a handler) gives its place back at the next
+    admission."""
+    from websockets.datastructures import Headers
+    from websockets.http11 import Request
+    from websockets.protocol import State
+
+    from quadsim.live.foxglove_front import MAX_CLIENTS
+
+    request = Request("/", Headers({"Sec-WebSocket-Protocol": "foxglove.websocket.v1"}))
+    front = FoxgloveFront("127.0.0.1", 0, 9, _NoInput())  # the upstream is reached only by a handler
+    try:
+        waiting = [_Handshaking() for _ in range(MAX_CLIENTS + 1)]
+        answers = [front._admit(ws, request) for ws in waiting]  # type: ignore[arg-type]
+        assert answers[:MAX_CLIENTS] == [None] * MAX_CLIENTS and answers[MAX_CLIENTS] == 503
+        waiting[0].state = State.CLOSED  # its handshake failed: no handler will free its place
+        assert front._admit(_Handshaking(), request) is None  # type: ignore[arg-type]
+        assert front._admit(_Handshaking(), request) == 503  # type: ignore[arg-type]
+    finally:
+        front.close()
