@@ -3,6 +3,7 @@ columns, and a name past the cut went unseen). Not a test module."""
 
 from __future__ import annotations
 
+import signal
 from collections.abc import Iterator
 from pathlib import Path
 
@@ -41,3 +42,17 @@ def cmdline(pid: int) -> bytes:
 def environ(pid: int) -> bytes:
     """/proc/PID/environ: NAME=VALUE entries, each ended by a NUL; OSError where the process is gone."""
     return (PROC / str(pid) / "environ").read_bytes()
+
+
+SIGTERM_BIT = 1 << (signal.SIGTERM - 1)  # its bit in /proc/PID/status's SigBlk and SigCgt
+
+
+def takes_signals(pid: int) -> bool:
+    """Has quadsim taken the signals: holding them back (SigBlk, the first statement of main.py and
+    of quadsim.apps.launch) or handling them (SigCgt, SignalStop)? Python alone does neither for
+    SIGTERM. False where the process is gone."""
+    try:
+        fields = status(pid)
+    except OSError:
+        return False
+    return any(int(fields[name], 16) & SIGTERM_BIT for name in ("SigBlk", "SigCgt") if name in fields)
