@@ -381,7 +381,7 @@ class TowerVisionEnv(QuadEnv):
     def _reward(self, state: VehicleState) -> tuple[float, bool]:
         distance = self.distance_to_tower_m(state)
         closed, self._distance_m = self._distance_m - distance, distance
-        arrived = distance < 1.5 and float(np.linalg.norm(state.linear_velocity_mps)) < 0.2
+        arrived = distance < 1.5 and math.hypot(*state.linear_velocity_mps) < 0.2
         return closed + (10.0 if arrived else 0.0), arrived
 
     def close(self) -> None:

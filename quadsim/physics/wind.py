@@ -30,6 +30,7 @@ from typing import Protocol
 
 import numpy as np
 
+from quadsim.core import exact
 from quadsim.core.kinematics import Vec3
 from quadsim.errors import ConfigError
 
@@ -170,9 +171,11 @@ class _SecondOrder:
         # exp(A dt) = e^(-dt/T) (I + dt (A + I/T)), A = [[0, 1], [-1/T^2, -2/T]]
         phi = np.array([[1.0 + dt_s / t, dt_s], [-dt_s / (t * t), 1.0 - dt_s / t]]) * e
         gamma = np.array([0.0, math.sqrt(dt_s) / (t * t)])
-        cov = np.linalg.solve(np.eye(4) - np.kron(phi, phi), np.outer(gamma, gamma).ravel()).reshape(2, 2)
+        # the stationary covariance: cov = phi cov phi^T + gamma gamma^T, solved in exact
+        # arithmetic (the same bits on every machine: quadsim.core.exact)
+        cov = exact.solve((np.eye(4) - np.kron(phi, phi)).tolist(), np.outer(gamma, gamma).ravel().tolist())
         shape = np.array([1.0, math.sqrt(3.0) * t])
-        gain = sigma / math.sqrt(float(shape @ cov @ shape))
+        gain = sigma / math.sqrt(exact.quadratic_form(shape.tolist(), [cov[0:2], cov[2:4]]))
         (self._p00, self._p01), (self._p10, self._p11) = phi.tolist()
         self._g1 = float(gamma[1])
         self._c1, self._c2 = gain, gain * float(shape[1])

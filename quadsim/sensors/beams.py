@@ -72,8 +72,12 @@ def world_rays(
     `position_m` turned by `orientation_xyzw`, the sensor at `mount_m` in base_link and
     `directions` (n x 3, unit vectors in base_link axes)."""
     rotation: np.ndarray = np.array(matrix_from_quaternion(orientation_xyzw), dtype=float)
-    origin = np.asarray(position_m, dtype=float) + rotation @ np.asarray(mount_m, dtype=float)
-    return origin, directions @ rotation.T
+    # written out, not `@`: OpenBLAS's sums differ in the last bit from one CPU to another, and
+    # a scan that feeds a flight must read the same on every machine
+    mx, my, mz = (float(v) for v in mount_m)
+    origin = np.asarray(position_m, dtype=float) + (rotation[:, 0] * mx + rotation[:, 1] * my + rotation[:, 2] * mz)
+    d = np.asarray(directions, dtype=float)
+    return origin, d[:, 0:1] * rotation[:, 0] + d[:, 1:2] * rotation[:, 1] + d[:, 2:3] * rotation[:, 2]
 
 
 def frame_rotation(direction: Vec3) -> Quat:

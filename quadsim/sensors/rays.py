@@ -71,8 +71,9 @@ def _leaving(origin: np.ndarray, directions: np.ndarray, reach: tuple[Vec3, floa
     it is outside it from the start."""
     centre, radius = reach
     offset = origin - np.asarray(centre, dtype=float)
-    b = directions @ offset
-    c = float(offset @ offset) - radius * radius
+    # written out, not `@`: OpenBLAS's sums differ in the last bit from one CPU to another
+    b = directions[:, 0] * offset[0] + directions[:, 1] * offset[1] + directions[:, 2] * offset[2]
+    c = float(offset[0] * offset[0] + offset[1] * offset[1] + offset[2] * offset[2]) - radius * radius
     return np.maximum(-b + np.sqrt(np.maximum(b * b - c, 0.0)), 0.0)
 
 

@@ -7,6 +7,7 @@ from collections.abc import Sequence
 import numpy as np
 
 from quadsim.core.compiled import COMPILED, Floats, MutableFloats, floats, jit, table
+from quadsim.core.exact import pseudo_inverse
 from quadsim.core.types import RotorForces
 from quadsim.errors import ConfigError
 from quadsim.vehicle.params import VehicleParams
@@ -37,10 +38,9 @@ class Mixer:
                 f"{vehicle.urdf_path.name}: rotor layout cannot produce independent roll, pitch and yaw torques"
             )
         self.allocation = allocation
-        # for a square matrix the pseudo-inverse is the inverse; np.linalg.inv gives it to the last
-        # bit as the quad has always used it (pinv goes through an SVD and rounds differently)
-        square = allocation.shape[0] == allocation.shape[1]
-        inverse = np.linalg.inv(allocation) if square else np.linalg.pinv(allocation)
+        # in exact arithmetic, rounded once: the same bits on every machine (LAPACK's depend on
+        # the kernels OpenBLAS picks for the CPU; quadsim.core.exact)
+        inverse = pseudo_inverse(allocation.tolist())
         #: the inverse's rows (one per rotor: thrust, roll, pitch, yaw), as `mix` takes them
         self.rows = table(inverse)
         self.rotor_count = allocation.shape[1]
@@ -50,8 +50,10 @@ class Mixer:
         """Rotor forces (N) -> (collective thrust N, roll, pitch, yaw torque N m)."""
         if len(forces) != self.rotor_count:
             raise ValueError(f"expected {self.rotor_count} rotor forces, got {len(forces)}")
-        w = self.allocation @ np.asarray(forces, dtype=float)
-        return float(w[0]), float(w[1]), float(w[2]), float(w[3])
+        thrust, roll, pitch, yaw = (
+            float(sum(a * float(f) for a, f in zip(row, forces))) for row in self.allocation.tolist()
+        )
+        return thrust, roll, pitch, yaw
 
     def to_rotor_forces(self, thrust_n: float, roll_nm: float, pitch_nm: float, yaw_nm: float) -> RotorForces:
         """Rotor forces for a wanted wrench, each clipped to [0, max].

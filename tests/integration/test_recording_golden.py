@@ -4,7 +4,8 @@ the wall-clock start, the version and where the vehicle's files were (tests/gold
 
 tests/golden/takeoff_cameras.mcap was made by the code before a run of one vehicle became a fleet
 of one (one plan, one Run, one fan-out for every run), with today's physics (the flight constants
-and contacts of issue 36): the same command still writes it.
+and contacts of issue 36), and made again when the turbulence filter's gain became exact (the same
+bits on every machine: docs/reference/determinism.md): the same command still writes it.
 Regenerate it (tools/make_regression_recordings.py golden) only when a change to the flight or the
 contract is meant, and say why in the commit.
 
