@@ -442,11 +442,18 @@ class Ros2Bridge:
                 log.warning("a goal for %s is ignored: %s (the summary counts any more)", driver.topic, why)
 
         for topic in driver.goal_topics:
-            self._read(self.graph_name(topic), "geometry_msgs/msg/PoseStamped", 1, on_sample)
+            # reliable: a goal comes once (RViz publishes one per click), and a best-effort reader
+            # loses a sample that arrives before it has matched the writer (under load, the writer
+            # can match first); a reliable writer keeps it until this reader has acknowledged it
+            self._read(self.graph_name(topic), "geometry_msgs/msg/PoseStamped", 1, on_sample, reliable=True)
 
-    def _read(self, topic: str, type_name: str, depth: int, on_sample: Callable[[Any], None]) -> None:
+    def _read(
+        self, topic: str, type_name: str, depth: int, on_sample: Callable[[Any], None], reliable: bool = False
+    ) -> None:
         """Call `on_sample` with each `type_name` message on the graph's `topic` as it arrives (on
-        Cyclone's receive thread). Best effort, so reliable and best-effort publishers both match."""
+        Cyclone's receive thread). Best effort by default, so reliable and best-effort publishers
+        both match (a stream of Twists, where the next one replaces a lost one); `reliable` for a
+        message sent once, which then only reliable publishers (ROS 2's default) deliver."""
         from cyclonedds.core import Listener
         from cyclonedds.sub import DataReader
         from cyclonedds.topic import Topic as DdsTopic
@@ -459,7 +466,10 @@ class Ros2Bridge:
                     on_sample(sample)
 
         Policy = self._Policy
-        qos = self._Qos(Policy.Reliability.BestEffort, Policy.History.KeepLast(depth))
+        reliability = (
+            Policy.Reliability.Reliable(max_blocking_time=100_000_000) if reliable else Policy.Reliability.BestEffort
+        )
+        qos = self._Qos(reliability, Policy.History.KeepLast(depth))
         dds_topic = DdsTopic(self._participant, dds_topic_name(topic), kind)
         self._readers.append(
             DataReader(self._participant, dds_topic, qos=qos, listener=Listener(on_data_available=on_data_available))

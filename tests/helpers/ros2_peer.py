@@ -219,15 +219,16 @@ def main() -> int:
         x, y, z, yaw_deg = (float(v) for v in sys.argv[3].split(","))
         goal_pub = node.create_publisher(PoseStamped, goal_topic, 10)
         waited = time.monotonic() + 30.0
-        while node.count_subscribers(goal_topic) == 0 and time.monotonic() < waited:
-            spin_for(0.05)  # RViz publishes once: to a subscriber it has matched
+        # RViz publishes once, when the user clicks: here, once this publisher has matched quadsim's
+        # reader (the publisher's own count, not the graph's: the graph can list the reader first)
+        while goal_pub.get_subscription_count() == 0 and time.monotonic() < waited:
+            spin_for(0.05)
         goal = PoseStamped()
         goal.header.frame_id = "map"
         goal.pose.position.x, goal.pose.position.y, goal.pose.position.z = x, y, z
         goal.pose.orientation.z = math.sin(math.radians(yaw_deg) / 2)
         goal.pose.orientation.w = math.cos(math.radians(yaw_deg) / 2)
-        spin_for(0.2)  # the match is seen from both sides
-        goal_pub.publish(goal)
+        goal_pub.publish(goal)  # reliable: kept until quadsim's reader, matched, has acknowledged it
         until_sim(9.0)
     elif clock_ns and mode == "stop":
         scans: list[Any] = []
