@@ -56,8 +56,7 @@ FOLDER_KIND = {"unit": "unit", "integration": "integration", "e2e": "e2e", "reco
 
 #: Tests that need the machine to themselves: `make test` runs them one after another, after the
 #: rest has run in parallel (pytest-xdist); `make test-fast` runs its unit and integration ones so
-#: too. Only two: one serves on Foxglove's default port (8765), the other brings its own two CPU
-#: hogs and counts how many of its signals land after quadsim's first statement. Everything else
+#: too. Only one: it serves on Foxglove's default port (8765). Everything else
 #: runs in parallel, real-time flights with ROS 2 and Foxglove peers included: their peers keep
 #: simulated time and each xdist worker has ROS 2 domains of its own (tests/helpers/ros2_env.py),
 #: windows have an Xvfb each (-displayfd) and servers a port each (127.0.0.1:0). A file's path
@@ -65,7 +64,6 @@ FOLDER_KIND = {"unit": "unit", "integration": "integration", "e2e": "e2e", "reco
 WHOLE_MACHINE = frozenset(
     {
         "integration/test_foxglove.py::test_loopback_serving_says_no_warning",
-        "e2e/test_signals.py::test_a_signal_in_the_first_second_under_load",
     }
 )
 
@@ -117,8 +115,10 @@ def _compile_the_flight_core() -> None:
 #: workers have run out of work. Only the order depends on it; a test missing here runs after
 #: these, the end-to-end ones first.
 LONG_FIRST = (
-    "e2e/test_signals.py::test_no_traceback",  # the signal trials, two at a time (130 s)
+    "e2e/test_signals.py::test_no_traceback",  # the signal trials, two at a time, then the file's rest (130 s)
     "e2e/test_damaged_corpus.py",  # on two processes of its own (85 s)
+    "e2e/test_sweep.py::test_the_wind_example",  # a local Ray instance, then the pool (50-160 s)
+    "e2e/test_check_parallel.py",  # a local Ray instance among them (20-60 s)
     "e2e/test_foxglove.py::test_studio",  # a real Foxglove Studio (45 s)
     "e2e/test_foxglove_layout.py::test_studio",
     "e2e/test_sweep.py::test_ctrl_c_at_random",

@@ -285,57 +285,48 @@ def test_a_fleet_run_stopped_at_any_moment_ends_cleanly_with_every_vehicle_recor
     assert sum(t.returncode != 0 for t in trials) >= len(trials) // 4  # as in test_no_traceback_and_the_right_exit_code
 
 
-# --- the first second, under load ---------------------------------------------------------------
+# --- the first second --------------------------------------------------------------------------
 
 FIRST_SECOND_TRIALS = 40
+#: the moments: up to this long after quadsim's first statement, while it imports pybullet, pygame
+#: and the rest (about 0.3 s on an idle machine, longer on a busy one) and as the run begins; the
+#: run, paced to real time, lasts seconds more, so every signal meets it
+FIRST_SECOND_S = 0.8
 
 
-def _first_second_trial(folder: Path, signum: int, delay_s: float) -> tuple[bool, int, str]:
-    """A run signalled `delay_s` after it started; (quadsim's handlers were in, exit code, stderr)."""
+def _first_second_trial(folder: Path, signum: int, delay_s: float) -> tuple[int, str]:
+    """A run signalled `delay_s` after quadsim's first statement; (exit code, stderr)."""
     folder.mkdir(parents=True)
+    command = [sys.executable, str(ROOT / "main.py"), "run", "--script", "square", "--cameras", "none"]
+    command += ["--duration", "5", "--realtime", "--out", "run.mcap"]
     proc = subprocess.Popen(
-        [sys.executable, str(ROOT / "main.py"), "run", "--script", "square", "--cameras", "none", "--out", "run.mcap"],
-        stdout=subprocess.DEVNULL,
-        stderr=subprocess.PIPE,
-        text=True,
-        cwd=folder,
-        env=_env(folder),
+        command, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True, cwd=folder, env=_env(folder)
     )
+    assert _until_quadsim_takes_signals(proc), "quadsim never took the signals"
     time.sleep(delay_s)  # the moment (drawn at random)
-    handled = procfs.takes_signals(proc.pid)
     proc.send_signal(signum)
     _, stderr = proc.communicate(timeout=120)
-    return handled, proc.returncode, stderr
+    return proc.returncode, stderr
 
 
-def test_a_signal_in_the_first_second_under_load(tmp_path):
-    """Two CPU hogs beside it, the signal at a random moment of the first second: once quadsim's
-    code has begun (its handlers are in), every signal ends it with 130 / 143 and no traceback,
-    during the imports of pybullet, pygame and the rest as well."""
-    hogs = [subprocess.Popen([sys.executable, "-c", "while True: pass"]) for _ in range(2)]
+def test_a_signal_in_the_first_second(tmp_path):
+    """The signal at a random moment of quadsim's first 0.8 s: every signal ends it with 130 / 143,
+    a line saying why and no traceback, during the imports of pybullet, pygame and the rest as well.
+    (Its moments count from quadsim's first statement, read from /proc, so the share that lands in
+    the imports does not hang on the machine's load; CPU hogs beside it are not needed for that.)"""
     rng = random.Random(20261125)
-    cases = [(signal.SIGINT if i % 2 else signal.SIGTERM, rng.uniform(0.0, 1.0)) for i in range(FIRST_SECOND_TRIALS)]
-    try:
-        with ThreadPoolExecutor(max_workers=2) as pool:
-            results = list(
-                pool.map(lambda c: (c, _first_second_trial(tmp_path / f"t{c[0]:03d}", *c[1])), enumerate(cases))
-            )
-    finally:
-        for hog in hogs:
-            hog.kill()
-            hog.wait()
-    judged = 0
-    for (_, (signum, delay)), (handled, code, stderr) in results:
-        where = f"{signal.Signals(signum).name} at {delay:.2f} s"
-        if not handled:
-            continue  # the interpreter's own start-up: Python's defaults, before any line of quadsim's
-        judged += 1
+    cases = [
+        (signal.SIGINT if i % 2 else signal.SIGTERM, rng.uniform(0.0, FIRST_SECOND_S))
+        for i in range(FIRST_SECOND_TRIALS)
+    ]
+    with ThreadPoolExecutor(max_workers=2) as pool:
+        results = list(pool.map(lambda c: (c, _first_second_trial(tmp_path / f"t{c[0]:03d}", *c[1])), enumerate(cases)))
+    for (_, (signum, delay)), (code, stderr) in results:
+        where = f"{signal.Signals(signum).name} {delay:.2f} s after quadsim took the signals"
         assert code == EXPECTED[signum], f"{where}: exit {code}\n{stderr}"
         assert "Traceback" not in stderr, f"{where}:\n{stderr}"
         said = "interrupted" if signum == signal.SIGINT else "terminated"
         assert said in stderr, f"{where}:\n{stderr}"  # said why it stopped, whatever stage it was at
-    print(f"\nfirst second: {judged} of {len(results)} signals came after quadsim's handlers were in")
-    assert judged >= len(results) * 3 // 4
 
 
 # --- the three ways of starting, from quadsim's first statement on -------------------------------

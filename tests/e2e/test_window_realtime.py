@@ -50,15 +50,17 @@ from quadsim import SimConfig, ZMode
 from quadsim.session.pacing import FixedStepPacer
 from quadsim.apps.window.teleop import TeleopApp, TeleopOptions
 from quadsim.session.outputs import OutputOptions
+from quadsim.sensors.camera import default_cameras
 
 full = []
 gc.callbacks.append(lambda phase, info: full.append(info["generation"]) if phase == "stop" else None)
 with tempfile.TemporaryDirectory() as tmp:
-    app = TeleopApp(SimConfig(z_mode=ZMode.HEIGHT), OutputOptions(out=Path(tmp)), TeleopOptions(input="keyboard"),
+    app = TeleopApp(SimConfig(z_mode=ZMode.HEIGHT), OutputOptions(out=Path(tmp), cameras=default_cameras(64, 48)),
+                    TeleopOptions(input="keyboard"),
                     pacer=FixedStepPacer(240, 1 / 60))
     young = len(gc.get_objects(0)) + len(gc.get_objects(1))  # left for a later collection to scan
     full.clear()
-    app.run(max_frames=1200)  # 20 s of flight, recorded, both cameras
+    app.run(max_frames=1200)  # 20 s of flight, recorded, both cameras (small: the objects are the same)
     print(young, full.count(2), round(app.sim.time_s, 1))
     app.close()
 """
