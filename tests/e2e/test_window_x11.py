@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import ctypes
 import ctypes.util
+import itertools
 import os
 import select
 import shutil
@@ -56,29 +57,51 @@ class XServer:
         return {"DISPLAY": self.display}
 
 
+#: display numbers for this worker's X servers, each used once in a run (Xvfb's own choice is the
+#: lowest free one, which servers that other workers' tests terminate keep freeing): once, with
+#: Xvfb's choice, a replay window never appeared on its server (display :0, the program playing
+#: frames all the while); numbers used once leave no client a way to a server that had its number
+_DISPLAYS = itertools.count(100 + 200 * int(os.environ.get("PYTEST_XDIST_WORKER", "gw0").removeprefix("gw") or 0))
+
+
+def _start_xvfb() -> tuple[subprocess.Popen[bytes], str]:
+    """An Xvfb on the next display number of this worker's that is free, and that number; it has
+    said it is ready (-displayfd)."""
+    for _ in range(50):
+        number = next(_DISPLAYS)
+        read_fd, write_fd = os.pipe()
+        proc = subprocess.Popen(
+            ["Xvfb", f":{number}", "-displayfd", str(write_fd), "-screen", "0", "1280x800x24", "-nolisten", "tcp"],
+            pass_fds=(write_fd,),
+            stdout=subprocess.DEVNULL,
+            stderr=subprocess.DEVNULL,
+        )
+        os.close(write_fd)
+        said = b""
+        try:
+            deadline = time.monotonic() + 20
+            while not said.endswith(b"\n"):
+                ready, _, _ = select.select([read_fd], [], [], max(0.0, deadline - time.monotonic()))
+                chunk = os.read(read_fd, 16) if ready else b""
+                if not chunk:
+                    break  # it ended (the number is taken) or never said it was ready
+                said += chunk
+        finally:
+            os.close(read_fd)
+        if said.endswith(b"\n"):
+            return proc, f":{int(said)}"
+        proc.kill()
+        proc.wait()
+    pytest.fail("Xvfb did not start on any of 50 display numbers")
+
+
 @pytest.fixture
 def xserver() -> Iterator[XServer]:
-    """An Xvfb of its own, on the first free display number (Xvfb picks it: -displayfd)."""
-    read_fd, write_fd = os.pipe()
-    proc = subprocess.Popen(
-        ["Xvfb", "-displayfd", str(write_fd), "-screen", "0", "1280x800x24", "-nolisten", "tcp"],
-        pass_fds=(write_fd,),
-        stdout=subprocess.DEVNULL,
-        stderr=subprocess.DEVNULL,
-    )
-    os.close(write_fd)
+    """An Xvfb of its own, on a display number no other server of the run has had."""
+    proc, display = _start_xvfb()
     try:
-        number = b""
-        deadline = time.monotonic() + 20
-        while not number.endswith(b"\n"):
-            ready, _, _ = select.select([read_fd], [], [], max(0.0, deadline - time.monotonic()))
-            chunk = os.read(read_fd, 16) if ready else b""
-            if not chunk:
-                pytest.fail("Xvfb did not start")
-            number += chunk
-        yield XServer(f":{int(number)}", proc)
+        yield XServer(display, proc)
     finally:
-        os.close(read_fd)
         if proc.poll() is None:
             proc.terminate()  # lets it remove its socket and lock file
             try:
