@@ -443,8 +443,9 @@ class Ros2Bridge:
 
         for topic in driver.goal_topics:
             # reliable: a goal comes once (RViz publishes one per click), and a best-effort reader
-            # loses a sample that arrives before it has matched the writer (under load, the writer
-            # can match first); a reliable writer keeps it until this reader has acknowledged it
+            # loses it with any lost packet. (A goal written in the instant before this reader has
+            # matched its writer is lost either way: DDS gives a volatile reader only what is written
+            # after the match.)
             self._read(self.graph_name(topic), "geometry_msgs/msg/PoseStamped", 1, on_sample, reliable=True)
 
     def _read(
