@@ -10,9 +10,7 @@ quadsim publishes. Not a test module: tests/e2e/test_ros2.py and the benchmark s
                                                fly PHASES, JSON [[SECONDS, {"linear_x": V, ...}], ...]
     python ros2_peer.py goal OUT.json X,Y,Z,YAW_DEG TOPIC
                                                publish one PoseStamped goal (frame map) on TOPIC, as
-                                               RViz's 2D Goal Pose does (again, as a user clicks
-                                               again, until quadsim says on /rosout it took it),
-                                               and watch 9 s of the flight
+                                               RViz's 2D Goal Pose does, and watch 9 s of the flight
     python ros2_peer.py stop OUT.json          fly at what is ahead and stop 1 m before it, seeing it in
                                                /quad/scan alone (examples/stop_before_tower.py's loop)
     python ros2_peer.py fleet OUT.json NAME OTHER,...
@@ -110,14 +108,6 @@ def main() -> int:
         clock_ns.append(m.clock.sec * 10**9 + m.clock.nanosec)
 
     node.create_subscription(Clock, "/clock", on_clock, 10)
-    goal_logs: list[str] = []  # quadsim's "goal: flying to ..." lines on /rosout
-
-    def on_log(m: Log) -> None:
-        if m.msg.startswith("goal: flying to"):
-            goal_logs.append(m.msg)
-
-    if mode == "goal":
-        node.create_subscription(Log, "/rosout", on_log, LATCHED)
 
     def on_odom(m: Odometry) -> None:
         p, q = m.pose.pose.position, m.pose.pose.orientation
@@ -238,23 +228,8 @@ def main() -> int:
         goal.pose.position.x, goal.pose.position.y, goal.pose.position.z = x, y, z
         goal.pose.orientation.z = math.sin(math.radians(yaw_deg) / 2)
         goal.pose.orientation.w = math.cos(math.radians(yaw_deg) / 2)
-
-        # quadsim says on /rosout when it takes a goal. DDS delivers a volatile sample only to
-        # readers that had matched its writer when it was written, and this node cannot see when
-        # quadsim's side has matched: a goal sent in that instant is lost (seen under load), as a
-        # click in RViz would be, and the user clicks again. So does this node, once a simulated
-        # second has passed without quadsim saying it took the goal (at most five times).
-        def taken() -> bool:  # quadsim said so, or the vehicle has lifted off for it
-            return bool(goal_logs) or (bool(odoms) and odoms[-1]["z"] > 0.15)
-
-        began = sim_s()
-        sends = 0
-        while not taken() and sends < 5:
-            goal_pub.publish(goal)
-            sends += 1
-            until_sim(1.0)
-        graph["goal_sends"] = sends
-        until_sim(max(0.0, 9.0 - (sim_s() - began)))
+        goal_pub.publish(goal)  # once, as RViz does (lost if quadsim's side has not matched yet: DDS)
+        until_sim(9.0)
     elif clock_ns and mode == "stop":
         scans: list[Any] = []
         node.create_subscription(LaserScan, "/quad/scan", scans.append, 10)
