@@ -64,7 +64,7 @@ def pseudo_inverse(rows: Matrix) -> list[list[float]]:
     m = len(a)
     n = len(a[0]) if m else 0
     if m == n:
-        return _rounded(_solve_exact(a, _identity(n)))
+        return inverse(rows)
     gram = [[sum((a[i][k] * a[j][k] for k in range(n)), Fraction(0)) for j in range(m)] for i in range(m)]
     gram_inverse = _solve_exact(gram, _identity(m))
     return _rounded(

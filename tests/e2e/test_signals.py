@@ -294,21 +294,6 @@ FIRST_SECOND_TRIALS = 40
 FIRST_SECOND_S = 0.8
 
 
-def _first_second_trial(folder: Path, signum: int, delay_s: float) -> tuple[int, str]:
-    """A run signalled `delay_s` after quadsim's first statement; (exit code, stderr)."""
-    folder.mkdir(parents=True)
-    command = [sys.executable, str(ROOT / "main.py"), "run", "--script", "square", "--cameras", "none"]
-    command += ["--duration", "5", "--realtime", "--out", "run.mcap"]
-    proc = subprocess.Popen(
-        command, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True, cwd=folder, env=_env(folder)
-    )
-    assert _until_quadsim_takes_signals(proc), "quadsim never took the signals"
-    time.sleep(delay_s)  # the moment (drawn at random)
-    proc.send_signal(signum)
-    _, stderr = proc.communicate(timeout=120)
-    return proc.returncode, stderr
-
-
 def test_a_signal_in_the_first_second(tmp_path):
     """The signal at a random moment of quadsim's first 0.8 s: every signal ends it with 130 / 143,
     a line saying why and no traceback, during the imports of pybullet, pygame and the rest as well.
@@ -320,7 +305,12 @@ def test_a_signal_in_the_first_second(tmp_path):
         for i in range(FIRST_SECOND_TRIALS)
     ]
     with ThreadPoolExecutor(max_workers=2) as pool:
-        results = list(pool.map(lambda c: (c, _first_second_trial(tmp_path / f"t{c[0]:03d}", *c[1])), enumerate(cases)))
+        results = list(
+            pool.map(
+                lambda c: (c, _signalled_after_first_act(tmp_path / f"t{c[0]:03d}", MAIN_PY, *c[1], PACED_RUN)),
+                enumerate(cases),
+            )
+        )
     for (_, (signum, delay)), (code, stderr) in results:
         where = f"{signal.Signals(signum).name} {delay:.2f} s after quadsim took the signals"
         assert code == EXPECTED[signum], f"{where}: exit {code}\n{stderr}"
@@ -356,10 +346,11 @@ def _pip_script(folder: Path) -> Path:
     return script
 
 
+MAIN_PY = [sys.executable, str(ROOT / "main.py")]
 ENTRIES = {
     "quadsim": lambda folder: [str(_pip_script(folder))],
     "python -m quadsim": lambda folder: [sys.executable, "-m", "quadsim"],
-    "python main.py": lambda folder: [sys.executable, str(ROOT / "main.py")],
+    "python main.py": lambda folder: MAIN_PY,
 }
 # after quadsim's first act on the signals: while they are held back (0), while quadsim.apps.launch
 # imports the rest, as SignalStop goes in, during the heavy imports, once the run has begun
@@ -372,9 +363,18 @@ MOMENTS_AFTER_FIRST_ACT = [
 ]
 
 
-def _signalled_after_first_act(folder: Path, starts: list[str], signum: int, delay_s: float) -> tuple[int, str]:
+#: the run every trial of this file's start-up tests starts; PACED_RUN lasts 5 s of wall time
+#: more, so that a signal up to FIRST_SECOND_S after its first statement always meets it
+QUICK_RUN = ["run", "--script", "square", "--cameras", "none", "--out", "run.mcap"]
+PACED_RUN = [*QUICK_RUN, "--duration", "5", "--realtime"]
+
+
+def _signalled_after_first_act(
+    folder: Path, starts: list[str], signum: int, delay_s: float, run: list[str] = QUICK_RUN
+) -> tuple[int, str]:
+    """`starts` + `run` signalled `delay_s` after quadsim's first statement; (exit code, stderr)."""
     folder.mkdir(parents=True)
-    command = [*starts, "run", "--script", "square", "--cameras", "none", "--out", "run.mcap"]
+    command = [*starts, *run]
     proc = subprocess.Popen(
         command, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True, cwd=folder, env=_env(folder)
     )
