@@ -245,6 +245,13 @@ def _finish(flight: Flight) -> tuple[int, str, str]:
     return flight.proc.returncode, out, err
 
 
+def _assert_display_lost_exit(code: int, out: str, err: str) -> None:
+    """EXIT_DISPLAY_LOST; any other end is shown in full (a crash's stack, as faulthandler prints
+    it, is many lines long, and pytest shortens an assertion's message)."""
+    if code != EXIT_DISPLAY_LOST:
+        pytest.fail(f"exit code {code}, not {EXIT_DISPLAY_LOST}\n--- stdout\n{out}\n--- stderr\n{err}")
+
+
 def _leftovers(flight: Flight) -> list[str]:
     """Processes of this trial still alive (they carry its TMPDIR) and temporary folders left."""
     marker = f"TMPDIR={flight.tmpdir}".encode() + b"\0"
@@ -279,7 +286,7 @@ def _said(err: str) -> list[str]:
 def _assert_lost_cleanly(flight: Flight, expected_reason: str) -> None:
     code, out, err = _finish(flight)
     assert "Traceback" not in out + err, err
-    assert code == EXIT_DISPLAY_LOST, (code, out, err)
+    _assert_display_lost_exit(code, out, err)
     lines = _said(err)
     assert len(lines) == 1, err  # quadsim's line, and no "XIO: fatal IO error" / "X Error of failed request"
     assert lines[0].startswith(LOST) and expected_reason in lines[0], lines[0]
@@ -321,7 +328,7 @@ def test_window_killed_while_starting(xserver, tmp_path, cameras):
     _xdotool(xserver, "windowkill", str(flight.window))
     code, stdout, err = _finish(flight)
     assert "Traceback" not in stdout + err, err
-    assert code == EXIT_DISPLAY_LOST, (code, stdout, err)
+    _assert_display_lost_exit(code, stdout, err)
     assert _said(err) == [
         f"{LOST}the connection to the X server {xserver.display} was closed); the recording is finished"
     ]
@@ -356,7 +363,7 @@ def test_x_server_killed_old_libx11(xserver, tmp_path):
     xserver.proc.terminate()
     code, out, err = _finish(flight)
     assert "Traceback" not in out + err, err
-    assert code == EXIT_DISPLAY_LOST, (code, out, err)
+    _assert_display_lost_exit(code, out, err)
     assert _said(err) == [
         f"{LOST}the connection to the X server {xserver.display} was closed); the recording is finished"
     ]
@@ -432,7 +439,7 @@ def test_replay_window_killed(xserver, tmp_path):
     _xdotool(xserver, "windowkill", str(flight.window))
     code, out, err = _finish(flight)
     assert "Traceback" not in out + err, err
-    assert code == EXIT_DISPLAY_LOST, (code, out, err)
+    _assert_display_lost_exit(code, out, err)
     assert _said(err) == [f"{LOST}the connection to the X server {xserver.display} was closed)"]
 
 

@@ -402,3 +402,22 @@ def test_a_reset_is_not_counted_as_distance_flown():
     for step, x in ((4, 0.0), (8, 3.0), (4, 0.0), (8, 1.0)):  # 3 m out, reset to the start, 1 m
         odometer.on_state(VehicleState(step, (x, 0.0, 2.0), (0.0, 0.0, 0.0, 1.0), zero, zero, (0.0,) * 4, zero))
     assert odometer.distance_m == 4.0
+
+
+def test_the_start_up_lines_are_not_drawn_on_a_lost_display():
+    """A window killed while quadsim starts: its start-up lines are not drawn on the lost display
+    (the frame loop then ends the run), as nothing touches a display once it is lost."""
+    from types import SimpleNamespace
+
+    from quadsim.apps.window.display import show_starting
+
+    pygame.display.init()
+    pygame.font.init()
+    try:
+        screen = pygame.display.set_mode((160, 120))
+        show_starting(screen, ["quadsim is starting"], SimpleNamespace(lost=True))  # type: ignore[arg-type]
+        assert screen.get_at((0, 0))[:3] == (0, 0, 0)
+        show_starting(screen, ["quadsim is starting"], SimpleNamespace(lost=False))  # type: ignore[arg-type]
+        assert screen.get_at((0, 0))[:3] == (18, 20, 26)
+    finally:
+        pygame.display.quit()

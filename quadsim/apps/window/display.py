@@ -38,9 +38,12 @@ def open_display(
     return screen, guard
 
 
-def show_starting(screen: pygame.Surface, lines: list[str]) -> None:
+def show_starting(screen: pygame.Surface, lines: list[str], guard: X11Guard | None = None) -> None:
     """A window that is not flying yet says what it is doing (it would show black while the world,
-    the cameras and a first compile load), in the middle, line under line."""
+    the cameras and a first compile load), in the middle, line under line. Once its display is lost
+    (`guard`), nothing: the start-up goes on without touching it, and the frame loop ends the run."""
+    if lost(guard):
+        return
     screen.fill((18, 20, 26))
     font = pygame.font.Font(None, 28)
     width, height = screen.get_size()
@@ -50,7 +53,8 @@ def show_starting(screen: pygame.Surface, lines: list[str]) -> None:
         screen.blit(image, ((width - image.get_width()) // 2, y))
         y += 36
     pygame.display.flip()
-    pygame.event.pump()  # a window manager sees it respond
+    if not lost(guard):
+        pygame.event.pump()  # a window manager sees it respond
 
 
 def lost(guard: X11Guard | None) -> bool:

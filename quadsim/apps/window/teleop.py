@@ -217,11 +217,11 @@ class TeleopApp:
         try:
             plan = self._plan(config, live, fleet)
             said = ["quadsim is starting", "loading the world and the vehicles"]
-            show_starting(self.screen, said)
+            show_starting(self.screen, said, self._x11)
 
             def say(note: str) -> None:  # a slow part starts: on the screen, and in the terminal
                 said.append(note)
-                show_starting(self.screen, said)
+                show_starting(self.screen, said, self._x11)
                 print(f"quadsim: {note}...", file=sys.stderr, flush=True)
 
             self.session = Run(plan, say=say)
