@@ -429,11 +429,15 @@ class Ros2Bridge:
         driver.heard_on = self.graph_name(driver.topic)
         self._read(driver.heard_on, TWIST.type_name, 10, on_sample)
 
-    def subscribe_goals(self, driver: SubscribedDriver) -> None:
+    def subscribe_goals(
+        self, driver: SubscribedDriver, on_publishers: Callable[[str, int], None] | None = None
+    ) -> None:
         """Feed `driver` the geometry_msgs/PoseStamped goals on its goal topics (/goal_pose and
         /move_base_simple/goal, or a fleet vehicle's under its name), as they arrive. The first
         goal refused is logged with its reason; the summary counts the rest (a node sending bad
-        goals cannot flood the log)."""
+        goals cannot flood the log). `on_publishers(topic, count)` is told (on Cyclone's thread)
+        each time the number of goal publishers heard on a topic changes; a publisher that cannot
+        be heard (best effort) is warned about once per topic."""
 
         def on_sample(goal: Any) -> None:
             p, q = goal.pose.position, goal.pose.orientation
@@ -443,18 +447,26 @@ class Ros2Bridge:
 
         for topic in driver.goal_topics:
             # reliable: a goal comes once (RViz publishes one per click), and a best-effort reader
-            # loses it with any lost packet. (A goal written in the instant before this reader has
-            # matched its writer is lost either way: DDS gives a volatile reader only what is written
-            # after the match.)
-            self._read(self.graph_name(topic), "geometry_msgs/msg/PoseStamped", 1, on_sample, reliable=True)
+            # loses it with any lost packet. A goal written before this reader has matched its
+            # writer is lost all the same (DDS gives a volatile reader only what is written after
+            # the match): `on_publishers` says when a publisher is heard.
+            name = self.graph_name(topic)
+            self._read(name, "geometry_msgs/msg/PoseStamped", 1, on_sample, reliable=True, heard=on_publishers)
 
     def _read(
-        self, topic: str, type_name: str, depth: int, on_sample: Callable[[Any], None], reliable: bool = False
+        self,
+        topic: str,
+        type_name: str,
+        depth: int,
+        on_sample: Callable[[Any], None],
+        reliable: bool = False,
+        heard: Callable[[str, int], None] | None = None,
     ) -> None:
         """Call `on_sample` with each `type_name` message on the graph's `topic` as it arrives (on
         Cyclone's receive thread). Best effort by default, so reliable and best-effort publishers
         both match (a stream of Twists, where the next one replaces a lost one); `reliable` for a
-        message sent once, which then only reliable publishers (ROS 2's default) deliver."""
+        message sent once, which then only reliable publishers (ROS 2's default) deliver: one that
+        is not is warned about, once. `heard(topic, count)`: the publishers matched, as it changes."""
         from cyclonedds.core import Listener
         from cyclonedds.sub import DataReader
         from cyclonedds.topic import Topic as DdsTopic
@@ -466,15 +478,31 @@ class Ros2Bridge:
                 if isinstance(sample, kind):  # not an invalid sample (a writer gone)
                     on_sample(sample)
 
+        def on_subscription_matched(reader: Any, status: Any) -> None:
+            if heard is not None and status.current_count_change:
+                heard(topic, int(status.current_count))
+
+        def on_requested_incompatible_qos(reader: Any, status: Any) -> None:
+            if status.total_count == 1:  # once: a node re-created in a loop cannot flood the log
+                log.warning(
+                    "a publisher on %s is not heard: its QoS does not match this reader's (%s; publish "
+                    "reliably, as ROS 2 does by default)",
+                    topic,
+                    "reliable, keep last" if reliable else "best effort, keep last",
+                )
+
         Policy = self._Policy
         reliability = (
             Policy.Reliability.Reliable(max_blocking_time=100_000_000) if reliable else Policy.Reliability.BestEffort
         )
         qos = self._Qos(reliability, Policy.History.KeepLast(depth))
         dds_topic = DdsTopic(self._participant, dds_topic_name(topic), kind)
-        self._readers.append(
-            DataReader(self._participant, dds_topic, qos=qos, listener=Listener(on_data_available=on_data_available))
+        listener = Listener(
+            on_data_available=on_data_available,
+            on_subscription_matched=on_subscription_matched,
+            on_requested_incompatible_qos=on_requested_incompatible_qos,
         )
+        self._readers.append(DataReader(self._participant, dds_topic, qos=qos, listener=listener))
         with self._lock:
             self._announce()
 

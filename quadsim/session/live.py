@@ -74,7 +74,7 @@ def open_live_outputs(
             outputs.append(ros2_bridge)
             for driver in from_ros2:
                 ros2_bridge.subscribe_twist(driver)
-                ros2_bridge.subscribe_goals(driver)
+                ros2_bridge.subscribe_goals(driver, _say_goal_publishers)
             for line, warning in ros2_bridge.startup_lines(takes_twist=[d.topic for d in from_ros2]):
                 print(f"quadsim: warning: {line}" if warning else line, file=sys.stderr if warning else sys.stdout)
             sys.stdout.flush()
@@ -83,3 +83,9 @@ def open_live_outputs(
             output.close()
         raise
     return outputs
+
+
+def _say_goal_publishers(topic: str, count: int) -> None:
+    """A node's goal publisher was heard (or went): from then on a goal it sends arrives (one sent
+    before can be lost, as DDS gives a volatile reader only what is written after the match)."""
+    print(f"ROS 2: {count} goal publisher{'s' * (count != 1)} heard on {topic}", flush=True)

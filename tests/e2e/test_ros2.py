@@ -13,6 +13,7 @@ import json
 import math
 import subprocess
 import sys
+import threading
 from pathlib import Path
 
 import cv2
@@ -67,20 +68,63 @@ def _beside_peer(
     peer = subprocess.Popen(
         [str(python), str(PEER), *mode],
         env=node_env or env,
+        stdin=subprocess.PIPE if goal is not None else subprocess.DEVNULL,
         stdout=subprocess.PIPE,
         stderr=subprocess.STDOUT,
         text=True,
     )
     try:
-        sim = subprocess.run(
-            [sys.executable, str(ROOT / "main.py"), *quadsim_args], env=env, capture_output=True, text=True, timeout=150
-        )
+        if goal is None:
+            sim = subprocess.run(
+                [sys.executable, str(ROOT / "main.py"), *quadsim_args],
+                env=env,
+                capture_output=True,
+                text=True,
+                timeout=150,
+            )
+        else:  # the node clicks once quadsim says it heard its goal publisher
+            sim = _run_telling(quadsim_args, env, f"goal publisher heard on {goal[1]}", peer)
         peer_out, _ = peer.communicate(timeout=150)
     finally:
         peer.kill()
     assert sim.returncode == 0, sim.stderr
     assert peer.returncode == 0, peer_out
     return sim, json.loads(report_path.read_text())
+
+
+def _run_telling(
+    quadsim_args: list[str], env: dict[str, str], line: str, peer: subprocess.Popen[str]
+) -> subprocess.CompletedProcess[str]:
+    """Run quadsim to its end (killed after 150 s); the first time its standard output has a line
+    containing `line`, tell the peer (a line on its standard input)."""
+    sim = subprocess.Popen(
+        [sys.executable, str(ROOT / "main.py"), *quadsim_args],
+        env=env,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+    errors: list[str] = []
+    reader = threading.Thread(target=lambda: errors.append(sim.stderr.read() if sim.stderr else ""), daemon=True)
+    reader.start()
+    said: list[str] = []
+    deadline = threading.Timer(150, sim.kill)
+    deadline.start()
+    try:
+        assert sim.stdout is not None and peer.stdin is not None
+        told = False
+        for text in sim.stdout:
+            said.append(text)
+            if line in text and not told:
+                peer.stdin.write("heard\n")
+                peer.stdin.flush()
+                told = True
+        sim.wait()
+        reader.join(timeout=10)
+    finally:
+        deadline.cancel()
+        sim.kill()
+    return subprocess.CompletedProcess(sim.args, sim.returncode, "".join(said), "".join(errors))
 
 
 @pytest.fixture(scope="module", params=CASES, ids=[f"{d}-{q or 'default'}-node-{n or 'default'}" for d, q, n in CASES])

@@ -7,6 +7,7 @@ from __future__ import annotations
 import signal
 import subprocess
 import sys
+import time
 from pathlib import Path
 
 from quadsim.live.dds_types import idl_type
@@ -153,3 +154,68 @@ def test_replay_clock_follows_the_recorded_times_and_jumps_back_only_on_a_seek()
     again = [t for t in times if back < t <= 1_000_000_000]
     assert len(first) > 100  # a 60 Hz state rate at least
     assert clock == [*first, back, *again]
+
+
+def test_goal_publishers_are_said_when_heard_and_a_best_effort_one_is_warned_about(caplog) -> None:
+    """A goal comes once (RViz: one per click), so quadsim says when it hears a node's goal
+    publisher: from then on a goal it sends arrives, and it does. A best-effort goal publisher
+    cannot be heard by the reliable reader: said once, in a warning."""
+    import threading
+
+    from cyclonedds.core import Policy, Qos
+    from cyclonedds.domain import DomainParticipant
+    from cyclonedds.pub import DataWriter
+    from cyclonedds.topic import Topic
+
+    from quadsim.drivers.subscribed import SubscribedDriver
+    from quadsim.live.ros2 import Ros2Bridge
+
+    domain = free_domain(8)
+    driver = SubscribedDriver("ros2")
+    heard: list[tuple[str, int]] = []
+    changed = threading.Condition()
+
+    def on_publishers(topic: str, count: int) -> None:
+        with changed:
+            heard.append((topic, count))
+            changed.notify_all()
+
+    def until(what, seconds: float = 30.0) -> None:
+        """Until `what()` holds: woken by a change of publishers, or looking again every 50 ms
+        (a goal or a log record arrives on Cyclone's thread without telling)."""
+        deadline = time.monotonic() + seconds
+        with changed:
+            while not what():
+                assert time.monotonic() < deadline, (heard, driver.goals_received, caplog.records)
+                changed.wait(timeout=0.05)
+
+    kind = idl_type("geometry_msgs/msg/PoseStamped")
+    with Ros2Bridge(env=local_env(domain)) as bridge:
+        bridge.subscribe_goals(driver, on_publishers)
+        node = DomainParticipant(domain)
+        reliable = Qos(Policy.Reliability.Reliable(max_blocking_time=100_000_000), Policy.History.KeepLast(10))
+        writer = DataWriter(node, Topic(node, "rt/goal_pose", kind), qos=reliable)
+        until(lambda: ("/goal_pose", 1) in heard)
+        goal = kind(
+            header=idl_type("std_msgs/msg/Header")(stamp=idl_type("builtin_interfaces/msg/Time")(0, 0), frame_id="map"),
+            pose=idl_type("geometry_msgs/msg/Pose")(
+                position=idl_type("geometry_msgs/msg/Point")(2.0, -1.5, 0.0),
+                orientation=idl_type("geometry_msgs/msg/Quaternion")(0.0, 0.0, 0.0, 1.0),
+            ),
+        )
+        with caplog.at_level("WARNING", logger="quadsim.live.ros2"):
+            writer.write(goal)
+            best_effort = DataWriter(
+                node, Topic(node, "rt/move_base_simple/goal", kind), qos=Qos(Policy.Reliability.BestEffort)
+            )
+            until(lambda: driver.goals_received == 1 and caplog.records)
+            del best_effort
+            del writer
+            until(lambda: ("/goal_pose", 0) in heard)
+    taken = driver.take_goal()
+    assert taken is not None and driver.goals_received == 1, heard
+    assert heard == [("/goal_pose", 1), ("/goal_pose", 0)]  # the best-effort one was never heard
+    assert [r.getMessage() for r in caplog.records] == [
+        "a publisher on /move_base_simple/goal is not heard: its QoS does not match this reader's "
+        "(reliable, keep last; publish reliably, as ROS 2 does by default)"
+    ]

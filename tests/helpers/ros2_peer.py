@@ -10,7 +10,9 @@ quadsim publishes. Not a test module: tests/e2e/test_ros2.py and the benchmark s
                                                fly PHASES, JSON [[SECONDS, {"linear_x": V, ...}], ...]
     python ros2_peer.py goal OUT.json X,Y,Z,YAW_DEG TOPIC
                                                publish one PoseStamped goal (frame map) on TOPIC, as
-                                               RViz's 2D Goal Pose does, and watch 9 s of the flight
+                                               RViz's 2D Goal Pose does, and watch 9 s of the flight:
+                                               once a line on standard input says quadsim heard the
+                                               publisher (a person clicks seconds after start-up)
     python ros2_peer.py stop OUT.json          fly at what is ahead and stop 1 m before it, seeing it in
                                                /quad/scan alone (examples/stop_before_tower.py's loop)
     python ros2_peer.py fleet OUT.json NAME OTHER,...
@@ -28,6 +30,7 @@ import json
 import math
 import statistics
 import sys
+import threading
 import time
 from typing import Any
 
@@ -165,6 +168,10 @@ def main() -> int:
         for name, (kind, qos) in TOPICS.items():
             node.create_subscription(kind, name, counter(name), qos)
     pub = node.create_publisher(Twist, cmd_topic, 10)
+    heard = threading.Event()  # goal mode: a line on standard input says quadsim heard goal_pub
+    if mode == "goal":
+        goal_pub = node.create_publisher(PoseStamped, goal_topic, 10)
+        threading.Thread(target=lambda: sys.stdin.readline() and heard.set(), daemon=True).start()
 
     def spin_for(seconds: float) -> None:
         end = time.monotonic() + seconds
@@ -217,18 +224,18 @@ def main() -> int:
         until_sim(1.0)  # silence: quadsim holds after its dead-man timeout
     elif clock_ns and mode == "goal":
         x, y, z, yaw_deg = (float(v) for v in sys.argv[3].split(","))
-        goal_pub = node.create_publisher(PoseStamped, goal_topic, 10)
         waited = time.monotonic() + 30.0
-        # RViz publishes once, when the user clicks: here, once this publisher has matched quadsim's
-        # reader (the publisher's own count, not the graph's: the graph can list the reader first)
-        while goal_pub.get_subscription_count() == 0 and time.monotonic() < waited:
+        # RViz publishes once, when the user clicks: here, once quadsim has said it heard this
+        # publisher (a goal written before its reader matched the publisher is lost: DDS) and the
+        # publisher has matched quadsim's reader (its own count, not the graph's)
+        while not (heard.is_set() and goal_pub.get_subscription_count() > 0) and time.monotonic() < waited:
             spin_for(0.05)
         goal = PoseStamped()
         goal.header.frame_id = "map"
         goal.pose.position.x, goal.pose.position.y, goal.pose.position.z = x, y, z
         goal.pose.orientation.z = math.sin(math.radians(yaw_deg) / 2)
         goal.pose.orientation.w = math.cos(math.radians(yaw_deg) / 2)
-        goal_pub.publish(goal)  # once, as RViz does (lost if quadsim's side has not matched yet: DDS)
+        goal_pub.publish(goal)  # once, as RViz does
         until_sim(9.0)
     elif clock_ns and mode == "stop":
         scans: list[Any] = []
