@@ -92,8 +92,8 @@ class PhysicsWorld:
     of mass. All of it is summed into one force and one torque about base_link's origin, turned
     into the world frame with the attitude the step starts from, and applied to the base in
     WORLD_FRAME (a LINK_FRAME force on a rotor link would be turned with that link's pose of the
-    step before; a LINK_FRAME torque on the base is applied in the world frame: STYLE.md); then
-    one `stepSimulation`. PyBullet clears external forces after each step, so both are
+    step before; a LINK_FRAME torque on the base is applied in the world frame, a known PyBullet
+    pitfall); then one `stepSimulation`. PyBullet clears external forces after each step, so both are
     re-applied. The ground effect sees the floor (z = 0) only, not the landmarks. The torque
     also carries what makes PyBullet's explicit gyroscopic step an exact, energy-keeping one
     (quadsim.core.rigid_body), for the merged body.

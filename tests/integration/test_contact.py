@@ -252,7 +252,7 @@ def test_the_contact_query_is_skipped_only_where_pybullet_finds_no_contact(urdf,
     wherever the query is skipped, PyBullet, with the vehicle posed where it is, finds no point
     of it within its contact distance of any body; and both cases happen. (Flown one step at a
     time: the loop's compiled quiet steps check the same clearance in their own code, and fly the
-    same flight to the bit: tests/test_clear_flight.py.)"""
+    same flight to the bit: tests/integration/test_clear_flight.py.)"""
     from quadsim.physics.pybullet_world import PhysicsWorld
     from quadsim.sim.loop import SimLoop
 

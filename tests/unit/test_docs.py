@@ -282,3 +282,51 @@ def test_the_tree_check_sees_a_missing_module():
     assert "quadsim/sim/" in folders and ("quadsim/sim/", "drone.py") in files
     assert ("quadsim/apps/sweep/", "table.py") in files  # named on a description line under its folder
     assert ("quadsim/sim/", "nothing_here.py") not in files
+
+
+#: a path of the repository's as the code cites one (quadsim/sim/loop.py, apps/commands/check.py,
+#: tests/integration/test_clear_flight.py), or a document at its top (CONTRIBUTING.md)
+_CITED = re.compile(r"(?<![\w./-])((?:[\w-]+/)+[\w.-]+\.(?:py|md|toml|mcap|urdf)|[A-Z]+\.md)\b")
+_OWN_FOLDERS = {
+    "quadsim",
+    "tests",
+    "docs",
+    "examples",
+    "assets",
+    "tools",
+    *(p.name for p in (ROOT / "quadsim").iterdir()),
+}
+_OTHER_REPOSITORY = re.compile(r"[\w-]+/[\w.-]+ $")  # "foxglove/ws-protocol docs/spec.md": theirs
+
+
+def _dangling(path, text: str) -> list[str]:
+    """The repository paths `text` (the file at `path`) cites that are not there: relative to the
+    clone, the package, the tests or the file's own folder. Paths under folders of the user's
+    (my_flights/...) and another repository's are not the repository's."""
+    missing = []
+    for match in _CITED.finditer(text):
+        cited = match.group(1)
+        if "/" in cited and cited.split("/", 1)[0] not in _OWN_FOLDERS:
+            continue
+        if _OTHER_REPOSITORY.search(text[max(0, match.start() - 60) : match.start()]):
+            continue
+        if not any((base / cited).exists() for base in (ROOT, ROOT / "quadsim", ROOT / "tests", path.parent)):
+            missing.append(cited)
+    return missing
+
+
+def test_the_code_cites_no_file_that_is_not_in_the_repository():
+    """Docstrings and comments send a reader to files that exist (a module moved, a document not
+    in the repository: the reference is mended with it)."""
+    sources = sorted([ROOT / "main.py", *(ROOT / "quadsim").rglob("*.py"), *(ROOT / "tests").rglob("*.py")])
+    found = {str(p.relative_to(ROOT)): _dangling(p, p.read_text()) for p in sources}
+    assert not {k: v for k, v in found.items() if v}
+
+
+def test_the_citation_check_sees_a_missing_file():
+    here = ROOT / "quadsim" / "apps" / "pytest_plugin.py"
+    # (the missing names in two pieces, so that this file does not cite them itself)
+    missing = ["apps/" + "check.py", "STYLE" + ".md"]
+    assert _dangling(here, f"the work is check's own ({missing[0]}), see {missing[1]}") == missing
+    assert _dangling(here, "(apps/commands/check.py; CONTRIBUTING.md; sim/loop.py)") == []
+    assert _dangling(here, "from the spec (foxglove/ws-protocol docs/spec.md) into my_flights/a.mcap") == []

@@ -1,6 +1,6 @@
 """Flight metrics of any run, from its published states, the commands its controller received
 and its events: the columns of a sweep's table. Scenario-specific figures stay in
-apps/evaluate.py; these apply to every flight, so runs of different scenarios share columns."""
+apps/flight_quality.py; these apply to every flight, so runs of different scenarios share columns."""
 
 from __future__ import annotations
 
