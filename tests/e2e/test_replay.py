@@ -29,10 +29,18 @@ def _with_changed_attachment(src: Path, dst: Path, name: str, edit) -> None:
     copy_recording(src, dst, attachment=lambda n, data: edit(data) if n == name else data)
 
 
-def test_check_passes_the_shipped_recordings():
-    out = cli("check", *RECORDINGS)  # by name: flights a user adds to the folder are not the suite's
+def test_check_passes_the_shipped_recordings_at_zero():
+    """Every shipped recording re-flies to the bit (position and attitude), not just within the
+    default millimetre: a change to the flight that moves a last bit shows here."""
+    out = cli("check", "--tolerance-m", "0", "--tolerance-rad", "0", *RECORDINGS)  # by name: not a user's flights
     assert out.returncode == 0, out.stdout + out.stderr
-    assert f"{len(RECORDINGS)} of {len(RECORDINGS)} recordings re-fly" in out.stdout
+    assert f"{len(RECORDINGS)} of {len(RECORDINGS)} recordings re-fly within 0 m and 0 rad" in out.stdout
+    identical = [
+        line
+        for line in out.stdout.splitlines()
+        if line.endswith("flies again identically (position and attitude as recorded, to the bit)")
+    ]
+    assert len(identical) == len(RECORDINGS), out.stdout
 
 
 #: a shipped recording of each shape, the vehicles in it that fly the quadrotor (they stray when
