@@ -3,12 +3,23 @@ the frame loop, and the display closed without hanging on a lost X connection.""
 
 from __future__ import annotations
 
+import contextlib
+import os
 from collections.abc import Callable
 from typing import Protocol, TypeVar
 
 import pygame
 
 from quadsim.apps.window.x11_guard import X11Guard
+from quadsim.errors import QuadsimError
+from quadsim.physics.pybullet_quiet import c_output_silenced
+
+#: SDL's video drivers that draw where no one sees: SDL falls back to "offscreen" when the display
+#: named by DISPLAY or WAYLAND_DISPLAY does not answer, and the window then flies unseen, forever
+HEADLESS_DRIVERS = frozenset({"offscreen", "dummy"})
+#: tries at opening the display before saying it does not answer (a server under heavy load can
+#: refuse a connection once)
+OPEN_ATTEMPTS = 3
 
 
 class FrameLoop(Protocol):
@@ -29,13 +40,34 @@ def open_display(
     """A resizable window of `size`, titled `caption`, and its X11 guard (None off X11), installed
     as soon as the window exists: a window destroyed from outside while the app still starts up
     (loading the world, a first compile: seconds) ends it as cleanly as in flight, where Xlib
-    would print its own line and exit. `on_fatal`: see X11Guard.install."""
-    pygame.display.init()
+    would print its own line and exit. `on_fatal`: see X11Guard.install. A display that does not
+    answer is a QuadsimError, not a window no one sees."""
+    _init_video()
     pygame.font.init()
     screen = pygame.display.set_mode(size, pygame.RESIZABLE)
     guard = X11Guard.install(on_fatal=on_fatal)
     pygame.display.set_caption(caption)
     return screen, guard
+
+
+def _init_video() -> None:
+    """pygame's display, on a driver that shows the window: SDL's offscreen or dummy driver only
+    when SDL_VIDEODRIVER asks for it (the tests, a user's headless set-up)."""
+    asked = {name.strip() for name in os.environ.get("SDL_VIDEODRIVER", "").split(",") if name.strip()}
+    driver = ""
+    for attempt in range(OPEN_ATTEMPTS):
+        with c_output_silenced() if attempt else contextlib.nullcontext():  # what SDL said once is enough
+            pygame.display.init()
+        driver = pygame.display.get_driver()
+        if driver not in HEADLESS_DRIVERS or driver in asked:
+            return
+        pygame.display.quit()
+    named = [f"{var}={os.environ[var]}" for var in ("DISPLAY", "WAYLAND_DISPLAY") if os.environ.get(var)]
+    raise QuadsimError(
+        f"cannot open a window: no display answers on {' or '.join(named) or 'this machine'} (SDL fell back "
+        f"to its {driver} driver, which shows nothing); start the display server or set DISPLAY right, or "
+        "unset DISPLAY to work without a window"
+    )
 
 
 def show_starting(screen: pygame.Surface, lines: list[str], guard: X11Guard | None = None) -> None:
