@@ -1,7 +1,7 @@
 """Headless flights from the command line, as `run` and a display-less `fly` make them: a plan
 (quadsim.apps.plans: a script, a bag's commands, live clients' Twists, a fleet file) flown with
 its live bridges and a progress bar, then summarised (vehicle by vehicle for a fleet), with the
-recording's line and an exit code."""
+recording's line and an exit code. The flight itself is a quadsim.session.run.Run."""
 
 from __future__ import annotations
 

@@ -1,4 +1,5 @@
-"""The program's entry point (the `quadsim` command, `python -m quadsim`, main.py).
+"""The program's entry point (the `quadsim` command, `python -m quadsim`, main.py); the command
+line itself is quadsim.apps.cli.
 
 Its first statement holds SIGINT and SIGTERM back (blocks them), before anything else is
 imported; main() installs SignalStop, then lets them through. A signal in between waits, so it

@@ -7,7 +7,8 @@ summarised vehicle by vehicle and closed, whatever ends it.
         summaries = run.fly(progress=bar.update)
 
 `run`, headless `fly`, `sweep`, `check` and `replay --resim`, `evaluate`, the pytest plugin and
-the bench all fly through here; the window opens a Run and steps it.
+the bench all fly through here; the window opens a Run and steps it. Its vehicles are a
+quadsim.sim.fleet.Fleet (one vehicle: a fleet of one).
 """
 
 from __future__ import annotations

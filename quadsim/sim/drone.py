@@ -3,7 +3,8 @@ in a world it shares with the run's other vehicles.
 
 A run's fleet (quadsim.sim.fleet.Fleet) builds its drones and steps them together; a Simulator is
 the fleet of one. `fleet["alpha"]` is a Drone: send it commands, read its state and events, attach
-outputs to it (its sinks and taps).
+outputs to it (its sinks and taps). Its steps are its loop's (quadsim.sim.loop); its body is
+quadsim.physics.pybullet_world's.
 """
 
 from __future__ import annotations

@@ -14,7 +14,8 @@ Stepping order, once per physics step n (time n / physics_hz):
   5. publish ((n + 1) % state_every == 0): the IMU noise takes its sample (sinks or not), and
                                        sinks receive the state at step n + 1
   6. taps    ((n + 1) % every == 0):       e.g. the cameras capture the state at step n + 1
-Nothing here reads the wall clock; only a window paces these steps to real time.
+Nothing here reads the wall clock; only a window paces these steps to real time. Stage 3 is the
+body's (quadsim.physics.pybullet_world.PhysicsWorld).
 
 `run` does stages 1-2 (`before_physics`), 3 and 4-6 (`after_physics`) step after step; a fleet
 (quadsim.sim.fleet) does stages 1-2 for every vehicle, their steps (one PyBullet step of the

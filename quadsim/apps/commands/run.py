@@ -1,4 +1,6 @@
-"""`quadsim run`: fly a script, a bag's commands, live clients' Twists or a fleet headless, and summarise it."""
+"""`quadsim run`: fly a script, a bag's commands, live clients' Twists or a fleet headless, and summarise it.
+
+Its plan is made by quadsim.apps.plans (a RunPlan) and flown by quadsim.apps.flying."""
 
 from __future__ import annotations
 
