@@ -4,7 +4,8 @@ window, headless real-time and live runs, and replay playback (window or live) a
 
 A pacer counts ticks at a rate: a run's physics steps (its physics rate), or a playback's
 nanoseconds of recorded time (1e9 a second). `steps_for_frame(done)` says how many ticks to
-advance now; `wait(done, due)` sleeps until `due` ticks are due (or a stop is asked for).
+advance now; `wait(done, due)` sleeps until `due` ticks are due (or a stop is asked for). A window's frames
+are capped to a rate by a FrameCap.
 """
 
 from __future__ import annotations
@@ -109,6 +110,27 @@ class FixedStepPacer:
 
 
 Pacer = RealTimePacer | FixedStepPacer
+
+
+class FrameCap:
+    """At most `fps` frames a second: `wait()`, at the end of each frame, sleeps what is left of
+    the frame's 1/fps since the last one ended (a window that draws faster than a screen shows
+    would burn a core for nothing). A frame that took longer is not made up for."""
+
+    def __init__(
+        self, fps: float, clock: Callable[[], float] = time.perf_counter, sleep: Callable[[float], None] = time.sleep
+    ) -> None:
+        self.frame_s = 1.0 / fps
+        self._clock = clock
+        self._sleep = sleep
+        self._last: float | None = None
+
+    def wait(self) -> None:
+        now = self._clock()
+        if self._last is not None and self._last + self.frame_s - now > _CLOSE_ENOUGH_S:
+            self._sleep(self._last + self.frame_s - now)
+            now = self._clock()
+        self._last = now
 
 
 def collect_start_up_garbage() -> None:

@@ -8,7 +8,7 @@ import ast
 from pathlib import Path
 
 from quadsim.drivers.scripted import ScriptedDriver, load_script
-from quadsim.session.pacing import FixedStepPacer, RealTimePacer
+from quadsim.session.pacing import FixedStepPacer, FrameCap, RealTimePacer
 from quadsim.session.plan import RunPlan
 from quadsim.session.run import Run
 from quadsim.sim.config import SimConfig
@@ -40,7 +40,8 @@ class FakeClock:
 
 
 def _sleeps(path: Path) -> list[str]:
-    """Every call of a sleep in `path`: time.sleep, a bare sleep imported from time, asyncio.sleep."""
+    """Every call of a sleep in `path`: time.sleep, a bare sleep imported from time, asyncio.sleep;
+    and pygame's own waits on the wall clock (a pygame.time.Clock, whose tick sleeps; delay, wait)."""
     found = []
     for node in ast.walk(ast.parse(path.read_text(), str(path))):
         if isinstance(node, ast.Call):
@@ -49,6 +50,12 @@ def _sleeps(path: Path) -> list[str]:
                 found.append(f"{f.value.id}.sleep")
             elif isinstance(f, ast.Name) and f.id == "sleep":
                 found.append("sleep")
+            elif (
+                isinstance(f, ast.Attribute)
+                and f.attr in ("Clock", "delay", "wait")
+                and ast.unparse(f.value).endswith("time")
+            ):
+                found.append(f"{ast.unparse(f.value)}.{f.attr}")
         elif isinstance(node, ast.ImportFrom) and node.module == "time":
             found += [f"from time import {a.name}" for a in node.names if a.name == "sleep"]
     return found
@@ -69,6 +76,8 @@ def test_the_check_sees_a_sleep(tmp_path):
     module = tmp_path / "paced.py"
     module.write_text("import time\nfrom time import sleep\nwhile True:\n    time.sleep(0.01)\n    sleep(1)\n")
     assert _sleeps(module) == ["from time import sleep", "time.sleep", "sleep"]
+    module.write_text("import pygame\nclock = pygame.time.Clock()\nwhile True:\n    pygame.time.delay(10)\n")
+    assert _sleeps(module) == ["pygame.time.Clock", "pygame.time.delay"]
 
 
 def test_steps_follow_the_wall_clock_at_any_speed_and_a_backlog_is_given_up():
@@ -137,3 +146,16 @@ def test_a_paced_run_catches_up_a_chunk_at_a_time():
         run.fly(RealTimePacer(240, max_frame_s=None, clock=clock, sleep=clock.sleep), stall_once, stop=lambda: False)
     steps = [round(b * 240) - round(a * 240) for a, b in zip([0.0, *flown], flown)]
     assert sum(steps) == 240 and max(steps) == 4  # a chunk at a time, the half second caught up too
+
+
+def test_a_frame_cap_sleeps_what_is_left_of_each_frame_and_never_makes_up_a_slow_one():
+    clock = FakeClock()
+    cap = FrameCap(64, clock=clock, sleep=clock.sleep)  # 1/64 s a frame: exact in binary
+    cap.wait()  # the first frame: nothing to wait for
+    clock.now += 0.00390625  # a frame drawn in a quarter of its time
+    cap.wait()
+    clock.now += 0.0625  # a slow frame: four frames' time
+    cap.wait()
+    clock.now += 0.0078125  # half of a frame
+    cap.wait()
+    assert clock.slept == [0.01171875, 0.0078125]

@@ -24,7 +24,7 @@ from quadsim.live.playback import RecordingFeed
 from quadsim.physics.world_spec import FloorSpec, WorldSpec, load_world
 from quadsim.recording.flight import DEPTH_SUFFIX, NS, RecordedFlight
 from quadsim.sensors.camera import CameraFrame
-from quadsim.session.pacing import FixedStepPacer, Pacer, RealTimePacer, collect_start_up_garbage
+from quadsim.session.pacing import FixedStepPacer, FrameCap, Pacer, RealTimePacer, collect_start_up_garbage
 
 SPEEDS = (0.25, 0.5, 1.0, 2.0, 4.0, 8.0, 16.0)
 SEEK_S = 5.0
@@ -97,7 +97,7 @@ class ReplayApp:
         self.others = {name: (f, [s.position_m[:2] for s in f.states[::6]]) for name, f in (others or {}).items()}
         self._notice, self._notice_until = "", 0.0
         self._walls: list[float] = []
-        self._clock = pygame.time.Clock()
+        self._frame_cap = FrameCap(60)
 
     @property
     def display_lost(self) -> str | None:
@@ -234,7 +234,7 @@ class ReplayApp:
         self.frame_count += 1
         self._walls = ([*self._walls, now])[-30:]
         if self._frame_s is None:
-            self._clock.tick(60)
+            self._frame_cap.wait()
 
     def model(self) -> ViewModel:
         f, t = self.flight, self.t_ns

@@ -47,7 +47,7 @@ from quadsim.recording.fanout import WARNING_EVENTS
 from quadsim.sensors.camera import CameraFrame, CameraSpec
 from quadsim.sensors.pipeline import CameraPipeline
 from quadsim.session.outputs import LiveOutput, OutputOptions
-from quadsim.session.pacing import FixedStepPacer, RealTimePacer, collect_start_up_garbage
+from quadsim.session.pacing import FixedStepPacer, FrameCap, RealTimePacer, collect_start_up_garbage
 from quadsim.session.plan import RunPlan
 from quadsim.session.run import Run
 from quadsim.sim.config import SimConfig
@@ -321,7 +321,7 @@ class TeleopApp:
         self._help_keys = {pygame.K_F1} | (
             {pygame.K_h} if pygame.K_h not in {b.key for b in self.keyboard.layout.bindings} else set()
         )
-        self._clock = pygame.time.Clock()
+        self._frame_cap = FrameCap(self.options.max_fps) if self.options.max_fps else None
 
     # --- wiring -----------------------------------------------------------------------------
 
@@ -573,8 +573,8 @@ class TeleopApp:
         self._frame_walls.append((now, self.sim.step_count))
         while len(self._frame_walls) > 2 and now - self._frame_walls[0][0] > RATE_WINDOW_S:
             self._frame_walls.popleft()
-        if self.options.max_fps and isinstance(self.pacer, RealTimePacer):
-            self._clock.tick(self.options.max_fps)
+        if self._frame_cap is not None and isinstance(self.pacer, RealTimePacer):
+            self._frame_cap.wait()
 
     def _rates(self) -> tuple[float, float]:
         """Frames per second and sim seconds per wall second, over the last second of wall time
