@@ -511,6 +511,12 @@ class PhysicsWorld:
         pb.applyExternalTorque(body, -1, (tx, ty, tz), world, cid)
         return False
 
+    @property
+    def steps_itself(self) -> bool:
+        """Whether quadsim may step the body itself while it is clear of everything (else PyBullet
+        steps it every step: physics = "pybullet", a PyBullet window, a body with joints)."""
+        return self._free
+
     def _clear_flight(self) -> tuple[Any, ...] | None:
         """What quadsim.sim.clear_flight.fly_clear takes of the body (`clear_flight_arguments`),
         or None when it may not be flown that way now: quadsim does not step it, it is not alone

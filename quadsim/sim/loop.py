@@ -240,7 +240,8 @@ class SimLoop:
         the last of them (0: not now)."""
         landing, n = self.landing, self.step_count
         if (
-            self._control_every != 1
+            not self.physics.steps_itself  # (first: PyBullet stepping every step asks nothing more)
+            or self._control_every != 1
             or landing.phase is not FlightPhase.FLYING
             or self._on_ground
             or self.contact_monitor.touching
