@@ -13,7 +13,7 @@ Then `pytest`, `pytest tests/recordings`, `-k square`, `-x`, `-n 4` (pytest-xdis
 `--junitxml` work on recordings as on any test. A `.mcap` named on the command line is collected
 wherever it is. A recording that no longer re-flies fails with where and when the flight diverged
 and by how much, against the tolerance; one that cannot be flown fails saying why. The work is
-`quadsim check`'s own (apps/commands/check.py), one recording at a time.
+`quadsim check`'s own (apps/regression.py), one recording at a time.
 """
 
 from __future__ import annotations
