@@ -378,16 +378,21 @@ def test_live_timeout_without_a_live_input_is_one_line(capsys) -> None:
     assert_one_line_error(code, err, "--live-timeout is for a live input")
 
 
+@pytest.mark.parametrize("driver", ["", "x11"], ids=["sdl-chooses", "sdl-videodriver-x11"])
 @pytest.mark.parametrize("command", [["fly", "--cameras", "none"], ["replay", str(RECORDINGS / "climb_cascade.mcap")]])
-def test_a_display_that_does_not_answer_is_one_line_not_an_unseen_window(command, tmp_path):
+def test_a_display_that_does_not_answer_is_one_line_not_an_unseen_window(command, driver, tmp_path):
     """DISPLAY names an X server that is not there (a stale one from an SSH session, an Xvfb that
-    died): SDL falls back to its offscreen driver, and the window used to fly unseen until killed."""
+    died): SDL falls back to its offscreen driver, and the window used to fly unseen until killed;
+    with SDL_VIDEODRIVER=x11, SDL's error came out as a traceback."""
     from tests.helpers.cli import bare_env, run_main
 
     number = next(n for n in range(990, 1100) if not Path(f"/tmp/.X11-unix/X{n}").exists())
     env = bare_env(DISPLAY=f":{number}", XDG_RUNTIME_DIR=str(tmp_path), QUADSIM_RECORDINGS=str(tmp_path / "rec"))
+    if driver:
+        env["SDL_VIDEODRIVER"] = driver
     done = run_main(*command, env=env, timeout=120)
     assert_one_line_error(
         done.returncode, done.stderr, f"cannot open a window: no display answers on DISPLAY=:{number}"
     )
-    assert "offscreen driver" in done.stderr and not (tmp_path / "rec").exists()
+    said = "(SDL: x11 not available)" if driver else "(SDL fell back to its offscreen driver, which shows nothing)"
+    assert said in done.stderr and not (tmp_path / "rec").exists()

@@ -54,19 +54,23 @@ def _init_video() -> None:
     """pygame's display, on a driver that shows the window: SDL's offscreen or dummy driver only
     when SDL_VIDEODRIVER asks for it (the tests, a user's headless set-up)."""
     asked = {name.strip() for name in os.environ.get("SDL_VIDEODRIVER", "").split(",") if name.strip()}
-    driver = ""
+    why = ""
     for attempt in range(OPEN_ATTEMPTS):
-        with c_output_silenced() if attempt else contextlib.nullcontext():  # what SDL said once is enough
-            pygame.display.init()
+        try:
+            with c_output_silenced() if attempt else contextlib.nullcontext():  # what SDL said once is enough
+                pygame.display.init()
+        except pygame.error as exc:  # the driver SDL_VIDEODRIVER names cannot start ("x11 not available")
+            why = f"SDL: {exc}"
+            continue
         driver = pygame.display.get_driver()
         if driver not in HEADLESS_DRIVERS or driver in asked:
             return
         pygame.display.quit()
+        why = f"SDL fell back to its {driver} driver, which shows nothing"
     named = [f"{var}={os.environ[var]}" for var in ("DISPLAY", "WAYLAND_DISPLAY") if os.environ.get(var)]
     raise QuadsimError(
-        f"cannot open a window: no display answers on {' or '.join(named) or 'this machine'} (SDL fell back "
-        f"to its {driver} driver, which shows nothing); start the display server or set DISPLAY right, or "
-        "unset DISPLAY to work without a window"
+        f"cannot open a window: no display answers on {' or '.join(named) or 'this machine'} ({why}); start "
+        "the display server or set DISPLAY right, or unset DISPLAY to work without a window"
     )
 
 
