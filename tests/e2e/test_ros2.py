@@ -13,7 +13,6 @@ import json
 import math
 import subprocess
 import sys
-import threading
 from pathlib import Path
 
 import cv2
@@ -23,6 +22,7 @@ import pytest
 from quadsim.core.invocation import install_extra
 from quadsim.recording.reader import RecordingReader
 from tests.helpers import ROOT
+from tests.helpers.cli import run_main, wait_for_line
 from tests.helpers.fleets import fleet_toml, vehicle
 from tests.helpers.recording import commanded_motion
 from tests.helpers.ros2_env import DISTRIBUTIONS, PEER, free_domain, local_env, ros2_python
@@ -75,15 +75,9 @@ def _beside_peer(
     )
     try:
         if goal is None:
-            sim = subprocess.run(
-                [sys.executable, str(ROOT / "main.py"), *quadsim_args],
-                env=env,
-                capture_output=True,
-                text=True,
-                timeout=150,
-            )
+            sim = run_main(*quadsim_args, env=env, timeout=150)
         else:  # the node clicks once quadsim says it heard its goal publisher
-            sim = _run_telling(quadsim_args, env, f"goal publisher heard on {goal[1]}", peer)
+            sim = _run_telling(quadsim_args, env, f"ROS 2: 1 goal publisher heard on {goal[1]}", peer)
         peer_out, _ = peer.communicate(timeout=150)
     finally:
         peer.kill()
@@ -95,8 +89,8 @@ def _beside_peer(
 def _run_telling(
     quadsim_args: list[str], env: dict[str, str], line: str, peer: subprocess.Popen[str]
 ) -> subprocess.CompletedProcess[str]:
-    """Run quadsim to its end (killed after 150 s); the first time its standard output has a line
-    containing `line`, tell the peer (a line on its standard input)."""
+    """Run quadsim to its end; once its output has a line starting with `line`, tell the peer (a
+    line on its standard input)."""
     sim = subprocess.Popen(
         [sys.executable, str(ROOT / "main.py"), *quadsim_args],
         env=env,
@@ -104,27 +98,17 @@ def _run_telling(
         stderr=subprocess.PIPE,
         text=True,
     )
-    errors: list[str] = []
-    reader = threading.Thread(target=lambda: errors.append(sim.stderr.read() if sim.stderr else ""), daemon=True)
-    reader.start()
-    said: list[str] = []
-    deadline = threading.Timer(150, sim.kill)
-    deadline.start()
     try:
-        assert sim.stdout is not None and peer.stdin is not None
-        told = False
-        for text in sim.stdout:
-            said.append(text)
-            if line in text and not told:
-                peer.stdin.write("heard\n")
-                peer.stdin.flush()
-                told = True
-        sim.wait()
-        reader.join(timeout=10)
+        out, err, readers = wait_for_line(sim, line, 1)
+        if any(said.startswith(line) for said in out) and peer.stdin is not None:
+            peer.stdin.write("heard\n")
+            peer.stdin.flush()
+        sim.wait(timeout=150)
+        for reader in readers:
+            reader.join(timeout=10)
     finally:
-        deadline.cancel()
         sim.kill()
-    return subprocess.CompletedProcess(sim.args, sim.returncode, "".join(said), "".join(errors))
+    return subprocess.CompletedProcess(sim.args, sim.returncode, "".join(out), "".join(err))
 
 
 @pytest.fixture(scope="module", params=CASES, ids=[f"{d}-{q or 'default'}-node-{n or 'default'}" for d, q, n in CASES])
