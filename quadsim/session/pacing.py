@@ -127,8 +127,9 @@ class FrameCap:
 
     def wait(self) -> None:
         now = self._clock()
-        if self._last is not None and self._last + self.frame_s - now > _CLOSE_ENOUGH_S:
-            self._sleep(self._last + self.frame_s - now)
+        left = -1.0 if self._last is None else self._last + self.frame_s - now
+        if left > _CLOSE_ENOUGH_S:
+            self._sleep(left)
             now = self._clock()
         self._last = now
 
