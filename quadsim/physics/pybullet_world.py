@@ -31,6 +31,8 @@ _SPAWN_CLEARANCE_M = 0.001
 #: skipped: far beyond PyBullet's contact breaking threshold (0.02 m) and collision margins. Two
 #: steps' travel at the vehicle's speed is added on top (contacts are found before a step moves it).
 _CONTACT_CLEARANCE_M = 0.5
+#: more than the rounding of a clearance measured (m)
+_ROUNDING_M = 1e-9
 
 
 #: the clearance from other vehicles of a vehicle alone in its world
@@ -348,24 +350,39 @@ class PhysicsWorld:
         """True when the vehicle cannot be touching anything: its bounding sphere is more than
         the clearance away from every plane and box of the scenery. The distance measured is
         kept, so the next steps only check how far the vehicle has gone since (a few float
-        operations) until it is used up."""
+        operations) until it is used up. A slack measured below zero (the vehicle near something,
+        on the floor) is kept the same way: the vehicle cannot be clear before it has gone that
+        far (less a nanometre, for rounding) from where it was measured."""
         if self._scenery is None:
             return False
         if self._scenery is False:
             self._scenery = self._static_scenery()
+            self._clear_slack_m = 0.0  # measured again, from the scenery as it is now
             return self._clear_of_scenery()
         if self._within_slack():
             return True
-        (x, y, z), (vx, vy, vz) = self._position, self._linear_velocity
+        slack = self._clear_slack_m
+        if slack < 0.0:
+            (x, y, z), (cx, cy, cz) = self._position, self._clear_from
+            if abs(x - cx) + abs(y - cy) + abs(z - cz) < -slack - _ROUNDING_M:
+                return False
+        clear, self._clear_slack_m = self.clearance_at(self._position, self._linear_velocity)
+        self._clear_from = self._position
+        return clear
+
+    def clearance_at(self, position: Vec3, velocity: Vec3) -> tuple[bool, float]:
+        """Measured at `position` and `velocity` from the static scenery (`_clear_of_scenery`):
+        whether two steps ahead at that speed stay clear, and the slack, how far the vehicle
+        may go from there before it might touch anything."""
+        (x, y, z), (vx, vy, vz) = position, velocity
         ahead = 2.0 * self.dt_s * (abs(vx) + abs(vy) + abs(vz))
         planes, boxes = self._scenery  # type: ignore[misc]
         nearest = min((z - h for h in planes), default=math.inf)
         for (lx, ly, lz), (hx, hy, hz) in boxes:
             dx, dy, dz = max(lx - x, 0.0, x - hx), max(ly - y, 0.0, y - hy), max(lz - z, 0.0, z - hz)
             nearest = min(nearest, math.sqrt(dx * dx + dy * dy + dz * dz))
-        self._clear_from = (x, y, z)
-        self._clear_slack_m = nearest - self.reach_m - _CONTACT_CLEARANCE_M
-        return ahead < self._clear_slack_m
+        slack = nearest - self.reach_m - _CONTACT_CLEARANCE_M
+        return ahead < slack, slack
 
     def _within_slack(self, clearance: tuple[Vec3, float] | None = None) -> bool:
         """Whether the vehicle is still within a clearance measured before (where it was, and the

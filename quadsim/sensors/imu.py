@@ -76,10 +76,9 @@ class ImuNoise:
 
     def measure(self, state: VehicleState) -> VehicleState:
         """The state with its `imu` reading: true values plus bias plus white noise."""
-        if self._next >= len(self._samples):
-            self._block = self._rng.standard_normal((_BLOCK, 12)) * self._scales
+        self.refill()
+        if len(self._samples) != len(self._block):  # a new block: its rows as lists, once (faster to index)
             self._samples = self._block.tolist()
-            self._next = 0
         n = self._samples[self._next]
         gb, ab = _walked_in_python(n, self.gyro_bias_radps, self.accel_bias_mps2)
         self._next += 1
@@ -90,6 +89,13 @@ class ImuNoise:
             (f[0] + ab[0] + n[6], f[1] + ab[1] + n[7], f[2] + ab[2] + n[8]),
         )
         return state._replace(imu=reading)
+
+    def refill(self) -> None:
+        """The next block of samples drawn, if this one is used up."""
+        if self._next >= len(self._block):
+            self._block = self._rng.standard_normal((_BLOCK, 12)) * self._scales
+            self._samples = []  # its rows as lists, made when `measure` reads them
+            self._next = 0
 
     @property
     def walk(self) -> tuple[np.ndarray, int, tuple[float, float, float], tuple[float, float, float]]:
