@@ -87,6 +87,7 @@ FLIGHT_CORE = (
     "control/landing.py",
     "sensors/imu.py",
     "sim/clear_flight.py",
+    "envs/hover_numbers.py",
 )
 _PACKAGE = Path(__file__).resolve().parent.parent
 _digest: str | None = None

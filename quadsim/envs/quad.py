@@ -27,8 +27,18 @@ import numpy as np
 from gymnasium import spaces
 
 from quadsim.control import Controller
+from quadsim.core.compiled import python_of
 from quadsim.core.kinematics import body_velocity
 from quadsim.core.types import StartPose, Twist, VehicleState, ZMode
+from quadsim.envs.hover_numbers import (
+    ARENA_HALF_M,
+    ARENA_TOP_M,
+    HOVER_ROW,
+    hover_row,
+    outside_arena,
+    tipped_over,
+)
+from quadsim.envs.hover_numbers import hover_reward as _reward_at
 from quadsim.envs.sensors import SensorObservation, sensor_names, sim_options
 from quadsim.physics.wind import WindModel, WindSettings
 from quadsim.sensors.camera import CameraSpec
@@ -40,9 +50,6 @@ from quadsim.sim.simulator import Simulator
 AGENT_HZ = 30
 HOVER_EPISODE_S = 10
 TOWER_EPISODE_S = 20
-ARENA_HALF_M = 20.0
-ARENA_TOP_M = 10.0
-MAX_TILT_DEG = 80.0
 #: observation bounds for speeds and body rates (a falling or tumbling vehicle stays within them)
 MAX_SPEED_MPS = 50.0
 MAX_RATE_RADPS = 100.0
@@ -129,13 +136,15 @@ class QuadEnv(gym.Env):
         reward, ended = self.judge(state)
         return self._observe(state), reward, ended, False, self._info(state)
 
-    def fly(self, twist: Twist) -> VehicleState:
+    def fly(self, twist: Twist, taken: int = 0) -> VehicleState:
         """The vehicle flown for one agent step under `twist` (the command an action stands for):
         the state after it. What `step` does before judging it (a vector env does it for each of
-        its envs)."""
-        self.sim.send(twist)
+        its envs). `taken`: steps of this agent step already flown under `twist`, sent and
+        received (a vector env flew them with its other envs)."""
+        if not taken:
+            self.sim.send(twist)
         self._events_before = len(self.sim.events)
-        return self.sim.step(self.steps_per_action)
+        return self.sim.step(self.steps_per_action - taken)
 
     def judge(self, state: VehicleState) -> tuple[float, bool]:
         """The reward of the agent step that ended in `state`, and whether the episode ends
@@ -173,13 +182,13 @@ class QuadEnv(gym.Env):
 
     @staticmethod
     def out_of_arena(state: VehicleState) -> bool:
-        x, y, z = state.position_m
-        return abs(x) > ARENA_HALF_M or abs(y) > ARENA_HALF_M or z > ARENA_TOP_M
+        """Beyond ARENA_HALF_M of the origin in x or y, or above ARENA_TOP_M."""
+        return bool(_outside(state.position_m))
 
     @staticmethod
     def tipped_over(state: VehicleState) -> bool:
-        roll, pitch = state.roll_pitch_rad()
-        return math.cos(roll) * math.cos(pitch) < math.cos(math.radians(MAX_TILT_DEG))
+        """Tilted past MAX_TILT_DEG."""
+        return bool(_tipped(*state.roll_pitch_rad()))
 
     def _info(self, state: VehicleState) -> dict[str, Any]:
         return {"step": state.step, "position_m": np.array(state.position_m)}
@@ -260,8 +269,8 @@ class ActionScale:
         a = given.astype(np.float64)
         if not np.isfinite(a).all():
             raise ValueError(f"an action must be finite numbers (each is clipped to [-1, 1]), got {_shown(action)}")
-        a = np.clip(a, -1.0, 1.0)
-        return np.where(a >= 0, a * self._up, a * self._down)
+        a = np.minimum(np.maximum(a, -1.0), 1.0)
+        return a * np.where(a >= 0, self._up, self._down)
 
     def command(self, action: Any) -> Twist:
         return twist_command(self.twist_of(action).tolist())
@@ -296,17 +305,17 @@ def hover_observation(state: VehicleState, target_m: np.ndarray, space: spaces.B
 
 def hover_observation_row(state: VehicleState, target_m: Any) -> list[float]:
     """An observation's 15 numbers, before clipping: position, velocity, roll, pitch, yaw, body
-    rates, target."""
-    roll, pitch = state.roll_pitch_rad()
-    return [
-        *state.position_m,
-        *state.linear_velocity_mps,
-        roll,
-        pitch,
-        state.yaw_rad(),
-        *state.angular_velocity_body_rps,
-        *target_m,
-    ]
+    rates, target (quadsim.envs.hover_numbers.hover_row)."""
+    row = [0.0] * HOVER_ROW
+    _row(
+        state.position_m,
+        state.orientation_xyzw,
+        state.linear_velocity_mps,
+        state.angular_velocity_body_rps,
+        target_m,
+        row,
+    )
+    return row
 
 
 def hover_observations(rows: list[list[float]], space: spaces.Box) -> np.ndarray:
@@ -317,9 +326,14 @@ def hover_observations(rows: list[list[float]], space: spaces.Box) -> np.ndarray
 
 def hover_reward(state: VehicleState, target_m: Any) -> float:
     """Minus the distance to the target (m) and a little of the speed."""
-    (x, y, z), (tx, ty, tz), (vx, vy, vz) = state.position_m, target_m, state.linear_velocity_mps
-    dx, dy, dz = x - tx, y - ty, z - tz
-    return -math.sqrt(dx * dx + dy * dy + dz * dz) - 0.1 * math.sqrt(vx * vx + vy * vy + vz * vz)
+    return float(_reward(state.position_m, state.linear_velocity_mps, target_m))
+
+
+# Hover-v0's arithmetic as Python, for one state at a time (a compiled call from Python costs more than the work)
+_row = python_of(hover_row)
+_reward = python_of(_reward_at)
+_outside = python_of(outside_arena)
+_tipped = python_of(tipped_over)
 
 
 class TowerVisionEnv(QuadEnv):

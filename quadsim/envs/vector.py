@@ -4,14 +4,16 @@
     observations, infos = envs.reset(seed=0)
     observations, rewards, terminations, truncations, infos = envs.step(envs.action_space.sample())
 
-Each of its envs is a HoverEnv (quadsim.envs.quad), flown and judged by HoverEnv's own methods,
-so env i flies exactly as `gymnasium.make("quadsim/Hover-v0")` reset with seed + i would, step
-for step and bit for bit (what gymnasium's SyncVectorEnv over those envs gives:
-tests/integration/test_envs_vector.py). What it saves is the rest: one call for all the actions' scaling,
-no wrappers around each env, the observations and infos gathered into arrays once. Most of an
-env step is its vehicle's flight, compiled where the vehicle is clear of everything
-(quadsim.sim.clear_flight); the envs are stepped one after another on this process's core
-(`vectorization_mode="async"` spreads envs over processes instead).
+Each of its envs is a HoverEnv (quadsim.envs.quad), and env i flies exactly as
+`gymnasium.make("quadsim/Hover-v0")` reset with seed + i would, step for step and bit for bit
+(what gymnasium's SyncVectorEnv over those envs gives: tests/integration/test_envs_vector.py).
+An env whose vehicle flies clear of everything is stepped with the others in one compiled call:
+their states stay in rows of one array between steps (quadsim.sim.clear_flight.QuietApart), and
+their observations, rewards and ends come from those rows in one more call
+(quadsim.envs.hover_numbers.hover_batch), with no Python object per env. An env near the floor
+or anything else, or starting an episode, is flown and judged by HoverEnv's own methods, and
+joins the others once it is clear. `envs` gives each env brought up to date. Everything runs on
+this process's core (`vectorization_mode="async"` spreads envs over processes instead).
 
 With `sensors` (quadsim.envs.sensors), each env's observation is HoverEnv's Dict and the
 batch is a dict of arrays, one row per env (gymnasium.vector.utils.batch_space).
@@ -30,7 +32,9 @@ from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space, create_empty_array
 
 from quadsim.control import Controller
+from quadsim.core.compiled import specialize
 from quadsim.core.types import VehicleState
+from quadsim.envs.hover_numbers import hover_batch
 from quadsim.envs.quad import (
     AGENT_HZ,
     HOVER_EPISODE_S,
@@ -40,6 +44,7 @@ from quadsim.envs.quad import (
     twist_command,
 )
 from quadsim.physics.wind import WindSettings
+from quadsim.sim.clear_flight import NOW_KINEMATICS, QuietApart
 
 
 class HoverVectorEnv(VectorEnv):
@@ -70,14 +75,14 @@ class HoverVectorEnv(VectorEnv):
             raise ValueError(f"{what} of your own flies one vehicle: give it to gymnasium.make for one env")
         self.num_envs = num_envs
         self.max_episode_steps = max_episode_steps
-        self.envs: list[HoverEnv] = []
+        self._envs: list[HoverEnv] = []
         try:
             for _ in range(num_envs):
-                self.envs.append(HoverEnv(wind=wind, sensors=sensors))
+                self._envs.append(HoverEnv(wind=wind, sensors=sensors))
         except BaseException:
             self.close()
             raise
-        first = self.envs[0]
+        first = self._envs[0]
         self.single_observation_space = first.observation_space
         self.single_action_space = first.action_space
         self.observation_space = batch_space(self.single_observation_space, num_envs)
@@ -90,6 +95,28 @@ class HoverVectorEnv(VectorEnv):
         self._with_sensors = first.sensors is not None
         self._observations: Any = create_empty_array(self.single_observation_space, num_envs, np.zeros)
         self._space = first._space
+        self._steps = first.steps_per_action
+        #: the envs flying clear, flown together (none with sensors: theirs read the world)
+        self._quiet = None if self._with_sensors else QuietApart([env.sim.loop for env in self._envs], self._steps)
+        self._targets = np.zeros((num_envs, 3))
+        if self._quiet is not None:
+            space = self._space
+            self._bounds = (space.low, space.high)
+            self._judge_together: Any = specialize(
+                hover_batch, self._quiet.rows, 0, self._targets, self._ended, *self._bounds,
+                self._observations, np.zeros(num_envs), self._ended,
+            )  # fmt: skip
+
+    @property
+    def envs(self) -> list[HoverEnv]:
+        """Each env, brought up to date (one flown with the others is behind until then)."""
+        for i in range(self.num_envs):
+            self._leave(i)
+        return self._envs
+
+    def _leave(self, i: int) -> None:
+        if self._quiet is not None:
+            self._quiet.leave(i)
 
     def reset(
         self, *, seed: int | list[int | None] | None = None, options: dict[str, Any] | None = None
@@ -107,42 +134,74 @@ class HoverVectorEnv(VectorEnv):
         mask = options.pop("reset_mask", None)
         if mask is not None and (not isinstance(mask, np.ndarray) or mask.shape != (n,) or mask.dtype != np.bool_):
             raise ValueError(f"options['reset_mask'] must be a numpy array of {n} booleans")
-        states: list[VehicleState | None] = [None] * n
-        for i, env in enumerate(self.envs):
+        infos = self._infos()
+        for i, env in enumerate(self._envs):
             if mask is None or mask[i]:
-                self._put(i, env.reset(seed=seeds[i], options=options)[0])
-                states[i] = env.sim.state
-                self._elapsed[i] = 0
-                self._ended[i] = False
-        return self._batch(), self._infos(states)
+                self._reset(i, seeds[i], options)
+                self._info(infos, i, env.sim.state)
+        return self._batch(), infos
+
+    def _reset(self, i: int, seed: int | None = None, options: dict[str, Any] | None = None) -> None:
+        env = self._envs[i]
+        self._leave(i)
+        self._put(i, env.reset(seed=seed, options=options)[0])
+        self._targets[i] = env.target_m
+        self._elapsed[i] = 0
+        self._ended[i] = False
 
     def step(self, actions: Any) -> tuple[Any, np.ndarray, np.ndarray, np.ndarray, dict[str, Any]]:
-        n = self.num_envs
-        commands = self._scale.twist_of(actions, (n, 4)).tolist()
+        n, envs, quiet = self.num_envs, self._envs, self._quiet
+        commands = self._scale.twist_of(actions, (n, 4))
+        envs[0]._check_open()  # (the envs close together)
         rewards = np.zeros(n)
         terminations = np.zeros(n, np.bool_)
-        states: list[VehicleState | None] = [None] * n
+        # the envs flying clear, together: flown, observed and judged from their rows
+        together = np.zeros(n, np.bool_)
+        if quiet is not None and quiet.inside.any():
+            together = quiet.fly(commands) == self._steps
+            self._judge_together(
+                quiet.rows,
+                NOW_KINEMATICS,
+                self._targets,
+                together,
+                *self._bounds,
+                self._observations,
+                rewards,
+                terminations,
+            )
+        infos = self._infos(every=True)
+        self._elapsed += 1
         rows, flown = [], []
-        for i, env in enumerate(self.envs):
-            env._check_open()
-            if self._ended[i]:  # next-step autoreset: this step's action is ignored
-                self._put(i, env.reset()[0])
-                self._elapsed[i] = 0
-                states[i] = env.sim.state
+        for i in np.flatnonzero(~together).tolist():
+            env = envs[i]
+            if self._ended[i]:  # next-step autoreset: this step's action is ignored (and its count 0)
+                self._reset(i)
+                self._info(infos, i, env.sim.state)
+                continue
+            taken = 0
+            if quiet is not None and quiet.inside[i]:
+                taken = int(quiet.flown[i])  # steps of this one flown together before its clearance ended
+                quiet.leave(i)
+            state = env.fly(twist_command(commands[i].tolist()), taken)
+            rewards[i], terminations[i] = env.judge(state)
+            self._info(infos, i, state)
+            if self._with_sensors:
+                self._put(i, env._observe(state))
             else:
-                state = states[i] = env.fly(twist_command(commands[i]))
-                rewards[i], terminations[i] = env.judge(state)
-                if self._with_sensors:
-                    self._put(i, env._observe(state))
-                else:
-                    rows.append(hover_observation_row(state, env.target_m))
-                    flown.append(i)
-                self._elapsed[i] += 1
+                rows.append(hover_observation_row(state, env.target_m))
+                flown.append(i)
         if rows:
             self._observations[flown] = hover_observations(rows, self._space)
         truncations = self._elapsed >= self.max_episode_steps  # as gymnasium's TimeLimit
         self._ended = terminations | truncations
-        return self._batch(), rewards, terminations, truncations, self._infos(states)
+        if quiet is not None:
+            if self._ended.any():
+                for i in np.flatnonzero(self._ended & quiet.inside).tolist():  # reset at the next step
+                    quiet.leave(i)
+            for i in flown:  # flown in Python this step: with the others from the next, if clear
+                if not self._ended[i]:
+                    quiet.enter(i)
+        return self._batch(), rewards, terminations, truncations, infos
 
     def _put(self, i: int, observation: Any) -> None:
         """Env i's observation into its row of the batch."""
@@ -158,14 +217,24 @@ class HoverVectorEnv(VectorEnv):
             return {key: value.copy() for key, value in self._observations.items()}
         return self._observations.copy()
 
-    def _infos(self, states: list[VehicleState | None]) -> dict[str, Any]:
+    def _infos(self, every: bool = False) -> dict[str, Any]:
         """What each env's info says (its step and position), as Gymnasium's vector envs give
-        infos: an array per key and a mask of the envs that gave it."""
-        given = np.array([state is not None for state in states])
-        steps = np.array([0 if state is None else state.step for state in states])
-        positions = np.array([(0.0, 0.0, 0.0) if state is None else state.position_m for state in states])
+        infos: an array per key and a mask of the envs that gave it. `every`: every env gives one
+        (a step), those flown together from their rows here, the others' added by `_info`."""
+        n, quiet = self.num_envs, self._quiet
+        if every and quiet is not None:
+            steps, positions = quiet.counts.copy(), quiet.rows[:, NOW_KINEMATICS : NOW_KINEMATICS + 3].copy()
+        else:
+            steps, positions = np.zeros(n, np.int64), np.zeros((n, 3))
+        given = np.full(n, every)
         return {"step": steps, "_step": given, "position_m": positions, "_position_m": given.copy()}
 
+    @staticmethod
+    def _info(infos: dict[str, Any], i: int, state: VehicleState) -> None:
+        """Env i's step and position, from its state, into `infos`."""
+        infos["step"][i], infos["position_m"][i] = state.step, state.position_m
+        infos["_step"][i] = infos["_position_m"][i] = True
+
     def close_extras(self, **kwargs: Any) -> None:
-        for env in self.envs:
+        for env in self._envs:
             env.close()

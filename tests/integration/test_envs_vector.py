@@ -54,6 +54,62 @@ def test_make_vec_builds_it_and_each_env_flies_as_gymnasiums_sync_vector_env_wou
         theirs.close()
 
 
+def test_envs_flying_clear_are_flown_together_and_agree_to_the_bit_as_they_join_and_leave():
+    """Five envs climb clear of everything and are flown together from their rows, through
+    clearances measured again and IMU sample blocks drawn anew in flight; they fly faster than
+    the command limit allows (the gate clamps it), dive back to the floor (each leaves the
+    rows, PyBullet takes it), take off again, and their episodes run out while they fly
+    together. At every step everything is what gymnasium's SyncVectorEnv gives, and each env,
+    brought up to date, is in the state its SyncVectorEnv twin is in: pose, command, clamp
+    count, IMU noise."""
+    ours, theirs = _pair(5, max_episode_steps=260)
+    quiet = ours.unwrapped._quiet
+    resumed = 0
+    resume = quiet._resume
+
+    def counted(i):
+        nonlocal resumed
+        resumed += 1
+        return resume(i)
+
+    quiet._resume = counted
+    try:
+        _same(ours.reset(seed=21), theirs.reset(seed=21))
+        rng = np.random.default_rng(8)
+        together = left = 0
+        for step in range(560):
+            phase = step % 280
+            if phase < 150:  # up, turning, a little drift
+                base = [0.15, -0.1, 0.5, 0.3]
+            elif phase < 190:  # faster than the limit: both axes at full (the gate scales them down)
+                base = [1.0, 1.0, 0.0, -1.0]
+            else:  # down to the floor, then off again
+                base = [0.0, 0.0, -1.0 if phase < 250 else 0.8, 0.0]
+            actions = np.clip(base + rng.normal(0.0, 0.05, (5, 4)), -1, 1).astype(np.float32)
+            inside_before = quiet.inside.copy()
+            result = ours.step(actions)
+            _same(result, theirs.step(actions))
+            together += int((inside_before & (quiet.flown == 8)).sum())
+            left += int((inside_before & ~quiet.inside).sum())
+            if step in (140, 170, 400):  # each env brought up to date is its twin
+                for mine, twin in zip(ours.unwrapped.envs, theirs.envs):
+                    a, b = mine.unwrapped.sim, twin.unwrapped.sim
+                    assert a.state == b.state and a.loop.step_count == b.loop.step_count
+                    assert a.gate.last_command == b.gate.last_command
+                    assert a.gate.last_receive_step == b.gate.last_receive_step
+                    assert a.gate.clamped_count == b.gate.clamped_count
+                    ours_walk, their_walk = a.loop.imu.walk, b.loop.imu.walk
+                    assert ours_walk[1:] == their_walk[1:]
+                    np.testing.assert_array_equal(ours_walk[0], their_walk[0])
+        assert together > 5 * 300, together  # most agent steps flown together
+        assert left >= 10, left  # down to the floor, and the episodes' ends
+        assert resumed >= 10, resumed  # clearances and IMU blocks renewed in flight
+        assert sum(e.unwrapped.sim.gate.clamped_count for e in theirs.envs) > 0  # the gate clamped
+    finally:
+        ours.close()
+        theirs.close()
+
+
 def test_seeds_as_a_list_or_none_and_a_partial_reset():
     ours, theirs = _pair(3)
     try:
