@@ -199,7 +199,11 @@ def vector_lines() -> list[str]:
     for policy, (what, _, _) in VECTOR_POLICIES.items():
         lines.append(f"  {policy}: {what}")
         for num_envs in (0, *VECTOR_SIZES):
-            how = "one env (make), same episodes" if num_envs == 0 else f"vector env, {num_envs} envs (make_vec)"
+            how = (
+                "one env (make), same episodes"
+                if num_envs == 0
+                else f"vector env, {num_envs} env{'s' * (num_envs != 1)} (make_vec)"
+            )
             ratio = rates[policy, num_envs] / rates[policy, 0]
             lines.append(f"    {how:50s} {rates[policy, num_envs]:12.0f} {ratio:9.2f}x")
     sixteen = {policy: rates[policy, 16] / rates[policy, 0] for policy in VECTOR_POLICIES}
