@@ -29,6 +29,7 @@ from quadsim.physics.client import WorldClient
 from quadsim.physics.pybullet_world import PhysicsWorld
 from quadsim.physics.wind import WindModel
 from quadsim.sensors import ranging
+from quadsim.sensors.beams import beam_directions
 from quadsim.sensors.imu import ImuNoise
 from quadsim.sim.config import SimConfig, divisors_shown, enum_choice
 from quadsim.sim.description import ControllerDescription, RunDescription, VehicleDescription
@@ -187,15 +188,17 @@ class Drone(VehicleApi):
     ) -> None:
         """The range finder and the LiDAR the config asks for, sampled by loop taps at their rates
         whether or not anyone listens (their noise depends on the seed and the steps alone)."""
-        config, rates = self.config, self.config.rates
+        config, rates, v = self.config, self.config.rates, self.vehicle
         body, noisy = (self.physics.body_id, self.physics.reach_m), config.sensor_noise
         #: the range finder and the LiDAR, where the config turns them on (None: not carried)
         self.range_finder: ranging.RangingSensor | None = None
         self.lidar: ranging.RangingSensor | None = None
         if config.range_finder:
-            self.range_finder = ranging.range_finder(self.vehicle.range_finder, client, body, range_seed, noisy)
+            beam = np.asarray([v.range_finder.direction], dtype=float)
+            self.range_finder = ranging.mounted(v.range_finder, beam, client, body, range_seed, noisy)
         if config.lidar is not None:
-            self.lidar = ranging.lidar(self.vehicle.lidar, config.lidar, client, body, lidar_seed, noisy)
+            beams = beam_directions(v.lidar, config.lidar)
+            self.lidar = ranging.mounted(v.lidar, beams, client, body, lidar_seed, noisy)
         for sensor, table, hz in (
             (self.range_finder, "range", self.vehicle.range_finder.rate_hz),
             (self.lidar, "lidar", self.vehicle.lidar.rate_hz),
@@ -241,14 +244,11 @@ class Drone(VehicleApi):
         self._check_open()
         if seed is not None:
             self.config = replace(self.config, seed=seed)  # validated like any SimConfig
-            wind_seed, imu_seed, range_seed, lidar_seed = _streams(seed)
+            wind_seed, *noise_seeds = _streams(seed)
             self.physics.reseed(wind_seed)
-            if self.loop.imu is not None:
-                self.loop.imu.reseed(imu_seed)
-            if self.range_finder is not None:
-                self.range_finder.reseed(range_seed)
-            if self.lidar is not None:
-                self.lidar.reseed(lidar_seed)
+            for noise, noise_seed in zip((self.loop.imu, self.range_finder, self.lidar), noise_seeds):
+                if noise is not None:
+                    noise.reseed(noise_seed)
         self.loop.reset()
         for sensor in (self.range_finder, self.lidar):
             if sensor is not None:

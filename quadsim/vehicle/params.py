@@ -286,7 +286,7 @@ def load_vehicle(urdf_path: Path | str | None = None, params_path: Path | str | 
     if not params.is_file():
         raise ConfigError(f"vehicle parameter file not found: {params} (expected beside {urdf.name})")
     links = _read_urdf(urdf)
-    table = _read_toml(params)
+    table = read_toml(params, "vehicle parameter file")
     _refuse_unknown_keys(table, params)
     return _build(urdf, params, links, table)
 
@@ -436,10 +436,6 @@ def _composite_inertia(links: dict[str, _Link]) -> tuple[float, Vec3, Mat3]:
 
 
 # --- parameter file -------------------------------------------------------------------------
-
-
-def _read_toml(path: Path) -> dict[str, Any]:
-    return read_toml(path, "vehicle parameter file")
 
 
 #: Each number's sensible range in a vehicle parameter file, by table and key, in the order they
