@@ -136,16 +136,14 @@ class KeyboardDriver:
         if event.type == pygame.KEYDOWN:
             if event.key in self.layout.faster_keys:
                 self.scale = min(5.0, self.scale * 1.1)
-                self.next_poll_step = ASAP
-                return True
-            if event.key in self.layout.slower_keys:
+            elif event.key in self.layout.slower_keys:
                 self.scale = max(0.1, self.scale / 1.1)
-                self.next_poll_step = ASAP
-                return True
-            if event.key in self._bound:
+            elif event.key in self._bound:
                 self.held.add(event.key)
-                self.next_poll_step = ASAP
-                return True
+            else:
+                return False
+            self.next_poll_step = ASAP
+            return True
         elif event.type == pygame.KEYUP and event.key in self.held:
             self.held.discard(event.key)
             self.next_poll_step = ASAP

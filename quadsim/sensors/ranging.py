@@ -14,9 +14,9 @@ from collections.abc import Callable
 import numpy as np
 
 from quadsim.core.kinematics import Vec3, matrix_from_quaternion, rotate
-from quadsim.core.types import LidarMode, VehicleState
+from quadsim.core.types import VehicleState
 from quadsim.physics.client import WorldClient
-from quadsim.sensors.beams import Ranges, beam_directions, in_range, scan_ranges, world_rays
+from quadsim.sensors.beams import Ranges, in_range, scan_ranges, world_rays
 from quadsim.sensors.rays import cast, cast_one
 from quadsim.vehicle.params import LidarParams, RangeParams
 
@@ -95,38 +95,16 @@ class RangingSensor:
             sink(reading)
 
 
-def range_finder(
-    params: RangeParams,
-    scene: WorldClient,
-    own_body: tuple[int, float],
-    seed: np.random.SeedSequence,
-    noise: bool = True,
-) -> RangingSensor:
-    """The range finder of [range]: its one beam (`noise` False: no noise)."""
-    return _mounted(params, np.asarray([params.direction], dtype=float), scene, own_body, seed, noise)
-
-
-def lidar(
-    params: LidarParams,
-    mode: LidarMode,
-    scene: WorldClient,
-    own_body: tuple[int, float],
-    seed: np.random.SeedSequence,
-    noise: bool = True,
-) -> RangingSensor:
-    """The LiDAR of [lidar], scanning its one ring (2D) or all of them (3D) (`noise` False: no noise)."""
-    return _mounted(params, beam_directions(params, mode), scene, own_body, seed, noise)
-
-
-def _mounted(
+def mounted(
     params: RangeParams | LidarParams,
     directions: np.ndarray,
     scene: WorldClient,
     own_body: tuple[int, float],
     seed: np.random.SeedSequence,
-    noise: bool,
+    noise: bool = True,
 ) -> RangingSensor:
-    """A sensor of `params` (its mount, ranges and noise) casting along `directions`."""
+    """The sensor of [range] or [lidar] (its mount, ranges and noise) casting along `directions`:
+    the range finder's one beam, or the LiDAR's (`beam_directions`) (`noise` False: no noise)."""
     return RangingSensor(
         params.position_m,
         directions,

@@ -19,9 +19,6 @@ if TYPE_CHECKING:
     from quadsim.drivers.subscribed import SubscribedDriver
     from quadsim.session.outputs import LiveOutput
 
-#: the inputs a live bridge provides (SubscribedDriver names)
-LIVE_INPUTS = ("foxglove", "ros2")
-
 
 def open_live_outputs(
     foxglove: str | None,

@@ -195,22 +195,18 @@ class RecordedRun:
         self._listening = on
         for drone in self.fleet.members:
             topics, pipeline = self.topics[drone.name], self.pipelines.get(drone.name)
-            ranging = [
-                (s.sinks, f) for s, f in ((drone.range_finder, topics.on_range), (drone.lidar, topics.on_scan)) if s
-            ]
-            if on:
-                drone.add_sink(topics)
-                if pipeline is not None:
-                    pipeline.sinks.append(topics)
-                for sinks, sink in ranging:
+            sources = (
+                (drone.loop, topics),
+                (pipeline, topics),
+                (drone.range_finder, topics.on_range),
+                (drone.lidar, topics.on_scan),
+            )
+            for source, sink in sources:
+                sinks: list[Any] = [] if source is None else source.sinks
+                if on:
                     sinks.append(sink)
-            else:
-                drone.remove_sink(topics)
-                if pipeline is not None and topics in pipeline.sinks:
-                    pipeline.sinks.remove(topics)
-                for sinks, sink in ranging:
-                    if sink in sinks:
-                        sinks.remove(sink)
+                elif sink in sinks:
+                    sinks.remove(sink)
 
     # --- recording ------------------------------------------------------------------------------
 

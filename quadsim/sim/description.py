@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import math
 import re
+from collections.abc import Callable
 from dataclasses import dataclass, field, fields, replace
 from pathlib import Path
 from typing import Any
@@ -323,18 +324,8 @@ def _build(cls: Any, kwargs: dict[str, Any], where: str) -> Any:
 
 def _camera(data: Any, where: str) -> CameraSpec:
     f = _Fields(data, where)
-    kwargs: dict[str, Any] = {}
-    for spec_field in fields(CameraSpec):
-        if spec_field.name not in f.data:
-            continue
-        if spec_field.type in ("int", int):
-            kwargs[spec_field.name] = f.integer(spec_field.name)
-        elif spec_field.type in ("float", float):
-            kwargs[spec_field.name] = f.number(spec_field.name)
-        elif spec_field.type in ("bool", bool):
-            kwargs[spec_field.name] = f.flag(spec_field.name)
-        else:
-            kwargs[spec_field.name] = f.text(spec_field.name)
+    readers: dict[str, Callable[[str], Any]] = {"int": f.integer, "float": f.number, "bool": f.flag}  # else text
+    kwargs = {s.name: readers.get(str(s.type), f.text)(s.name) for s in fields(CameraSpec) if s.name in f.data}
     for required in ("name", "link_name"):
         if required not in kwargs:
             raise DescriptionError(f"{where}.{required}: missing")

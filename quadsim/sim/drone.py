@@ -29,6 +29,7 @@ from quadsim.physics.client import WorldClient
 from quadsim.physics.pybullet_world import PhysicsWorld
 from quadsim.physics.wind import WindModel
 from quadsim.sensors import ranging
+from quadsim.sensors.beams import beam_directions
 from quadsim.sensors.imu import ImuNoise
 from quadsim.sim.config import SimConfig, divisors_shown, enum_choice
 from quadsim.sim.description import ControllerDescription, RunDescription, VehicleDescription
@@ -37,7 +38,88 @@ from quadsim.sim.loop import SimLoop, Sink
 from quadsim.vehicle.params import load_vehicle
 
 
-class Drone:
+class VehicleApi:
+    """What one vehicle answers to, whether a fleet's (a Drone) or a Simulator's own: commands,
+    the sinks and taps outputs attach to, flight events and state. All of it is its flight
+    loop's (`loop`), which holds its driver and its command gate."""
+
+    #: the vehicle's flight loop, which counts the steps
+    loop: SimLoop
+
+    # --- commanding -------------------------------------------------------------------------
+
+    def send(self, twist: Twist) -> None:
+        """Publish `twist` from now on, at the input rate (autonomy code's way in)."""
+        self._programmatic("send").send(twist)
+
+    def fly_to(self, x: float, y: float, z: float | None = None, yaw: float | None = None) -> None:
+        """Fly to (x, y, z), world frame, heading `yaw` (rad), through the command path
+        (quadsim.drivers.goal): z None keeps the altitude flown (1 m from the ground), yaw None the
+        heading. It holds there until `send`, another goal or a reset; a `goal_reached` event
+        says when it is there. ValueError for a goal that is not a finite place within 10 km."""
+        self._programmatic("fly_to").stop()  # its standing Twist would take over at the next poll
+        self.loop.fly_to(Goal(x, y, z, yaw))
+
+    def _programmatic(self, what: str) -> ProgrammaticDriver:
+        """The driver, which `what()` needs to be the programmatic one."""
+        driver = self.loop.driver
+        if not isinstance(driver, ProgrammaticDriver):
+            raise QuadsimError(f"{what}() needs the programmatic driver; this vehicle is driven by {driver.name}")  # type: ignore[union-attr]
+        return driver
+
+    def set_z_mode(self, z_mode: ZMode | str) -> None:
+        """How linear.z is read from now on (the standing command is re-clamped under the new mode):
+        a ZMode or its name ("height"); anything else is a ConfigError."""
+        self.loop.gate.set_z_mode(enum_choice(ZMode, z_mode, "z_mode"))
+
+    # --- where outputs attach: sinks and taps ----------------------------------------------
+
+    def add_sink(self, sink: Sink) -> None:
+        """Receive every command (as the controller got it) and every published state."""
+        self.loop.sinks.append(sink)
+
+    def remove_sink(self, sink: Sink) -> None:
+        """Stop sending commands and states to `sink` (no error if it was not added)."""
+        if sink in self.loop.sinks:
+            self.loop.sinks.remove(sink)
+
+    def add_tap(self, every_steps: int, callback: Callable[[VehicleState], None]) -> None:
+        """Call `callback(state)` after every `every_steps`-th physics step (cameras use this)."""
+        self.loop.add_tap(every_steps, callback)
+
+    def remove_tap(self, callback: Callable[[VehicleState], None]) -> None:
+        """Stop calling `callback` (no error if it was not added)."""
+        self.loop.remove_tap(callback)
+
+    # --- flight events and state --------------------------------------------------------------
+
+    @property
+    def events(self) -> list[FlightEvent]:
+        """Every flight event (take-off, touchdown, landed, crash, reset) since the start or the last
+        reset, in order; each has its step, kind, text, impact speed and what was hit."""
+        return self.loop.events
+
+    def add_event_callback(self, callback: Callable[[FlightEvent], None]) -> None:
+        """Call `callback(event)` as each flight event happens (a Gymnasium env ends on a crash)."""
+        self.loop.event_callbacks.append(callback)
+
+    @property
+    def phase(self) -> FlightPhase:
+        """Landed (rotors idle) or flying."""
+        return self.loop.landing.phase
+
+    @property
+    def reset_on_crash(self) -> bool:
+        """Whether a crash puts the vehicle back at its start pose (the clock and commands go on)."""
+        return self.loop.reset_on_crash
+
+    @property
+    def state(self) -> VehicleState:
+        """The vehicle's state after the last step (ground truth, REP 103 frames, SI units)."""
+        return self.loop.state()
+
+
+class Drone(VehicleApi):
     """One vehicle in a shared world, stepped by its run's fleet (which owns the clock)."""
 
     def __init__(
@@ -106,15 +188,17 @@ class Drone:
     ) -> None:
         """The range finder and the LiDAR the config asks for, sampled by loop taps at their rates
         whether or not anyone listens (their noise depends on the seed and the steps alone)."""
-        config, rates = self.config, self.config.rates
+        config, rates, v = self.config, self.config.rates, self.vehicle
         body, noisy = (self.physics.body_id, self.physics.reach_m), config.sensor_noise
         #: the range finder and the LiDAR, where the config turns them on (None: not carried)
         self.range_finder: ranging.RangingSensor | None = None
         self.lidar: ranging.RangingSensor | None = None
         if config.range_finder:
-            self.range_finder = ranging.range_finder(self.vehicle.range_finder, client, body, range_seed, noisy)
+            beam = np.asarray([v.range_finder.direction], dtype=float)
+            self.range_finder = ranging.mounted(v.range_finder, beam, client, body, range_seed, noisy)
         if config.lidar is not None:
-            self.lidar = ranging.lidar(self.vehicle.lidar, config.lidar, client, body, lidar_seed, noisy)
+            beams = beam_directions(v.lidar, config.lidar)
+            self.lidar = ranging.mounted(v.lidar, beams, client, body, lidar_seed, noisy)
         for sensor, table, hz in (
             (self.range_finder, "range", self.vehicle.range_finder.rate_hz),
             (self.lidar, "lidar", self.vehicle.lidar.rate_hz),
@@ -127,28 +211,7 @@ class Drone:
                     )
                 self.loop.add_tap(rates.every(hz), sensor.tap)
 
-    # --- commanding -------------------------------------------------------------------------
-
-    def send(self, twist: Twist) -> None:
-        """Publish `twist` from now on, at the input rate (autonomy code's way in)."""
-        if not isinstance(self.driver, ProgrammaticDriver):
-            raise QuadsimError(f"send() needs the programmatic driver; this vehicle is driven by {self.driver.name}")
-        self.driver.send(twist)
-
-    def fly_to(self, x: float, y: float, z: float | None = None, yaw: float | None = None) -> None:
-        """Fly to (x, y, z), world frame, heading `yaw` (rad), through the command path
-        (quadsim.drivers.goal): z None keeps the altitude flown (1 m from the ground), yaw None the
-        heading. It holds there until `send`, another goal or a reset; a `goal_reached` event
-        says when it is there. ValueError for a goal that is not a finite place within 10 km."""
-        if not isinstance(self.driver, ProgrammaticDriver):
-            raise QuadsimError(f"fly_to() needs the programmatic driver; this vehicle is driven by {self.driver.name}")
-        self.driver.stop()  # its standing Twist would take over at the next poll
-        self.loop.fly_to(Goal(x, y, z, yaw))
-
-    def set_z_mode(self, z_mode: ZMode | str) -> None:
-        """How linear.z is read from now on (the standing command is re-clamped under the new mode):
-        a ZMode or its name ("height"); anything else is a ConfigError."""
-        self.gate.set_z_mode(enum_choice(ZMode, z_mode, "z_mode"))
+    # --- the fleet's clock --------------------------------------------------------------------
 
     def step(self, steps: int = 1) -> None:
         """Refused: the fleet steps every vehicle at once, on its one clock."""
@@ -156,59 +219,11 @@ class Drone:
 
     run_for = step
 
-    # --- where outputs attach: sinks and taps ----------------------------------------------
-
-    def add_sink(self, sink: Sink) -> None:
-        """Receive every command (as the controller got it) and every published state."""
-        self.loop.sinks.append(sink)
-
-    def remove_sink(self, sink: Sink) -> None:
-        """Stop sending commands and states to `sink` (no error if it was not added)."""
-        if sink in self.loop.sinks:
-            self.loop.sinks.remove(sink)
-
-    def add_tap(self, every_steps: int, callback: Callable[[VehicleState], None]) -> None:
-        """Call `callback(state)` after every `every_steps`-th physics step (cameras use this)."""
-        self.loop.add_tap(every_steps, callback)
-
-    def remove_tap(self, callback: Callable[[VehicleState], None]) -> None:
-        """Stop calling `callback` (no error if it was not added)."""
-        self.loop.remove_tap(callback)
-
     @property
     def scene_client(self) -> WorldClient:
         """The PyBullet client holding the world this vehicle flies in, for rendering in-process
         (its `posed()` gives its id with every vehicle where it flew to)."""
         return self.physics.client
-
-    # --- flight events ------------------------------------------------------------------------
-
-    @property
-    def events(self) -> list[FlightEvent]:
-        """Every flight event (take-off, touchdown, landed, crash, reset) since the start or the last
-        reset, in order; each has its step, kind, text, impact speed and what was hit."""
-        return self.loop.events
-
-    def add_event_callback(self, callback: Callable[[FlightEvent], None]) -> None:
-        """Call `callback(event)` as each flight event happens (a Gymnasium env ends on a crash)."""
-        self.loop.event_callbacks.append(callback)
-
-    @property
-    def phase(self) -> FlightPhase:
-        """Landed (rotors idle) or flying."""
-        return self.loop.landing.phase
-
-    @property
-    def reset_on_crash(self) -> bool:
-        """Whether a crash puts the vehicle back at its start pose (the clock and commands go on)."""
-        return self.loop.reset_on_crash
-
-    # --- state ----------------------------------------------------------------------------------
-
-    @property
-    def state(self) -> VehicleState:
-        """The vehicle's state after the last step (ground truth, REP 103 frames, SI units)."""
-        return self.loop.state()
 
     @property
     def step_count(self) -> int:
@@ -229,14 +244,11 @@ class Drone:
         self._check_open()
         if seed is not None:
             self.config = replace(self.config, seed=seed)  # validated like any SimConfig
-            wind_seed, imu_seed, range_seed, lidar_seed = _streams(seed)
+            wind_seed, *noise_seeds = _streams(seed)
             self.physics.reseed(wind_seed)
-            if self.loop.imu is not None:
-                self.loop.imu.reseed(imu_seed)
-            if self.range_finder is not None:
-                self.range_finder.reseed(range_seed)
-            if self.lidar is not None:
-                self.lidar.reseed(lidar_seed)
+            for noise, noise_seed in zip((self.loop.imu, self.range_finder, self.lidar), noise_seeds):
+                if noise is not None:
+                    noise.reseed(noise_seed)
         self.loop.reset()
         for sensor in (self.range_finder, self.lidar):
             if sensor is not None:

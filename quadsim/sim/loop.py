@@ -17,7 +17,7 @@ Stepping order, once per physics step n (time n / physics_hz):
 Nothing here reads the wall clock; only a window paces these steps to real time. Stage 3 is the
 body's (quadsim.physics.pybullet_world.PhysicsWorld).
 
-`run` does stages 1-2 (`before_physics`), 3 and 4-6 (`after_physics`) step after step; a fleet
+`run` does stages 1-2 (`_take_input`, `_control`), 3 and 4-6 (`after_physics`) step after step; a fleet
 (quadsim.sim.fleet) does stages 1-2 for every vehicle, their steps (one PyBullet step of the
 world if any of them needs it), then 4-6 for every vehicle. Where the steps up to the next
 moment the loop acts in Python (a poll, a state published, a tap, the dead-man firing) are only
@@ -313,13 +313,6 @@ class SimLoop:
         if self.imu is not None and not (self.sinks or self._taps):
             next_sample, gyro_bias, accel_bias = walked
             self.imu.walked(int(next_sample), tuple(gyro_bias), tuple(accel_bias))
-
-    def before_physics(self, state: VehicleState | None = None) -> RotorForces:
-        """Stages 1 and 2 at step n (the step count): the driver's input, then the control
-        update; the rotor forces to apply in this step. `state`: the vehicle's state at n if the
-        last `after_physics` built it."""
-        self._take_input()
-        return self._control(state)
 
     def _take_input(self) -> None:
         """Stage 1 at step n: the driver polled, if due, and the gate takes its command."""

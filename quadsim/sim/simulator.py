@@ -11,27 +11,25 @@ This is also the API for autonomy code:
 
 from __future__ import annotations
 
-from collections.abc import Callable
 from typing import Any
 
 from quadsim.control import Controller
 from quadsim.control.gate import CommandGate
-from quadsim.control.landing import FlightPhase, LandingSettings
-from quadsim.core.types import Twist, VehicleState, ZMode
+from quadsim.control.landing import LandingSettings
+from quadsim.core.types import VehicleState, ZMode
 from quadsim.drivers import InputDriver
 from quadsim.physics.pybullet_world import PhysicsWorld
 from quadsim.physics.wind import WindModel
 from quadsim.sim.config import SimConfig
+from quadsim.sim.drone import VehicleApi
 from quadsim.sim.fleet import Fleet, FleetVehicle
-from quadsim.sim.flight_events import FlightEvent
-from quadsim.sim.loop import SimLoop, Sink
 from quadsim.vehicle.params import VehicleParams
 
 
-class Simulator(Fleet):
+class Simulator(Fleet, VehicleApi):
     """One simulated vehicle in one world: a fleet of one whose vehicle has no name (its topics
     are the recording contract's, unprefixed). Stepping, resetting and closing are the fleet's;
-    commanding, state and events are its vehicle's (`drone`)."""
+    commanding, state and events are its vehicle's (`drone`), answered as a Drone answers them."""
 
     def __init__(
         self,
@@ -57,6 +55,7 @@ class Simulator(Fleet):
         super().__init__([alone], config, landing, reset_on_crash, texture_required, wind)
         #: the one vehicle
         self.drone = self.members[0]
+        self.loop = self.drone.loop
 
     # --- stepping: the fleet's, returning the state ------------------------------------------
 
@@ -75,65 +74,6 @@ class Simulator(Fleet):
         made with: the next run of a sweep worker, which loads the world and the vehicle once.
         It flies bit for bit as a new Simulator with the same config and this seed would."""
         super().restart({"": driver}, seed)
-
-    # --- its vehicle --------------------------------------------------------------------------
-
-    def send(self, twist: Twist) -> None:
-        """Publish `twist` from now on, at the input rate (autonomy code's way in)."""
-        self.drone.send(twist)
-
-    def fly_to(self, x: float, y: float, z: float | None = None, yaw: float | None = None) -> None:
-        """Fly to (x, y, z) in the world frame, heading `yaw` (rad), through the command path
-        (quadsim.drivers.goal): z None keeps the altitude flown (1 m from the ground), yaw None
-        the heading. A `goal_reached` event says when it is there; it holds there until `send`,
-        another goal or a reset."""
-        self.drone.fly_to(x, y, z, yaw)
-
-    def set_z_mode(self, z_mode: ZMode | str) -> None:
-        """How linear.z is read from now on (the standing command is re-clamped under the new mode):
-        a ZMode or its name ("height"); anything else is a ConfigError."""
-        self.drone.set_z_mode(z_mode)
-
-    @property
-    def state(self) -> VehicleState:
-        """The vehicle's state after the last step (ground truth, REP 103 frames, SI units)."""
-        return self.drone.state
-
-    @property
-    def events(self) -> list[FlightEvent]:
-        """Every flight event (take-off, touchdown, landed, crash, reset) since the start or the last
-        reset, in order; each has its step, kind, text, impact speed and what was hit."""
-        return self.drone.events
-
-    def add_event_callback(self, callback: Callable[[FlightEvent], None]) -> None:
-        """Call `callback(event)` as each flight event happens (a Gymnasium env ends on a crash)."""
-        self.drone.add_event_callback(callback)
-
-    @property
-    def phase(self) -> FlightPhase:
-        """Landed (rotors idle) or flying."""
-        return self.drone.phase
-
-    @property
-    def reset_on_crash(self) -> bool:
-        """Whether a crash puts the vehicle back at its start pose (the clock and commands go on)."""
-        return self.drone.reset_on_crash
-
-    def add_sink(self, sink: Sink) -> None:
-        """Receive every command (as the controller got it) and every published state."""
-        self.drone.add_sink(sink)
-
-    def remove_sink(self, sink: Sink) -> None:
-        """Stop sending commands and states to `sink` (no error if it was not added)."""
-        self.drone.remove_sink(sink)
-
-    def add_tap(self, every_steps: int, callback: Callable[[VehicleState], None]) -> None:
-        """Call `callback(state)` after every `every_steps`-th physics step (cameras use this)."""
-        self.drone.add_tap(every_steps, callback)
-
-    def remove_tap(self, callback: Callable[[VehicleState], None]) -> None:
-        """Stop calling `callback` (no error if it was not added)."""
-        self.drone.remove_tap(callback)
 
     def describe(self) -> dict[str, Any]:
         """Every parameter of the run as plain data: the layout recordings carry (see description())."""
@@ -165,11 +105,6 @@ class Simulator(Fleet):
     def physics(self) -> PhysicsWorld:
         """The vehicle's body in the world."""
         return self.drone.physics
-
-    @property
-    def loop(self) -> SimLoop:
-        """The flight loop, which counts the steps."""
-        return self.drone.loop
 
     @property
     def z_mode(self) -> ZMode:

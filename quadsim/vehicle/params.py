@@ -9,7 +9,7 @@ import enum
 import math
 import re
 import xml.etree.ElementTree as ET
-from dataclasses import dataclass, field, fields
+from dataclasses import MISSING, dataclass, field, fields
 from pathlib import Path
 from typing import Any
 
@@ -54,17 +54,6 @@ class AeroParams:
     ground_effect: bool
     ground_effect_max_ratio: float  # cap on T_ige / T_oge (Cheeseman-Bennett diverges at z = R/4)
 
-    def to_dict(self) -> dict[str, object]:
-        return {
-            "body_drag_linear_ns_per_m": list(self.body_drag_linear_ns_per_m),
-            "body_drag_quadratic_ns2_per_m2": list(self.body_drag_quadratic_ns2_per_m2),
-            "rotor_drag_ns_per_m_rad": self.rotor_drag_ns_per_m_rad,
-            "rotor_axial_drag_ns_per_m_rad": self.rotor_axial_drag_ns_per_m_rad,
-            "rotor_radius_m": self.rotor_radius_m,
-            "ground_effect": self.ground_effect,
-            "ground_effect_max_ratio": self.ground_effect_max_ratio,
-        }
-
 
 @dataclass(frozen=True)
 class ContactParams:
@@ -74,9 +63,6 @@ class ContactParams:
 
     restitution: float  # rebound speed over impact speed, normal to the contact
     lateral_friction: float  # Coulomb friction coefficient
-
-    def to_dict(self) -> dict[str, float]:
-        return vars(self).copy()
 
 
 @dataclass(frozen=True)
@@ -126,9 +112,6 @@ class ImuNoiseParams:
     gyro_bias_random_walk_radps2_per_rthz: float
     accel_noise_density_mps2_per_rthz: float
     accel_bias_random_walk_mps3_per_rthz: float
-
-    def to_dict(self) -> dict[str, float]:
-        return vars(self).copy()
 
 
 class RadiationType(enum.Enum):
@@ -277,11 +260,16 @@ class VehicleParams:
             "torque_coefficient_nm_per_rad2s2": self.torque_coefficient_nm_per_rad2s2,
             "max_thrust_n": self.max_thrust_n,
             "motor_time_constant_s": self.motor_time_constant_s,
-            "aero": self.aero.to_dict(),
-            "imu_noise": self.imu_noise.to_dict(),
-            "limits": vars(self.limits).copy(),
-            "contact": self.contact.to_dict(),
+            "aero": _plain(self.aero),
+            "imu_noise": _plain(self.imu_noise),
+            "limits": _plain(self.limits),
+            "contact": _plain(self.contact),
         }
+
+
+def _plain(section: object) -> dict[str, Any]:
+    """A section's fields as plain data (its vectors as lists), for recording metadata."""
+    return {key: list(value) if isinstance(value, tuple) else value for key, value in vars(section).items()}
 
 
 def default_params_path(urdf_path: Path) -> Path:
@@ -298,7 +286,7 @@ def load_vehicle(urdf_path: Path | str | None = None, params_path: Path | str | 
     if not params.is_file():
         raise ConfigError(f"vehicle parameter file not found: {params} (expected beside {urdf.name})")
     links = _read_urdf(urdf)
-    table = _read_toml(params)
+    table = read_toml(params, "vehicle parameter file")
     _refuse_unknown_keys(table, params)
     return _build(urdf, params, links, table)
 
@@ -450,20 +438,67 @@ def _composite_inertia(links: dict[str, _Link]) -> tuple[float, Vec3, Mat3]:
 # --- parameter file -------------------------------------------------------------------------
 
 
-def _read_toml(path: Path) -> dict[str, Any]:
-    return read_toml(path, "vehicle parameter file")
-
+#: Each number's sensible range in a vehicle parameter file, by table and key, in the order they
+#: are read: (low, high), or (low, high, default) for a key a file may leave out (one added after
+#: recordings were made: their attached parameter files still load). A key of [range] or [lidar]
+#: a file leaves out (or the whole table) takes RangeParams' or LidarParams' default.
+_BOUNDS: dict[str, dict[str, tuple[float, ...]]] = {
+    "rotors": {
+        "thrust_coefficient_n_per_rad2s2": (1e-9, 1.0),
+        "torque_coefficient_nm_per_rad2s2": (1e-12, 1.0),
+        "max_thrust_n": (1e-3, 1e4),
+        "motor_time_constant_s": (0.0, 1.0),
+    },
+    "aero": {
+        "body_drag_linear_ns_per_m": (0.0, 100.0),
+        "body_drag_quadratic_ns2_per_m2": (0.0, 100.0),
+        "rotor_drag_ns_per_m_rad": (0.0, 1.0),
+        # not modelled before it was a key: a file without it flies as it did
+        "rotor_axial_drag_ns_per_m_rad": (0.0, 1.0, 0.0),
+        "rotor_radius_m": (1e-3, 10.0),
+        "ground_effect_max_ratio": (1.0, 3.0),
+    },
+    "imu": {
+        "gyro_noise_density_radps_per_rthz": (0.0, 1.0),
+        "gyro_bias_random_walk_radps2_per_rthz": (0.0, 1.0),
+        "accel_noise_density_mps2_per_rthz": (0.0, 10.0),
+        "accel_bias_random_walk_mps3_per_rthz": (0.0, 10.0),
+    },
+    "limits": {
+        "max_horizontal_speed_mps": (0.1, 50.0),
+        "max_climb_rate_mps": (0.1, 20.0),
+        "max_descent_rate_mps": (0.1, 20.0),
+        "max_yaw_rate_radps": (0.1, 20.0),
+        "min_altitude_m": (0.0, 10.0),
+        "max_altitude_m": (0.5, 10000.0),
+    },
+    # a file without the table (one older than it) keeps PyBullet's own figures, as it flew before
+    "contact": {"restitution": (0.0, 1.0, 0.0), "lateral_friction": (0.0, 10.0, 0.5)},
+    "range": {
+        "min_range_m": (0.0, 1000.0),
+        "max_range_m": (0.0, 1000.0),
+        "direction": (-1.0, 1.0),
+        "rate_hz": (1, 10_000),
+        "field_of_view_rad": (0.0, math.pi),
+        "noise_std_m": (0.0, 10.0),
+        "position_m": (-10.0, 10.0),
+    },
+    "lidar": {
+        "samples": (1, MAX_LIDAR_RAYS),
+        "channels": (1, 128),
+        "min_range_m": (0.0, 1000.0),
+        "max_range_m": (0.0, 1000.0),
+        "rate_hz": (1, 1000),
+        "vertical_fov_rad": (0.0, math.pi),
+        "noise_std_m": (0.0, 10.0),
+        "position_m": (-10.0, 10.0),
+    },
+}
 
 #: The tables of a vehicle parameter file and the keys of each ([rotors] spin holds one entry
 #: per rotor link, checked against the URDF).
 PARAM_KEYS: dict[str, tuple[str, ...]] = {
-    "rotors": (
-        "spin",
-        "thrust_coefficient_n_per_rad2s2",
-        "torque_coefficient_nm_per_rad2s2",
-        "max_thrust_n",
-        "motor_time_constant_s",
-    ),
+    "rotors": ("spin", *_BOUNDS["rotors"]),
     "aero": tuple(f.name for f in fields(AeroParams)),
     "imu": tuple(f.name for f in fields(ImuNoiseParams)),
     "limits": tuple(f.name for f in fields(CommandLimits)),
@@ -530,20 +565,27 @@ def _aero(table: dict[str, Any], path: Path) -> AeroParams:
     ground_effect = table.get("aero", {}).get("ground_effect") if isinstance(table.get("aero"), dict) else None
     if not isinstance(ground_effect, bool):
         raise ConfigError(f"{path}: [aero] ground_effect must be true or false, got {ground_effect!r}")
-    return AeroParams(
-        body_drag_linear_ns_per_m=_vector(table, "aero", "body_drag_linear_ns_per_m", path, low=0.0, high=100.0),
-        body_drag_quadratic_ns2_per_m2=_vector(
-            table, "aero", "body_drag_quadratic_ns2_per_m2", path, low=0.0, high=100.0
-        ),
-        rotor_drag_ns_per_m_rad=_number(table, "aero", "rotor_drag_ns_per_m_rad", path, low=0.0, high=1.0),
-        # not modelled before it was a key: a file without it flies as it did
-        rotor_axial_drag_ns_per_m_rad=_number(
-            table, "aero", "rotor_axial_drag_ns_per_m_rad", path, low=0.0, high=1.0, default=0.0
-        ),
-        rotor_radius_m=_number(table, "aero", "rotor_radius_m", path, low=1e-3, high=10.0),
-        ground_effect=ground_effect,
-        ground_effect_max_ratio=_number(table, "aero", "ground_effect_max_ratio", path, low=1.0, high=3.0),
-    )
+    return AeroParams(ground_effect=ground_effect, **_section(AeroParams, table, "aero", path))
+
+
+def _section(kind: type, table: dict[str, Any], section: str, path: Path) -> dict[str, Any]:
+    """The keys of [section] that _BOUNDS holds, each read as the field of `kind` it fills is
+    typed (3 numbers, a whole number or a number) within its bounds; one the file leaves out takes
+    its default there, else its field's, else is refused."""
+    own = {f.name: (f.type, f.default) for f in fields(kind)}
+    sec = table.get(section)
+    values: dict[str, Any] = {}
+    for key, (low, high, *default) in _BOUNDS[section].items():
+        typed, field_default = own[key]
+        fallback: Any = default[0] if default else None if field_default is MISSING else field_default
+        if typed == "Vec3":
+            absent = fallback is not None and (not isinstance(sec, dict) or key not in sec)
+            values[key] = fallback if absent else _vector(table, section, key, path, low=low, high=high)
+        elif typed == "int":
+            values[key] = _whole(table, section, key, path, low=low, high=high, default=fallback)
+        else:
+            values[key] = _number(table, section, key, path, low=low, high=high, default=fallback)
+    return values
 
 
 #: The fewest rotors that can give thrust and three independent torques.
@@ -594,33 +636,7 @@ def _rotors(
     return rotors
 
 
-def _imu(table: dict[str, Any], params: Path) -> ImuNoiseParams:
-    return ImuNoiseParams(
-        gyro_noise_density_radps_per_rthz=_number(
-            table, "imu", "gyro_noise_density_radps_per_rthz", params, low=0.0, high=1.0
-        ),
-        gyro_bias_random_walk_radps2_per_rthz=_number(
-            table, "imu", "gyro_bias_random_walk_radps2_per_rthz", params, low=0.0, high=1.0
-        ),
-        accel_noise_density_mps2_per_rthz=_number(
-            table, "imu", "accel_noise_density_mps2_per_rthz", params, low=0.0, high=10.0
-        ),
-        accel_bias_random_walk_mps3_per_rthz=_number(
-            table, "imu", "accel_bias_random_walk_mps3_per_rthz", params, low=0.0, high=10.0
-        ),
-    )
-
-
-def _contact(table: dict[str, Any], params: Path) -> ContactParams:
-    """The [contact] table; a file without it (one older than the table) keeps PyBullet's own
-    figures, restitution 0 and friction 0.5, as it flew before."""
-    return ContactParams(
-        restitution=_number(table, "contact", "restitution", params, low=0.0, high=1.0, default=0.0),
-        lateral_friction=_number(table, "contact", "lateral_friction", params, low=0.0, high=10.0, default=0.5),
-    )
-
-
-def _whole(table: dict[str, Any], section: str, key: str, path: Path, *, low: int, high: int, default: int) -> int:
+def _whole(table: dict[str, Any], section: str, key: str, path: Path, *, low: float, high: float, default: int) -> int:
     """[section] key, a whole number in [low, high], `default` when the file leaves it out."""
     sec = table.get(section)
     value = sec.get(key, default) if isinstance(sec, dict) else default
@@ -631,79 +647,34 @@ def _whole(table: dict[str, Any], section: str, key: str, path: Path, *, low: in
 
 def _range(table: dict[str, Any], path: Path) -> RangeParams:
     """The [range] table; what the file leaves out (or a file without the table) takes RangeParams' defaults."""
-    d, sec = RangeParams(), table.get("range", {})
-    low, high = _span(table, "range", path, (d.min_range_m, d.max_range_m))
-    kind = sec.get("radiation_type", d.radiation_type.value) if isinstance(sec, dict) else d.radiation_type.value
+    values = _section(RangeParams, table, "range", path)
+    _span(values, "range", path)
+    sec, default = table.get("range", {}), RangeParams.radiation_type.value
+    kind = sec.get("radiation_type", default) if isinstance(sec, dict) else default
     if kind not in {r.value for r in RadiationType}:
         raise ConfigError(f'{path}: [range] radiation_type must be "infrared" or "ultrasound", got {kind!r:.40}')
-    direction = _vector_or(table, "range", "direction", path, d.direction, low=-1.0, high=1.0)
+    direction = values["direction"]
     norm = math.sqrt(sum(c * c for c in direction))
     if norm < 1e-6:
         raise ConfigError(f"{path}: [range] direction must not be zero")
-    return RangeParams(
-        rate_hz=_whole(table, "range", "rate_hz", path, low=1, high=10_000, default=d.rate_hz),
-        min_range_m=low,
-        max_range_m=high,
-        field_of_view_rad=_number(
-            table, "range", "field_of_view_rad", path, low=0.0, high=math.pi, default=d.field_of_view_rad
-        ),
-        noise_std_m=_number(table, "range", "noise_std_m", path, low=0.0, high=10.0, default=d.noise_std_m),
-        radiation_type=RadiationType(kind),
-        position_m=_vector_or(table, "range", "position_m", path, d.position_m, low=-10.0, high=10.0),
-        direction=(direction[0] / norm, direction[1] / norm, direction[2] / norm),
-    )
+    values["direction"] = (direction[0] / norm, direction[1] / norm, direction[2] / norm)
+    return RangeParams(radiation_type=RadiationType(kind), **values)
 
 
 def _lidar(table: dict[str, Any], path: Path) -> LidarParams:
     """The [lidar] table; what the file leaves out (or a file without the table) takes LidarParams' defaults."""
-    d = LidarParams()
-    samples = _whole(table, "lidar", "samples", path, low=1, high=MAX_LIDAR_RAYS, default=d.samples)
-    channels = _whole(table, "lidar", "channels", path, low=1, high=128, default=d.channels)
-    if samples * channels > MAX_LIDAR_RAYS:
-        raise ConfigError(f"{path}: [lidar] samples x channels = {samples * channels} is over {MAX_LIDAR_RAYS} rays")
-    low, high = _span(table, "lidar", path, (d.min_range_m, d.max_range_m))
-    return LidarParams(
-        rate_hz=_whole(table, "lidar", "rate_hz", path, low=1, high=1000, default=d.rate_hz),
-        samples=samples,
-        channels=channels,
-        vertical_fov_rad=_number(
-            table, "lidar", "vertical_fov_rad", path, low=0.0, high=math.pi, default=d.vertical_fov_rad
-        ),
-        min_range_m=low,
-        max_range_m=high,
-        noise_std_m=_number(table, "lidar", "noise_std_m", path, low=0.0, high=10.0, default=d.noise_std_m),
-        position_m=_vector_or(table, "lidar", "position_m", path, d.position_m, low=-10.0, high=10.0),
-    )
+    values = _section(LidarParams, table, "lidar", path)
+    rays = values["samples"] * values["channels"]
+    if rays > MAX_LIDAR_RAYS:
+        raise ConfigError(f"{path}: [lidar] samples x channels = {rays} is over {MAX_LIDAR_RAYS} rays")
+    _span(values, "lidar", path)
+    return LidarParams(**values)
 
 
-def _span(table: dict[str, Any], section: str, path: Path, default: tuple[float, float]) -> tuple[float, float]:
-    """[section] min_range_m and max_range_m, the first below the second."""
-    low = _number(table, section, "min_range_m", path, low=0.0, high=1000.0, default=default[0])
-    high = _number(table, section, "max_range_m", path, low=0.0, high=1000.0, default=default[1])
-    if not low < high:
+def _span(values: dict[str, Any], section: str, path: Path) -> None:
+    """[section] min_range_m must be below max_range_m."""
+    if not values["min_range_m"] < values["max_range_m"]:
         raise ConfigError(f"{path}: [{section}] min_range_m must be below max_range_m")
-    return low, high
-
-
-def _vector_or(
-    table: dict[str, Any], section: str, key: str, path: Path, default: Vec3, *, low: float, high: float
-) -> Vec3:
-    """[section] key as `_vector` reads it, `default` when the file leaves it out."""
-    sec = table.get(section)
-    if not isinstance(sec, dict) or key not in sec:
-        return default
-    return _vector(table, section, key, path, low=low, high=high)
-
-
-def _limits(table: dict[str, Any], params: Path) -> CommandLimits:
-    return CommandLimits(
-        max_horizontal_speed_mps=_number(table, "limits", "max_horizontal_speed_mps", params, low=0.1, high=50.0),
-        max_climb_rate_mps=_number(table, "limits", "max_climb_rate_mps", params, low=0.1, high=20.0),
-        max_descent_rate_mps=_number(table, "limits", "max_descent_rate_mps", params, low=0.1, high=20.0),
-        max_yaw_rate_radps=_number(table, "limits", "max_yaw_rate_radps", params, low=0.1, high=20.0),
-        min_altitude_m=_number(table, "limits", "min_altitude_m", params, low=0.0, high=10.0),
-        max_altitude_m=_number(table, "limits", "max_altitude_m", params, low=0.5, high=10000.0),
-    )
 
 
 def _build(urdf: Path, params: Path, links: dict[str, _Link], table: dict[str, Any]) -> VehicleParams:
@@ -718,10 +689,8 @@ def _build(urdf: Path, params: Path, links: dict[str, _Link], table: dict[str, A
         raise ConfigError(f"{params}: [rotors] spin names {unknown}, which {urdf.name} has no link for")
     rotors = _rotors(urdf, params, links, rotor_names, spins, com)
 
-    kf = _number(table, "rotors", "thrust_coefficient_n_per_rad2s2", params, low=1e-9, high=1.0)
-    km = _number(table, "rotors", "torque_coefficient_nm_per_rad2s2", params, low=1e-12, high=1.0)
-    max_thrust = _number(table, "rotors", "max_thrust_n", params, low=1e-3, high=1e4)
-    tau = _number(table, "rotors", "motor_time_constant_s", params, low=0.0, high=1.0)
+    coefficients = _section(VehicleParams, table, "rotors", params)  # thrust, torque, max_thrust_n, tau
+    max_thrust = coefficients["max_thrust_n"]
     weight = mass * 9.81
     if len(rotors) * max_thrust < 1.2 * weight:
         raise ConfigError(
@@ -729,7 +698,8 @@ def _build(urdf: Path, params: Path, links: dict[str, _Link], table: dict[str, A
             f"too little to fly a {weight:.2f} N vehicle (need at least 1.2x its weight)"
         )
     aero = _aero(table, params)
-    imu, limits = _imu(table, params), _limits(table, params)
+    imu = ImuNoiseParams(**_section(ImuNoiseParams, table, "imu", params))
+    limits = CommandLimits(**_section(CommandLimits, table, "limits", params))
     if limits.min_altitude_m >= limits.max_altitude_m:
         raise ConfigError(f"{params}: [limits] min_altitude_m must be below max_altitude_m")
     if any(abs(v) > 1e-9 for v in links["base_link"].com_in_link_m):
@@ -747,15 +717,12 @@ def _build(urdf: Path, params: Path, links: dict[str, _Link], table: dict[str, A
         inertia_kgm2=inertia,
         com_m=com,
         rotors=tuple(rotors),
-        thrust_coefficient_n_per_rad2s2=kf,
-        torque_coefficient_nm_per_rad2s2=km,
-        max_thrust_n=max_thrust,
-        motor_time_constant_s=tau,
+        **coefficients,
         aero=aero,
         imu_noise=imu,
         limits=limits,
         camera_mounts=cameras,
-        contact=_contact(table, params),
+        contact=ContactParams(**_section(ContactParams, table, "contact", params)),
         range_finder=_range(table, params),
         lidar=_lidar(table, params),
         link_frames=tuple(
