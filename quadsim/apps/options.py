@@ -1,7 +1,8 @@
 """Option groups several commands share, declared once, and what they turn into: the
 simulation options into a SimConfig, the recording options into OutputOptions, the live options
 into open bridges. Also the small things every command's options need: bounded number types,
-the program's own name for hints, output paths checked before any work is done."""
+the program's own name for hints, output paths checked before any work is done, and how a command
+that a signal stopped says so."""
 
 from __future__ import annotations
 
@@ -22,6 +23,9 @@ from quadsim.physics.wind import Turbulence, wind_from_text
 from quadsim.recording.paths import ENV_VAR as RECORDINGS_ENV_VAR
 from quadsim.recording.paths import default_recordings_dir
 from quadsim.sensors.camera import RendererKind
+from quadsim.session.stopping import SignalStop
+from quadsim.session.stopping import describe as describe_stop
+from quadsim.session.stopping import exit_code as stop_exit_code
 from quadsim.sim.config import MAX_PHYSICS_HZ, MAX_SEED, Rates, divisors_shown
 from quadsim.vehicle.params import DEFAULT_VEHICLE, SHIPPED_VEHICLES
 
@@ -551,6 +555,16 @@ def check_output_dir(option: str, folder: Path, create: bool = True) -> None:
         raise QuadsimError(f"{option} {folder}: no such folder")
     if not os.access(folder, os.W_OK):
         raise QuadsimError(f"{option} {folder}: permission denied")
+
+
+def stopped_by_signal(said: str = "") -> int | None:
+    """When SIGINT or SIGTERM stopped the command: say so on stderr (`said` follows the signal's
+    name) and return its exit code (130, 143); None when no signal came."""
+    stop = SignalStop.current()
+    if stop is None or stop.signum is None:
+        return None
+    print(f"{describe_stop(stop.signum)}{said}", file=sys.stderr)
+    return stop_exit_code(stop.signum)
 
 
 def warn(lines: list[str], path: Path, most: int = 8) -> None:
