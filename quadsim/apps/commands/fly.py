@@ -88,7 +88,6 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     )
     add_sim_options(p)
     add_live_options(p)
-    p.set_defaults(func=main)
 
 
 def main(args: argparse.Namespace) -> int:

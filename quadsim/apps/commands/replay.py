@@ -102,7 +102,6 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     )
     p.add_argument("--window", default="1280x720", metavar="WxH", help="initial window size (default 1280x720)")
     add_live_options(p, "the recorded messages, as they are played (put FILE first),", flown=False)
-    p.set_defaults(func=main)
 
 
 def main(args: argparse.Namespace) -> int:

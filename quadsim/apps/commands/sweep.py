@@ -70,7 +70,6 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         help=f"fly a very large sweep (over {ASK_RUNS} runs or {ASK_SIM_S / 3600:.0f} h of simulated time) "
         "without asking for this flag first",
     )
-    p.set_defaults(func=main)
 
 
 def main(args: argparse.Namespace) -> int:
