@@ -43,6 +43,12 @@ DEMO_SCENARIO = "figure8"
 COMMANDS_TAIL_S = 2.0
 DEFAULT_CAMERAS, DEFAULT_CAMERA_SIZE, DEFAULT_CAMERA_HZ = "front,floor", "320x240", 30
 PLOT_SUFFIXES = (".png", ".jpg", ".jpeg", ".pdf", ".svg")
+#: the camera options that add images to the cameras, and the key a fleet file's vehicle says each with
+CAMERA_IMAGE_OPTIONS = {
+    "--camera-depth": "depth",
+    "--camera-depth-colormap": "depth_colormap",
+    "--camera-segmentation": "segmentation",
+}
 
 
 def number(low: float, high: float, what: str = "a number") -> Callable[[str], float]:
@@ -89,12 +95,23 @@ def has_display() -> bool:
     return True  # macOS and Windows always have a desktop
 
 
-def window_size(text: str) -> tuple[int, int]:
-    """--window WxH, within what a screen can hold."""
+def option_value(args: argparse.Namespace, option: str) -> Any:
+    """What `option` (--camera-hz) was given as (args.camera_hz)."""
+    return getattr(args, option.lstrip("-").replace("-", "_"))
+
+
+def _size(option: str, text: str, example: str) -> tuple[int, int]:
+    """A WxH size option's width and height."""
     try:
         width, height = (int(v) for v in text.lower().split("x"))
     except ValueError:
-        raise QuadsimError(f"--window must look like 1280x720, got {text!r}") from None
+        raise QuadsimError(f"{option} must look like {example}, got {text!r}") from None
+    return width, height
+
+
+def window_size(text: str) -> tuple[int, int]:
+    """--window WxH, within what a screen can hold."""
+    width, height = _size("--window", text, "1280x720")
     if not (320 <= width <= 16384 and 240 <= height <= 16384):
         raise QuadsimError(f"--window {text}: the size must be within 320x240 .. 16384x16384")
     return width, height
@@ -158,15 +175,21 @@ def _add_vehicle_options(g: argparse._ArgumentGroup) -> None:
 
 
 def _add_rate_options(g: argparse._ArgumentGroup) -> None:
-    rate = whole(1, MAX_PHYSICS_HZ)
-    g.add_argument("--physics-hz", type=rate, default=240, help="physics rate (default 240)")
-    g.add_argument(
-        "--control-hz", type=rate, default=240, help="controller rate; must divide the physics rate (default 240)"
-    )
-    g.add_argument(
-        "--state-hz", type=rate, default=60, help="state publishing rate; must divide the physics rate (default 60)"
-    )
-    g.add_argument("--input-hz", type=rate, default=20, help="command publishing rate of the driver (default 20)")
+    """--physics-hz and the rates that must divide it, each defaulting to Rates()'s; --timeout."""
+    defaults = Rates()
+    for name, what in (
+        ("physics_hz", "physics rate"),
+        ("control_hz", "controller rate; must divide the physics rate"),
+        ("state_hz", "state publishing rate; must divide the physics rate"),
+        ("input_hz", "command publishing rate of the driver"),
+    ):
+        default = getattr(defaults, name)
+        g.add_argument(
+            "--" + name.replace("_", "-"),
+            type=whole(1, MAX_PHYSICS_HZ),
+            default=default,
+            help=f"{what} (default {default})",
+        )
     g.add_argument(
         "--timeout",
         type=number(1e-3, 3600.0, "seconds"),
@@ -444,17 +467,8 @@ def flight_settings(args: argparse.Namespace) -> dict[str, Any]:
 def camera_options_given(args: argparse.Namespace) -> list[str]:
     """The camera options the user typed that ask for frames (`--cameras none` asks for none)."""
     given = [] if args.cameras in (None, "none") else ["--cameras"]
-    return given + [
-        name
-        for name, value in (
-            ("--camera-size", args.camera_size),
-            ("--camera-hz", args.camera_hz),
-            ("--camera-depth", args.camera_depth),
-            ("--camera-depth-colormap", args.camera_depth_colormap),
-            ("--camera-segmentation", args.camera_segmentation),
-        )
-        if value is not None
-    ]
+    options = ("--camera-size", "--camera-hz", *CAMERA_IMAGE_OPTIONS)
+    return given + [option for option in options if option_value(args, option) is not None]
 
 
 def camera_specs(args: argparse.Namespace) -> dict[str, CameraSpec]:
@@ -462,10 +476,7 @@ def camera_specs(args: argparse.Namespace) -> dict[str, CameraSpec]:
     from quadsim.sensors.camera import default_cameras
 
     size = args.camera_size if args.camera_size is not None else DEFAULT_CAMERA_SIZE
-    try:
-        width, height = (int(v) for v in size.lower().split("x"))
-    except ValueError:
-        raise QuadsimError(f"--camera-size must look like 320x240, got {size!r}") from None
+    width, height = _size("--camera-size", size, "320x240")
     hz = args.camera_hz if args.camera_hz is not None else DEFAULT_CAMERA_HZ
     return {c.name: c for c in default_cameras(width, height, hz)}
 

@@ -10,12 +10,14 @@ from dataclasses import dataclass, replace
 from pathlib import Path
 
 from quadsim.apps.options import (
+    CAMERA_IMAGE_OPTIONS,
     COMMANDS_TAIL_S,
     MAX_DURATION_S,
     camera_options_given,
     camera_specs,
     flight_settings,
     live_topic,
+    option_value,
     output_options,
     program,
     sim_config,
@@ -188,12 +190,8 @@ def check_fleet_options(args: argparse.Namespace) -> None:
             raise QuadsimError(f"{option} with --fleet: the fleet file gives each vehicle its own (drop {option})")
     if args.cameras is not None:
         raise QuadsimError("--cameras with --fleet: each vehicle's cameras are in the fleet file (cameras = [...])")
-    for option, value, key in (
-        ("--camera-depth", args.camera_depth, "depth"),
-        ("--camera-depth-colormap", args.camera_depth_colormap, "depth_colormap"),
-        ("--camera-segmentation", args.camera_segmentation, "segmentation"),
-    ):
-        if value is not None:
+    for option, key in CAMERA_IMAGE_OPTIONS.items():
+        if option_value(args, option) is not None:
             raise QuadsimError(f"{option} with --fleet: each vehicle's images are in the fleet file ({key} = [...])")
     if args.renderer != "tiny":
         raise QuadsimError(f"--renderer {args.renderer} with --fleet: a fleet's cameras render in its one world (tiny)")

@@ -15,12 +15,13 @@ from pathlib import Path
 os.environ.setdefault("PYGAME_HIDE_SUPPORT_PROMPT", "1")
 import pygame
 
+from quadsim.apps.flight_plot import recorded_world
 from quadsim.apps.window.display import Window
 from quadsim.apps.window.view import TeleopView, ViewModel
 from quadsim.core.kinematics import clamp
 from quadsim.core.types import Twist, VehicleState
 from quadsim.live.playback import RecordingFeed
-from quadsim.physics.world_spec import FloorSpec, WorldSpec, load_world
+from quadsim.physics.world_spec import FloorSpec, WorldSpec
 from quadsim.recording.flight import DEPTH_SUFFIX, NS, RecordedFlight
 from quadsim.sensors.camera import CameraFrame
 from quadsim.session.pacing import FixedStepPacer, FrameCap, Pacer, RealTimePacer, collect_start_up_garbage
@@ -40,21 +41,6 @@ KEYS = [
 ]
 
 
-def _world_of(flight: RecordedFlight, folder: Path) -> WorldSpec:
-    """The world the recording was flown in (from its attachment), or an empty one."""
-    d = flight.description
-    name = d.config.world.name if d is not None and d.config.world is not None else "default.toml"
-    data = flight.attachments.get(name)
-    if data:
-        path = folder / name
-        path.write_bytes(data)
-        try:
-            return load_world(path, texture_required=False)
-        except Exception:
-            pass
-    return WorldSpec(folder / "none.toml", FloorSpec(80.0, None, 4.0, 0.9), ())
-
-
 class ReplayApp(Window):
     def __init__(
         self,
@@ -69,12 +55,10 @@ class ReplayApp(Window):
         """`frame_s`: advance playback by this much per frame instead of by the wall clock (tests);
         `feed`: handed the recorded messages as playback passes them (replay --foxglove);
         `others`: a fleet's other vehicles, by name, drawn on the map."""
-        import tempfile
-
         super().__init__(window_size, f"quadsim replay: {flight.path.name}", self._say_lost)
         self.flight = flight
-        with tempfile.TemporaryDirectory() as tmp:
-            self.world = _world_of(flight, Path(tmp))
+        #: the world the recording was flown in, or an empty one
+        self.world = recorded_world(flight) or WorldSpec(Path("none.toml"), FloorSpec(80.0, None, 4.0, 0.9), ())
         self.view = TeleopView()
         self.t_ns = 0
         self.end_ns = max(flight.end_ns, flight.state_ns[-1] if flight.state_ns else 0)
