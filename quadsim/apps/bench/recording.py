@@ -277,6 +277,3 @@ def run_recording_bench(out: Callable[[str], None] = print, flight_s: float = 20
     for hogs in (0, 2):
         out(f"  {'alone' if not hogs else f'beside {hogs} CPU hogs':<17} {realtime_cameras(10.0, hogs)}")
     out("  target: frames at most 0.25 s after their capture (median), beside two CPU hogs")
-
-
-# --- the interactive window ---------------------------------------------------------------------

@@ -125,6 +125,3 @@ def run_interactive_bench(out: Callable[[str], None] = print, wall_s: float = 10
             "    share of the wall time: "
             + ", ".join(f"{k} {v * 100:.1f}%" for k, v in sorted(f.shares.items(), key=lambda kv: -kv[1]))
         )
-
-
-# --- replay ----------------------------------------------------------------------------------------
