@@ -16,7 +16,7 @@ from typing import Any
 from quadsim.core.invocation import install_extra
 from quadsim.core.types import HEIGHT_MODE_BASE_M, VehicleState, ZMode
 from quadsim.errors import QuadsimError
-from quadsim.physics.world_spec import load_world
+from quadsim.physics.world_spec import WorldSpec, load_world
 from quadsim.recording.contract import POSE, Names
 from quadsim.recording.flight import NS, RecordedFlight
 
@@ -76,21 +76,28 @@ def _height_spans(f: RecordedFlight) -> list[tuple[float, float]]:
     return spans
 
 
-def _landmarks(f: RecordedFlight) -> list[tuple[str, float, float, tuple[float, float, float]]]:
-    """(name, x, y, colour) of the landmarks of the world the recording was flown in."""
+def recorded_world(f: RecordedFlight) -> WorldSpec | None:
+    """The world the recording was flown in, from its attachment (None: it has none, or one that
+    does not read: the track is drawn alone). The replay window's map draws it too."""
     d = f.description
     name = d.config.world.name if d is not None and d.config.world is not None else "default.toml"
     data = f.attachments.get(name)
     if not data:
-        return []
-    with tempfile.TemporaryDirectory(prefix="quadsim-plot-") as tmp:
+        return None
+    with tempfile.TemporaryDirectory(prefix="quadsim-world-") as tmp:
         path = Path(tmp) / "world.toml"
         path.write_bytes(data)
         try:
-            world = load_world(path, texture_required=False)
-        except QuadsimError:
-            return []  # an unreadable world attachment: plot the track alone
-    return [(lm.name, lm.position_m[0], lm.position_m[1], lm.color_rgba[:3]) for lm in world.landmarks]
+            return load_world(path, texture_required=False)
+        except Exception:
+            return None
+
+
+def _landmarks(f: RecordedFlight) -> list[tuple[str, float, float, tuple[float, float, float]]]:
+    """(name, x, y, colour) of the landmarks of the world the recording was flown in."""
+    world = recorded_world(f)
+    landmarks = world.landmarks if world is not None else ()
+    return [(lm.name, lm.position_m[0], lm.position_m[1], lm.color_rgba[:3]) for lm in landmarks]
 
 
 def _draw_track(

@@ -12,7 +12,7 @@ import time
 from collections.abc import Callable, Sequence
 from dataclasses import replace
 
-from quadsim.apps.options import live_outputs
+from quadsim.apps.options import live_outputs, stopped_by_signal
 from quadsim.apps.plans import Planned
 from quadsim.core.types import ZMode
 from quadsim.drivers.subscribed import SubscribedDriver
@@ -22,9 +22,7 @@ from quadsim.session.pacing import RealTimePacer
 from quadsim.session.plan import RunPlan
 from quadsim.session.progress import ProgressBar
 from quadsim.session.run import Run
-from quadsim.session.stopping import SignalStop, StopRequested
-from quadsim.session.stopping import describe as describe_stop
-from quadsim.session.stopping import exit_code as stop_exit_code
+from quadsim.session.stopping import StopRequested
 from quadsim.session.summary import RunSummary
 
 
@@ -177,14 +175,13 @@ def report_end(outputs: RecordedRun | None, sim_time: float, planned_s: float | 
         else:
             size = path.stat().st_size / 1e6 if path is not None and path.exists() else 0.0
             print(f"recording       {path or ''} ({size:.1f} MB, {recorder.message_count} messages)")
-    stop = SignalStop.current()
-    if stop is not None and stop.signum is not None:
-        saved = "; the recording is finished and readable" if recorder is not None and not recorder.error else ""
-        when = f"at sim time {sim_time:.2f} s"
-        if planned_s is not None and sim_time >= planned_s - 1e-9:
-            when = f"while finishing, after all {sim_time:.2f} s were flown"
-        print(f"{describe_stop(stop.signum)} {when}{saved}", file=sys.stderr)
-        return stop_exit_code(stop.signum)
+    saved = "; the recording is finished and readable" if recorder is not None and not recorder.error else ""
+    when = f"at sim time {sim_time:.2f} s"
+    if planned_s is not None and sim_time >= planned_s - 1e-9:
+        when = f"while finishing, after all {sim_time:.2f} s were flown"
+    code = stopped_by_signal(f" {when}{saved}")
+    if code is not None:
+        return code
     if recorder is not None and recorder.error:
         print("quadsim: error: the flight finished but its recording did not (see above)", file=sys.stderr)
         return 1

@@ -1,7 +1,8 @@
 """Option groups several commands share, declared once, and what they turn into: the
 simulation options into a SimConfig, the recording options into OutputOptions, the live options
 into open bridges. Also the small things every command's options need: bounded number types,
-the program's own name for hints, output paths checked before any work is done."""
+the program's own name for hints, output paths checked before any work is done, and how a command
+that a signal stopped says so."""
 
 from __future__ import annotations
 
@@ -22,6 +23,9 @@ from quadsim.physics.wind import Turbulence, wind_from_text
 from quadsim.recording.paths import ENV_VAR as RECORDINGS_ENV_VAR
 from quadsim.recording.paths import default_recordings_dir
 from quadsim.sensors.camera import RendererKind
+from quadsim.session.stopping import SignalStop
+from quadsim.session.stopping import describe as describe_stop
+from quadsim.session.stopping import exit_code as stop_exit_code
 from quadsim.sim.config import MAX_PHYSICS_HZ, MAX_SEED, Rates, divisors_shown
 from quadsim.vehicle.params import DEFAULT_VEHICLE, SHIPPED_VEHICLES
 
@@ -39,6 +43,12 @@ DEMO_SCENARIO = "figure8"
 COMMANDS_TAIL_S = 2.0
 DEFAULT_CAMERAS, DEFAULT_CAMERA_SIZE, DEFAULT_CAMERA_HZ = "front,floor", "320x240", 30
 PLOT_SUFFIXES = (".png", ".jpg", ".jpeg", ".pdf", ".svg")
+#: the camera options that add images to the cameras, and the key a fleet file's vehicle says each with
+CAMERA_IMAGE_OPTIONS = {
+    "--camera-depth": "depth",
+    "--camera-depth-colormap": "depth_colormap",
+    "--camera-segmentation": "segmentation",
+}
 
 
 def number(low: float, high: float, what: str = "a number") -> Callable[[str], float]:
@@ -85,12 +95,23 @@ def has_display() -> bool:
     return True  # macOS and Windows always have a desktop
 
 
-def window_size(text: str) -> tuple[int, int]:
-    """--window WxH, within what a screen can hold."""
+def option_value(args: argparse.Namespace, option: str) -> Any:
+    """What `option` (--camera-hz) was given as (args.camera_hz)."""
+    return getattr(args, option.lstrip("-").replace("-", "_"))
+
+
+def _size(option: str, text: str, example: str) -> tuple[int, int]:
+    """A WxH size option's width and height."""
     try:
         width, height = (int(v) for v in text.lower().split("x"))
     except ValueError:
-        raise QuadsimError(f"--window must look like 1280x720, got {text!r}") from None
+        raise QuadsimError(f"{option} must look like {example}, got {text!r}") from None
+    return width, height
+
+
+def window_size(text: str) -> tuple[int, int]:
+    """--window WxH, within what a screen can hold."""
+    width, height = _size("--window", text, "1280x720")
     if not (320 <= width <= 16384 and 240 <= height <= 16384):
         raise QuadsimError(f"--window {text}: the size must be within 320x240 .. 16384x16384")
     return width, height
@@ -154,15 +175,21 @@ def _add_vehicle_options(g: argparse._ArgumentGroup) -> None:
 
 
 def _add_rate_options(g: argparse._ArgumentGroup) -> None:
-    rate = whole(1, MAX_PHYSICS_HZ)
-    g.add_argument("--physics-hz", type=rate, default=240, help="physics rate (default 240)")
-    g.add_argument(
-        "--control-hz", type=rate, default=240, help="controller rate; must divide the physics rate (default 240)"
-    )
-    g.add_argument(
-        "--state-hz", type=rate, default=60, help="state publishing rate; must divide the physics rate (default 60)"
-    )
-    g.add_argument("--input-hz", type=rate, default=20, help="command publishing rate of the driver (default 20)")
+    """--physics-hz and the rates that must divide it, each defaulting to Rates()'s; --timeout."""
+    defaults = Rates()
+    for name, what in (
+        ("physics_hz", "physics rate"),
+        ("control_hz", "controller rate; must divide the physics rate"),
+        ("state_hz", "state publishing rate; must divide the physics rate"),
+        ("input_hz", "command publishing rate of the driver"),
+    ):
+        default = getattr(defaults, name)
+        g.add_argument(
+            "--" + name.replace("_", "-"),
+            type=whole(1, MAX_PHYSICS_HZ),
+            default=default,
+            help=f"{what} (default {default})",
+        )
     g.add_argument(
         "--timeout",
         type=number(1e-3, 3600.0, "seconds"),
@@ -440,17 +467,8 @@ def flight_settings(args: argparse.Namespace) -> dict[str, Any]:
 def camera_options_given(args: argparse.Namespace) -> list[str]:
     """The camera options the user typed that ask for frames (`--cameras none` asks for none)."""
     given = [] if args.cameras in (None, "none") else ["--cameras"]
-    return given + [
-        name
-        for name, value in (
-            ("--camera-size", args.camera_size),
-            ("--camera-hz", args.camera_hz),
-            ("--camera-depth", args.camera_depth),
-            ("--camera-depth-colormap", args.camera_depth_colormap),
-            ("--camera-segmentation", args.camera_segmentation),
-        )
-        if value is not None
-    ]
+    options = ("--camera-size", "--camera-hz", *CAMERA_IMAGE_OPTIONS)
+    return given + [option for option in options if option_value(args, option) is not None]
 
 
 def camera_specs(args: argparse.Namespace) -> dict[str, CameraSpec]:
@@ -458,10 +476,7 @@ def camera_specs(args: argparse.Namespace) -> dict[str, CameraSpec]:
     from quadsim.sensors.camera import default_cameras
 
     size = args.camera_size if args.camera_size is not None else DEFAULT_CAMERA_SIZE
-    try:
-        width, height = (int(v) for v in size.lower().split("x"))
-    except ValueError:
-        raise QuadsimError(f"--camera-size must look like 320x240, got {size!r}") from None
+    width, height = _size("--camera-size", size, "320x240")
     hz = args.camera_hz if args.camera_hz is not None else DEFAULT_CAMERA_HZ
     return {c.name: c for c in default_cameras(width, height, hz)}
 
@@ -551,6 +566,16 @@ def check_output_dir(option: str, folder: Path, create: bool = True) -> None:
         raise QuadsimError(f"{option} {folder}: no such folder")
     if not os.access(folder, os.W_OK):
         raise QuadsimError(f"{option} {folder}: permission denied")
+
+
+def stopped_by_signal(said: str = "") -> int | None:
+    """When SIGINT or SIGTERM stopped the command: say so on stderr (`said` follows the signal's
+    name) and return its exit code (130, 143); None when no signal came."""
+    stop = SignalStop.current()
+    if stop is None or stop.signum is None:
+        return None
+    print(f"{describe_stop(stop.signum)}{said}", file=sys.stderr)
+    return stop_exit_code(stop.signum)
 
 
 def warn(lines: list[str], path: Path, most: int = 8) -> None:

@@ -10,12 +10,14 @@ from dataclasses import dataclass, replace
 from pathlib import Path
 
 from quadsim.apps.options import (
+    CAMERA_IMAGE_OPTIONS,
     COMMANDS_TAIL_S,
     MAX_DURATION_S,
     camera_options_given,
     camera_specs,
     flight_settings,
     live_topic,
+    option_value,
     output_options,
     program,
     sim_config,
@@ -33,6 +35,7 @@ from quadsim.recording.contract import BODY_FRAME, GOALS, TWIST, Names
 from quadsim.sensors.camera import with_images
 from quadsim.session.outputs import OutputOptions
 from quadsim.session.plan import RunPlan
+from quadsim.sim.config import SimConfig
 from quadsim.sim.fleet_file import FleetEntry, FleetFile, load_fleet_file
 
 #: options that each vehicle of a fleet file says for itself
@@ -95,21 +98,38 @@ def _outputs(args: argparse.Namespace, live: bool, paced: bool) -> OutputOptions
     return replace(outputs, ordered_delivery=False) if paced else outputs
 
 
+def _alone(
+    args: argparse.Namespace,
+    config: SimConfig,
+    driver: InputDriver,
+    duration: float,
+    label: str,
+    info: dict[str, str],
+    realtime: bool,
+    live: bool = False,
+) -> RunPlan:
+    """A run of one vehicle flown by `driver` (a `live` input's: fed by a bridge), with the
+    options' recording, cameras and flight settings; `info` is recorded with the duration and
+    whether the run keeps to the wall clock."""
+    return RunPlan.alone(
+        config,
+        driver,
+        duration_s=duration,
+        outputs=_outputs(args, live=live, paced=realtime),
+        label=label,
+        run_info={**info, "duration_s": duration, "realtime": realtime},
+        **flight_settings(args),
+    )
+
+
 def script_plan(args: argparse.Namespace, script_name: str, realtime: bool, command: str = "run") -> Planned:
     """A built-in scenario or a script file."""
     script = load_script(script_name)
     check_z_mode_override(script, args.z_mode)
     duration = _duration(args, script.duration_s)
     config = sim_config(args, script.z_mode)
-    plan = RunPlan.alone(
-        config,
-        ScriptedDriver(script),
-        duration_s=duration,
-        outputs=_outputs(args, live=False, paced=realtime),
-        label=f"{Path(script.name).stem}_{args.controller}",
-        run_info={"command": command, "script": script.name, "duration_s": duration, "realtime": realtime},
-        **flight_settings(args),
-    )
+    label, info = f"{Path(script.name).stem}_{args.controller}", {"command": command, "script": script.name}
+    plan = _alone(args, config, ScriptedDriver(script), duration, label, info, realtime)
     return Planned(plan, f"'{script.name}' for {duration:.1f} s", realtime=realtime)
 
 
@@ -137,15 +157,8 @@ def bag_plan(args: argparse.Namespace, realtime: bool) -> Planned:
             file=sys.stderr,
         )
     driver = ReplayDriver(command_steps(bag.commands(), config.rates.physics_hz), str(bag.path), bag.count)
-    plan = RunPlan.alone(
-        config,
-        driver,
-        duration_s=duration,
-        outputs=_outputs(args, live=False, paced=realtime),
-        label=f"{bag.path.stem}_{config.controller.value}",
-        run_info={"command": "run", "commands_from": str(bag.path), "duration_s": duration, "realtime": realtime},
-        **flight_settings(args),
-    )
+    label, info = f"{bag.path.stem}_{config.controller.value}", {"command": "run", "commands_from": str(bag.path)}
+    plan = _alone(args, config, driver, duration, label, info, realtime)
     return Planned(plan, f"the {bag.count} commands of {bag.path.name} for {duration:g} s", realtime=realtime)
 
 
@@ -156,15 +169,8 @@ def subscribed_plan(args: argparse.Namespace, command: str) -> Planned:
     duration = _duration(args, MAX_DURATION_S)
     until = f"for {duration:.1f} s" if args.duration is not None else "until Ctrl-C"
     who = "Foxglove clients" if args.input == "foxglove" else "ROS 2 nodes"
-    plan = RunPlan.alone(
-        sim_config(args, None),
-        driver,
-        duration_s=duration,
-        outputs=_outputs(args, live=True, paced=True),
-        label=f"{args.input}_{args.controller}",
-        run_info={"command": command, "input": args.input, "duration_s": duration, "realtime": True},
-        **flight_settings(args),
-    )
+    label, info = f"{args.input}_{args.controller}", {"command": command, "input": args.input}
+    plan = _alone(args, sim_config(args, None), driver, duration, label, info, realtime=True, live=True)
     return Planned(plan, f"the Twists {who} publish on {live_topic(args, driver)} {until}", (driver,), realtime=True)
 
 
@@ -188,12 +194,8 @@ def check_fleet_options(args: argparse.Namespace) -> None:
             raise QuadsimError(f"{option} with --fleet: the fleet file gives each vehicle its own (drop {option})")
     if args.cameras is not None:
         raise QuadsimError("--cameras with --fleet: each vehicle's cameras are in the fleet file (cameras = [...])")
-    for option, value, key in (
-        ("--camera-depth", args.camera_depth, "depth"),
-        ("--camera-depth-colormap", args.camera_depth_colormap, "depth_colormap"),
-        ("--camera-segmentation", args.camera_segmentation, "segmentation"),
-    ):
-        if value is not None:
+    for option, key in CAMERA_IMAGE_OPTIONS.items():
+        if option_value(args, option) is not None:
             raise QuadsimError(f"{option} with --fleet: each vehicle's images are in the fleet file ({key} = [...])")
     if args.renderer != "tiny":
         raise QuadsimError(f"--renderer {args.renderer} with --fleet: a fleet's cameras render in its one world (tiny)")

@@ -18,6 +18,7 @@ import subprocess
 import time
 from collections.abc import Callable
 
+from quadsim.apps.bench.figures import best_seconds
 from quadsim.apps.bench.peers import (
     PEERS,
     PeerResult,
@@ -47,15 +48,6 @@ def _hovering(z_mode: ZMode = ZMode.HEIGHT) -> Simulator:
     return sim
 
 
-def _seconds(run: Callable[[], object], repeats: int) -> float:
-    best = float("inf")
-    for _ in range(repeats):
-        start = time.perf_counter()
-        run()
-        best = min(best, time.perf_counter() - start)
-    return best
-
-
 def sync_cost_per_frame(frames: int = 60, repeats: int = 3) -> tuple[float, float]:
     """(bare getCameraImage s/frame, SYNC cameras' added s/frame) for the front camera at 320x240."""
     from quadsim.sensors.camera import camera_pose
@@ -70,10 +62,10 @@ def sync_cost_per_frame(frames: int = 60, repeats: int = 3) -> tuple[float, floa
             for _ in range(frames):
                 pb.getCameraImage(320, 240, view, proj, renderer=pb.ER_TINY_RENDERER, physicsClientId=cid)
 
-        stepping = _seconds(lambda: sim.step(steps), repeats)
-        baseline = _seconds(bare, repeats)
+        stepping = best_seconds(lambda: sim.step(steps), repeats)
+        baseline = best_seconds(bare, repeats)
         with Cameras(sim, (FRONT,)):
-            with_cameras = _seconds(lambda: sim.step(steps), repeats)
+            with_cameras = best_seconds(lambda: sim.step(steps), repeats)
     return baseline / frames, (with_cameras - stepping) / frames
 
 

@@ -7,11 +7,10 @@ from __future__ import annotations
 
 import math
 import tempfile
-import time
 from collections.abc import Callable
 from pathlib import Path
 
-from quadsim.apps.bench.figures import best_of
+from quadsim.apps.bench.figures import best_of, best_seconds
 from quadsim.core.types import StartPose, Twist, ZMode
 from quadsim.sim.config import SimConfig
 from quadsim.sim.fleet import Fleet, FleetVehicle
@@ -77,7 +76,7 @@ def _recorded(out: Callable[[str], None], seconds: float = 5.0) -> None:
             plan = RunPlan.alone(SimConfig(z_mode=ZMode.HEIGHT), duration_s=seconds, outputs=options, label="bench")
             with Run(plan) as run:
                 run.fleet.members[0].send(Twist())
-                return _timed(lambda: run.fly(stop=to_the_end))
+                return best_seconds(lambda: run.fly(stop=to_the_end))
 
         def ten(with_cameras: bool) -> float:
             with _hovering_fleet(10) as fleet:
@@ -90,7 +89,7 @@ def _recorded(out: Callable[[str], None], seconds: float = 5.0) -> None:
                     label="bench",
                 )
                 with Run(plan, fleet) as run:
-                    return _timed(lambda: run.fly(stop=to_the_end))
+                    return best_seconds(lambda: run.fly(stop=to_the_end))
 
         baseline = min(one_vehicle() for _ in range(2))
         rows = [
@@ -101,9 +100,3 @@ def _recorded(out: Callable[[str], None], seconds: float = 5.0) -> None:
     for label, wall in rows:
         out(f"  {label:<50} {seconds / wall:6.1f}x real time   ({wall / baseline:.2f}x the baseline's wall time)")
     out("  target: 10 vehicles with one vehicle's cameras at >= 1x real time")
-
-
-def _timed(run: Callable[[], object]) -> float:
-    t0 = time.perf_counter()
-    run()
-    return time.perf_counter() - t0

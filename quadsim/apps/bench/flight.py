@@ -200,6 +200,3 @@ def run_flight_core_bench(steps: int = 6000, repeats: int = 8, out: Callable[[st
         f"{pybullet.seconds_per_step / cascade.seconds_per_step:.2f}x faster than PyBullet stepping it]"
     )
     return figures
-
-
-# --- cameras and recording ---------------------------------------------------------------------

@@ -103,17 +103,7 @@ def measure_peer(peer: Peer, python: str, agent_hz: int, steps: int = 300) -> Pe
     if done.returncode != 0 or not lines:
         tail = (done.stderr.strip().splitlines() or ["no output"])[-1]
         raise RuntimeError(f"{peer.name} measurement failed (exit {done.returncode}): {tail}")
-    found = json.loads(lines[-1][len(RESULT_TAG) :])
-    return PeerResult(
-        peer=peer,
-        version=found["version"],
-        agent_hz=found["agent_hz"],
-        physics_hz=found["physics_hz"],
-        steps=found["steps"],
-        resets=found["resets"],
-        steps_per_s=found["steps_per_s"],
-        stepping_steps_per_s=found["stepping_steps_per_s"],
-    )
+    return PeerResult(peer=peer, **json.loads(lines[-1][len(RESULT_TAG) :]))
 
 
 @dataclass(frozen=True)

@@ -10,11 +10,11 @@
 
 from __future__ import annotations
 
-import time
 from collections.abc import Callable
 
 import numpy as np
 
+from quadsim.apps.bench.figures import best_of
 from quadsim.apps.bench.recording import recorded_flight
 from quadsim.core.types import LidarMode, Twist, ZMode
 from quadsim.physics.pybullet_quiet import pb
@@ -26,13 +26,7 @@ from quadsim.sim.simulator import Simulator
 
 def _best(run: Callable[[], object], count: int, repeats: int = 3) -> float:
     """Seconds per call of `run`, best of `repeats` runs of `count` calls."""
-    best = float("inf")
-    for _ in range(repeats):
-        start = time.perf_counter()
-        for _ in range(count):
-            run()
-        best = min(best, (time.perf_counter() - start) / count)
-    return best
+    return best_of(repeats, count, lambda calls: [run() for _ in range(calls)])
 
 
 def reading_cost(lidar: LidarMode | None, count: int = 20) -> tuple[float, float, int]:

@@ -7,7 +7,7 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass, replace
 from pathlib import Path
 
-from quadsim.apps.bench.figures import best_of
+from quadsim.apps.bench.figures import best_of, cpu_hogs
 from quadsim.apps.bench.flight import full_loop, hovering_sim
 from quadsim.control import ControllerKind
 from quadsim.core.types import Twist, ZMode
@@ -213,8 +213,6 @@ def realtime_cameras(flight_s: float, hogs: int) -> str:
     """A real-time run with both cameras (320x240 at 30 Hz, 2 render workers, recorded), beside
     `hogs` processes that keep a core busy each: what the summary says of each camera's delivered
     rate, the captures dropped and how long after their capture frames were handed on."""
-    import subprocess
-    import sys
     import tempfile
 
     from quadsim.drivers.scripted import ScriptedDriver, load_script
@@ -224,22 +222,16 @@ def realtime_cameras(flight_s: float, hogs: int) -> str:
     from quadsim.session.plan import RunPlan
     from quadsim.session.run import Run, to_the_end
 
-    busy = [subprocess.Popen([sys.executable, "-c", "while True: pass"]) for _ in range(hogs)]
-    try:
-        with tempfile.TemporaryDirectory() as tmp:
-            options = OutputOptions(out=Path(tmp), cameras=default_cameras(), ordered_delivery=False)
-            plan = RunPlan.alone(
-                SimConfig(z_mode=ZMode.HEIGHT),
-                ScriptedDriver(load_script("square")),
-                duration_s=flight_s,
-                outputs=options,
-            )
-            with Run(plan) as run:
-                summary = run.fly(RealTimePacer(plan.config.rates.physics_hz, max_frame_s=None), stop=to_the_end)[""]
-    finally:
-        for hog in busy:
-            hog.kill()
-            hog.wait()
+    with cpu_hogs(hogs), tempfile.TemporaryDirectory() as tmp:
+        options = OutputOptions(out=Path(tmp), cameras=default_cameras(), ordered_delivery=False)
+        plan = RunPlan.alone(
+            SimConfig(z_mode=ZMode.HEIGHT),
+            ScriptedDriver(load_script("square")),
+            duration_s=flight_s,
+            outputs=options,
+        )
+        with Run(plan) as run:
+            summary = run.fly(RealTimePacer(plan.config.rates.physics_hz, max_frame_s=None), stop=to_the_end)[""]
     return summary.cameras
 
 
@@ -285,6 +277,3 @@ def run_recording_bench(out: Callable[[str], None] = print, flight_s: float = 20
     for hogs in (0, 2):
         out(f"  {'alone' if not hogs else f'beside {hogs} CPU hogs':<17} {realtime_cameras(10.0, hogs)}")
     out("  target: frames at most 0.25 s after their capture (median), beside two CPU hogs")
-
-
-# --- the interactive window ---------------------------------------------------------------------

@@ -6,6 +6,7 @@ import time
 from collections.abc import Callable
 from pathlib import Path
 
+from quadsim.apps.bench.figures import best_seconds
 from quadsim.apps.bench.flight import full_loop
 from quadsim.core.types import ZMode
 from quadsim.sim.config import SimConfig
@@ -34,12 +35,8 @@ def run_replay_bench(out: Callable[[str], None] = print, flight_s: float = 20.0)
             outputs = OutputOptions(out=paths[name], cameras=cams)
             config = SimConfig(z_mode=ZMode.HEIGHT)
             fly(RunPlan.alone(config, ScriptedDriver(script), duration_s=flight_s, outputs=outputs, label=name))
-        best = float("inf")
-        for _ in range(3):
-            t0 = time.perf_counter()
-            flight = load_flight(paths["cams"])
-            summary_lines(flight)
-            best = min(best, time.perf_counter() - t0)
+        best = best_seconds(lambda: summary_lines(load_flight(paths["cams"])), 3)
+        flight = load_flight(paths["cams"])
         size = paths["cams"].stat().st_size / 1e6
         out(
             f"  headless playback of {flight_s:.0f} s with both cameras ({size:.1f} MB, "

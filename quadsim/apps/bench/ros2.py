@@ -145,6 +145,3 @@ def _ros2_bench_one(
         )
     else:
         out("Twist -> controller    no command arrived")
-
-
-# --- live: the Foxglove bridge -------------------------------------------------------------------

@@ -7,6 +7,7 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
+from quadsim.apps.bench.figures import cpu_hogs
 from quadsim.core.types import ZMode
 from quadsim.sim.config import SimConfig
 
@@ -41,16 +42,6 @@ class WindowFigures:
     shares: dict[str, float]
 
 
-def _cpu_hogs(count: int) -> list:
-    """`count` processes that spin on a core each, as other work on a busy machine does."""
-    import subprocess
-    import sys
-
-    return [
-        subprocess.Popen([sys.executable, "-c", "while True: pass"], stdin=subprocess.DEVNULL) for _ in range(count)
-    ]
-
-
 def measure_window(wall_s: float, hogs: int = 0) -> WindowFigures:
     """The teleop window (SDL dummy video, real-time pacing, 1280x720, both cameras 320x240 @ 30
     Hz, recording on) flown for `wall_s`, with `hogs` CPU-bound processes running beside it."""
@@ -66,48 +57,45 @@ def measure_window(wall_s: float, hogs: int = 0) -> WindowFigures:
 
     with tempfile.TemporaryDirectory() as tmp:
         app = TeleopApp(SimConfig(z_mode=ZMode.HEIGHT), OutputOptions(out=Path(tmp)), TeleopOptions(input="keyboard"))
-        busy = _cpu_hogs(hogs)
         try:
-            timer = _Timer()
-            timer.wrap(app.sim, "step", "simulation (physics, control, recording)")
-            timer.wrap(app.view, "draw", "drawing")
-            if app.session.outputs.cameras is not None:
-                timer.wrap(app.session.outputs.cameras, "poll", "camera hand-over")
-            app.run(max_frames=30)  # warm up: take off, first frames
-            timer.seconds.clear()
-            frames0, steps0, t0 = app.frame_count, app.sim.step_count, time.perf_counter()
-            behind = 0
-            while time.perf_counter() - t0 < wall_s:
-                app.frame()
-                behind += app.pacer.lagging
-            wall = time.perf_counter() - t0
-            frames = app.frame_count - frames0
-            sim_s = (app.sim.step_count - steps0) / app.sim.config.rates.physics_hz
-            camera_rates = app.camera_rates()
-            # key latency: frames from posting a key press to the command reaching the controller
-            before = app.sim.gate.last_receive_step
-            t_post = time.perf_counter()
-            pygame.event.post(pygame.event.Event(pygame.KEYDOWN, key=pygame.K_UP, mod=0, unicode="", scancode=0))
-            latency_frames: int | None = None
-            latency_ms: float | None = None
-            for k in range(120):
-                app.frame()
-                if app.sim.gate.last_receive_step != before and app.sim.gate.last_command.linear_x > 0:
-                    latency_frames, latency_ms = k, (time.perf_counter() - t_post) * 1e3
-                    break
-            return WindowFigures(
-                frames / wall,
-                sim_s / wall,
-                behind,
-                latency_frames,
-                latency_ms,
-                camera_rates,
-                {k: v / wall for k, v in timer.seconds.items()},
-            )
+            with cpu_hogs(hogs):
+                timer = _Timer()
+                timer.wrap(app.sim, "step", "simulation (physics, control, recording)")
+                timer.wrap(app.view, "draw", "drawing")
+                if app.session.outputs.cameras is not None:
+                    timer.wrap(app.session.outputs.cameras, "poll", "camera hand-over")
+                app.run(max_frames=30)  # warm up: take off, first frames
+                timer.seconds.clear()
+                frames0, steps0, t0 = app.frame_count, app.sim.step_count, time.perf_counter()
+                behind = 0
+                while time.perf_counter() - t0 < wall_s:
+                    app.frame()
+                    behind += app.pacer.lagging
+                wall = time.perf_counter() - t0
+                frames = app.frame_count - frames0
+                sim_s = (app.sim.step_count - steps0) / app.sim.config.rates.physics_hz
+                camera_rates = app.camera_rates()
+                # key latency: frames from posting a key press to the command reaching the controller
+                before = app.sim.gate.last_receive_step
+                t_post = time.perf_counter()
+                pygame.event.post(pygame.event.Event(pygame.KEYDOWN, key=pygame.K_UP, mod=0, unicode="", scancode=0))
+                latency_frames: int | None = None
+                latency_ms: float | None = None
+                for k in range(120):
+                    app.frame()
+                    if app.sim.gate.last_receive_step != before and app.sim.gate.last_command.linear_x > 0:
+                        latency_frames, latency_ms = k, (time.perf_counter() - t_post) * 1e3
+                        break
+                return WindowFigures(
+                    frames / wall,
+                    sim_s / wall,
+                    behind,
+                    latency_frames,
+                    latency_ms,
+                    camera_rates,
+                    {k: v / wall for k, v in timer.seconds.items()},
+                )
         finally:
-            for proc in busy:
-                proc.kill()
-                proc.wait()
             app.close()
 
 
@@ -137,6 +125,3 @@ def run_interactive_bench(out: Callable[[str], None] = print, wall_s: float = 10
             "    share of the wall time: "
             + ", ".join(f"{k} {v * 100:.1f}%" for k, v in sorted(f.shares.items(), key=lambda kv: -kv[1]))
         )
-
-
-# --- replay ----------------------------------------------------------------------------------------

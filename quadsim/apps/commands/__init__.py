@@ -61,5 +61,9 @@ BY_NAME = {name: c for c in COMMANDS for name in (c.name, *c.aliases)}
 
 
 def add_command_parser(sub: argparse._SubParsersAction, name: str, **kwargs: Any) -> argparse.ArgumentParser:
-    """Command `name`'s parser, with its name, aliases and help from COMMANDS."""
-    return BY_NAME[name].add_parser(sub, **kwargs)
+    """Command `name`'s parser, with its name, aliases and help from COMMANDS, carried out by its
+    module's `main` (called from that module's `add_parser`, once the module is loaded)."""
+    command = BY_NAME[name]
+    parser = command.add_parser(sub, **kwargs)
+    parser.set_defaults(func=command.module().main)
+    return parser

@@ -38,7 +38,6 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         default="all",
         help="; ".join(f"{name}: {section.what}" for name, section in SECTIONS.items()) + " (default: all)",
     )
-    p.set_defaults(func=main)
 
 
 def main(args: argparse.Namespace) -> int:

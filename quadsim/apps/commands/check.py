@@ -50,7 +50,6 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     add_parallel_options(
         p, "re-fly N recordings at once in worker processes (default 1; the report stays in file order)"
     )
-    p.set_defaults(func=main)
 
 
 def main(args: argparse.Namespace) -> int:

@@ -21,7 +21,6 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         choices=[c.value for c in ControllerKind],
         help="only this controller (repeatable; default: all)",
     )
-    p.set_defaults(func=main)
 
 
 #: metrics the table leaves out (the tests read them)

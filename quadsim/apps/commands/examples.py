@@ -39,7 +39,6 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     )
     p.add_argument("names", nargs="*", metavar="NAME", help="examples to copy (default: all)")
     p.add_argument("--copy", type=Path, default=None, metavar="DIR", help="copy them into DIR (created if needed)")
-    p.set_defaults(func=main)
 
 
 def main(args: argparse.Namespace) -> int:

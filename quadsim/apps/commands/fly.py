@@ -7,7 +7,6 @@ import argparse
 import sys
 from collections.abc import Sequence
 from pathlib import Path
-from typing import TYPE_CHECKING
 
 from quadsim.apps.commands import add_command_parser
 from quadsim.apps.flying import HeadlessFlight
@@ -22,6 +21,7 @@ from quadsim.apps.options import (
     output_options,
     program,
     sim_config,
+    stopped_by_signal,
     window_size,
 )
 from quadsim.apps.plans import (
@@ -37,13 +37,7 @@ from quadsim.apps.window.x11_guard import EXIT_DISPLAY_LOST
 from quadsim.drivers.joystick import JoystickMapping, load_mapping
 from quadsim.drivers.subscribed import SubscribedDriver
 from quadsim.errors import QuadsimError
-from quadsim.session.stopping import SignalStop, StopRequested, stop_requested
-from quadsim.session.stopping import describe as describe_stop
-from quadsim.session.stopping import exit_code as stop_exit_code
-
-if TYPE_CHECKING:
-    from quadsim.apps.window.teleop import FleetSetup
-    from quadsim.drivers.subscribed import SubscribedDriver
+from quadsim.session.stopping import StopRequested, stop_requested
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
@@ -94,7 +88,6 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     )
     add_sim_options(p)
     add_live_options(p)
-    p.set_defaults(func=main)
 
 
 def main(args: argparse.Namespace) -> int:
@@ -201,8 +194,4 @@ def _report(flown: float, recordings: list, lost: str | None, finals: Sequence[s
         finished = "; the recording is finished" if recordings else ""
         print(f"the window's display was lost ({lost}){finished}", file=sys.stderr)
         return EXIT_DISPLAY_LOST
-    stop = SignalStop.current()
-    if stop is not None and stop.signum is not None:
-        print(f"{describe_stop(stop.signum)}; the recording is finished and readable", file=sys.stderr)
-        return stop_exit_code(stop.signum)
-    return 0
+    return stopped_by_signal("; the recording is finished and readable") or 0

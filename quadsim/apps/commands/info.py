@@ -19,7 +19,6 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         "lacks). On a damaged file, say what is wrong and how much is readable (exit code 2).",
     )
     p.add_argument("file", type=Path, metavar="FILE.mcap", help="the recording, or a ros2 bag's folder holding one")
-    p.set_defaults(func=main)
 
 
 def main(args: argparse.Namespace) -> int:

@@ -50,7 +50,6 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         metavar="LIST",
         help="with no SOURCE: the cameras the run has, as run's --cameras (default front,floor)",
     )
-    p.set_defaults(func=main)
 
 
 def main(args: argparse.Namespace) -> int:

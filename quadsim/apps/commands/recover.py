@@ -28,7 +28,6 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         help="where to write (default: DAMAGED.recovered.mcap beside the input; for a bag's folder, "
         "FOLDER.recovered.mcap beside the folder)",
     )
-    p.set_defaults(func=main)
 
 
 def main(args: argparse.Namespace) -> int:

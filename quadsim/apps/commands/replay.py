@@ -20,6 +20,7 @@ from quadsim.apps.options import (
     live_outputs,
     number,
     recordings_default,
+    stopped_by_signal,
     warn,
     window_size,
 )
@@ -33,14 +34,10 @@ from quadsim.recording.flight import load_flight, load_flights
 from quadsim.recording.mcap_scan import bag_file
 from quadsim.session.pacing import RealTimePacer
 from quadsim.session.progress import ProgressBar
-from quadsim.session.stopping import SignalStop, stop_requested
-from quadsim.session.stopping import describe as describe_stop
-from quadsim.session.stopping import exit_code as stop_exit_code
+from quadsim.session.stopping import stop_requested
 
 if TYPE_CHECKING:
-    from quadsim.live.playback import RecordingFeed
     from quadsim.recording.flight import RecordedFlight
-    from quadsim.session.outputs import LiveOutput
 
 
 #: live playback's ticks are nanoseconds of the recording; it plays this much at a time
@@ -105,7 +102,6 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     )
     p.add_argument("--window", default="1280x720", metavar="WxH", help="initial window size (default 1280x720)")
     add_live_options(p, "the recorded messages, as they are played (put FILE first),", flown=False)
-    p.set_defaults(func=main)
 
 
 def main(args: argparse.Namespace) -> int:
@@ -204,10 +200,8 @@ def _export_videos(folder: Path, flight: RecordedFlight) -> int:
     bar.close()
     for video in videos:
         print(video.line())
-    stop = SignalStop.current()
-    if stop is not None and stop.signum is not None and any(v.frames < v.of for v in videos):
-        print(f"{describe_stop(stop.signum)}; each video is whole and ends where the encoding stopped", file=sys.stderr)
-        return stop_exit_code(stop.signum)
+    if any(v.frames < v.of for v in videos):  # a signal stopped the encoding
+        return stopped_by_signal("; each video is whole and ends where the encoding stopped") or 0
     return 0
 
 
@@ -216,7 +210,7 @@ def _window(args: argparse.Namespace, flight: RecordedFlight, size: tuple[int, i
 
     live = live_outputs(args)
     try:
-        feed = _feed(args.file, live)
+        feed = RecordingFeed(args.file, live) if live else None
         others = None
         if flight.vehicle:  # a fleet's: the others on the map
             others = {n: f for n, f in load_flights(args.file).items() if n != flight.vehicle}
@@ -229,14 +223,7 @@ def _window(args: argparse.Namespace, flight: RecordedFlight, size: tuple[int, i
     if app.display_lost is not None:
         print(f"the window's display was lost ({app.display_lost})", file=sys.stderr)
         return EXIT_DISPLAY_LOST
-    return _stopped_by_signal()
-
-
-def _feed(path: Path, live: list[LiveOutput]) -> RecordingFeed | None:
-    if not live:
-        return None
-
-    return RecordingFeed(path, live)
+    return stopped_by_signal() or 0
 
 
 def _play_live(args: argparse.Namespace) -> int:
@@ -244,8 +231,7 @@ def _play_live(args: argparse.Namespace) -> int:
     --speed), once or --loop, until its end or Ctrl-C."""
     live = live_outputs(args)
     try:
-        feed = _feed(args.file, live)
-        assert feed is not None
+        feed = RecordingFeed(args.file, live)
         print(
             f"playing {len(feed.messages)} messages on {len(feed.topics)} topics ({feed.end_ns / 1e9:.1f} s) "
             f"at {args.speed:g}x{', looping' if args.loop else ''}; Ctrl-C stops",
@@ -267,12 +253,4 @@ def _play_live(args: argparse.Namespace) -> int:
         for output in live:
             output.close()
     print(f"played {feed.played} messages")
-    return _stopped_by_signal()
-
-
-def _stopped_by_signal() -> int:
-    stop = SignalStop.current()
-    if stop is not None and stop.signum is not None:
-        print(describe_stop(stop.signum), file=sys.stderr)
-        return stop_exit_code(stop.signum)
-    return 0
+    return stopped_by_signal() or 0

@@ -65,7 +65,6 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--realtime", action="store_true", help="pace simulation time to the wall clock (as --gui does)")
     add_sim_options(p)
     add_live_options(p)
-    p.set_defaults(func=main)
 
 
 def main(args: argparse.Namespace) -> int:

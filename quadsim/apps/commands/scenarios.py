@@ -9,13 +9,12 @@ from quadsim.drivers.scripted import builtin_scenarios, load_script
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
-    p = add_command_parser(
+    add_command_parser(
         sub,
         "scenarios",
         description="List the built-in scripted scenarios, each with its length and what it flies. "
         "Fly one with 'run --script NAME'; a script file of your own is 'run --script FILE.qscript'.",
     )
-    p.set_defaults(func=main)
 
 
 def main(args: argparse.Namespace) -> int:

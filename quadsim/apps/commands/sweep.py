@@ -3,12 +3,11 @@
 from __future__ import annotations
 
 import argparse
-import sys
 from pathlib import Path
 from typing import TYPE_CHECKING
 
 from quadsim.apps.commands import add_command_parser
-from quadsim.apps.options import add_parallel_options, recordings_default
+from quadsim.apps.options import add_parallel_options, recordings_default, stopped_by_signal
 from quadsim.apps.sweep.backends import default_jobs, ray_available, ray_missing
 from quadsim.apps.sweep.execute import check_table_free, run_sweep
 from quadsim.apps.sweep.report import plot, summary_lines
@@ -18,8 +17,6 @@ from quadsim.core import compiled  # here: numba's import is not every command's
 from quadsim.core.invocation import install_extra
 from quadsim.errors import QuadsimError
 from quadsim.recording.paths import default_recordings_dir
-from quadsim.session.stopping import SignalStop, exit_code
-from quadsim.session.stopping import describe as describe_stop
 
 if TYPE_CHECKING:
     from quadsim.apps.sweep.execute import SweepResult
@@ -73,7 +70,6 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         help=f"fly a very large sweep (over {ASK_RUNS} runs or {ASK_SIM_S / 3600:.0f} h of simulated time) "
         "without asking for this flag first",
     )
-    p.set_defaults(func=main)
 
 
 def main(args: argparse.Namespace) -> int:
@@ -150,12 +146,11 @@ def _report(args: argparse.Namespace, spec: SweepSpec, result: SweepResult, out:
                 print("plot            none: every metric is 0 in every run")
         except ImportError:
             print(f"plot            skipped: matplotlib is not installed: {install_extra('plot')}")
-    stop = SignalStop.current()
-    if result.stopped and stop is not None and stop.signum is not None:
-        print(
-            f"{describe_stop(stop.signum)} after {result.flown} run{'s' * (result.flown != 1)}; --resume flies the "
-            f"{len(spec.runs) - len(result.rows)} left",
-            file=sys.stderr,
+    if result.stopped:  # by a signal: said, with what --resume would fly
+        left = len(spec.runs) - len(result.rows)
+        code = stopped_by_signal(
+            f" after {result.flown} run{'s' * (result.flown != 1)}; --resume flies the {left} left"
         )
-        return exit_code(stop.signum)
+        if code is not None:
+            return code
     return 0 if all(r["status"] == "ok" for r in result.rows) else 1

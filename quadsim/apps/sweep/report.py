@@ -12,8 +12,6 @@ from quadsim.apps.sweep.metrics import METRICS
 
 #: the metrics the summary and the plot show (the table has them all)
 SHOWN = ("tracking_rms_mps", "max_tilt_deg", "end_drift_m", "crashes", "touchdown_speed_mps")
-#: for these, the worst value is the largest
-_GROUP_AXES = ("scenario", "airframe", "controller", "wind", "turbulence")
 
 
 def _finite(values: Sequence[float]) -> list[float]:
@@ -95,9 +93,7 @@ def plot(rows: Sequence[dict[str, Any]], varied: Sequence[str], path: Path, titl
     xs_all = sorted({str(r[x_axis]) for r in rows}, key=lambda v: (_numeric(v) is None, _numeric(v) or 0.0, v))
     numeric = all(_numeric(v) is not None for v in xs_all)
     position = {v: (_numeric(v) if numeric else i) for i, v in enumerate(xs_all)}
-    lines: dict[tuple[str, ...], list[dict[str, Any]]] = {}
-    for r in rows:
-        lines.setdefault(tuple(str(r[a]) for a in others), []).append(r)
+    lines = group_rows(rows, others)
     for ax, metric in zip(axes[:, 0], shown):
         for label, group in sorted(lines.items()):
             xs, means, lows, highs = _series(group, metric, x_axis, position)

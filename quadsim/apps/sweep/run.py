@@ -24,9 +24,6 @@ from quadsim.sim.fleet_file import load_fleet_file
 from quadsim.sim.loop import StateLog
 from quadsim.vehicle.params import SHIPPED_VEHICLES
 
-#: "ok": within limits; "fail": a metric beyond its limit; "error": the run could not fly
-STATUSES = ("ok", "fail", "error")
-
 
 @dataclass(frozen=True)
 class RunTask:
@@ -112,8 +109,9 @@ def forget_simulators() -> None:
 
 
 def fly_run(task: RunTask) -> dict[str, Any]:
-    """Fly one run headless and return its table row (never raises for a run that cannot fly:
-    the row says why)."""
+    """Fly one run headless and return its table row, whose status is "ok" (within limits), "fail"
+    (a metric beyond its limit) or "error" (never raised for a run that cannot fly: the row says
+    why)."""
     run = task.run
     row: dict[str, Any] = {"index": run.index, "key": run.key, "settings": run.settings, **run.axes()}
     row.update(dict.fromkeys(METRICS, math.nan))

@@ -279,9 +279,7 @@ def _scenarios(data: dict[str, Any], path: Path, where: str) -> tuple[list[str],
         ref = str(candidate) if (s.endswith(".qscript") or "/" in s) else s
         try:
             script = load_script(ref)
-        except ConfigError as exc:
-            raise ConfigError(f"{where}: scenarios: {exc}") from None
-        except Exception as exc:  # ScriptError is a QuadsimError, not a ConfigError
+        except Exception as exc:  # a ConfigError, or a ScriptError (a QuadsimError, not a ConfigError)
             raise ConfigError(f"{where}: scenarios: {exc}") from None
         scenarios.append(ref)
         lengths_s[ref] = script.duration_s

@@ -1,12 +1,14 @@
-"""What the teleop and replay windows share: their display opened, a lost one noticed (x11_guard),
-the frame loop, and the display closed without hanging on a lost X connection."""
+"""What the teleop and replay windows share (`Window`): their display opened, a lost one noticed
+(x11_guard), the frame loop, the notices they show for a few seconds, and the display closed
+without hanging on a lost X connection."""
 
 from __future__ import annotations
 
 import contextlib
 import os
+import time
 from collections.abc import Callable
-from typing import Protocol, TypeVar
+from typing import TypeVar
 
 import pygame
 
@@ -20,18 +22,6 @@ HEADLESS_DRIVERS = frozenset({"offscreen", "dummy"})
 #: tries at opening the display before saying it does not answer (a server under heavy load can
 #: refuse a connection once)
 OPEN_ATTEMPTS = 3
-
-
-class FrameLoop(Protocol):
-    """A window that draws frame after frame until it quits."""
-
-    quit: bool
-    frame_count: int
-
-    def frame(self) -> None: ...
-
-
-W = TypeVar("W", bound=FrameLoop)
 
 
 def open_display(
@@ -99,22 +89,6 @@ def lost(guard: X11Guard | None) -> bool:
     return guard is not None and guard.lost
 
 
-def run_frames(
-    window: W,
-    max_frames: int | None = None,
-    before_frame: Callable[[W], None] | None = None,
-    stop: Callable[[], bool] | None = None,
-) -> None:
-    """Frames until the window quits, `max_frames` frames, or `stop()` (a signal) says so;
-    `before_frame` lets tests post events."""
-    while not window.quit and (max_frames is None or window.frame_count < max_frames):
-        if stop is not None and stop():
-            return
-        if before_frame is not None:
-            before_frame(window)
-        window.frame()
-
-
 def close_display(guard: X11Guard | None) -> None:
     """Close the display, unless it was lost: after a loss SDL's teardown would wait forever on it."""
     if guard is None:
@@ -122,3 +96,72 @@ def close_display(guard: X11Guard | None) -> None:
     elif not guard.lost:
         guard.uninstall()
         pygame.display.quit()
+
+
+W = TypeVar("W", bound="Window")
+
+
+class Window:
+    """A window that draws frame after frame until it quits (Esc, closed, its display lost): the
+    teleop window and the replay window. `frame()` draws one; the display is touched no more once
+    it is lost (`display_lost` says why)."""
+
+    def __init__(self, size: tuple[int, int], caption: str, on_fatal: Callable[[str], None] | None) -> None:
+        """The window open (see `open_display`), before its first frame."""
+        self.screen, self._x11 = open_display(size, caption, on_fatal)
+        self.quit = False
+        self.frame_count = 0
+        self.show_help = False
+        self.notice = ""  # said in the HUD until _notice_until (time.monotonic)
+        self._notice_until = 0.0
+
+    def frame(self) -> None:
+        raise NotImplementedError
+
+    @property
+    def display_lost(self) -> str | None:
+        """Why the window's display went away (destroyed from outside, X connection lost), or
+        None."""
+        return self._x11.reason if self._x11 is not None else None
+
+    def _display_gone(self) -> bool:
+        """After each call that touches the display: once it is lost, stop (and touch it no more)."""
+        if lost(self._x11):
+            self.quit = True
+            return True
+        return False
+
+    def stop(self) -> None:
+        """End the frame loop (Esc, the window closed)."""
+        self.quit = True
+
+    def toggle_help(self) -> None:
+        self.show_help = not self.show_help
+
+    def _say(self, text: str, seconds: float = 3.0) -> None:
+        """A notice in the HUD for `seconds`."""
+        self.notice, self._notice_until = text, time.monotonic() + seconds
+
+    def run(
+        self: W,
+        max_frames: int | None = None,
+        before_frame: Callable[[W], None] | None = None,
+        stop: Callable[[], bool] | None = None,
+    ) -> None:
+        """Frames until the window quits, `max_frames` frames, or `stop()` (a signal) says so;
+        `before_frame` lets tests post events."""
+        while not self.quit and (max_frames is None or self.frame_count < max_frames):
+            if stop is not None and stop():
+                return
+            if before_frame is not None:
+                before_frame(self)
+            self.frame()
+
+    def close(self) -> None:
+        close_display(self._x11)
+
+    def __enter__(self: W) -> W:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()

@@ -10,18 +10,18 @@ from __future__ import annotations
 import os
 import sys
 import time
-from collections.abc import Callable
 from pathlib import Path
 
 os.environ.setdefault("PYGAME_HIDE_SUPPORT_PROMPT", "1")
 import pygame
 
-from quadsim.apps.window.display import close_display, lost, open_display, run_frames
+from quadsim.apps.flight_plot import recorded_world
+from quadsim.apps.window.display import Window
 from quadsim.apps.window.view import TeleopView, ViewModel
 from quadsim.core.kinematics import clamp
 from quadsim.core.types import Twist, VehicleState
 from quadsim.live.playback import RecordingFeed
-from quadsim.physics.world_spec import FloorSpec, WorldSpec, load_world
+from quadsim.physics.world_spec import FloorSpec, WorldSpec
 from quadsim.recording.flight import DEPTH_SUFFIX, NS, RecordedFlight
 from quadsim.sensors.camera import CameraFrame
 from quadsim.session.pacing import FixedStepPacer, FrameCap, Pacer, RealTimePacer, collect_start_up_garbage
@@ -41,22 +41,7 @@ KEYS = [
 ]
 
 
-def _world_of(flight: RecordedFlight, folder: Path) -> WorldSpec:
-    """The world the recording was flown in (from its attachment), or an empty one."""
-    d = flight.description
-    name = d.config.world.name if d is not None and d.config.world is not None else "default.toml"
-    data = flight.attachments.get(name)
-    if data:
-        path = folder / name
-        path.write_bytes(data)
-        try:
-            return load_world(path, texture_required=False)
-        except Exception:
-            pass
-    return WorldSpec(folder / "none.toml", FloorSpec(80.0, None, 4.0, 0.9), ())
-
-
-class ReplayApp:
+class ReplayApp(Window):
     def __init__(
         self,
         flight: RecordedFlight,
@@ -70,23 +55,18 @@ class ReplayApp:
         """`frame_s`: advance playback by this much per frame instead of by the wall clock (tests);
         `feed`: handed the recorded messages as playback passes them (replay --foxglove);
         `others`: a fleet's other vehicles, by name, drawn on the map."""
-        import tempfile
-
-        self.screen, self._x11 = open_display(window_size, f"quadsim replay: {flight.path.name}", self._say_lost)
+        super().__init__(window_size, f"quadsim replay: {flight.path.name}", self._say_lost)
         self.flight = flight
-        with tempfile.TemporaryDirectory() as tmp:
-            self.world = _world_of(flight, Path(tmp))
+        #: the world the recording was flown in, or an empty one
+        self.world = recorded_world(flight) or WorldSpec(Path("none.toml"), FloorSpec(80.0, None, 4.0, 0.9), ())
         self.view = TeleopView()
         self.t_ns = 0
         self.end_ns = max(flight.end_ns, flight.state_ns[-1] if flight.state_ns else 0)
         self.playing = True
         self.speed = min(SPEEDS, key=lambda s: abs(s - speed))
         self.loop = loop
-        self.show_help = False
         #: the cameras' depth images (colour-mapped) in place of their images, where loaded (--depth)
         self.show_depth = True
-        self.quit = False
-        self.frame_count = 0
         #: how far playback moves each frame: the wall clock (times the speed), or `frame_s` (tests)
         self.pacer: Pacer = FixedStepPacer(NS, frame_s) if frame_s is not None else RealTimePacer(NS, speed=self.speed)
         self._paced_from: int | None = None  # where playback stood after the last paced frame
@@ -95,20 +75,8 @@ class ReplayApp:
         collect_start_up_garbage()  # the flight just read: a full collection of it now, not while it plays
         self._track = [s.position_m[:2] for s in flight.states[::6]]
         self.others = {name: (f, [s.position_m[:2] for s in f.states[::6]]) for name, f in (others or {}).items()}
-        self._notice, self._notice_until = "", 0.0
         self._walls: list[float] = []
         self._frame_cap = FrameCap(60)
-
-    @property
-    def display_lost(self) -> str | None:
-        """Why the window's display went away, or None."""
-        return self._x11.reason if self._x11 is not None else None
-
-    def _display_gone(self) -> bool:
-        if lost(self._x11):
-            self.quit = True
-            return True
-        return False
 
     @staticmethod
     def _say_lost(reason: str) -> None:
@@ -201,9 +169,6 @@ class ReplayApp:
         self.end_ns = max(self.end_ns, self.flight.end_ns)
         self._say(f"following {name}" + ("" if self.flight.frames else " (it recorded no cameras)"))
 
-    def _say(self, text: str, seconds: float = 3.0) -> None:
-        self._notice, self._notice_until = text, time.monotonic() + seconds
-
     # --- frames -----------------------------------------------------------------------------
 
     def frame(self) -> None:
@@ -256,8 +221,8 @@ class ReplayApp:
         with_cameras = [name for name, (other, _) in self.others.items() if other.frames]
         if not f.frames and with_cameras:
             warnings.append(f"{', '.join(with_cameras)} recorded cameras: C follows the next vehicle")
-        if self._notice and time.monotonic() < self._notice_until:
-            warnings.append(self._notice)
+        if self.notice and time.monotonic() < self._notice_until:
+            warnings.append(self.notice)
         return ViewModel(
             state=state,
             command=command or Twist(),
@@ -292,21 +257,3 @@ class ReplayApp:
             camera_names=frozenset(f.frames),
             flown_name=f.vehicle if self.others else "",
         )
-
-    def run(
-        self,
-        max_frames: int | None = None,
-        before_frame: Callable[[ReplayApp], None] | None = None,
-        stop: Callable[[], bool] | None = None,
-    ) -> None:
-        """Plays until the window is closed, `max_frames` frames, or `stop()` (a signal) is true."""
-        run_frames(self, max_frames, before_frame, stop)
-
-    def close(self) -> None:
-        close_display(self._x11)
-
-    def __enter__(self) -> ReplayApp:
-        return self
-
-    def __exit__(self, *exc: object) -> None:
-        self.close()

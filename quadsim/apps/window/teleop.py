@@ -32,7 +32,7 @@ os.environ.setdefault("PYGAME_HIDE_SUPPORT_PROMPT", "1")
 import pygame
 
 from quadsim.apps.window.depth_view import DepthView
-from quadsim.apps.window.display import close_display, lost, open_display, run_frames, show_starting
+from quadsim.apps.window.display import Window, show_starting
 from quadsim.apps.window.vehicles import WindowVehicles
 from quadsim.apps.window.view import TeleopView, ViewModel
 from quadsim.control.landing import LandingSettings
@@ -167,7 +167,7 @@ def _check_options(options: TeleopOptions, commands: SubscribedDriver | None) ->
         raise ValueError(f"--input {options.input} flies the `commands` driver, and only it does")
 
 
-class TeleopApp:
+class TeleopApp(Window):
     def __init__(
         self,
         config: SimConfig,
@@ -182,7 +182,7 @@ class TeleopApp:
         `fleet`: fly one vehicle of a fleet file among the others (fly --fleet)."""
         _check_options(options, commands)
         pygame.joystick.init()
-        self.screen, self._x11 = open_display(options.window_size, "quadsim", self._finish_after_fatal_loss)
+        super().__init__(options.window_size, "quadsim", self._finish_after_fatal_loss)
         try:
             self._start(options, config, outputs, pacer, live, commands, fleet)
         except BaseException:
@@ -308,19 +308,26 @@ class TeleopApp:
         self._flown_before_resets_s = 0.0
         self.pacer = pacer
         self.paused = False
-        self.show_help = False
-        self.notice = ""
-        self._notice_until = 0.0
-        self.quit = False
-        self.frame_count = 0
         self._frame_walls: deque[tuple[float, int]] = deque()  # (wall s, step) of the last second
         self._camera_walls: dict[str, deque[float]] = {}  # wall times of the frames that came in
         #: the wall clock the HUD's rates are measured by (a test gives its own)
         self.wall_clock: Callable[[], float] = time.perf_counter
         self._camera_rates_from = self.wall_clock()  # since when they are counted
-        self._help_keys = {pygame.K_F1} | (
-            {pygame.K_h} if pygame.K_h not in {b.key for b in self.keyboard.layout.bindings} else set()
+        help_keys = [pygame.K_F1] + (
+            [pygame.K_h] if pygame.K_h not in {b.key for b in self.keyboard.layout.bindings} else []
         )
+        #: the window's own keys (APP_KEYS) and what they do; the others go to the input devices
+        self._app_keys: dict[int, Callable[[], None]] = {
+            pygame.K_ESCAPE: self.stop,
+            **dict.fromkeys(help_keys, self.toggle_help),
+            pygame.K_p: self.toggle_pause,
+            pygame.K_BACKSPACE: self.reset,
+            pygame.K_TAB: self.toggle_z_mode,
+            pygame.K_F5: self.toggle_recording,
+            pygame.K_v: self.toggle_depth,
+        }
+        if self.fleet is not None:
+            self._app_keys[pygame.K_c] = self.next_cameras
         self._frame_cap = FrameCap(self.options.max_fps) if self.options.max_fps else None
 
     # --- wiring -----------------------------------------------------------------------------
@@ -342,19 +349,6 @@ class TeleopApp:
             name = self.crew.second if self.second_hand is self.joystick else None
             self.joystick.joy_sinks.append(self.session.outputs.topics[name or self.crew.flown].on_joy)
 
-    @property
-    def display_lost(self) -> str | None:
-        """Why the window's display went away (destroyed from outside, X connection lost), or
-        None."""
-        return self._x11.reason if self._x11 is not None else None
-
-    def _display_gone(self) -> bool:
-        """After each call that touches the display: once it is lost, stop (and touch it no more)."""
-        if lost(self._x11):
-            self.quit = True
-            return True
-        return False
-
     def _finish_after_fatal_loss(self, reason: str) -> None:
         """With a libX11 older than 1.7 the process ends inside the X call that met the loss:
         finish the recording and say what `fly` says after a loss, from there (during start-up,
@@ -368,10 +362,6 @@ class TeleopApp:
             print(f"recording       {path}")
         print(f"the window's display was lost ({reason}); the recording is finished", file=sys.stderr)
 
-    def _say(self, text: str, seconds: float = 3.0) -> None:
-        self.notice = text
-        self._notice_until = time.monotonic() + seconds
-
     def _record_event(self, kind: str, value: str) -> None:
         """The one place the window's events reach the recording (input device changes)."""
         self.session.outputs.note_event(self.sim.step_count, kind, value)
@@ -380,36 +370,12 @@ class TeleopApp:
 
     def handle_event(self, event: pygame.event.Event) -> None:
         if event.type in (pygame.QUIT, pygame.WINDOWCLOSE):
-            self.quit = True
+            self.stop()
             return
-        if event.type == pygame.KEYDOWN:
-            key = event.key
-            if key == pygame.K_ESCAPE:
-                self.quit = True
-                return
-            if key in self._help_keys:
-                self.show_help = not self.show_help
-                return
-            if key == pygame.K_p:
-                self.paused = not self.paused
-                self.pacer.rebase(self.sim.step_count)
-                self._restart_camera_rates()
-                return
-            if key == pygame.K_BACKSPACE:
-                self.reset()
-                return
-            if key == pygame.K_TAB:
-                self.toggle_z_mode()
-                return
-            if key == pygame.K_F5:
-                self.toggle_recording()
-                return
-            if key == pygame.K_c and self.fleet is not None:
-                self.next_cameras()
-                return
-            if key == pygame.K_v:
-                self.toggle_depth()
-                return
+        action = self._app_keys.get(event.key) if event.type == pygame.KEYDOWN else None
+        if action is not None:
+            action()
+            return
         # both track their device; only the one that is the input driver is polled by the loop
         self.keyboard.handle_event(event)
         if self.options.input in ("auto", "joystick") or self.second_hand is self.joystick:
@@ -417,6 +383,11 @@ class TeleopApp:
             self.joystick.handle_event(event)
             if self.joystick.pad is not before:
                 self._pad_changed(before)
+
+    def toggle_pause(self) -> None:
+        self.paused = not self.paused
+        self.pacer.rebase(self.sim.step_count)
+        self._restart_camera_rates()
 
     def toggle_depth(self) -> None:
         """The cameras' depth images (colour-mapped) in place of their images, or back."""
@@ -649,25 +620,9 @@ class TeleopApp:
             flown_name=self.fleet.flown if self.fleet is not None else "",
         )
 
-    def run(
-        self,
-        max_frames: int | None = None,
-        before_frame: Callable[[TeleopApp], None] | None = None,
-        stop: Callable[[], bool] | None = None,
-    ) -> None:
-        """Run frames until quit (or `max_frames`, or `stop()` says so); `before_frame` lets tests
-        post events."""
-        run_frames(self, max_frames, before_frame, stop)
-
     def close(self) -> None:
         try:
             self.session.close()
         finally:
             self.joystick.close()
-            close_display(self._x11)
-
-    def __enter__(self) -> TeleopApp:
-        return self
-
-    def __exit__(self, *exc: object) -> None:
-        self.close()
+            super().close()

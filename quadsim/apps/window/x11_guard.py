@@ -57,26 +57,31 @@ EXIT_DISPLAY_LOST = 1
 #: QUADSIM_X11_LEGACY=1: behave as with a libX11 without XSetIOErrorExitHandler (tests)
 LEGACY_ENV = "QUADSIM_X11_LEGACY"
 
-#: core X protocol error codes (X.h), for the message
-_ERROR_NAMES = {
-    1: "BadRequest",
-    2: "BadValue",
-    3: "BadWindow",
-    4: "BadPixmap",
-    5: "BadAtom",
-    6: "BadCursor",
-    7: "BadFont",
-    8: "BadMatch",
-    9: "BadDrawable",
-    10: "BadAccess",
-    11: "BadAlloc",
-    12: "BadColor",
-    13: "BadGC",
-    14: "BadIDChoice",
-    15: "BadName",
-    16: "BadLength",
-    17: "BadImplementation",
-}
+#: core X protocol error codes (X.h), 1 to 17, for the message
+_ERROR_NAMES = dict(
+    enumerate(
+        [
+            "BadRequest",
+            "BadValue",
+            "BadWindow",
+            "BadPixmap",
+            "BadAtom",
+            "BadCursor",
+            "BadFont",
+            "BadMatch",
+            "BadDrawable",
+            "BadAccess",
+            "BadAlloc",
+            "BadColor",
+            "BadGC",
+            "BadIDChoice",
+            "BadName",
+            "BadLength",
+            "BadImplementation",
+        ],
+        start=1,
+    )
+)
 _WINDOW_GONE = {3, 9}  # BadWindow, BadDrawable
 
 
