@@ -23,29 +23,16 @@ from collections.abc import Iterator
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 
+from mcap.opcode import Opcode
+
 from quadsim.core.invocation import program
 from quadsim.errors import QuadsimError
 
 MAGIC = b"\x89MCAP0\r\n"
 HEADER, FOOTER, SCHEMA, CHANNEL, MESSAGE, CHUNK, MESSAGE_INDEX, CHUNK_INDEX = 1, 2, 3, 4, 5, 6, 7, 8
 ATTACHMENT, ATTACHMENT_INDEX, STATISTICS, METADATA, METADATA_INDEX, SUMMARY_OFFSET, DATA_END = range(9, 16)
-RECORD_NAMES = {
-    HEADER: "header",
-    FOOTER: "footer",
-    SCHEMA: "schema",
-    CHANNEL: "channel",
-    MESSAGE: "message",
-    CHUNK: "chunk",
-    MESSAGE_INDEX: "message index",
-    CHUNK_INDEX: "chunk index",
-    ATTACHMENT: "attachment",
-    ATTACHMENT_INDEX: "attachment index",
-    STATISTICS: "statistics",
-    METADATA: "metadata",
-    METADATA_INDEX: "metadata index",
-    SUMMARY_OFFSET: "summary offset",
-    DATA_END: "data end",
-}
+#: opcode -> the record's name as damage reports say it ("message index"): the MCAP spec's
+RECORD_NAMES = {int(op): op.name.lower().replace("_", " ") for op in Opcode}
 _SUMMARY_ONLY = {FOOTER, CHUNK_INDEX, ATTACHMENT_INDEX, STATISTICS, METADATA_INDEX, SUMMARY_OFFSET}
 _LOOSE = {SCHEMA, CHANNEL, MESSAGE}  # records an unchunked file keeps in its data section
 _RESYNC = re.compile(rb"[\x06\x09\x0c]")  # where reading may resume: chunk, attachment, metadata
