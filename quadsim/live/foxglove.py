@@ -99,17 +99,20 @@ def twist_from_json(data: bytes) -> TwistFields:
     msg = json.loads(data)
     if not isinstance(msg, dict):
         raise ValueError("not a JSON object")
+    x, y, z = _numbers(msg, "linear", "xyz")
+    return (x, y, z), _numbers(msg, "angular", "xyz")[2]
 
-    def vector(name: str) -> tuple[float, float, float]:
-        v = msg.get(name) or {}
-        if not isinstance(v, dict):
-            raise ValueError(f"{name} is not an object")
-        values = (v.get("x", 0.0), v.get("y", 0.0), v.get("z", 0.0))
-        if not all(isinstance(x, (int, float)) and not isinstance(x, bool) for x in values):
-            raise ValueError(f"{name} has a field that is not a number")
-        return float(values[0]), float(values[1]), float(values[2])
 
-    return vector("linear"), vector("angular")[2]
+def _numbers(parent: dict[str, Any], name: str, fields: str, where: str = "") -> list[float]:
+    """The fields (one letter each) of the JSON object `name` in `parent`, a field left out 0.
+    ValueError, naming it as `where` + `name`, for anything else."""
+    v = parent.get(name) or {}
+    if not isinstance(v, dict):
+        raise ValueError(f"{where}{name} is not an object")
+    values = [v.get(f, 0.0) for f in fields]
+    if not all(isinstance(x, (int, float)) and not isinstance(x, bool) for x in values):
+        raise ValueError(f"{where}{name} has a field that is not a number")
+    return [float(x) for x in values]
 
 
 def twist_from_cdr(data: bytes) -> TwistFields:
@@ -133,18 +136,8 @@ def pose_from_json(data: bytes) -> PoseFields:
     frame_id = header.get("frame_id", "")
     if not isinstance(frame_id, str):
         raise ValueError("header.frame_id is not a string")
-
-    def numbers(name: str, fields: str) -> list[float]:
-        v = pose.get(name) or {}
-        if not isinstance(v, dict):
-            raise ValueError(f"pose.{name} is not an object")
-        values = [v.get(f, 0.0) for f in fields]
-        if not all(isinstance(x, (int, float)) and not isinstance(x, bool) for x in values):
-            raise ValueError(f"pose.{name} has a field that is not a number")
-        return [float(x) for x in values]
-
-    x, y, z = numbers("position", "xyz")
-    qx, qy, qz, qw = numbers("orientation", "xyzw")
+    x, y, z = _numbers(pose, "position", "xyz", "pose.")
+    qx, qy, qz, qw = _numbers(pose, "orientation", "xyzw", "pose.")
     return frame_id[: cdr.MAX_FRAME_ID_BYTES], (x, y, z), (qx, qy, qz, qw)
 
 
@@ -287,7 +280,7 @@ class FoxgloveBridge:
                 if self.inputs
                 else "takes no messages from clients (run it with --input foxglove to fly)"
             )
-            self._tell(client, f"quadsim {takes}; {topic} ({channel['schemaName']}, {channel['encoding']}) is ignored")
+            client.tell(f"quadsim {takes}; {topic} ({channel['schemaName']}, {channel['encoding']}) is ignored")
             return
         self._publishers[(client.id, channel["id"])] = (decoder, driver, False)
 
@@ -299,31 +292,18 @@ class FoxgloveBridge:
         if publisher is None:
             return
         decoder, driver, goal = publisher
-        if goal:
-            self._goal_received(client, decoder, driver, data)
-            return
         try:
-            linear, angular_z = decoder(data)
+            fields = decoder(data)
         except (ValueError, TypeError, OverflowError, RecursionError) as exc:  # json's errors are ValueErrors
-            self._tell(client, f"a message on {driver.topic} was not a Twist ({_reason(exc)}); it is ignored")
+            what = "a goal was not a PoseStamped" if goal else f"a message on {driver.topic} was not a Twist"
+            client.tell(f"{what} ({_reason(exc)}); it is ignored")
             return
-        if not driver.deliver(linear, angular_z) and not all(map(math.isfinite, (*linear, angular_z))):
-            self._tell(client, f"a Twist on {driver.topic} with a field that is not finite is ignored")
-
-    def _goal_received(self, client: FrontClient, decoder: Callable[[bytes], Any], driver: Any, data: bytes) -> None:
-        try:
-            frame_id, position, orientation = decoder(data)
-        except (ValueError, TypeError, OverflowError, RecursionError) as exc:
-            self._tell(client, f"a goal was not a PoseStamped ({_reason(exc)}); it is ignored")
-            return
-        why = driver.deliver_goal(frame_id, position, orientation)
-        if why is not None:
-            self._tell(client, f"a goal is ignored: {why}")  # quadsim's words, a frame name cut to 64 at most
-
-    @staticmethod
-    def _tell(client: FrontClient, message: str) -> None:
-        """To that client alone, rate-limited (the front bounds both the status and the log)."""
-        client.tell(message)
+        if goal:
+            why = driver.deliver_goal(*fields)
+            if why is not None:
+                client.tell(f"a goal is ignored: {why}")  # quadsim's words, a frame name cut to 64 at most
+        elif not driver.deliver(*fields) and not all(map(math.isfinite, (*fields[0], fields[1]))):
+            client.tell(f"a Twist on {driver.topic} with a field that is not finite is ignored")
 
     def close(self) -> None:
         if self.closed:

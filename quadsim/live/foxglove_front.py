@@ -158,19 +158,15 @@ class FrontClient:
         self.resending: set[asyncio.Task[None]] = set()
         self._ws = ws
         self._logger = logger
-        self._status = _Every(STATUS_EVERY_S, "similar problems since not reported")
-
-    def status_allowed(self) -> str | None:
-        """None when this client had a status less than STATUS_EVERY_S ago (counted), else
-        what to add to this one."""
-        return self._status.allow()
+        #: one status a second at most to this client, ours and the SDK's answers
+        self.status = _Every(STATUS_EVERY_S, "similar problems since not reported")
 
     def tell(self, message: str) -> None:
         """A warning status to this client (one a second at most, with the SDK's answers; the
         rest counted in the next), and a line in the log when the log limiter allows."""
         message = message if len(message) <= MAX_STATUS_CHARS else message[: MAX_STATUS_CHARS - 3] + "..."
         self._logger.warning(f"Foxglove client {self.address}: {message}")
-        more = self.status_allowed()
+        more = self.status.allow()
         if more is None:
             return
         message += more
@@ -280,7 +276,7 @@ class FoxgloveFront:
                     info["metadata"] = {**(info.get("metadata") or {}), **self.metadata}
                     frame = json.dumps(info, separators=(",", ":"))
                 elif frame.startswith('{"op":"status"'):
-                    if _resubscribed(upstream, client, frame) or client.status_allowed() is None:
+                    if _resubscribed(upstream, client, frame) or client.status.allow() is None:
                         continue
                 elif frame.startswith(('{"op":"advertise"', '{"op":"unadvertise"')):
                     _note_offers(client, frame)
