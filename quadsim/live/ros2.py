@@ -320,14 +320,21 @@ class Ros2Bridge:
         from cyclonedds.pub import DataWriter
         from cyclonedds.topic import Topic as DdsTopic
 
+        kind = _graph_types()[2]
+        topic = DdsTopic(self._participant, "ros_discovery_info", kind)
+        return DataWriter(self._participant, topic, qos=self._qos(1, latched=True))
+
+    def _qos(self, depth: int, reliable: bool = True, latched: bool | None = None) -> Any:
+        """Keep last `depth`, reliable (else best effort), and transient local or volatile as
+        `latched` says (None: Cyclone's default, volatile)."""
         Policy = self._Policy
-        qos = self._Qos(
-            Policy.Reliability.Reliable(max_blocking_time=100_000_000),
-            Policy.History.KeepLast(1),
-            Policy.Durability.TransientLocal,
+        reliability = (
+            Policy.Reliability.Reliable(max_blocking_time=100_000_000) if reliable else Policy.Reliability.BestEffort
         )
-        kind = participant_entities_info_type()
-        return DataWriter(self._participant, DdsTopic(self._participant, "ros_discovery_info", kind), qos=qos)
+        if latched is None:
+            return self._Qos(reliability, Policy.History.KeepLast(depth))
+        durability = Policy.Durability.TransientLocal if latched else Policy.Durability.Volatile
+        return self._Qos(reliability, Policy.History.KeepLast(depth), durability)
 
     def _announce(self) -> None:
         """Publish this participant's node and its endpoints (after each new endpoint).
@@ -364,15 +371,10 @@ class Ros2Bridge:
         from cyclonedds.topic import Topic as DdsTopic
 
         latched, depth = _qos_numbers(topic)
-        Policy = self._Policy
-        qos = self._Qos(
-            Policy.Reliability.Reliable(max_blocking_time=100_000_000),
-            Policy.History.KeepLast(depth),
-            Policy.Durability.TransientLocal if latched else Policy.Durability.Volatile,
-        )
         kind = idl_type(topic.type_name)
         dds_topic = DdsTopic(self._participant, dds_topic_name(self.graph_name(topic.name)), kind)
-        self._writers[topic.name] = (DataWriter(self._participant, dds_topic, qos=qos), kind)
+        writer = DataWriter(self._participant, dds_topic, qos=self._qos(depth, latched=latched))
+        self._writers[topic.name] = (writer, kind)
         self._announce()
 
     def on_messages(self, messages: Sequence[Message]) -> None:
@@ -491,11 +493,7 @@ class Ros2Bridge:
                     "reliable, keep last" if reliable else "best effort, keep last",
                 )
 
-        Policy = self._Policy
-        reliability = (
-            Policy.Reliability.Reliable(max_blocking_time=100_000_000) if reliable else Policy.Reliability.BestEffort
-        )
-        qos = self._Qos(reliability, Policy.History.KeepLast(depth))
+        qos = self._qos(depth, reliable)
         dds_topic = DdsTopic(self._participant, dds_topic_name(topic), kind)
         listener = Listener(
             on_data_available=on_data_available,
@@ -555,11 +553,6 @@ def _graph_types() -> tuple[Any, Any, Any]:
         {"gid": gid, "node_entities_info_seq": sequence[node]},
     )
     return gid, node, info
-
-
-def participant_entities_info_type() -> Any:
-    """The IDL type of ros_discovery_info."""
-    return _graph_types()[2]
 
 
 def _raw(kind: Any, data: bytes) -> Any:
