@@ -348,12 +348,12 @@ class VehicleTopics:
         """The range finder's and the LiDAR's topics and encoders, where the vehicle carries them;
         their frames' static transforms from base_link."""
         static: list[cdr.TransformStamped] = []
-        self._range = self._scan = self._points = None
+        self._range = self._scan = None
         if vehicle is None:
             return static
         if r is not None:
             self._range = names.topic(RANGE)
-            self._range_encoder = cdr.range_encoder(
+            range_encoder = cdr.range_encoder(
                 names.frame(RANGE_FRAME),
                 r.radiation_type.wire,
                 r.field_of_view_rad,
@@ -361,6 +361,7 @@ class VehicleTopics:
                 r.max_range_m,
                 r.noise_std_m**2,
             )
+            self._range_message = lambda ns, ranges: range_encoder(ns, float(ranges[0]))
             self.topics.append(self._range)
             static.append(cdr.TransformStamped(0, BODY_FRAME, RANGE_FRAME, r.position_m, frame_rotation(r.direction)))
         if lidar is not None:
@@ -370,16 +371,14 @@ class VehicleTopics:
                 increment = 2.0 * math.pi / p.samples
                 angles = (-math.pi, -math.pi + (p.samples - 1) * increment, increment)
                 # every beam of a scan is cast at once: no time between them
-                self._scan_encoder = cdr.laser_scan_encoder(
-                    frame, angles, (0.0, 1.0 / p.rate_hz), (p.min_range_m, p.max_range_m)
-                )
+                scan = cdr.laser_scan_encoder(frame, angles, (0.0, 1.0 / p.rate_hz), (p.min_range_m, p.max_range_m))
                 self._scan = names.topic(SCAN)
-                self.topics.append(self._scan)
+                self._scan_message = lambda ns, ranges: scan(ns, ranges.astype("<f4").tobytes())
             else:
-                self._cloud_encoder = cdr.xyz_cloud_encoder(frame)
-                self._beams = beam_directions(p, lidar)
-                self._points = names.topic(POINTS)
-                self.topics.append(self._points)
+                cloud, beams = cdr.xyz_cloud_encoder(frame), beam_directions(p, lidar)
+                self._scan = names.topic(POINTS)
+                self._scan_message = lambda ns, ranges: cloud(ns, xyz_points(beams, ranges).astype("<f4").tobytes())
+            self.topics.append(self._scan)
         return static
 
     def own_latched(self, step: int, local_files: bool = False) -> tuple[Message, ...]:
@@ -399,11 +398,17 @@ class VehicleTopics:
 
     # --- producers ----------------------------------------------------------------------------
 
-    def on_command(self, step: int, twist: Twist) -> None:
-        """The command as the controller received it -> /quad_cmd_twist."""
+    def _publish_one(self, topic: Topic, step: int, encode: Callable[[int], bytes]) -> None:
+        """One message on `topic` at `step`, `encode(ns)`, where a consumer takes it."""
         fanout = self.fanout
         if fanout.consumers:
-            fanout.publish(((self._twist, fanout.ns(step), cdr.twist(twist[:3], twist[3:])),))
+            fanout.declare(topic)  # a topic not every run has (/joy) is announced before its first message
+            ns = fanout.ns(step)
+            fanout.publish(((topic, ns, encode(ns)),))
+
+    def on_command(self, step: int, twist: Twist) -> None:
+        """The command as the controller received it -> /quad_cmd_twist."""
+        self._publish_one(self._twist, step, lambda ns: cdr.twist(twist[:3], twist[3:]))
 
     def on_state(self, state: VehicleState) -> None:
         """A state -> pose, odometry, IMU (its noisy reading where the run has one), rotor
@@ -469,30 +474,17 @@ class VehicleTopics:
 
     def on_range(self, reading: Ranges) -> None:
         """A range finder's reading (its one beam) -> /quad/range."""
-        fanout = self.fanout
-        if self._range is not None and fanout.consumers:
-            ns = fanout.ns(reading.step)
-            fanout.publish(((self._range, ns, self._range_encoder(ns, float(reading.ranges_m[0]))),))
+        if self._range is not None:
+            self._publish_one(self._range, reading.step, lambda ns: self._range_message(ns, reading.ranges_m))
 
     def on_scan(self, scan: Ranges) -> None:
         """A LiDAR's scan -> /quad/scan (2D), or its returns as points in its frame -> /quad/points (3D)."""
-        fanout = self.fanout
-        if not fanout.consumers:
-            return
-        ns = fanout.ns(scan.step)
         if self._scan is not None:
-            fanout.publish(((self._scan, ns, self._scan_encoder(ns, scan.ranges_m.astype("<f4").tobytes())),))
-        elif self._points is not None:
-            points = xyz_points(self._beams, scan.ranges_m)
-            fanout.publish(((self._points, ns, self._cloud_encoder(ns, points.astype("<f4").tobytes())),))
+            self._publish_one(self._scan, scan.step, lambda ns: self._scan_message(ns, scan.ranges_m))
 
     def on_joy(self, step: int, axes: Sequence[float], buttons: Sequence[int]) -> None:
         """Joystick axes and buttons in the ROS `joy` convention -> /joy."""
-        fanout = self.fanout
-        if fanout.consumers:
-            fanout.declare(self._joy)
-            ns = fanout.ns(step)
-            fanout.publish(((self._joy, ns, cdr.joy(ns, self._joy_frame, axes, buttons)),))
+        self._publish_one(self._joy, step, lambda ns: cdr.joy(ns, self._joy_frame, axes, buttons))
 
     def on_event(self, step: int, kind: str, value: str) -> None:
         """A flight event from the loop (take-off, touchdown, landed, crash, reset) -> /rosout."""
