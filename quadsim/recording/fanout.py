@@ -45,13 +45,8 @@ from quadsim.recording.contract import (
     WORLD_MARKERS,
     Names,
     Topic,
-    camera_info_topic,
-    depth_camera_info_topic,
-    depth_colormap_topic,
-    depth_image_topic,
-    image_topic,
+    frame_topics,
     optical_rotation,
-    segmentation_image_topic,
 )
 from quadsim.recording.scene import link_transforms, robot_description, robot_markers, world_markers
 from quadsim.sensors.beams import Ranges, beam_directions, frame_rotation, xyz_points
@@ -108,27 +103,8 @@ def _thrusts_encoder(rotors: int) -> Callable[[Sequence[float]], bytes]:
 
 class _Camera(NamedTuple):
     spec: CameraSpec
-    image: Topic
-    info: Topic
     frame: str  # its optical frame's name on the wire
-    depth: Topic | None  # its depth image and that image's CameraInfo, if it has depth
-    depth_info: Topic | None
-    colormap: Topic | None  # its depth colour-mapped for people, if it has that
-    segmentation: Topic | None  # its segmentation image, if it has one
-
-
-def _camera(spec: CameraSpec, names: Names) -> _Camera:
-    t = names.topic
-    return _Camera(
-        spec,
-        t(image_topic(spec)),
-        t(camera_info_topic(spec)),
-        names.frame(spec.optical_frame),
-        t(depth_image_topic(spec)) if spec.depth else None,
-        t(depth_camera_info_topic(spec)) if spec.depth else None,
-        t(depth_colormap_topic(spec)) if spec.depth_colormap else None,
-        t(segmentation_image_topic(spec)) if spec.segmentation else None,
-    )
+    topics: dict[str, Topic]  # by kind (contract.CAMERA_TOPICS), those it has, under the vehicle's names
 
 
 def _image(ns: int, frame_id: str, encoding: str, pixels: np.ndarray) -> bytes:
@@ -312,16 +288,19 @@ class VehicleTopics:
         self._odometry = cdr.odometry_encoder(WORLD_FRAME, body)
         self._imu = cdr.imu_encoder(body)
         self._tf = cdr.transform_encoder(WORLD_FRAME, body)
-        self._cameras = {spec.name: _camera(spec, names) for spec, _ in cameras}
+        self._cameras = {
+            spec.name: _Camera(
+                spec, names.frame(spec.optical_frame), {k: names.topic(t) for k, t in frame_topics(spec).items()}
+            )
+            for spec, _ in cameras
+        }
         self._infos = {spec.name: spec.camera_info() for spec, _ in cameras}
         #: whether a camera of this vehicle makes segmentation images
         self.segmenting = any(spec.segmentation for spec, _ in cameras)
         #: this vehicle's topics, in the order consumers get them (/tf_static is the run's, shared)
         self.topics: list[Topic] = [self._twist, *self._state_topics, TF_STATIC]
         for camera in self._cameras.values():
-            self.topics += [camera.image, camera.info]
-            images = (camera.depth, camera.depth_info, camera.colormap, camera.segmentation)
-            self.topics += [t for t in images if t is not None]
+            self.topics += camera.topics.values()
         static = link_transforms(vehicle) if vehicle is not None else []
         static += [
             cdr.TransformStamped(
@@ -457,19 +436,23 @@ class VehicleTopics:
         ns = fanout.ns(frame.step)
         i = self._infos[frame.camera]
         info = cdr.camera_info(ns, camera.frame, i.height_px, i.width_px, i.distortion_model, i.d, i.k, i.r, i.p)
-        messages = [(camera.image, ns, cdr.compressed_image(ns, camera.frame, "jpeg", jpeg)), (camera.info, ns, info)]
-        if camera.depth is not None and camera.depth_info is not None and frame.depth_pixels is not None:
+        topics = camera.topics
+        messages = [
+            (topics["image"], ns, cdr.compressed_image(ns, camera.frame, "jpeg", jpeg)),
+            (topics["info"], ns, info),
+        ]
+        if "depth" in topics and frame.depth_pixels is not None:
             pixels = frame.depth_pixels
-            messages.append((camera.depth, ns, _image(ns, camera.frame, camera.spec.depth, pixels)))
-            messages.append((camera.depth_info, ns, info))
-            if camera.colormap is not None:
+            messages.append((topics["depth"], ns, _image(ns, camera.frame, camera.spec.depth, pixels)))
+            messages.append((topics["depth_info"], ns, info))
+            if "colormap" in topics:
                 colormap = frame.depth_colormap_jpeg
                 if colormap is None:  # rendered before JPEG was asked for, or by no rig
                     colormap = depth_colormap_jpeg(pixels, camera.spec.depth, camera.spec.jpeg_quality)
-                messages.append((camera.colormap, ns, cdr.compressed_image(ns, camera.frame, "jpeg", colormap)))
-        if camera.segmentation is not None and frame.labels is not None:
+                messages.append((topics["colormap"], ns, cdr.compressed_image(ns, camera.frame, "jpeg", colormap)))
+        if "segmentation" in topics and frame.labels is not None:
             encoding = "mono8" if frame.labels.dtype == np.uint8 else "16UC1"
-            messages.append((camera.segmentation, ns, _image(ns, camera.frame, encoding, frame.labels)))
+            messages.append((topics["segmentation"], ns, _image(ns, camera.frame, encoding, frame.labels)))
         fanout.publish(messages)
 
     def on_range(self, reading: Ranges) -> None:

@@ -266,7 +266,9 @@ def _camera_topics(description: RunDescription) -> set[str]:
     """The topics of the run's camera frames, depth and segmentation included (of each fleet
     vehicle's, under its name)."""
     runs = description.fleet or (("", description),)
-    return {Names(name).topic(topic).name for name, d in runs for spec in d.cameras for topic in frame_topics(spec)}
+    return {
+        Names(name).topic(topic).name for name, d in runs for spec in d.cameras for topic in frame_topics(spec).values()
+    }
 
 
 def _attachments(description: RunDescription) -> dict[str, tuple[bytes, str]]:
