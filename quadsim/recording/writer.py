@@ -23,6 +23,7 @@ import re
 import shutil
 import time
 from collections.abc import Callable, Sequence
+from functools import cache
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, BinaryIO
 
@@ -236,20 +237,14 @@ def _not_a_per_message_write_error(record: logging.LogRecord) -> bool:
     return not record.getMessage().startswith("error logging message: McapError")
 
 
-_sdk_logs_routed = False
-
-
+@cache
 def route_sdk_logs_through_python() -> None:
     """foxglove-sdk prints its Rust log records straight to stderr unless they are routed to
     Python's logging (its set_log_level); route them once, and filter the per-message write
     errors there. set_log_level would call logging.basicConfig where the program has no handler
     (a script using quadsim.record): a NullHandler stands in while it is called."""
-    global _sdk_logs_routed
-    if _sdk_logs_routed:
-        return
     import foxglove
 
-    _sdk_logs_routed = True
     logging.getLogger(SDK_WRITE_LOGGER).addFilter(_not_a_per_message_write_error)
     root = logging.getLogger()
     stand_in = logging.NullHandler() if not root.handlers else None
