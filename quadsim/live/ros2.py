@@ -101,12 +101,8 @@ def discovery_config(env: Mapping[str, str]) -> str | None:
     """The Cyclone DDS configuration for ROS 2's discovery range: LOCALHOST (or ROS_LOCALHOST_ONLY=1)
     keeps discovery and traffic on the loopback interface, OFF finds no other process; SUBNET (ROS 2's
     default) is Cyclone's default (multicast on the network). None: Cyclone's own (or CYCLONEDDS_URI)."""
-    if env.get("CYCLONEDDS_URI"):
-        return None
-    wanted = env.get("ROS_AUTOMATIC_DISCOVERY_RANGE", "").strip().upper()
-    if not wanted and env.get("ROS_LOCALHOST_ONLY", "").strip() == "1":
-        wanted = "LOCALHOST"
-    if wanted in ("", "SUBNET", "SYSTEM_DEFAULT"):
+    wanted = discovery_range(env)
+    if env.get("CYCLONEDDS_URI") or wanted == "SUBNET":
         return None
     if wanted not in ("LOCALHOST", "OFF"):
         raise QuadsimError(f"ROS_AUTOMATIC_DISCOVERY_RANGE must be SUBNET, LOCALHOST or OFF, got {wanted!r}")
