@@ -271,17 +271,14 @@ def _attachments(description: RunDescription) -> dict[str, tuple[bytes, str]]:
     file (each once, in a fleet) and the world file."""
     world = description.world_model
     runs = [d for _, d in description.fleet] or [description]
-    if world is None or any(d.vehicle_model is None for d in runs):
+    models = [d.vehicle_model for d in runs if d.vehicle_model is not None]
+    if world is None or len(models) < len(runs):
         raise QuadsimError("a recording needs the description of a live run (with its vehicle and world)")
     files: dict[str, tuple[bytes, str]] = {}
     paths = [
-        (p, media)
-        for d in runs
-        if (v := d.vehicle_model) is not None
-        for p, media in (
-            (v.urdf_path, "application/xml"),
-            (v.params_path, "application/toml"),
-        )
+        (path, media)
+        for m in models
+        for path, media in ((m.urdf_path, "application/xml"), (m.params_path, "application/toml"))
     ]
     for path, media in [*paths, (world.path, "application/toml")]:
         data = path.read_bytes()
