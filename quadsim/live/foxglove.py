@@ -40,7 +40,7 @@ from quadsim.live import FOXGLOVE_DEFAULT_PORT as DEFAULT_PORT
 from quadsim.live.foxglove_front import FoxgloveFront
 from quadsim.recording import cdr
 from quadsim.recording.contract import QOS_LATCHED, TWIST, Topic
-from quadsim.recording.writer import ros2_channel, route_sdk_logs_through_python
+from quadsim.recording.writer import ros2_channel_log, route_sdk_logs_through_python
 
 if TYPE_CHECKING:
     from quadsim.drivers.subscribed import SubscribedDriver
@@ -183,8 +183,7 @@ class FoxgloveBridge:
         #: goal topic -> the driver goals published on it go to
         self.goal_inputs: dict[str, SubscribedDriver] = {t: d for d in drivers for t in d.goal_topics}
         self._context = foxglove.Context()  # the server's channels, apart from a recorder's
-        self._channels: dict[str, Any] = {}
-        self._log: dict[str, Callable[[bytes, int], None]] = {}
+        self._log: dict[str, Callable[..., None]] = {}  # topic -> its channel's log(data, log_time, sink_id)
         self._latched: dict[str, tuple[int, bytes]] = {}  # topic -> its last (log time, message)
         self._latched_topics: set[str] = set()
         # (client, channel) -> its decoder, the driver its messages go to, and whether they are goals
@@ -229,11 +228,9 @@ class FoxgloveBridge:
     # --- what the fan-out calls -----------------------------------------------------------------
 
     def add_topic(self, topic: Topic) -> None:
-        if topic.name in self._channels:
+        if topic.name in self._log:
             return
-        channel = ros2_channel(topic, self._context)
-        self._channels[topic.name] = channel
-        self._log[topic.name] = channel.base.log  # the typed core of Channel.log
+        self._log[topic.name] = ros2_channel_log(topic, self._context)
         if topic.qos == QOS_LATCHED:
             self._latched_topics.add(topic.name)
 
@@ -258,7 +255,7 @@ class FoxgloveBridge:
         if last is not None and not self.closed:
             ns, data = last
             # to this client alone where the SDK names its sink; else to the channel's subscribers
-            self._channels[topic].base.log(data, ns, sink_id=getattr(client, "sink_id", None))
+            self._log[topic](data, ns, sink_id=getattr(client, "sink_id", None))
 
     # --- what clients publish (the front calls these on its thread) ------------------------------
 

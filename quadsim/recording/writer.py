@@ -91,20 +91,22 @@ def check_writable(path: Path, min_free_bytes: int = MIN_FREE_BYTES) -> None:
         )
 
 
-def ros2_channel(topic: Topic, context: Any) -> Any:
+def ros2_channel_log(topic: Topic, context: Any) -> Callable[..., None]:
     """A foxglove-sdk channel for `topic` in `context` as the contract has it: CDR messages, its
     `ros2msg` schema, its QoS in `offered_qos_profiles` (the recorder's file and the live
-    Foxglove server use the same)."""
+    Foxglove server use the same). What is kept of it is its log(data, log_time, sink_id=None):
+    the typed core of Channel.log, without its checks for JSON and str messages."""
     import foxglove
 
     schema = foxglove.Schema(name=topic.type_name, encoding="ros2msg", data=schema_text(topic.type_name).encode())
-    return foxglove.Channel(
+    channel = foxglove.Channel(
         topic.name,
         schema=schema,
         message_encoding="cdr",
         context=context,
         metadata={"offered_qos_profiles": topic.qos},
     )
+    return channel.base.log
 
 
 class _GuardedStream:
@@ -335,8 +337,7 @@ class McapRecorder:
         self._clock, self._flush_every_wall_s, self._last_flush_wall = clock, flush_every_wall_s, clock()
         self._last_fsync_wall = time.monotonic()
         self._context = foxglove.Context()  # this file's channels, apart from any other sink's
-        self._channels: dict[str, Any] = {}
-        self._log: dict[str, Any] = {}  # topic -> its channel's log(data, log_time)
+        self._log: dict[str, Callable[..., None]] = {}  # topic -> its channel's log(data, log_time)
         self._writer: Any = None
         # camera frames are rendered elsewhere and come late: hold the rest until the frames of
         # their time are in, so the file is in log-time order (readers and `mcap doctor` expect it)
@@ -377,12 +378,8 @@ class McapRecorder:
 
     def add_topic(self, topic: Topic) -> None:
         """A channel for `topic` (one schema per type: the writer shares equal schemas)."""
-        if topic.name in self._channels:
-            return
-        channel = ros2_channel(topic, self._context)
-        self._channels[topic.name] = channel
-        # the typed core of Channel.log, without its checks for JSON and str messages
-        self._log[topic.name] = channel.base.log
+        if topic.name not in self._log:
+            self._log[topic.name] = ros2_channel_log(topic, self._context)
 
     def on_messages(self, messages: Sequence[Message]) -> None:
         if self.error is not None or self.closed or not messages:
