@@ -65,21 +65,14 @@ class _Fields:
         self.pos += n
         return bytes(out)
 
-    def _num(self, fmt: str, size: int) -> int:
-        if self.pos + size > self.end:
-            raise _Bad("a field runs past the end of its record")
-        (value,) = struct.unpack_from(fmt, self.buf, self.pos)
-        self.pos += size
-        return int(value)
-
     def u16(self) -> int:
-        return self._num("<H", 2)
+        return int.from_bytes(self.take(2), "little")
 
     def u32(self) -> int:
-        return self._num("<I", 4)
+        return int.from_bytes(self.take(4), "little")
 
     def u64(self) -> int:
-        return self._num("<Q", 8)
+        return int.from_bytes(self.take(8), "little")
 
     def text(self) -> str:
         raw = self.take(self.u32())
