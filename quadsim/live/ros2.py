@@ -266,7 +266,6 @@ class Ros2Bridge:
         self._readers: list[Any] = []
         self._lock = threading.Lock()  # the sim thread and a replay thread may both publish
         self._clock_ns = -1  # the last /clock published
-        self.clock_published = 0
         self.published = 0  # messages written
         self.busy_s = 0.0  # time spent writing (for the benchmark)
         self.closed = False
@@ -410,7 +409,6 @@ class Ros2Bridge:
             writer, kind = entry
             writer.write(kind(clock=self._time_type(sec=ns // NS_PER_S, nanosec=ns % NS_PER_S)))
             self._clock_ns = ns
-            self.clock_published += 1
         self.busy_s += time.perf_counter() - started
 
     # --- input --------------------------------------------------------------------------------
