@@ -154,21 +154,12 @@ def _reason(exc: BaseException) -> str:
     return text if len(text) <= 80 else text[:77] + "..."
 
 
-class _Listener(ServerListener):
-    """The server's callbacks (they come on the server's threads) handed to the bridge."""
-
-    def __init__(self, bridge: FoxgloveBridge) -> None:
-        self.bridge = bridge
-
-    def on_subscribe(self, client: Client, channel: ChannelView) -> None:
-        self.bridge._send_latched(client, channel.topic)
-
-
-class FoxgloveBridge:
-    """A Foxglove WebSocket server fed by the topic fan-out (a `TopicConsumer`). With
-    `commands` (one driver, or a fleet's, each on its vehicle's topic), clients may publish
-    Twists on their topics, which it `deliver`s to the driver of the topic; without, the server
-    takes nothing from clients. `close` stops the server."""
+class FoxgloveBridge(ServerListener):
+    """A Foxglove WebSocket server fed by the topic fan-out (a `TopicConsumer`), and the listener of
+    that server (`on_subscribe`; ServerListener's other callbacks do nothing). With `commands` (one
+    driver, or a fleet's, each on its vehicle's topic), clients may publish Twists on their topics,
+    which it `deliver`s to the driver of the topic; without, the server takes nothing from clients.
+    `close` stops the server."""
 
     def __init__(
         self,
@@ -197,7 +188,7 @@ class FoxgloveBridge:
             host="127.0.0.1",
             port=0,
             capabilities=[Capability.ClientPublish] if self.inputs else [],
-            server_listener=_Listener(self),
+            server_listener=self,
             supported_encodings=list(PUBLISH_ENCODINGS) if self.inputs else None,
             context=self._context,
             message_backlog_size=BACKLOG_MESSAGES,
@@ -249,13 +240,14 @@ class FoxgloveBridge:
 
     # --- what clients do (on the server's threads) ------------------------------------------
 
-    def _send_latched(self, client: Client, topic: str) -> None:
+    def on_subscribe(self, client: Client, channel: ChannelView) -> None:
+        """A latched topic's last message to a client that subscribes to it."""
         with self._lock:
-            last = self._latched.get(topic)
+            last = self._latched.get(channel.topic)
         if last is not None and not self.closed:
             ns, data = last
             # to this client alone where the SDK names its sink; else to the channel's subscribers
-            self._log[topic](data, ns, sink_id=getattr(client, "sink_id", None))
+            self._log[channel.topic](data, ns, sink_id=getattr(client, "sink_id", None))
 
     # --- what clients publish (the front calls these on its thread) ------------------------------
 
