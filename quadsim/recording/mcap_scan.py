@@ -122,7 +122,6 @@ class ChannelDef:
     message_encoding: str
     metadata: dict[str, str]
     schema: SchemaDef | None
-    schema_missing: bool = False  # it names a schema id no record defines
 
 
 @dataclass(frozen=True)
@@ -192,7 +191,6 @@ class _Segment:
     # uncompressed size, CRC); more than one when a length field disagrees with another
     readings: list[tuple[str, int, int, int, int]] = field(default_factory=list)
     channel_ids: set[int] = field(default_factory=set)  # from the message indexes after it
-    indexed: bool = False  # reached through the summary's chunk index only
     # filled by the first reading pass
     ok: bool = False
     counts: dict[int, int] = field(default_factory=dict)  # channel key -> messages
@@ -749,7 +747,7 @@ class McapFile:
             end = offset + chunk_len
             if not len(MAGIC) <= offset < end <= self.size or compressed > chunk_len:
                 continue
-            seg = _Segment(offset, end, chunked=True, start_ns=t0, end_ns=t1, channel_ids=set(ids), indexed=True)
+            seg = _Segment(offset, end, chunked=True, start_ns=t0, end_ns=t1, channel_ids=set(ids))
             if chunk_len < 9 + 40:
                 continue
             try:
@@ -991,7 +989,7 @@ class McapFile:
         if old is not None:
             self.notes.append(f"channel id {cid} is defined again, for {topic!r} (was {old.topic!r})")
         key = len(self.channels)
-        self.channels.append(ChannelDef(key, cid, topic, enc, md, schema, schema_missing=bool(sid) and schema is None))
+        self.channels.append(ChannelDef(key, cid, topic, enc, md, schema))
         return key
 
     def _summary_channel(self, cid: int, schemas: dict[int, SchemaDef]) -> int | None:
@@ -1004,7 +1002,7 @@ class McapFile:
         sid, topic, enc, md = found
         schema = self._summary.schemas.get(sid) or schemas.get(sid)
         key = len(self.channels)
-        self.channels.append(ChannelDef(key, cid, topic, enc, md, schema, schema_missing=bool(sid) and schema is None))
+        self.channels.append(ChannelDef(key, cid, topic, enc, md, schema))
         self._summary_keys[cid] = key
         self.notes.append(
             f"channel {topic!r}: no readable record defines it before its messages; the summary's is used"

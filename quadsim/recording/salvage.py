@@ -32,7 +32,6 @@ class Recovered:
     chunks: int
     span_s: tuple[float, float]
     was_complete: bool
-    note: str  # what was lost, one line per problem
     damage: tuple[Damage, ...] = ()
     attachments: int = 0
     metadata: int = 0
@@ -89,7 +88,6 @@ def recover(src: Path, dst: Path | None = None, required_topics: tuple[str, ...]
             f.chunk_count,
             (t0 / 1e9, t1 / 1e9),
             f.complete,
-            "\n".join(d.describe() for d in f.damage),
             tuple(f.damage),
             counts[1],
             counts[2],
