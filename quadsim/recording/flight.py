@@ -172,7 +172,7 @@ def load_flights(path: Path | str, depth: bool = False) -> dict[str, RecordedFli
             flight.damage_report = reader.file.damage_report() if reader.damage else ""
             flight.attachments = reader.attachments()
             flight.topics = reader.topic_counts()
-            flight.start_ns, flight.end_ns = reader.span_ns
+            flight.start_ns, flight.end_ns = reader.file.span_ns
             flights[name] = flight
             parts[name] = _wanted(flight, reader.topics, wanted, depth)
         for topic, ns, msg in reader.raw_messages(list(wanted)):

@@ -184,10 +184,6 @@ class RecordingReader:
             out[ch.topic] = out.get(ch.topic, 0) + self.file.counts.get(ch.key, 0)
         return out
 
-    @property
-    def span_ns(self) -> tuple[int, int]:
-        return self.file.span_ns
-
     # --- contents ---------------------------------------------------------------------------
 
     def attachments(self) -> dict[str, bytes]:
