@@ -384,10 +384,7 @@ class McapRecorder:
     def on_messages(self, messages: Sequence[Message]) -> None:
         if self.error is not None or self.closed or not messages:
             return
-        if self._reorder is None:
-            self._write(messages)
-            return
-        ready = self._reorder.push(messages)
+        ready = messages if self._reorder is None else self._reorder.push(messages)
         if ready:
             self._write(ready)
 
