@@ -13,21 +13,9 @@ from typing import Any
 
 from quadsim.recording.contract import typestore
 
-_BASE_NAMES = {
-    "bool": "bool",
-    "byte": "byte",
-    "char": "uint8",
-    "int8": "int8",
-    "uint8": "uint8",
-    "int16": "int16",
-    "uint16": "uint16",
-    "int32": "int32",
-    "uint32": "uint32",
-    "int64": "int64",
-    "uint64": "uint64",
-    "float32": "float32",
-    "float64": "float64",
-}
+#: the base types whose Cyclone DDS name is not their ROS 2 name (ROS 2's IDL mapping: a char is a
+#: uint8); the rest, bool and string aside, are named alike (byte: octet)
+_CYCLONE_NAMES = {"char": "uint8"}
 
 
 def dds_type_name(type_name: str) -> str:
@@ -48,7 +36,7 @@ def _field_type(node: tuple[Any, Any]) -> Any:
             return types.bounded_str[bound] if bound else str
         if name == "bool":
             return bool
-        return getattr(types, _BASE_NAMES[name])
+        return getattr(types, _CYCLONE_NAMES.get(name, name))
     if kind == Nodetype.NAME:
         return idl_type(detail)
     element, size = detail

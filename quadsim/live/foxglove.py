@@ -40,7 +40,7 @@ from quadsim.live import FOXGLOVE_DEFAULT_PORT as DEFAULT_PORT
 from quadsim.live.foxglove_front import FoxgloveFront
 from quadsim.recording import cdr
 from quadsim.recording.contract import QOS_LATCHED, TWIST, Topic
-from quadsim.recording.writer import ros2_channel, route_sdk_logs_through_python
+from quadsim.recording.writer import ros2_channel_log, route_sdk_logs_through_python
 
 if TYPE_CHECKING:
     from quadsim.drivers.subscribed import SubscribedDriver
@@ -99,17 +99,20 @@ def twist_from_json(data: bytes) -> TwistFields:
     msg = json.loads(data)
     if not isinstance(msg, dict):
         raise ValueError("not a JSON object")
+    x, y, z = _numbers(msg, "linear", "xyz")
+    return (x, y, z), _numbers(msg, "angular", "xyz")[2]
 
-    def vector(name: str) -> tuple[float, float, float]:
-        v = msg.get(name) or {}
-        if not isinstance(v, dict):
-            raise ValueError(f"{name} is not an object")
-        values = (v.get("x", 0.0), v.get("y", 0.0), v.get("z", 0.0))
-        if not all(isinstance(x, (int, float)) and not isinstance(x, bool) for x in values):
-            raise ValueError(f"{name} has a field that is not a number")
-        return float(values[0]), float(values[1]), float(values[2])
 
-    return vector("linear"), vector("angular")[2]
+def _numbers(parent: dict[str, Any], name: str, fields: str, where: str = "") -> list[float]:
+    """The fields (one letter each) of the JSON object `name` in `parent`, a field left out 0.
+    ValueError, naming it as `where` + `name`, for anything else."""
+    v = parent.get(name) or {}
+    if not isinstance(v, dict):
+        raise ValueError(f"{where}{name} is not an object")
+    values = [v.get(f, 0.0) for f in fields]
+    if not all(isinstance(x, (int, float)) and not isinstance(x, bool) for x in values):
+        raise ValueError(f"{where}{name} has a field that is not a number")
+    return [float(x) for x in values]
 
 
 def twist_from_cdr(data: bytes) -> TwistFields:
@@ -133,18 +136,8 @@ def pose_from_json(data: bytes) -> PoseFields:
     frame_id = header.get("frame_id", "")
     if not isinstance(frame_id, str):
         raise ValueError("header.frame_id is not a string")
-
-    def numbers(name: str, fields: str) -> list[float]:
-        v = pose.get(name) or {}
-        if not isinstance(v, dict):
-            raise ValueError(f"pose.{name} is not an object")
-        values = [v.get(f, 0.0) for f in fields]
-        if not all(isinstance(x, (int, float)) and not isinstance(x, bool) for x in values):
-            raise ValueError(f"pose.{name} has a field that is not a number")
-        return [float(x) for x in values]
-
-    x, y, z = numbers("position", "xyz")
-    qx, qy, qz, qw = numbers("orientation", "xyzw")
+    x, y, z = _numbers(pose, "position", "xyz", "pose.")
+    qx, qy, qz, qw = _numbers(pose, "orientation", "xyzw", "pose.")
     return frame_id[: cdr.MAX_FRAME_ID_BYTES], (x, y, z), (qx, qy, qz, qw)
 
 
@@ -161,21 +154,12 @@ def _reason(exc: BaseException) -> str:
     return text if len(text) <= 80 else text[:77] + "..."
 
 
-class _Listener(ServerListener):
-    """The server's callbacks (they come on the server's threads) handed to the bridge."""
-
-    def __init__(self, bridge: FoxgloveBridge) -> None:
-        self.bridge = bridge
-
-    def on_subscribe(self, client: Client, channel: ChannelView) -> None:
-        self.bridge._send_latched(client, channel.topic)
-
-
-class FoxgloveBridge:
-    """A Foxglove WebSocket server fed by the topic fan-out (a `TopicConsumer`). With
-    `commands` (one driver, or a fleet's, each on its vehicle's topic), clients may publish
-    Twists on their topics, which it `deliver`s to the driver of the topic; without, the server
-    takes nothing from clients. `close` stops the server."""
+class FoxgloveBridge(ServerListener):
+    """A Foxglove WebSocket server fed by the topic fan-out (a `TopicConsumer`), and the listener of
+    that server (`on_subscribe`; ServerListener's other callbacks do nothing). With `commands` (one
+    driver, or a fleet's, each on its vehicle's topic), clients may publish Twists on their topics,
+    which it `deliver`s to the driver of the topic; without, the server takes nothing from clients.
+    `close` stops the server."""
 
     def __init__(
         self,
@@ -190,8 +174,7 @@ class FoxgloveBridge:
         #: goal topic -> the driver goals published on it go to
         self.goal_inputs: dict[str, SubscribedDriver] = {t: d for d in drivers for t in d.goal_topics}
         self._context = foxglove.Context()  # the server's channels, apart from a recorder's
-        self._channels: dict[str, Any] = {}
-        self._log: dict[str, Callable[[bytes, int], None]] = {}
+        self._log: dict[str, Callable[..., None]] = {}  # topic -> its channel's log(data, log_time, sink_id)
         self._latched: dict[str, tuple[int, bytes]] = {}  # topic -> its last (log time, message)
         self._latched_topics: set[str] = set()
         # (client, channel) -> its decoder, the driver its messages go to, and whether they are goals
@@ -205,7 +188,7 @@ class FoxgloveBridge:
             host="127.0.0.1",
             port=0,
             capabilities=[Capability.ClientPublish] if self.inputs else [],
-            server_listener=_Listener(self),
+            server_listener=self,
             supported_encodings=list(PUBLISH_ENCODINGS) if self.inputs else None,
             context=self._context,
             message_backlog_size=BACKLOG_MESSAGES,
@@ -236,11 +219,9 @@ class FoxgloveBridge:
     # --- what the fan-out calls -----------------------------------------------------------------
 
     def add_topic(self, topic: Topic) -> None:
-        if topic.name in self._channels:
+        if topic.name in self._log:
             return
-        channel = ros2_channel(topic, self._context)
-        self._channels[topic.name] = channel
-        self._log[topic.name] = channel.base.log  # the typed core of Channel.log
+        self._log[topic.name] = ros2_channel_log(topic, self._context)
         if topic.qos == QOS_LATCHED:
             self._latched_topics.add(topic.name)
 
@@ -259,13 +240,14 @@ class FoxgloveBridge:
 
     # --- what clients do (on the server's threads) ------------------------------------------
 
-    def _send_latched(self, client: Client, topic: str) -> None:
+    def on_subscribe(self, client: Client, channel: ChannelView) -> None:
+        """A latched topic's last message to a client that subscribes to it."""
         with self._lock:
-            last = self._latched.get(topic)
+            last = self._latched.get(channel.topic)
         if last is not None and not self.closed:
             ns, data = last
             # to this client alone where the SDK names its sink; else to the channel's subscribers
-            self._channels[topic].base.log(data, ns, sink_id=getattr(client, "sink_id", None))
+            self._log[channel.topic](data, ns, sink_id=getattr(client, "sink_id", None))
 
     # --- what clients publish (the front calls these on its thread) ------------------------------
 
@@ -287,7 +269,7 @@ class FoxgloveBridge:
                 if self.inputs
                 else "takes no messages from clients (run it with --input foxglove to fly)"
             )
-            self._tell(client, f"quadsim {takes}; {topic} ({channel['schemaName']}, {channel['encoding']}) is ignored")
+            client.tell(f"quadsim {takes}; {topic} ({channel['schemaName']}, {channel['encoding']}) is ignored")
             return
         self._publishers[(client.id, channel["id"])] = (decoder, driver, False)
 
@@ -299,31 +281,18 @@ class FoxgloveBridge:
         if publisher is None:
             return
         decoder, driver, goal = publisher
-        if goal:
-            self._goal_received(client, decoder, driver, data)
-            return
         try:
-            linear, angular_z = decoder(data)
+            fields = decoder(data)
         except (ValueError, TypeError, OverflowError, RecursionError) as exc:  # json's errors are ValueErrors
-            self._tell(client, f"a message on {driver.topic} was not a Twist ({_reason(exc)}); it is ignored")
+            what = "a goal was not a PoseStamped" if goal else f"a message on {driver.topic} was not a Twist"
+            client.tell(f"{what} ({_reason(exc)}); it is ignored")
             return
-        if not driver.deliver(linear, angular_z) and not all(map(math.isfinite, (*linear, angular_z))):
-            self._tell(client, f"a Twist on {driver.topic} with a field that is not finite is ignored")
-
-    def _goal_received(self, client: FrontClient, decoder: Callable[[bytes], Any], driver: Any, data: bytes) -> None:
-        try:
-            frame_id, position, orientation = decoder(data)
-        except (ValueError, TypeError, OverflowError, RecursionError) as exc:
-            self._tell(client, f"a goal was not a PoseStamped ({_reason(exc)}); it is ignored")
-            return
-        why = driver.deliver_goal(frame_id, position, orientation)
-        if why is not None:
-            self._tell(client, f"a goal is ignored: {why}")  # quadsim's words, a frame name cut to 64 at most
-
-    @staticmethod
-    def _tell(client: FrontClient, message: str) -> None:
-        """To that client alone, rate-limited (the front bounds both the status and the log)."""
-        client.tell(message)
+        if goal:
+            why = driver.deliver_goal(*fields)
+            if why is not None:
+                client.tell(f"a goal is ignored: {why}")  # quadsim's words, a frame name cut to 64 at most
+        elif not driver.deliver(*fields) and not all(map(math.isfinite, (*fields[0], fields[1]))):
+            client.tell(f"a Twist on {driver.topic} with a field that is not finite is ignored")
 
     def close(self) -> None:
         if self.closed:

@@ -158,19 +158,15 @@ class FrontClient:
         self.resending: set[asyncio.Task[None]] = set()
         self._ws = ws
         self._logger = logger
-        self._status = _Every(STATUS_EVERY_S, "similar problems since not reported")
-
-    def status_allowed(self) -> str | None:
-        """None when this client had a status less than STATUS_EVERY_S ago (counted), else
-        what to add to this one."""
-        return self._status.allow()
+        #: one status a second at most to this client, ours and the SDK's answers
+        self.status = _Every(STATUS_EVERY_S, "similar problems since not reported")
 
     def tell(self, message: str) -> None:
         """A warning status to this client (one a second at most, with the SDK's answers; the
         rest counted in the next), and a line in the log when the log limiter allows."""
         message = message if len(message) <= MAX_STATUS_CHARS else message[: MAX_STATUS_CHARS - 3] + "..."
         self._logger.warning(f"Foxglove client {self.address}: {message}")
-        more = self.status_allowed()
+        more = self.status.allow()
         if more is None:
             return
         message += more
@@ -201,42 +197,30 @@ class FoxgloveFront:
         for name in SDK_LOGGERS:
             logging.getLogger(name).addFilter(self._logger)
         self._loop = asyncio.new_event_loop()
-        self._server: Server | None = None
-        started: list[BaseException | int] = []
-        ready = threading.Event()
-
-        async def start() -> None:
-            try:
-                self._server = await serve(
-                    self._serve,
-                    host,
-                    port,
-                    subprotocols=[Subprotocol(s) for s in SUBPROTOCOLS],
-                    select_subprotocol=_offered,
-                    process_request=self._admit,
-                    max_size=MAX_FRAME_BYTES,
-                    max_queue=4,
-                    compression=None,  # images are JPEG already; deflate would cost CPU for nothing
-                    close_timeout=CLOSE_TIMEOUT_S,
-                )
-                started.append(self._server.sockets[0].getsockname()[1])
-            except OSError as exc:
-                started.append(exc)
-            ready.set()
-
-        def run() -> None:
-            asyncio.set_event_loop(self._loop)
-            self._loop.create_task(start())
-            self._loop.run_forever()
-
-        self._thread = threading.Thread(target=run, name="foxglove-front", daemon=True)
+        self._thread = threading.Thread(target=self._loop.run_forever, name="foxglove-front", daemon=True)
         self._thread.start()
-        ready.wait()
-        if isinstance(started[0], BaseException):
+
+        async def start() -> Server:
+            return await serve(
+                self._serve,
+                host,
+                port,
+                subprotocols=[Subprotocol(s) for s in SUBPROTOCOLS],
+                select_subprotocol=_offered,
+                process_request=self._admit,
+                max_size=MAX_FRAME_BYTES,
+                max_queue=4,
+                compression=None,  # images are JPEG already; deflate would cost CPU for nothing
+                close_timeout=CLOSE_TIMEOUT_S,
+            )
+
+        try:
+            self._server = asyncio.run_coroutine_threadsafe(start(), self._loop).result()
+        except OSError:
             self._loop.call_soon_threadsafe(self._loop.stop)
             self._thread.join()
-            raise started[0]
-        self.port = int(started[0])
+            raise
+        self.port = int(self._server.sockets[0].getsockname()[1])
 
     def _admit(self, ws: ServerConnection, request: Request) -> Response | None:
         offered = {n.strip() for h in request.headers.get_all("Sec-WebSocket-Protocol") for n in h.split(",")}
@@ -280,7 +264,7 @@ class FoxgloveFront:
                     info["metadata"] = {**(info.get("metadata") or {}), **self.metadata}
                     frame = json.dumps(info, separators=(",", ":"))
                 elif frame.startswith('{"op":"status"'):
-                    if _resubscribed(upstream, client, frame) or client.status_allowed() is None:
+                    if _resubscribed(upstream, client, frame) or client.status.allow() is None:
                         continue
                 elif frame.startswith(('{"op":"advertise"', '{"op":"unadvertise"')):
                     _note_offers(client, frame)
@@ -372,10 +356,9 @@ class FoxgloveFront:
         handler is left pending to be destroyed, with a traceback, when the process ends."""
 
         async def stop() -> None:
-            if self._server is not None:
-                self._server.close()
-                with contextlib.suppress(TimeoutError):
-                    await asyncio.wait_for(self._server.wait_closed(), 2 * CLOSE_TIMEOUT_S)
+            self._server.close()
+            with contextlib.suppress(TimeoutError):
+                await asyncio.wait_for(self._server.wait_closed(), 2 * CLOSE_TIMEOUT_S)
             left = [t for t in asyncio.all_tasks() if t is not asyncio.current_task()]
             for task in left:
                 task.cancel()

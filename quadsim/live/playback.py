@@ -21,10 +21,6 @@ from quadsim.recording.fanout import ClockConsumer, Message, TopicConsumer
 from quadsim.recording.reader import RecordingReader
 
 
-def _topic(name: str, type_name: str, metadata: dict[str, str]) -> Topic:
-    return Topic(name, type_name, metadata.get("offered_qos_profiles", QOS_VOLATILE))
-
-
 class RecordingFeed:
     """The servable messages of a recording, in log-time order, handed to `consumers` by
     `play_to(t_ns)`."""
@@ -38,7 +34,7 @@ class RecordingFeed:
             for ch in f.channels:
                 s = ch.schema
                 if ch.message_encoding == "cdr" and s is not None and s.encoding == "ros2msg":
-                    topics[ch.key] = _topic(ch.topic, s.name, ch.metadata)
+                    topics[ch.key] = Topic(ch.topic, s.name, ch.metadata.get("offered_qos_profiles", QOS_VOLATILE))
             for m in f.messages(set(topics)):
                 self.messages.append((topics[m.channel.key], m.log_time, m.data))
         self._times = [m[1] for m in self.messages]

@@ -101,12 +101,8 @@ def discovery_config(env: Mapping[str, str]) -> str | None:
     """The Cyclone DDS configuration for ROS 2's discovery range: LOCALHOST (or ROS_LOCALHOST_ONLY=1)
     keeps discovery and traffic on the loopback interface, OFF finds no other process; SUBNET (ROS 2's
     default) is Cyclone's default (multicast on the network). None: Cyclone's own (or CYCLONEDDS_URI)."""
-    if env.get("CYCLONEDDS_URI"):
-        return None
-    wanted = env.get("ROS_AUTOMATIC_DISCOVERY_RANGE", "").strip().upper()
-    if not wanted and env.get("ROS_LOCALHOST_ONLY", "").strip() == "1":
-        wanted = "LOCALHOST"
-    if wanted in ("", "SUBNET", "SYSTEM_DEFAULT"):
+    wanted = discovery_range(env)
+    if env.get("CYCLONEDDS_URI") or wanted == "SUBNET":
         return None
     if wanted not in ("LOCALHOST", "OFF"):
         raise QuadsimError(f"ROS_AUTOMATIC_DISCOVERY_RANGE must be SUBNET, LOCALHOST or OFF, got {wanted!r}")
@@ -270,7 +266,6 @@ class Ros2Bridge:
         self._readers: list[Any] = []
         self._lock = threading.Lock()  # the sim thread and a replay thread may both publish
         self._clock_ns = -1  # the last /clock published
-        self.clock_published = 0
         self.published = 0  # messages written
         self.busy_s = 0.0  # time spent writing (for the benchmark)
         self.closed = False
@@ -320,14 +315,21 @@ class Ros2Bridge:
         from cyclonedds.pub import DataWriter
         from cyclonedds.topic import Topic as DdsTopic
 
+        kind = _graph_types()[2]
+        topic = DdsTopic(self._participant, "ros_discovery_info", kind)
+        return DataWriter(self._participant, topic, qos=self._qos(1, latched=True))
+
+    def _qos(self, depth: int, reliable: bool = True, latched: bool | None = None) -> Any:
+        """Keep last `depth`, reliable (else best effort), and transient local or volatile as
+        `latched` says (None: Cyclone's default, volatile)."""
         Policy = self._Policy
-        qos = self._Qos(
-            Policy.Reliability.Reliable(max_blocking_time=100_000_000),
-            Policy.History.KeepLast(1),
-            Policy.Durability.TransientLocal,
+        reliability = (
+            Policy.Reliability.Reliable(max_blocking_time=100_000_000) if reliable else Policy.Reliability.BestEffort
         )
-        kind = participant_entities_info_type()
-        return DataWriter(self._participant, DdsTopic(self._participant, "ros_discovery_info", kind), qos=qos)
+        if latched is None:
+            return self._Qos(reliability, Policy.History.KeepLast(depth))
+        durability = Policy.Durability.TransientLocal if latched else Policy.Durability.Volatile
+        return self._Qos(reliability, Policy.History.KeepLast(depth), durability)
 
     def _announce(self) -> None:
         """Publish this participant's node and its endpoints (after each new endpoint).
@@ -364,15 +366,10 @@ class Ros2Bridge:
         from cyclonedds.topic import Topic as DdsTopic
 
         latched, depth = _qos_numbers(topic)
-        Policy = self._Policy
-        qos = self._Qos(
-            Policy.Reliability.Reliable(max_blocking_time=100_000_000),
-            Policy.History.KeepLast(depth),
-            Policy.Durability.TransientLocal if latched else Policy.Durability.Volatile,
-        )
         kind = idl_type(topic.type_name)
         dds_topic = DdsTopic(self._participant, dds_topic_name(self.graph_name(topic.name)), kind)
-        self._writers[topic.name] = (DataWriter(self._participant, dds_topic, qos=qos), kind)
+        writer = DataWriter(self._participant, dds_topic, qos=self._qos(depth, latched=latched))
+        self._writers[topic.name] = (writer, kind)
         self._announce()
 
     def on_messages(self, messages: Sequence[Message]) -> None:
@@ -412,7 +409,6 @@ class Ros2Bridge:
             writer, kind = entry
             writer.write(kind(clock=self._time_type(sec=ns // NS_PER_S, nanosec=ns % NS_PER_S)))
             self._clock_ns = ns
-            self.clock_published += 1
         self.busy_s += time.perf_counter() - started
 
     # --- input --------------------------------------------------------------------------------
@@ -491,11 +487,7 @@ class Ros2Bridge:
                     "reliable, keep last" if reliable else "best effort, keep last",
                 )
 
-        Policy = self._Policy
-        reliability = (
-            Policy.Reliability.Reliable(max_blocking_time=100_000_000) if reliable else Policy.Reliability.BestEffort
-        )
-        qos = self._Qos(reliability, Policy.History.KeepLast(depth))
+        qos = self._qos(depth, reliable)
         dds_topic = DdsTopic(self._participant, dds_topic_name(topic), kind)
         listener = Listener(
             on_data_available=on_data_available,
@@ -555,11 +547,6 @@ def _graph_types() -> tuple[Any, Any, Any]:
         {"gid": gid, "node_entities_info_seq": sequence[node]},
     )
     return gid, node, info
-
-
-def participant_entities_info_type() -> Any:
-    """The IDL type of ros_discovery_info."""
-    return _graph_types()[2]
 
 
 def _raw(kind: Any, data: bytes) -> Any:

@@ -41,34 +41,27 @@ class _Layout:
             self._codes.append(f"{pad}x")
             self._offset += pad
 
-    def scalars(self, code: str, count: int = 1) -> _Layout:
-        """`count` primitives of struct code `code` (d, f, I, i, B, ?)."""
+    def scalars(self, code: str, count: int = 1, zeros: bool = False) -> _Layout:
+        """`count` primitives of struct code `code` (d, f, I, i, B, ?); with `zeros`, all zero,
+        written as padding (nothing to pass)."""
         if count:
             size = struct.calcsize(code)
             self._align(size)
-            self._codes.append(f"{count}{code}")
+            self._codes.append(f"{size * count}x" if zeros else f"{count}{code}")
             self._offset += size * count
         return self
 
-    def zeros(self, code: str, count: int) -> _Layout:
-        """`count` primitives that are all zero, written as padding (nothing to pass)."""
-        if count:
-            size = struct.calcsize(code)
-            self._align(size)
-            self._codes.append(f"{size * count}x")
-            self._offset += size * count
+    def string(self, text: bytes) -> _Layout:
+        """A string, passed as `_text` made it (its length and bytes; the NUL is the field's
+        last byte, which struct pads)."""
+        self._align(4)
+        self._codes.append(f"{len(text) + 1}s")
+        self._offset += len(text) + 1
         return self
 
-    def string(self, length: int) -> _Layout:
-        """A string of `length` UTF-8 bytes: pass its length + 1, then the bytes (the NUL is added)."""
-        self.scalars("I")
-        self._codes.append(f"{length + 1}s")
-        self._offset += length + 1
-        return self
-
-    def header(self, frame_id_length: int) -> _Layout:
-        """std_msgs/Header: stamp (int32 sec, uint32 nanosec), frame_id."""
-        return self.scalars("i").scalars("I").string(frame_id_length)
+    def header(self, frame: bytes) -> _Layout:
+        """std_msgs/Header: stamp (int32 sec, uint32 nanosec), frame_id (from `_text`)."""
+        return self.scalars("i").scalars("I").string(frame)
 
     def sequence(self, code: str, count: int) -> _Layout:
         """A sequence of `count` primitives: pass the count, then the elements."""
@@ -78,16 +71,18 @@ class _Layout:
         return struct.Struct("".join(self._codes))
 
 
-def _stamp(ns: int) -> tuple[int, int]:
-    return divmod(ns, NS_PER_S)
+def _text(value: str) -> bytes:
+    """A CDR string as one struct field: its uint32 length (counting the NUL), then its UTF-8 bytes."""
+    data = value.encode()
+    return struct.pack("<I", len(data) + 1) + data
+
+
+#: the empty string, as `_text` makes it
+_EMPTY = _text("")
 
 
 def _given(values: Sequence[float] | None) -> Sequence[float]:
     return () if values is None else values
-
-
-def _covariance(layout: _Layout, given: bool, count: int) -> _Layout:
-    return layout.scalars("d", count) if given else layout.zeros("d", count)
 
 
 # --- geometry_msgs ---------------------------------------------------------------------------
@@ -100,16 +95,16 @@ def twist(linear: Vec3, angular: Vec3) -> bytes:
     return _TWIST.pack(ENCAPSULATION, *linear, *angular)
 
 
-_TWIST_BODY = {b"\x00\x01": struct.Struct("<6d"), b"\x00\x00": struct.Struct(">6d")}  # CDR_LE, CDR_BE
+_BYTE_ORDER = {b"\x00\x01": "<", b"\x00\x00": ">"}  # CDR_LE, CDR_BE
 
 
 def twist_fields(data: bytes) -> tuple[float, float, float, float, float, float]:
     """The six fields (linear x y z, angular x y z) of a CDR geometry_msgs/msg/Twist, in either
     byte order. ValueError for bytes that are not one."""
-    body = _TWIST_BODY.get(bytes(data[:2]))
-    if body is None or len(data) < 4 + body.size:
+    order = _BYTE_ORDER.get(bytes(data[:2]))
+    if order is None or len(data) < 4 + 48:
         raise ValueError(f"not a CDR geometry_msgs/msg/Twist ({len(data)} bytes, header {bytes(data[:4]).hex()})")
-    return body.unpack_from(data, 4)
+    return struct.unpack_from(order + "6d", data, 4)
 
 
 #: the longest frame_id a decoded PoseStamped may name (a TF frame name is a few dozen bytes)
@@ -122,7 +117,7 @@ def pose_stamped_fields(
     """frame_id, position and orientation (x, y, z, w) of a CDR geometry_msgs/msg/PoseStamped, in
     either byte order. ValueError for bytes that are not one (a frame_id past MAX_FRAME_ID_BYTES
     included)."""
-    order = {b"\x00\x01": "<", b"\x00\x00": ">"}.get(bytes(data[:2]))
+    order = _BYTE_ORDER.get(bytes(data[:2]))
     if order is None or len(data) < 16:
         raise ValueError(f"not a CDR geometry_msgs/msg/PoseStamped ({len(data)} bytes)")
     (length,) = struct.unpack_from(order + "I", data, 12)  # after the header's stamp (sec, nanosec)
@@ -143,12 +138,11 @@ def pose_stamped_fields(
 @lru_cache(maxsize=256)
 def pose_stamped_encoder(frame_id: str) -> Callable[[int, Vec3, Quat], bytes]:
     """geometry_msgs/msg/PoseStamped in `frame_id`: encode(ns, position, orientation)."""
-    frame = frame_id.encode()
-    pack, length = _Layout().header(len(frame)).scalars("d", 7).build().pack, len(frame) + 1
+    frame = _text(frame_id)
+    pack = _Layout().header(frame).scalars("d", 7).build().pack
 
     def encode(ns: int, position: Vec3, orientation: Quat) -> bytes:
-        sec, nanosec = divmod(ns, NS_PER_S)
-        return pack(ENCAPSULATION, sec, nanosec, length, frame, *position, *orientation)
+        return pack(ENCAPSULATION, *divmod(ns, NS_PER_S), frame, *position, *orientation)
 
     return encode
 
@@ -160,14 +154,14 @@ def pose_stamped(ns: int, frame_id: str, position: Vec3, orientation: Quat) -> b
 
 @lru_cache(maxsize=256)
 def _vector3_stamped(frame_id: str) -> tuple[struct.Struct, bytes]:
-    frame = frame_id.encode()
-    return _Layout().header(len(frame)).scalars("d", 3).build(), frame
+    frame = _text(frame_id)
+    return _Layout().header(frame).scalars("d", 3).build(), frame
 
 
 def vector3_stamped(ns: int, frame_id: str, vector: Vec3) -> bytes:
     """geometry_msgs/msg/Vector3Stamped."""
     layout, frame = _vector3_stamped(frame_id)
-    return layout.pack(ENCAPSULATION, *_stamp(ns), len(frame) + 1, frame, *vector)
+    return layout.pack(ENCAPSULATION, *divmod(ns, NS_PER_S), frame, *vector)
 
 
 # --- nav_msgs, sensor_msgs ---------------------------------------------------------------------
@@ -180,11 +174,10 @@ def odometry_encoder(
     """nav_msgs/msg/Odometry, pose in `frame_id`, twist in `child_frame_id`: encode(ns, position,
     orientation, linear, angular, pose_cov, twist_cov), each covariance 36 values where its flag
     is set, and () (all zeros) where it is not."""
-    frame, child = frame_id.encode(), child_frame_id.encode()
-    layout = _Layout().header(len(frame)).string(len(child)).scalars("d", 7)  # pose: position, orientation
-    layout = _covariance(layout, pose_covariance, 36).scalars("d", 6)  # twist: linear, angular
-    pack = _covariance(layout, twist_covariance, 36).build().pack
-    frames = (len(frame) + 1, frame, len(child) + 1, child)
+    frame, child = _text(frame_id), _text(child_frame_id)
+    layout = _Layout().header(frame).string(child).scalars("d", 7)  # pose: position, orientation
+    layout = layout.scalars("d", 36, zeros=not pose_covariance).scalars("d", 6)  # twist: linear, angular
+    pack = layout.scalars("d", 36, zeros=not twist_covariance).build().pack
 
     def encode(
         ns: int,
@@ -197,7 +190,7 @@ def odometry_encoder(
     ) -> bytes:
         sec, nanosec = divmod(ns, NS_PER_S)
         return pack(
-            ENCAPSULATION, sec, nanosec, *frames, *position, *orientation, *pose_cov, *linear, *angular, *twist_cov
+            ENCAPSULATION, sec, nanosec, frame, child, *position, *orientation, *pose_cov, *linear, *angular, *twist_cov
         )
 
     return encode
@@ -224,11 +217,11 @@ def imu_encoder(frame_id: str, covariances: tuple[bool, bool, bool] = (False, Fa
     """sensor_msgs/msg/Imu in `frame_id`: encode(ns, orientation, angular_velocity,
     linear_acceleration, orientation_cov, angular_velocity_cov, linear_acceleration_cov), each
     covariance (9 values) where `covariances` says it is given, () where it is all zeros."""
-    frame = frame_id.encode()
-    layout = _Layout().header(len(frame))
+    frame = _text(frame_id)
+    layout = _Layout().header(frame)
     for count, given in zip((4, 3, 3), covariances):  # orientation, angular velocity, linear acceleration
-        layout = _covariance(layout.scalars("d", count), given, 9)
-    pack, length = layout.build().pack, len(frame) + 1
+        layout = layout.scalars("d", count).scalars("d", 9, zeros=not given)
+    pack = layout.build().pack
 
     def encode(
         ns: int,
@@ -239,12 +232,9 @@ def imu_encoder(frame_id: str, covariances: tuple[bool, bool, bool] = (False, Fa
         angular_velocity_cov: Sequence[float] = (),
         linear_acceleration_cov: Sequence[float] = (),
     ) -> bytes:
-        sec, nanosec = divmod(ns, NS_PER_S)
         return pack(
             ENCAPSULATION,
-            sec,
-            nanosec,
-            length,
+            *divmod(ns, NS_PER_S),
             frame,
             *orientation,
             *orientation_cov,
@@ -275,22 +265,21 @@ def imu(
 
 @lru_cache(maxsize=256)
 def _compressed_image(frame_id: str, image_format: str) -> tuple[struct.Struct, bytes, bytes]:
-    frame, fmt = frame_id.encode(), image_format.encode()
-    return _Layout().header(len(frame)).string(len(fmt)).scalars("I").build(), frame, fmt
+    frame, fmt = _text(frame_id), _text(image_format)
+    return _Layout().header(frame).string(fmt).scalars("I").build(), frame, fmt
 
 
 def compressed_image(ns: int, frame_id: str, image_format: str, data: bytes) -> bytes:
     """sensor_msgs/msg/CompressedImage (`image_format` e.g. "jpeg")."""
     layout, frame, fmt = _compressed_image(frame_id, image_format)
-    sec, nanosec = divmod(ns, NS_PER_S)
     # uint8 elements need no alignment: the data follows its count directly
-    return layout.pack(ENCAPSULATION, sec, nanosec, len(frame) + 1, frame, len(fmt) + 1, fmt, len(data)) + data
+    return layout.pack(ENCAPSULATION, *divmod(ns, NS_PER_S), frame, fmt, len(data)) + data
 
 
 @lru_cache(maxsize=256)
 def _image(frame_id: str, encoding: str) -> tuple[struct.Struct, bytes, bytes]:
-    frame, enc = frame_id.encode(), encoding.encode()
-    layout = _Layout().header(len(frame)).scalars("I", 2).string(len(enc)).scalars("B").scalars("I", 2)
+    frame, enc = _text(frame_id), _text(encoding)
+    layout = _Layout().header(frame).scalars("I", 2).string(enc).scalars("B").scalars("I", 2)
     return layout.build(), frame, enc  # height, width, encoding, is_bigendian, step, the data's count
 
 
@@ -306,8 +295,7 @@ def image(
 def _image_head(ns: int, frame: bytes, height: int, width: int, text: bytes) -> tuple[object, ...]:
     """What Image and CameraInfo begin with: the header, height, width and a string (the
     encoding; the distortion model)."""
-    sec, nanosec = divmod(ns, NS_PER_S)
-    return (ENCAPSULATION, sec, nanosec, len(frame) + 1, frame, height, width, len(text) + 1, text)
+    return (ENCAPSULATION, *divmod(ns, NS_PER_S), frame, height, width, text)
 
 
 @lru_cache(maxsize=256)
@@ -321,13 +309,12 @@ def range_encoder(
 ) -> Callable[[int, float], bytes]:
     """sensor_msgs/msg/Range as Jazzy has it (with `variance`, 0: unknown) from a fixed sensor in
     `frame_id` (radiation_type 0 ultrasound, 1 infrared): encode(ns, range_m)."""
-    frame = frame_id.encode()
-    pack, length = _Layout().header(len(frame)).scalars("B").scalars("f", 5).build().pack, len(frame) + 1
-    fixed = (radiation_type, field_of_view_rad, min_range_m, max_range_m)
+    frame = _text(frame_id)
+    pack = _Layout().header(frame).scalars("B").scalars("f", 5).build().pack
+    fixed = (frame, radiation_type, field_of_view_rad, min_range_m, max_range_m)
 
     def encode(ns: int, range_m: float) -> bytes:
-        sec, nanosec = divmod(ns, NS_PER_S)
-        return pack(ENCAPSULATION, sec, nanosec, length, frame, *fixed, range_m, variance_m2)
+        return pack(ENCAPSULATION, *divmod(ns, NS_PER_S), *fixed, range_m, variance_m2)
 
     return encode
 
@@ -339,14 +326,13 @@ def laser_scan_encoder(
     """sensor_msgs/msg/LaserScan in `frame_id` with `angles` (min, max, increment), `times`
     (time_increment, scan_time) and `limits` (range_min, range_max), no intensities:
     encode(ns, ranges), `ranges` the float32 values as little-endian bytes."""
-    frame = frame_id.encode()
-    pack = _Layout().header(len(frame)).scalars("f", 7).scalars("I").build().pack
-    fixed = (len(frame) + 1, frame, *angles, *times, *limits)
+    frame = _text(frame_id)
+    pack = _Layout().header(frame).scalars("f", 7).scalars("I").build().pack
+    fixed = (frame, *angles, *times, *limits)
     no_intensities = struct.pack("<I", 0)  # ranges end 4-aligned: the count follows them directly
 
     def encode(ns: int, ranges: bytes) -> bytes:
-        sec, nanosec = divmod(ns, NS_PER_S)
-        return pack(ENCAPSULATION, sec, nanosec, *fixed, len(ranges) // 4) + ranges + no_intensities
+        return pack(ENCAPSULATION, *divmod(ns, NS_PER_S), *fixed, len(ranges) // 4) + ranges + no_intensities
 
     return encode
 
@@ -359,32 +345,19 @@ FLOAT32 = 7
 def xyz_cloud_encoder(frame_id: str) -> Callable[[int, bytes], bytes]:
     """sensor_msgs/msg/PointCloud2 in `frame_id` of unordered points (height 1) with float32 x, y,
     z fields, little-endian, dense: encode(ns, points), `points` 12 bytes a point."""
-    frame = frame_id.encode()
-    layout = _Layout().header(len(frame)).scalars("I", 2).scalars("I")  # height, width, field count
+    frame = _text(frame_id)
+    layout = _Layout().header(frame).scalars("I", 2).scalars("I")  # height, width, field count
     fields: list[object] = []
-    for offset, name in enumerate((b"x", b"y", b"z")):
-        layout = layout.string(1).scalars("I").scalars("B").scalars("I")  # name, offset, datatype, count
-        fields += (2, name, 4 * offset, FLOAT32, 1)
+    for offset, name in enumerate(map(_text, "xyz")):
+        layout = layout.string(name).scalars("I").scalars("B").scalars("I")  # name, offset, datatype, count
+        fields += (name, 4 * offset, FLOAT32, 1)
     pack = layout.scalars("?").scalars("I", 2).scalars("I").build().pack  # is_bigendian, steps, data count
     dense = b"\x01"
 
     def encode(ns: int, points: bytes) -> bytes:
-        sec, nanosec = divmod(ns, NS_PER_S)
         width = len(points) // 12
         head = pack(
-            ENCAPSULATION,
-            sec,
-            nanosec,
-            len(frame) + 1,
-            frame,
-            1,
-            width,
-            3,
-            *fields,
-            False,
-            12,
-            len(points),
-            len(points),
+            ENCAPSULATION, *divmod(ns, NS_PER_S), frame, 1, width, 3, *fields, False, 12, len(points), len(points)
         )
         return head + points + dense
 
@@ -405,8 +378,8 @@ FULL_IMAGE = RegionOfInterest()
 
 @lru_cache(maxsize=256)
 def _camera_info(frame_id: str, distortion_model: str, d_count: int) -> tuple[struct.Struct, bytes, bytes]:
-    frame, model = frame_id.encode(), distortion_model.encode()
-    layout = _Layout().header(len(frame)).scalars("I", 2).string(len(model)).sequence("d", d_count)
+    frame, model = _text(frame_id), _text(distortion_model)
+    layout = _Layout().header(frame).scalars("I", 2).string(model).sequence("d", d_count)
     layout = layout.scalars("d", 9 + 9 + 12).scalars("I", 2)  # k, r, p; binning_x, binning_y
     return layout.scalars("I", 4).scalars("?").build(), frame, model  # roi
 
@@ -444,15 +417,14 @@ def camera_info(
 
 @lru_cache(maxsize=256)
 def _joy(frame_id: str, axes: int, buttons: int) -> tuple[struct.Struct, bytes]:
-    frame = frame_id.encode()
-    return _Layout().header(len(frame)).sequence("f", axes).sequence("i", buttons).build(), frame
+    frame = _text(frame_id)
+    return _Layout().header(frame).sequence("f", axes).sequence("i", buttons).build(), frame
 
 
 def joy(ns: int, frame_id: str, axes: Sequence[float], buttons: Sequence[int]) -> bytes:
     """sensor_msgs/msg/Joy (axes float32, buttons int32)."""
     layout, frame = _joy(frame_id, len(axes), len(buttons))
-    sec, nanosec = divmod(ns, NS_PER_S)
-    return layout.pack(ENCAPSULATION, sec, nanosec, len(frame) + 1, frame, len(axes), *axes, len(buttons), *buttons)
+    return layout.pack(ENCAPSULATION, *divmod(ns, NS_PER_S), frame, len(axes), *axes, len(buttons), *buttons)
 
 
 # --- std_msgs, tf2_msgs, rcl_interfaces ----------------------------------------------------------
@@ -474,9 +446,9 @@ def float64_multi_array_encoder(
     layout = _Layout().scalars("I")  # dim count
     head: list[object] = [ENCAPSULATION, len(dims)]
     for dim in dims:
-        label = dim.label.encode()
-        layout = layout.string(len(label)).scalars("I", 2)  # size, stride
-        head += (len(label) + 1, label, dim.size, dim.stride)
+        label = _text(dim.label)
+        layout = layout.string(label).scalars("I", 2)  # size, stride
+        head += (label, dim.size, dim.stride)
     pack = layout.scalars("I").sequence("d", count).build().pack  # data_offset, data
     fixed = (*head, data_offset, count)
 
@@ -502,23 +474,20 @@ class TransformStamped(NamedTuple):
 
 
 @lru_cache(maxsize=256)
-def _tf_message(frames: tuple[tuple[str, str], ...]) -> tuple[struct.Struct, tuple[tuple[int, bytes, int, bytes], ...]]:
+def _tf_message(frames: tuple[tuple[str, str], ...]) -> tuple[struct.Struct, tuple[tuple[bytes, bytes], ...]]:
     layout = _Layout().scalars("I")  # transform count
-    encoded = []
-    for parent, child in frames:
-        p, c = parent.encode(), child.encode()
-        layout = layout.header(len(p)).string(len(c)).scalars("d", 7)  # translation, rotation
-        encoded.append((len(p) + 1, p, len(c) + 1, c))
-    return layout.build(), tuple(encoded)
+    encoded = tuple((_text(parent), _text(child)) for parent, child in frames)
+    for parent, child in encoded:
+        layout = layout.header(parent).string(child).scalars("d", 7)  # translation, rotation
+    return layout.build(), encoded
 
 
 def tf_message(transforms: Sequence[TransformStamped]) -> bytes:
     """tf2_msgs/msg/TFMessage."""
     layout, frames = _tf_message(tuple((t.frame_id, t.child_frame_id) for t in transforms))
     args: list[object] = [ENCAPSULATION, len(transforms)]
-    for t, (parent_length, parent, child_length, child) in zip(transforms, frames):
-        sec, nanosec = divmod(t.ns, NS_PER_S)
-        args += (sec, nanosec, parent_length, parent, child_length, child, *t.translation, *t.rotation)
+    for t, (parent, child) in zip(transforms, frames):
+        args += (*divmod(t.ns, NS_PER_S), parent, child, *t.translation, *t.rotation)
     return layout.pack(*args)
 
 
@@ -526,25 +495,19 @@ def tf_message(transforms: Sequence[TransformStamped]) -> bytes:
 def transform_encoder(frame_id: str, child_frame_id: str) -> Callable[[int, Vec3, Quat], bytes]:
     """tf2_msgs/msg/TFMessage with one transform, `child_frame_id` in `frame_id`:
     encode(ns, translation, rotation) (what /tf carries for a single body)."""
-    layout, ((parent_length, parent, child_length, child),) = _tf_message(((frame_id, child_frame_id),))
+    layout, ((parent, child),) = _tf_message(((frame_id, child_frame_id),))
     pack = layout.pack
 
     def encode(ns: int, translation: Vec3, rotation: Quat) -> bytes:
-        sec, nanosec = divmod(ns, NS_PER_S)
-        return pack(ENCAPSULATION, 1, sec, nanosec, parent_length, parent, child_length, child, *translation, *rotation)
+        return pack(ENCAPSULATION, 1, *divmod(ns, NS_PER_S), parent, child, *translation, *rotation)
 
     return encode
 
 
 def string(data: str) -> bytes:
-    """std_msgs/msg/String."""
-    text = data.encode()
-    return _string(len(text)).pack(ENCAPSULATION, len(text) + 1, text)
-
-
-@lru_cache(maxsize=256)
-def _string(length: int) -> struct.Struct:
-    return _Layout().string(length).build()
+    """std_msgs/msg/String (latched messages: not compiled)."""
+    text = _text(data)
+    return _Layout().string(text).build().pack(ENCAPSULATION, text)
 
 
 class LogLevel:
@@ -557,21 +520,13 @@ class LogLevel:
     FATAL = 50
 
 
-@lru_cache(maxsize=256)
-def _log(lengths: tuple[int, int, int, int]) -> struct.Struct:
-    layout = _Layout().scalars("i").scalars("I").scalars("B")  # stamp, level
-    for length in lengths:  # name, msg, file, function
-        layout.string(length)
-    return layout.scalars("I").build()  # line
-
-
 def log(ns: int, level: int, name: str, msg: str, file: str = "", function: str = "", line: int = 0) -> bytes:
-    """rcl_interfaces/msg/Log (what /rosout carries)."""
-    texts = [s.encode() for s in (name, msg, file, function)]
-    args: list[object] = [ENCAPSULATION, *_stamp(ns), level]
-    for text in texts:
-        args += (len(text) + 1, text)
-    return _log((len(texts[0]), len(texts[1]), len(texts[2]), len(texts[3]))).pack(*args, line)
+    """rcl_interfaces/msg/Log (what /rosout carries, an event at a time: not compiled)."""
+    texts = [_text(s) for s in (name, msg, file, function)]
+    layout = _Layout().scalars("i").scalars("I").scalars("B")  # stamp, level
+    for text in texts:  # name, msg, file, function; then line
+        layout.string(text)
+    return layout.scalars("I").build().pack(ENCAPSULATION, *divmod(ns, NS_PER_S), level, *texts, line)
 
 
 # --- visualization_msgs ------------------------------------------------------------------------
@@ -616,23 +571,23 @@ class Marker(NamedTuple):
 
 def _marker(layout: _Layout, args: list[object], m: Marker) -> None:
     """Append one Marker's layout and values."""
-    frame, namespace, texture, text, mesh = (
-        s.encode() for s in (m.frame_id, m.namespace, m.texture_resource, m.text, m.mesh_resource)
+    frame, namespace, texture, text, mesh = map(
+        _text, (m.frame_id, m.namespace, m.texture_resource, m.text, m.mesh_resource)
     )
-    layout.header(len(frame)).string(len(namespace)).scalars("i", 3)  # id, type, action
+    layout.header(frame).string(namespace).scalars("i", 3)  # id, type, action
     layout.scalars("d", 7).scalars("d", 3).scalars("f", 4)  # pose, scale, color
     layout.scalars("i").scalars("I").scalars("?")  # lifetime, frame_locked
     layout.sequence("d", 3 * len(m.points)).sequence("f", 4 * len(m.colors))
-    layout.string(len(texture))
-    layout.header(0).string(0).sequence("B", 0)  # texture: an empty CompressedImage
+    layout.string(texture)
+    layout.header(_EMPTY).string(_EMPTY).sequence("B", 0)  # texture: an empty CompressedImage
     layout.sequence("f", 0)  # uv_coordinates
-    layout.string(len(text)).string(len(mesh))
-    layout.string(0).sequence("B", 0).scalars("?")  # mesh_file (empty), mesh_use_embedded_materials
-    args += (*_stamp(m.ns), len(frame) + 1, frame, len(namespace) + 1, namespace, m.id, m.type, m.action)
-    args += (*m.position, *m.orientation, *m.scale, *m.color, *_stamp(m.lifetime_ns), m.frame_locked)
+    layout.string(text).string(mesh)
+    layout.string(_EMPTY).sequence("B", 0).scalars("?")  # mesh_file (empty), mesh_use_embedded_materials
+    args += (*divmod(m.ns, NS_PER_S), frame, namespace, m.id, m.type, m.action)
+    args += (*m.position, *m.orientation, *m.scale, *m.color, *divmod(m.lifetime_ns, NS_PER_S), m.frame_locked)
     args += (len(m.points), *(v for p in m.points for v in p), len(m.colors), *(v for c in m.colors for v in c))
-    args += (len(texture) + 1, texture, 0, 0, 1, b"", 1, b"", 0, 0)
-    args += (len(text) + 1, text, len(mesh) + 1, mesh, 1, b"", 0, m.mesh_use_embedded_materials)
+    args += (texture, 0, 0, _EMPTY, _EMPTY, 0, 0)
+    args += (text, mesh, _EMPTY, 0, m.mesh_use_embedded_materials)
 
 
 def marker_array(markers: Sequence[Marker]) -> bytes:

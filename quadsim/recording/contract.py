@@ -117,46 +117,29 @@ def twist_from_msg(msg: Any) -> Twist:
     return Twist(linear_x=lin.x, linear_y=lin.y, linear_z=lin.z, angular_x=ang.x, angular_y=ang.y, angular_z=ang.z)
 
 
-def image_topic(spec: CameraSpec) -> Topic:
-    return Topic(f"{spec.topic_prefix}/image_raw/compressed", "sensor_msgs/msg/CompressedImage")
+#: a camera's topics by kind: what follows its prefix (CameraSpec.topic_prefix), their type and the
+#: CameraSpec field that asks for them (None: every camera has them), in the order a frame's messages
+#: come. Its image and CameraInfo; its depth image (spec.depth: 32FC1 metres or 16UC1 millimetres,
+#: REP 118) and that image's CameraInfo; its depth colour-mapped for people (a JPEG of the depth
+#: image, turbo on a log scale from 0.2 m (red) to 50 m (blue), black where there is no depth); its
+#: segmentation image (label ids: SEGMENTATION_LABELS says which is which body)
+CAMERA_TOPICS = {
+    "image": ("/image_raw/compressed", "sensor_msgs/msg/CompressedImage", None),
+    "info": ("/camera_info", "sensor_msgs/msg/CameraInfo", None),
+    "depth": ("/depth/image_raw", "sensor_msgs/msg/Image", "depth"),
+    "depth_info": ("/depth/camera_info", "sensor_msgs/msg/CameraInfo", "depth"),
+    "colormap": ("/depth/colormap/compressed", "sensor_msgs/msg/CompressedImage", "depth_colormap"),
+    "segmentation": ("/segmentation/image_raw", "sensor_msgs/msg/Image", "segmentation"),
+}
 
 
-def camera_info_topic(spec: CameraSpec) -> Topic:
-    return Topic(f"{spec.topic_prefix}/camera_info", "sensor_msgs/msg/CameraInfo")
-
-
-def depth_image_topic(spec: CameraSpec) -> Topic:
-    """A camera's depth image (spec.depth: 32FC1 metres or 16UC1 millimetres, REP 118)."""
-    return Topic(f"{spec.topic_prefix}/depth/image_raw", "sensor_msgs/msg/Image")
-
-
-def depth_camera_info_topic(spec: CameraSpec) -> Topic:
-    return Topic(f"{spec.topic_prefix}/depth/camera_info", "sensor_msgs/msg/CameraInfo")
-
-
-def depth_colormap_topic(spec: CameraSpec) -> Topic:
-    """A camera's depth colour-mapped for people (spec.depth_colormap): a JPEG of the depth image,
-    turbo on a log scale from 0.2 m (red) to 50 m (blue), black where there is no depth."""
-    return Topic(f"{spec.topic_prefix}/depth/colormap/compressed", "sensor_msgs/msg/CompressedImage")
-
-
-def segmentation_image_topic(spec: CameraSpec) -> Topic:
-    """A camera's segmentation image: label ids (SEGMENTATION_LABELS says which is which body)."""
-    return Topic(f"{spec.topic_prefix}/segmentation/image_raw", "sensor_msgs/msg/Image")
-
-
-def frame_topics(spec: CameraSpec) -> tuple[Topic, ...]:
-    """Every topic one of the camera's frames becomes, in the order its messages come: the
-    image and its info, then the depth image and its info, the depth colour map, the
-    segmentation, where it has them."""
-    topics = [image_topic(spec), camera_info_topic(spec)]
-    if spec.depth:
-        topics += [depth_image_topic(spec), depth_camera_info_topic(spec)]
-    if spec.depth_colormap:
-        topics.append(depth_colormap_topic(spec))
-    if spec.segmentation:
-        topics.append(segmentation_image_topic(spec))
-    return tuple(topics)
+def frame_topics(spec: CameraSpec) -> dict[str, Topic]:
+    """The topics one of the camera's frames becomes, by kind (CAMERA_TOPICS), where it has them."""
+    return {
+        kind: Topic(spec.topic_prefix + suffix, type_name)
+        for kind, (suffix, type_name, asked_by) in CAMERA_TOPICS.items()
+        if asked_by is None or getattr(spec, asked_by)
+    }
 
 
 #: the contract's types whose definition changed after Humble, as Jazzy and Kilted (the ROS 2

@@ -45,13 +45,8 @@ from quadsim.recording.contract import (
     WORLD_MARKERS,
     Names,
     Topic,
-    camera_info_topic,
-    depth_camera_info_topic,
-    depth_colormap_topic,
-    depth_image_topic,
-    image_topic,
+    frame_topics,
     optical_rotation,
-    segmentation_image_topic,
 )
 from quadsim.recording.scene import link_transforms, robot_description, robot_markers, world_markers
 from quadsim.sensors.beams import Ranges, beam_directions, frame_rotation, xyz_points
@@ -108,27 +103,8 @@ def _thrusts_encoder(rotors: int) -> Callable[[Sequence[float]], bytes]:
 
 class _Camera(NamedTuple):
     spec: CameraSpec
-    image: Topic
-    info: Topic
     frame: str  # its optical frame's name on the wire
-    depth: Topic | None  # its depth image and that image's CameraInfo, if it has depth
-    depth_info: Topic | None
-    colormap: Topic | None  # its depth colour-mapped for people, if it has that
-    segmentation: Topic | None  # its segmentation image, if it has one
-
-
-def _camera(spec: CameraSpec, names: Names) -> _Camera:
-    t = names.topic
-    return _Camera(
-        spec,
-        t(image_topic(spec)),
-        t(camera_info_topic(spec)),
-        names.frame(spec.optical_frame),
-        t(depth_image_topic(spec)) if spec.depth else None,
-        t(depth_camera_info_topic(spec)) if spec.depth else None,
-        t(depth_colormap_topic(spec)) if spec.depth_colormap else None,
-        t(segmentation_image_topic(spec)) if spec.segmentation else None,
-    )
+    topics: dict[str, Topic]  # by kind (contract.CAMERA_TOPICS), those it has, under the vehicle's names
 
 
 def _image(ns: int, frame_id: str, encoding: str, pixels: np.ndarray) -> bytes:
@@ -312,16 +288,19 @@ class VehicleTopics:
         self._odometry = cdr.odometry_encoder(WORLD_FRAME, body)
         self._imu = cdr.imu_encoder(body)
         self._tf = cdr.transform_encoder(WORLD_FRAME, body)
-        self._cameras = {spec.name: _camera(spec, names) for spec, _ in cameras}
+        self._cameras = {
+            spec.name: _Camera(
+                spec, names.frame(spec.optical_frame), {k: names.topic(t) for k, t in frame_topics(spec).items()}
+            )
+            for spec, _ in cameras
+        }
         self._infos = {spec.name: spec.camera_info() for spec, _ in cameras}
         #: whether a camera of this vehicle makes segmentation images
         self.segmenting = any(spec.segmentation for spec, _ in cameras)
         #: this vehicle's topics, in the order consumers get them (/tf_static is the run's, shared)
         self.topics: list[Topic] = [self._twist, *self._state_topics, TF_STATIC]
         for camera in self._cameras.values():
-            self.topics += [camera.image, camera.info]
-            images = (camera.depth, camera.depth_info, camera.colormap, camera.segmentation)
-            self.topics += [t for t in images if t is not None]
+            self.topics += camera.topics.values()
         static = link_transforms(vehicle) if vehicle is not None else []
         static += [
             cdr.TransformStamped(
@@ -348,12 +327,12 @@ class VehicleTopics:
         """The range finder's and the LiDAR's topics and encoders, where the vehicle carries them;
         their frames' static transforms from base_link."""
         static: list[cdr.TransformStamped] = []
-        self._range = self._scan = self._points = None
+        self._range = self._scan = None
         if vehicle is None:
             return static
         if r is not None:
             self._range = names.topic(RANGE)
-            self._range_encoder = cdr.range_encoder(
+            range_encoder = cdr.range_encoder(
                 names.frame(RANGE_FRAME),
                 r.radiation_type.wire,
                 r.field_of_view_rad,
@@ -361,6 +340,7 @@ class VehicleTopics:
                 r.max_range_m,
                 r.noise_std_m**2,
             )
+            self._range_message = lambda ns, ranges: range_encoder(ns, float(ranges[0]))
             self.topics.append(self._range)
             static.append(cdr.TransformStamped(0, BODY_FRAME, RANGE_FRAME, r.position_m, frame_rotation(r.direction)))
         if lidar is not None:
@@ -370,16 +350,14 @@ class VehicleTopics:
                 increment = 2.0 * math.pi / p.samples
                 angles = (-math.pi, -math.pi + (p.samples - 1) * increment, increment)
                 # every beam of a scan is cast at once: no time between them
-                self._scan_encoder = cdr.laser_scan_encoder(
-                    frame, angles, (0.0, 1.0 / p.rate_hz), (p.min_range_m, p.max_range_m)
-                )
+                scan = cdr.laser_scan_encoder(frame, angles, (0.0, 1.0 / p.rate_hz), (p.min_range_m, p.max_range_m))
                 self._scan = names.topic(SCAN)
-                self.topics.append(self._scan)
+                self._scan_message = lambda ns, ranges: scan(ns, ranges.astype("<f4").tobytes())
             else:
-                self._cloud_encoder = cdr.xyz_cloud_encoder(frame)
-                self._beams = beam_directions(p, lidar)
-                self._points = names.topic(POINTS)
-                self.topics.append(self._points)
+                cloud, beams = cdr.xyz_cloud_encoder(frame), beam_directions(p, lidar)
+                self._scan = names.topic(POINTS)
+                self._scan_message = lambda ns, ranges: cloud(ns, xyz_points(beams, ranges).astype("<f4").tobytes())
+            self.topics.append(self._scan)
         return static
 
     def own_latched(self, step: int, local_files: bool = False) -> tuple[Message, ...]:
@@ -399,11 +377,17 @@ class VehicleTopics:
 
     # --- producers ----------------------------------------------------------------------------
 
-    def on_command(self, step: int, twist: Twist) -> None:
-        """The command as the controller received it -> /quad_cmd_twist."""
+    def _publish_one(self, topic: Topic, step: int, encode: Callable[[int], bytes]) -> None:
+        """One message on `topic` at `step`, `encode(ns)`, where a consumer takes it."""
         fanout = self.fanout
         if fanout.consumers:
-            fanout.publish(((self._twist, fanout.ns(step), cdr.twist(twist[:3], twist[3:])),))
+            fanout.declare(topic)  # a topic not every run has (/joy) is announced before its first message
+            ns = fanout.ns(step)
+            fanout.publish(((topic, ns, encode(ns)),))
+
+    def on_command(self, step: int, twist: Twist) -> None:
+        """The command as the controller received it -> /quad_cmd_twist."""
+        self._publish_one(self._twist, step, lambda ns: cdr.twist(twist[:3], twist[3:]))
 
     def on_state(self, state: VehicleState) -> None:
         """A state -> pose, odometry, IMU (its noisy reading where the run has one), rotor
@@ -452,47 +436,38 @@ class VehicleTopics:
         ns = fanout.ns(frame.step)
         i = self._infos[frame.camera]
         info = cdr.camera_info(ns, camera.frame, i.height_px, i.width_px, i.distortion_model, i.d, i.k, i.r, i.p)
-        messages = [(camera.image, ns, cdr.compressed_image(ns, camera.frame, "jpeg", jpeg)), (camera.info, ns, info)]
-        if camera.depth is not None and camera.depth_info is not None and frame.depth_pixels is not None:
+        topics = camera.topics
+        messages = [
+            (topics["image"], ns, cdr.compressed_image(ns, camera.frame, "jpeg", jpeg)),
+            (topics["info"], ns, info),
+        ]
+        if "depth" in topics and frame.depth_pixels is not None:
             pixels = frame.depth_pixels
-            messages.append((camera.depth, ns, _image(ns, camera.frame, camera.spec.depth, pixels)))
-            messages.append((camera.depth_info, ns, info))
-            if camera.colormap is not None:
+            messages.append((topics["depth"], ns, _image(ns, camera.frame, camera.spec.depth, pixels)))
+            messages.append((topics["depth_info"], ns, info))
+            if "colormap" in topics:
                 colormap = frame.depth_colormap_jpeg
                 if colormap is None:  # rendered before JPEG was asked for, or by no rig
                     colormap = depth_colormap_jpeg(pixels, camera.spec.depth, camera.spec.jpeg_quality)
-                messages.append((camera.colormap, ns, cdr.compressed_image(ns, camera.frame, "jpeg", colormap)))
-        if camera.segmentation is not None and frame.labels is not None:
+                messages.append((topics["colormap"], ns, cdr.compressed_image(ns, camera.frame, "jpeg", colormap)))
+        if "segmentation" in topics and frame.labels is not None:
             encoding = "mono8" if frame.labels.dtype == np.uint8 else "16UC1"
-            messages.append((camera.segmentation, ns, _image(ns, camera.frame, encoding, frame.labels)))
+            messages.append((topics["segmentation"], ns, _image(ns, camera.frame, encoding, frame.labels)))
         fanout.publish(messages)
 
     def on_range(self, reading: Ranges) -> None:
         """A range finder's reading (its one beam) -> /quad/range."""
-        fanout = self.fanout
-        if self._range is not None and fanout.consumers:
-            ns = fanout.ns(reading.step)
-            fanout.publish(((self._range, ns, self._range_encoder(ns, float(reading.ranges_m[0]))),))
+        if self._range is not None:
+            self._publish_one(self._range, reading.step, lambda ns: self._range_message(ns, reading.ranges_m))
 
     def on_scan(self, scan: Ranges) -> None:
         """A LiDAR's scan -> /quad/scan (2D), or its returns as points in its frame -> /quad/points (3D)."""
-        fanout = self.fanout
-        if not fanout.consumers:
-            return
-        ns = fanout.ns(scan.step)
         if self._scan is not None:
-            fanout.publish(((self._scan, ns, self._scan_encoder(ns, scan.ranges_m.astype("<f4").tobytes())),))
-        elif self._points is not None:
-            points = xyz_points(self._beams, scan.ranges_m)
-            fanout.publish(((self._points, ns, self._cloud_encoder(ns, points.astype("<f4").tobytes())),))
+            self._publish_one(self._scan, scan.step, lambda ns: self._scan_message(ns, scan.ranges_m))
 
     def on_joy(self, step: int, axes: Sequence[float], buttons: Sequence[int]) -> None:
         """Joystick axes and buttons in the ROS `joy` convention -> /joy."""
-        fanout = self.fanout
-        if fanout.consumers:
-            fanout.declare(self._joy)
-            ns = fanout.ns(step)
-            fanout.publish(((self._joy, ns, cdr.joy(ns, self._joy_frame, axes, buttons)),))
+        self._publish_one(self._joy, step, lambda ns: cdr.joy(ns, self._joy_frame, axes, buttons))
 
     def on_event(self, step: int, kind: str, value: str) -> None:
         """A flight event from the loop (take-off, touchdown, landed, crash, reset) -> /rosout."""

@@ -172,7 +172,7 @@ def load_flights(path: Path | str, depth: bool = False) -> dict[str, RecordedFli
             flight.damage_report = reader.file.damage_report() if reader.damage else ""
             flight.attachments = reader.attachments()
             flight.topics = reader.topic_counts()
-            flight.start_ns, flight.end_ns = reader.span_ns
+            flight.start_ns, flight.end_ns = reader.file.span_ns
             flights[name] = flight
             parts[name] = _wanted(flight, reader.topics, wanted, depth)
         for topic, ns, msg in reader.raw_messages(list(wanted)):
@@ -262,11 +262,10 @@ def _wanted(
 
 def _assemble_states(flight: RecordedFlight, parts: dict[str, dict[int, Any]]) -> None:
     for ns in sorted(parts[rm.POSE.name]):
+        state, body_velocity = _state(flight.step_of(ns), parts, ns)
         flight.state_ns.append(ns)
-        flight.states.append(_state(flight.step_of(ns), parts, ns))
-        odom = parts[rm.ODOM.name].get(ns)
-        b = odom.twist.twist.linear if odom is not None else None
-        flight.body_velocities.append((b.x, b.y, b.z) if b is not None else (0.0, 0.0, 0.0))
+        flight.states.append(state)
+        flight.body_velocities.append(body_velocity)
 
 
 def _finite(topic: str, msg: Any) -> bool:
@@ -277,20 +276,21 @@ def _finite(topic: str, msg: Any) -> bool:
     return all(math.isfinite(v) for v in (p.x, p.y, p.z, q.x, q.y, q.z, q.w))
 
 
-def _state(step: int, parts: dict[str, dict[int, Any]], ns: int) -> VehicleState:
+def _state(step: int, parts: dict[str, dict[int, Any]], ns: int) -> tuple[VehicleState, tuple[float, float, float]]:
+    """The state at `ns` from its messages, and its velocity in base_link as /quad/odom has it."""
     pose = parts[rm.POSE.name][ns].pose
     q = (pose.orientation.x, pose.orientation.y, pose.orientation.z, pose.orientation.w)
     odom = parts[rm.ODOM.name].get(ns)
     imu = parts[rm.IMU.name].get(ns)
     thrusts = parts[rm.ROTOR_THRUSTS.name].get(ns)
-    velocity, rates = (0.0, 0.0, 0.0), (0.0, 0.0, 0.0)
+    body = velocity = rates = (0.0, 0.0, 0.0)
     if odom is not None:
-        b = odom.twist.twist.linear
-        velocity = rotate(matrix_from_quaternion(q), (b.x, b.y, b.z))
-        a = odom.twist.twist.angular
-        rates = (a.x, a.y, a.z)
+        b, a = odom.twist.twist.linear, odom.twist.twist.angular
+        body, rates = (b.x, b.y, b.z), (a.x, a.y, a.z)
+        velocity = rotate(matrix_from_quaternion(q), body)
     force = (
         (imu.linear_acceleration.x, imu.linear_acceleration.y, imu.linear_acceleration.z) if imu else (0.0, 0.0, 0.0)
     )
     rotor = tuple(float(v) for v in thrusts.data) if thrusts is not None else ()
-    return VehicleState(step, (pose.position.x, pose.position.y, pose.position.z), q, velocity, rates, rotor, force)
+    position = (pose.position.x, pose.position.y, pose.position.z)
+    return VehicleState(step, position, q, velocity, rates, rotor, force), body

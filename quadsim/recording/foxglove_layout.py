@@ -32,6 +32,7 @@ from typing import Any
 
 from quadsim.recording.contract import (
     BODY_FRAME,
+    CAMERA_TOPICS,
     ODOM,
     POINTS,
     POSE,
@@ -46,9 +47,9 @@ from quadsim.recording.contract import (
 )
 from quadsim.sensors.images import COLORMAP_FAR_M, COLORMAP_NEAR_M
 
-IMAGE_SUFFIX = "/image_raw/compressed"
+IMAGE_SUFFIX = CAMERA_TOPICS["image"][0]
 #: a camera's depth colour-mapped (contract.depth_colormap_topic), shown beside the cameras
-COLORMAP_SUFFIX = "/depth/colormap/compressed"
+COLORMAP_SUFFIX = CAMERA_TOPICS["colormap"][0]
 #: at most this many camera images and vehicles' altitudes in one layout (a fleet of ten with
 #: two cameras each would leave each image a stamp)
 MAX_IMAGES = 4

@@ -102,16 +102,12 @@ def _parameter_lines(d: RunDescription) -> list[str]:
     """What a recording's run description says: its vehicles, rates, wind, sensors and cameras."""
     out: list[str] = []
     cfg = d.config
-    script = d.driver.get("script")
     out.append("run parameters:")
     if d.fleet:
         out.append(f"  a fleet of {len(d.fleet)} vehicles:")
         out += [f"    {name}: {_vehicle_line(own)}" for name, own in d.fleet]
     else:
-        out.append(
-            f"  controller {d.controller.name}, z-mode {d.z_mode.value}, driver {d.driver_name}"
-            + (f" ({script})" if isinstance(script, str) and script else "")
-        )
+        out.append(f"  controller {d.controller.name}, z-mode {d.z_mode.value}, {_driver(d)}")
     out.append("  rates " + ", ".join(f"{k.replace('_hz', '')} {v} Hz" for k, v in cfg.rates.to_dict().items()))
     timeout = "off" if cfg.command_timeout_s is None else f"{cfg.command_timeout_s} s"
     if d.fleet:
@@ -140,13 +136,17 @@ def _parameter_lines(d: RunDescription) -> list[str]:
 def _vehicle_line(d: RunDescription) -> str:
     """One fleet vehicle: airframe, start, controller, z-mode and input."""
     start = d.config.start
-    script = d.driver.get("script")
     return (
         f"{d.vehicle.name} ({d.vehicle.rotor_count} rotors, {d.vehicle.mass_kg:.3f} kg) from "
         f"x={start.x_m:g} y={start.y_m:g} m yaw={math.degrees(start.yaw_rad):g} deg, {d.controller.name}, "
-        f"z-mode {d.z_mode.value}, driver {d.driver_name}"
-        + (f" ({script})" if isinstance(script, str) and script else "")
+        f"z-mode {d.z_mode.value}, {_driver(d)}"
     )
+
+
+def _driver(d: RunDescription) -> str:
+    """Its input, and the script it flew where it flew one."""
+    script = d.driver.get("script")
+    return f"driver {d.driver_name}" + (f" ({script})" if isinstance(script, str) and script else "")
 
 
 def read_info(path: Path) -> RecordingInfo:

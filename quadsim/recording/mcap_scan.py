@@ -23,29 +23,16 @@ from collections.abc import Iterator
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 
+from mcap.opcode import Opcode
+
 from quadsim.core.invocation import program
 from quadsim.errors import QuadsimError
 
 MAGIC = b"\x89MCAP0\r\n"
 HEADER, FOOTER, SCHEMA, CHANNEL, MESSAGE, CHUNK, MESSAGE_INDEX, CHUNK_INDEX = 1, 2, 3, 4, 5, 6, 7, 8
 ATTACHMENT, ATTACHMENT_INDEX, STATISTICS, METADATA, METADATA_INDEX, SUMMARY_OFFSET, DATA_END = range(9, 16)
-RECORD_NAMES = {
-    HEADER: "header",
-    FOOTER: "footer",
-    SCHEMA: "schema",
-    CHANNEL: "channel",
-    MESSAGE: "message",
-    CHUNK: "chunk",
-    MESSAGE_INDEX: "message index",
-    CHUNK_INDEX: "chunk index",
-    ATTACHMENT: "attachment",
-    ATTACHMENT_INDEX: "attachment index",
-    STATISTICS: "statistics",
-    METADATA: "metadata",
-    METADATA_INDEX: "metadata index",
-    SUMMARY_OFFSET: "summary offset",
-    DATA_END: "data end",
-}
+#: opcode -> the record's name as damage reports say it ("message index"): the MCAP spec's
+RECORD_NAMES = {int(op): op.name.lower().replace("_", " ") for op in Opcode}
 _SUMMARY_ONLY = {FOOTER, CHUNK_INDEX, ATTACHMENT_INDEX, STATISTICS, METADATA_INDEX, SUMMARY_OFFSET}
 _LOOSE = {SCHEMA, CHANNEL, MESSAGE}  # records an unchunked file keeps in its data section
 _RESYNC = re.compile(rb"[\x06\x09\x0c]")  # where reading may resume: chunk, attachment, metadata
@@ -78,21 +65,14 @@ class _Fields:
         self.pos += n
         return bytes(out)
 
-    def _num(self, fmt: str, size: int) -> int:
-        if self.pos + size > self.end:
-            raise _Bad("a field runs past the end of its record")
-        (value,) = struct.unpack_from(fmt, self.buf, self.pos)
-        self.pos += size
-        return int(value)
-
     def u16(self) -> int:
-        return self._num("<H", 2)
+        return int.from_bytes(self.take(2), "little")
 
     def u32(self) -> int:
-        return self._num("<I", 4)
+        return int.from_bytes(self.take(4), "little")
 
     def u64(self) -> int:
-        return self._num("<Q", 8)
+        return int.from_bytes(self.take(8), "little")
 
     def text(self) -> str:
         raw = self.take(self.u32())
@@ -142,7 +122,6 @@ class ChannelDef:
     message_encoding: str
     metadata: dict[str, str]
     schema: SchemaDef | None
-    schema_missing: bool = False  # it names a schema id no record defines
 
 
 @dataclass(frozen=True)
@@ -212,7 +191,6 @@ class _Segment:
     # uncompressed size, CRC); more than one when a length field disagrees with another
     readings: list[tuple[str, int, int, int, int]] = field(default_factory=list)
     channel_ids: set[int] = field(default_factory=set)  # from the message indexes after it
-    indexed: bool = False  # reached through the summary's chunk index only
     # filled by the first reading pass
     ok: bool = False
     counts: dict[int, int] = field(default_factory=dict)  # channel key -> messages
@@ -769,7 +747,7 @@ class McapFile:
             end = offset + chunk_len
             if not len(MAGIC) <= offset < end <= self.size or compressed > chunk_len:
                 continue
-            seg = _Segment(offset, end, chunked=True, start_ns=t0, end_ns=t1, channel_ids=set(ids), indexed=True)
+            seg = _Segment(offset, end, chunked=True, start_ns=t0, end_ns=t1, channel_ids=set(ids))
             if chunk_len < 9 + 40:
                 continue
             try:
@@ -1011,7 +989,7 @@ class McapFile:
         if old is not None:
             self.notes.append(f"channel id {cid} is defined again, for {topic!r} (was {old.topic!r})")
         key = len(self.channels)
-        self.channels.append(ChannelDef(key, cid, topic, enc, md, schema, schema_missing=bool(sid) and schema is None))
+        self.channels.append(ChannelDef(key, cid, topic, enc, md, schema))
         return key
 
     def _summary_channel(self, cid: int, schemas: dict[int, SchemaDef]) -> int | None:
@@ -1024,7 +1002,7 @@ class McapFile:
         sid, topic, enc, md = found
         schema = self._summary.schemas.get(sid) or schemas.get(sid)
         key = len(self.channels)
-        self.channels.append(ChannelDef(key, cid, topic, enc, md, schema, schema_missing=bool(sid) and schema is None))
+        self.channels.append(ChannelDef(key, cid, topic, enc, md, schema))
         self._summary_keys[cid] = key
         self.notes.append(
             f"channel {topic!r}: no readable record defines it before its messages; the summary's is used"

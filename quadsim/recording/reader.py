@@ -73,18 +73,11 @@ def _own_type(topic: str) -> str | None:
         rm.ROBOT_MARKERS,
         rm.WORLD_MARKERS,
         rm.ROSOUT,
+        rm.SEGMENTATION_LABELS,
     ):
         if t.name == topic:
             return t.type_name
-    if topic.endswith(("/image_raw/compressed", "/depth/colormap/compressed")):
-        return "sensor_msgs/msg/CompressedImage"
-    if topic.endswith(("/depth/image_raw", "/segmentation/image_raw")):
-        return "sensor_msgs/msg/Image"
-    if topic == rm.SEGMENTATION_LABELS.name:
-        return rm.SEGMENTATION_LABELS.type_name
-    if topic.endswith("/camera_info"):
-        return "sensor_msgs/msg/CameraInfo"
-    return None
+    return next((type_name for suffix, type_name, _ in rm.CAMERA_TOPICS.values() if topic.endswith(suffix)), None)
 
 
 def _decodable_as(channel: ChannelDef) -> str | None:
@@ -190,10 +183,6 @@ class RecordingReader:
         for ch in self.file.channels:
             out[ch.topic] = out.get(ch.topic, 0) + self.file.counts.get(ch.key, 0)
         return out
-
-    @property
-    def span_ns(self) -> tuple[int, int]:
-        return self.file.span_ns
 
     # --- contents ---------------------------------------------------------------------------
 

@@ -15,56 +15,13 @@ from __future__ import annotations
 import contextlib
 import os
 import tempfile
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from pathlib import Path
 
 from mcap.writer import CompressionType, Writer
 
 from quadsim.errors import QuadsimError
-from quadsim.recording.mcap_scan import MAGIC as MCAP_MAGIC
-from quadsim.recording.mcap_scan import ChannelDef, Damage, McapFile, RawMessage, SchemaDef, check_is_mcap
-
-__all__ = ["MCAP_MAGIC", "Recovered", "Scan", "check_is_mcap", "damage_report", "recover", "scan"]
-
-
-@dataclass
-class Scan:
-    """What a defensive read of a file found (see `mcap_scan.McapFile`)."""
-
-    profile: str = ""
-    library: str = ""
-    channels: dict[int, ChannelDef] = field(default_factory=dict)  # by key
-    messages: list[RawMessage] = field(default_factory=list)
-    complete_chunks: int = 0
-    damage: list[Damage] = field(default_factory=list)
-    complete: bool = False  # finished properly and undamaged
-
-    @property
-    def span_s(self) -> tuple[float, float]:
-        if not self.messages:
-            return (0.0, 0.0)
-        times = [m.log_time for m in self.messages]
-        return (min(times) / 1e9, max(times) / 1e9)
-
-
-def scan(path: Path) -> Scan:
-    """Every readable message of a file, and what is wrong with it."""
-    with McapFile(path) as f:
-        return Scan(
-            f.profile,
-            f.library,
-            {ch.key: ch for ch in f.channels},
-            list(f.messages(log_time_order=False)),
-            f.chunk_count,
-            list(f.damage),
-            f.complete,
-        )
-
-
-def damage_report(path: Path) -> str:
-    """What is wrong with a file, and how much of it is readable."""
-    with McapFile(path) as f:
-        return f.damage_report()
+from quadsim.recording.mcap_scan import Damage, McapFile, SchemaDef
 
 
 @dataclass(frozen=True)
@@ -75,7 +32,6 @@ class Recovered:
     chunks: int
     span_s: tuple[float, float]
     was_complete: bool
-    note: str  # what was lost, one line per problem
     damage: tuple[Damage, ...] = ()
     attachments: int = 0
     metadata: int = 0
@@ -132,7 +88,6 @@ def recover(src: Path, dst: Path | None = None, required_topics: tuple[str, ...]
             f.chunk_count,
             (t0 / 1e9, t1 / 1e9),
             f.complete,
-            "\n".join(d.describe() for d in f.damage),
             tuple(f.damage),
             counts[1],
             counts[2],

@@ -23,6 +23,7 @@ import re
 import shutil
 import time
 from collections.abc import Callable, Sequence
+from functools import cache
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, BinaryIO
 
@@ -90,20 +91,22 @@ def check_writable(path: Path, min_free_bytes: int = MIN_FREE_BYTES) -> None:
         )
 
 
-def ros2_channel(topic: Topic, context: Any) -> Any:
+def ros2_channel_log(topic: Topic, context: Any) -> Callable[..., None]:
     """A foxglove-sdk channel for `topic` in `context` as the contract has it: CDR messages, its
     `ros2msg` schema, its QoS in `offered_qos_profiles` (the recorder's file and the live
-    Foxglove server use the same)."""
+    Foxglove server use the same). What is kept of it is its log(data, log_time, sink_id=None):
+    the typed core of Channel.log, without its checks for JSON and str messages."""
     import foxglove
 
     schema = foxglove.Schema(name=topic.type_name, encoding="ros2msg", data=schema_text(topic.type_name).encode())
-    return foxglove.Channel(
+    channel = foxglove.Channel(
         topic.name,
         schema=schema,
         message_encoding="cdr",
         context=context,
         metadata={"offered_qos_profiles": topic.qos},
     )
+    return channel.base.log
 
 
 class _GuardedStream:
@@ -236,20 +239,14 @@ def _not_a_per_message_write_error(record: logging.LogRecord) -> bool:
     return not record.getMessage().startswith("error logging message: McapError")
 
 
-_sdk_logs_routed = False
-
-
+@cache
 def route_sdk_logs_through_python() -> None:
     """foxglove-sdk prints its Rust log records straight to stderr unless they are routed to
     Python's logging (its set_log_level); route them once, and filter the per-message write
     errors there. set_log_level would call logging.basicConfig where the program has no handler
     (a script using quadsim.record): a NullHandler stands in while it is called."""
-    global _sdk_logs_routed
-    if _sdk_logs_routed:
-        return
     import foxglove
 
-    _sdk_logs_routed = True
     logging.getLogger(SDK_WRITE_LOGGER).addFilter(_not_a_per_message_write_error)
     root = logging.getLogger()
     stand_in = logging.NullHandler() if not root.handlers else None
@@ -266,7 +263,9 @@ def _camera_topics(description: RunDescription) -> set[str]:
     """The topics of the run's camera frames, depth and segmentation included (of each fleet
     vehicle's, under its name)."""
     runs = description.fleet or (("", description),)
-    return {Names(name).topic(topic).name for name, d in runs for spec in d.cameras for topic in frame_topics(spec)}
+    return {
+        Names(name).topic(topic).name for name, d in runs for spec in d.cameras for topic in frame_topics(spec).values()
+    }
 
 
 def _attachments(description: RunDescription) -> dict[str, tuple[bytes, str]]:
@@ -274,17 +273,14 @@ def _attachments(description: RunDescription) -> dict[str, tuple[bytes, str]]:
     file (each once, in a fleet) and the world file."""
     world = description.world_model
     runs = [d for _, d in description.fleet] or [description]
-    if world is None or any(d.vehicle_model is None for d in runs):
+    models = [d.vehicle_model for d in runs if d.vehicle_model is not None]
+    if world is None or len(models) < len(runs):
         raise QuadsimError("a recording needs the description of a live run (with its vehicle and world)")
     files: dict[str, tuple[bytes, str]] = {}
     paths = [
-        (p, media)
-        for d in runs
-        if (v := d.vehicle_model) is not None
-        for p, media in (
-            (v.urdf_path, "application/xml"),
-            (v.params_path, "application/toml"),
-        )
+        (path, media)
+        for m in models
+        for path, media in ((m.urdf_path, "application/xml"), (m.params_path, "application/toml"))
     ]
     for path, media in [*paths, (world.path, "application/toml")]:
         data = path.read_bytes()
@@ -341,8 +337,7 @@ class McapRecorder:
         self._clock, self._flush_every_wall_s, self._last_flush_wall = clock, flush_every_wall_s, clock()
         self._last_fsync_wall = time.monotonic()
         self._context = foxglove.Context()  # this file's channels, apart from any other sink's
-        self._channels: dict[str, Any] = {}
-        self._log: dict[str, Any] = {}  # topic -> its channel's log(data, log_time)
+        self._log: dict[str, Callable[..., None]] = {}  # topic -> its channel's log(data, log_time)
         self._writer: Any = None
         # camera frames are rendered elsewhere and come late: hold the rest until the frames of
         # their time are in, so the file is in log-time order (readers and `mcap doctor` expect it)
@@ -383,20 +378,13 @@ class McapRecorder:
 
     def add_topic(self, topic: Topic) -> None:
         """A channel for `topic` (one schema per type: the writer shares equal schemas)."""
-        if topic.name in self._channels:
-            return
-        channel = ros2_channel(topic, self._context)
-        self._channels[topic.name] = channel
-        # the typed core of Channel.log, without its checks for JSON and str messages
-        self._log[topic.name] = channel.base.log
+        if topic.name not in self._log:
+            self._log[topic.name] = ros2_channel_log(topic, self._context)
 
     def on_messages(self, messages: Sequence[Message]) -> None:
         if self.error is not None or self.closed or not messages:
             return
-        if self._reorder is None:
-            self._write(messages)
-            return
-        ready = self._reorder.push(messages)
+        ready = messages if self._reorder is None else self._reorder.push(messages)
         if ready:
             self._write(ready)
 

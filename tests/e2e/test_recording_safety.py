@@ -10,7 +10,7 @@ from pathlib import Path
 
 from mcap.reader import make_reader
 
-from quadsim.recording.salvage import scan
+from quadsim.recording.mcap_scan import McapFile
 from tests.helpers import ROOT
 from tests.integration.test_recording_safety import _summary_ok
 
@@ -48,7 +48,8 @@ def test_sigkill_mid_run_recovers_all_but_the_last_second(tmp_path):
     _flown_to(proc, 4.0)
     proc.send_signal(signal.SIGKILL)
     proc.wait()
-    assert not scan(out).complete  # cut short, as a crash leaves it: no footer
+    with McapFile(out) as found:
+        assert not found.complete  # cut short, as a crash leaves it: no footer
     result = subprocess.run(
         [sys.executable, str(ROOT / "main.py"), "recover", str(out)], capture_output=True, text=True, cwd=ROOT
     )

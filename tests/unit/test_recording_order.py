@@ -38,7 +38,7 @@ def test_a_late_frames_depth_and_segmentation_are_left_out_with_it():
     spec = CameraSpec("front", "front_camera_link", depth="16UC1", segmentation=True, depth_colormap=True)
     with Simulator(SimConfig()) as sim:
         described = sim.description().with_outputs((spec,), 0)
-    topics = frame_topics(spec)
+    topics = tuple(frame_topics(spec).values())
     assert _camera_topics(described) == {t.name for t in topics} and len(topics) == 6
     order = _LogTimeOrder(_camera_topics(described), start_ns=0)
     written = []
