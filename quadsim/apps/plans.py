@@ -81,23 +81,6 @@ def _duration(args: argparse.Namespace, default_s: float) -> float:
     return duration
 
 
-def _outputs(args: argparse.Namespace, live: bool, paced: bool) -> OutputOptions:
-    """The recording and cameras of a run of one vehicle, refused where no one would see the
-    frames asked for; flown live or in real time, the cameras drop frames rather than hold the
-    flight back (a run that is not real-time keeps every frame)."""
-    outputs = output_options(args)
-    live_wanted = args.foxglove is not None or args.ros2 or live
-    if not outputs.record and outputs.cameras and not live_wanted:  # nobody would see a frame
-        asked = camera_options_given(args)
-        if asked:
-            raise QuadsimError(
-                f"{' and '.join(asked)} with --no-record: nothing would show the frames (record, or serve them "
-                "with --foxglove or --ros2, or leave the camera options out)"
-            )
-        outputs = replace(outputs, cameras=())
-    return replace(outputs, ordered_delivery=False) if paced else outputs
-
-
 def _alone(
     args: argparse.Namespace,
     config: SimConfig,
@@ -110,12 +93,24 @@ def _alone(
 ) -> RunPlan:
     """A run of one vehicle flown by `driver` (a `live` input's: fed by a bridge), with the
     options' recording, cameras and flight settings; `info` is recorded with the duration and
-    whether the run keeps to the wall clock."""
+    whether the run keeps to the wall clock. The cameras are refused where no one would see the
+    frames asked for; flown in real time, they drop frames rather than hold the flight back (a run
+    that is not real-time keeps every frame)."""
+    outputs = output_options(args)
+    live_wanted = args.foxglove is not None or args.ros2 or live
+    if not outputs.record and outputs.cameras and not live_wanted:  # nobody would see a frame
+        asked = camera_options_given(args)
+        if asked:
+            raise QuadsimError(
+                f"{' and '.join(asked)} with --no-record: nothing would show the frames (record, or serve them "
+                "with --foxglove or --ros2, or leave the camera options out)"
+            )
+        outputs = replace(outputs, cameras=())
     return RunPlan.alone(
         config,
         driver,
         duration_s=duration,
-        outputs=_outputs(args, live=live, paced=realtime),
+        outputs=replace(outputs, ordered_delivery=False) if realtime else outputs,
         label=label,
         run_info={**info, "duration_s": duration, "realtime": realtime},
         **flight_settings(args),
