@@ -60,7 +60,7 @@ def measure_window(wall_s: float, hogs: int = 0) -> WindowFigures:
         try:
             with cpu_hogs(hogs):
                 timer = _Timer()
-                timer.wrap(app.sim, "step", "simulation (physics, control, recording)")
+                timer.wrap(app.session, "step", "simulation (physics, control, recording)")
                 timer.wrap(app.view, "draw", "drawing")
                 if app.session.outputs.cameras is not None:
                     timer.wrap(app.session.outputs.cameras, "poll", "camera hand-over")
