@@ -10,6 +10,7 @@ from __future__ import annotations
 import os
 import sys
 import time
+from collections.abc import Callable
 from pathlib import Path
 
 os.environ.setdefault("PYGAME_HIDE_SUPPORT_PROMPT", "1")
@@ -77,6 +78,24 @@ class ReplayApp(Window):
         self.others = {name: (f, [s.position_m[:2] for s in f.states[::6]]) for name, f in (others or {}).items()}
         self._walls: list[float] = []
         self._frame_cap = FrameCap(60)
+        #: the keys (KEYS) and what they do
+        self._keys: dict[int, Callable[[], None]] = {
+            pygame.K_ESCAPE: self.stop,
+            pygame.K_SPACE: self.toggle_play,
+            pygame.K_LEFT: lambda: self.seek(self.t_ns / NS - SEEK_S),
+            pygame.K_RIGHT: lambda: self.seek(self.t_ns / NS + SEEK_S),
+            pygame.K_UP: lambda: self.faster(+1),
+            pygame.K_DOWN: lambda: self.faster(-1),
+            pygame.K_PERIOD: lambda: self.step_state(+1),
+            pygame.K_COMMA: lambda: self.step_state(-1),
+            pygame.K_l: lambda: setattr(self, "loop", not self.loop),
+            pygame.K_HOME: lambda: self.seek(0.0),
+            pygame.K_END: lambda: self.seek(self.end_ns / NS),
+            pygame.K_h: self.toggle_help,
+            pygame.K_F1: self.toggle_help,
+            pygame.K_c: self.follow_next,
+            pygame.K_v: self.toggle_depth,
+        }
 
     @staticmethod
     def _say_lost(reason: str) -> None:
@@ -103,44 +122,26 @@ class ReplayApp(Window):
 
     def handle_event(self, event: pygame.event.Event) -> None:
         if event.type in (pygame.QUIT, pygame.WINDOWCLOSE):
-            self.quit = True
+            self.stop()
         elif event.type == pygame.KEYDOWN:
-            k = event.key
-            i = SPEEDS.index(self.speed)
-            if k == pygame.K_ESCAPE:
-                self.quit = True
-            elif k == pygame.K_SPACE:
-                self.playing = not self.playing
-                if self.playing and self.t_ns >= self.end_ns:
-                    self.t_ns = 0
-            elif k == pygame.K_LEFT:
-                self.seek(self.t_ns / NS - SEEK_S)
-            elif k == pygame.K_RIGHT:
-                self.seek(self.t_ns / NS + SEEK_S)
-            elif k == pygame.K_UP:
-                self.speed = SPEEDS[min(i + 1, len(SPEEDS) - 1)]
-            elif k == pygame.K_DOWN:
-                self.speed = SPEEDS[max(i - 1, 0)]
-            elif k == pygame.K_PERIOD:
-                self.step_state(+1)
-            elif k == pygame.K_COMMA:
-                self.step_state(-1)
-            elif k == pygame.K_l:
-                self.loop = not self.loop
-            elif k == pygame.K_HOME:
-                self.seek(0.0)
-            elif k == pygame.K_END:
-                self.seek(self.end_ns / NS)
-            elif k in (pygame.K_h, pygame.K_F1):
-                self.show_help = not self.show_help
-            elif k == pygame.K_c:
-                self.follow_next()
-            elif k == pygame.K_v:
-                self.toggle_depth()
+            action = self._keys.get(event.key)
+            if action is not None:
+                action()
         elif event.type == pygame.MOUSEBUTTONDOWN and event.button == 1:
             bar = self.view.layout(self.screen.get_size())["timeline"].inflate(0, 16)
             if bar.collidepoint(event.pos):
                 self.seek((event.pos[0] - bar.x) / bar.width * self.end_ns / NS)
+
+    def toggle_play(self) -> None:
+        """Play or pause; played at the end, from the start."""
+        self.playing = not self.playing
+        if self.playing and self.t_ns >= self.end_ns:
+            self.t_ns = 0
+
+    def faster(self, by: int) -> None:
+        """`by` steps up SPEEDS (down, when negative), within it."""
+        i = SPEEDS.index(self.speed) + by
+        self.speed = SPEEDS[min(max(i, 0), len(SPEEDS) - 1)]
 
     def toggle_depth(self) -> None:
         """Depth images in place of the camera images, or back (only what replay --depth loaded)."""
