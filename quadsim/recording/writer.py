@@ -124,32 +124,30 @@ class _GuardedStream:
         self._position = 0  # where the writer believes it is (the file may be shorter after an error)
         self._end = 0
 
-    def write(self, data: bytes | bytearray) -> int:
+    def _raw(self, method: Callable[..., Any], *args: Any) -> Any:
+        """`method` of the stream called until a write error (kept); None once there is one."""
         if self.error is None:
             try:
-                self.raw.write(data)
+                return method(*args)
             except OSError as exc:
                 self.error = exc
+        return None
+
+    def write(self, data: bytes | bytearray) -> int:
+        self._raw(self.raw.write, data)
         self._position += len(data)
         self._end = max(self._end, self._position)
         return len(data)
 
     def seek(self, offset: int, whence: int = os.SEEK_SET) -> int:
-        if self.error is None:
-            try:
-                self._position = self.raw.seek(offset, whence)
-                return self._position
-            except OSError as exc:
-                self.error = exc
-        self._position = {os.SEEK_SET: 0, os.SEEK_CUR: self._position, os.SEEK_END: self._end}[whence] + offset
-        return self._position
+        at = self._raw(self.raw.seek, offset, whence)
+        if at is None:
+            at = {os.SEEK_SET: 0, os.SEEK_CUR: self._position, os.SEEK_END: self._end}[whence] + offset
+        self._position = at
+        return at
 
     def flush(self) -> None:
-        if self.error is None:
-            try:
-                self.raw.flush()
-            except OSError as exc:
-                self.error = exc
+        self._raw(self.raw.flush)
 
 
 def _flush_error(stream: BinaryIO) -> str | None:
