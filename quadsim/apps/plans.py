@@ -33,7 +33,6 @@ from quadsim.errors import ConfigError, QuadsimError
 from quadsim.recording.bag_commands import command_steps, read_bag_commands
 from quadsim.recording.contract import BODY_FRAME, GOALS, TWIST, Names
 from quadsim.sensors.camera import with_images
-from quadsim.session.outputs import OutputOptions
 from quadsim.session.plan import RunPlan
 from quadsim.sim.config import SimConfig
 from quadsim.sim.fleet_file import FleetEntry, FleetFile, load_fleet_file
