@@ -6,6 +6,7 @@ the vehicle's state. It is the only flight module that imports pybullet.
 
 from __future__ import annotations
 
+import functools
 import math
 from typing import Any, NamedTuple
 
@@ -174,15 +175,32 @@ class PhysicsWorld:
         self._wind: WindField | ModelWind | None = None
         self._reset_wind()
         self.motors = MotorBank(len(vehicle.rotors), vehicle.motor_time_constant_s, vehicle.max_thrust_n, self.dt_s)
-        self._prepare_wrench()
-        self._prepare_free_flight()
+        self._prepare_steps()
         self._read_kinematics()
         self._previous_velocity = self._linear_velocity
 
-    def _prepare_free_flight(self) -> None:
-        """What quadsim's own step of the body takes (quadsim.physics.free_flight), and whether it
-        may take it: one rigid body (no joints), no PyBullet window showing it; and the step
-        itself made for its arguments (quadsim.core.compiled.specialize)."""
+    def _prepare_steps(self) -> None:
+        """The constants, rotor table and output `airframe_wrench` takes each step (applied in
+        PyBullet), what quadsim's own step of the body takes (quadsim.physics.free_flight) and
+        whether it may take it: one rigid body (no joints), no PyBullet window showing it; and
+        both functions made for their arguments (without numba's type dispatch:
+        quadsim.core.compiled.specialize)."""
+        vehicle, xyz, forces = self.vehicle, (0.0, 0.0, 0.0), (0.0,) * len(self.vehicle.rotors)
+        self._airframe = floats(airframe_constants(vehicle, self.motors.alpha, self.dt_s, self.merged))
+        self._hub_table = table(hub_table(vehicle))
+        self._wrench = floats([0.0] * 6)
+        self._airframe_wrench = specialize(
+            airframe_wrench,
+            self._airframe,
+            self._hub_table,
+            self.motors.thrusts,
+            forces,
+            (xyz, xyz, xyz),
+            0.0,
+            xyz,
+            xyz,
+            self._wrench,
+        )
         mass, _, inertia = pb.getDynamicsInfo(self.body_id, -1, physicsClientId=self._cid)[:3]
         self._mass_kg, self._inertia = float(mass), floats(inertia)
         self._free = (
@@ -197,36 +215,15 @@ class PhysicsWorld:
         self._stale = False
         #: the body's state is to be read from PyBullet before the next step (`client_id`)
         self._reread = False
-        xyz = (0.0, 0.0, 0.0)
         #: what quadsim's step takes that stays the same from step to step
         self._clear_constants = (
             self._airframe, self._hub_table, self.motors.thrusts, self._wrench, self._body, self._mass_kg,
             self._inertia, self._gravity, self.dt_s, self._inv_dt, self._offset,
         )  # fmt: skip
         self._clear_step: Any = specialize(
-            clear_step, *self._clear_constants, (0.0,) * len(self.vehicle.rotors), (xyz, xyz, xyz), xyz, xyz, xyz, xyz
+            clear_step, *self._clear_constants, forces, (xyz, xyz, xyz), xyz, xyz, xyz, xyz
         )
         self._after_step: Any = None
-
-    def _prepare_wrench(self) -> None:
-        """The constants, rotor table and output `airframe_wrench` takes each step, and the
-        function itself made for them (without numba's type dispatch: quadsim.core.compiled)."""
-        vehicle, xyz = self.vehicle, (0.0, 0.0, 0.0)
-        self._airframe = floats(airframe_constants(vehicle, self.motors.alpha, self.dt_s, self.merged))
-        self._hub_table = table(hub_table(vehicle))
-        self._wrench = floats([0.0] * 6)
-        self._airframe_wrench = specialize(
-            airframe_wrench,
-            self._airframe,
-            self._hub_table,
-            self.motors.thrusts,
-            (0.0,) * len(vehicle.rotors),
-            (xyz, xyz, xyz),
-            0.0,
-            xyz,
-            xyz,
-            self._wrench,
-        )
 
     def reseed(self, wind_seed: np.random.SeedSequence) -> None:
         """The turbulence's random stream from `wind_seed` from the next reset on."""
@@ -247,44 +244,39 @@ class PhysicsWorld:
     # --- building ---------------------------------------------------------------------------
 
     def _spawn_position(self) -> tuple[float, float, float]:
-        aabb_min_z = self._resting_height()
-        return (self.start.x_m, self.start.y_m, aabb_min_z + _SPAWN_CLEARANCE_M)
+        return (self.start.x_m, self.start.y_m, self.rest_height_m + _SPAWN_CLEARANCE_M)
 
     def _spawn_orientation(self) -> tuple[float, float, float, float]:
         x, y, z, w = pb.getQuaternionFromEuler((0.0, 0.0, self.start.yaw_rad))
         return (x, y, z, w)
 
-    def _resting_height(self) -> float:
-        """Height of base_link above the floor when the vehicle rests on its collision shape."""
-        if not hasattr(self, "_rest_z"):
-            probe = pb.loadURDF(str(self.vehicle.pybullet_urdf_path), (0, 0, 10.0), physicsClientId=self._cid)
-            lo = min(
-                pb.getAABB(probe, i, physicsClientId=self._cid)[0][2]
-                for i in range(-1, pb.getNumJoints(probe, physicsClientId=self._cid))
-                if pb.getCollisionShapeData(probe, i, physicsClientId=self._cid)
-            )
-            pb.removeBody(probe, physicsClientId=self._cid)
-            self._rest_z = 10.0 - lo
-        return self._rest_z
-
-    @property
+    @functools.cached_property
     def rest_height_m(self) -> float:
-        """Height of base_link above the floor when the vehicle rests on it."""
-        return self._resting_height()
+        """Height of base_link above the floor when the vehicle rests on its collision shape."""
+        probe = pb.loadURDF(str(self.vehicle.pybullet_urdf_path), (0, 0, 10.0), physicsClientId=self._cid)
+        lo = min(low[2] for low, _ in self._collision_boxes(probe))
+        pb.removeBody(probe, physicsClientId=self._cid)
+        return 10.0 - lo
+
+    def _collision_boxes(self, body: int) -> list[tuple[Vec3, Vec3]]:
+        """The bounding boxes (world frame) of `body`'s links that have a collision shape."""
+        cid = self._cid
+        return [
+            pb.getAABB(body, link, physicsClientId=cid)
+            for link in range(-1, pb.getNumJoints(body, physicsClientId=cid))
+            if pb.getCollisionShapeData(body, link, physicsClientId=cid)
+        ]
 
     # --- stepping ---------------------------------------------------------------------------
 
     def _bounding_radius(self) -> float:
         """The radius of a sphere about base_link's origin holding every collision shape of the
         vehicle in any attitude (the farthest corner of the links' boxes as loaded)."""
-        cid, body = self._cid, self.body_id
         self._read_kinematics()
         base = self._position
         corners = [
             math.dist(base, (x, y, z))
-            for link in range(-1, pb.getNumJoints(body, physicsClientId=cid))
-            if pb.getCollisionShapeData(body, link, physicsClientId=cid)
-            for lo, hi in [pb.getAABB(body, link, physicsClientId=cid)]
+            for lo, hi in self._collision_boxes(self.body_id)
             for x in (lo[0], hi[0])
             for y in (lo[1], hi[1])
             for z in (lo[2], hi[2])
@@ -435,12 +427,8 @@ class PhysicsWorld:
         # impulses warm-start the solver): a reset then flies the same whatever came before it
         self._put(self._far, (0.0, 0.0, 0.0, 1.0))
         pb.performCollisionDetection(physicsClientId=self._cid)
-        self._put(self._spawn_position(), self._spawn_orientation())
-        pb.resetBaseVelocity(self.body_id, (0.0, 0.0, 0.0), (0.0, 0.0, 0.0), physicsClientId=self._cid)
-        self.motors.reset()
         self._reset_wind()
-        self._read_kinematics()
-        self._previous_velocity = self._linear_velocity
+        self.place(self._spawn_position())
 
     def place(
         self,

@@ -9,6 +9,7 @@ import hashlib
 import os
 import tempfile
 from pathlib import Path
+from typing import Any
 
 from quadsim.errors import ConfigError
 from quadsim.physics.pybullet_quiet import c_output_silenced, pb
@@ -95,21 +96,16 @@ def build_world(world: WorldSpec, cid: int, collisions: bool = True) -> dict[str
     ids = {"floor": floor}
     for lm in world.landmarks:
         sx, sy, sz = lm.size_m
+        # each shape's geometry, and its size as the visual and the collision shape take it
+        shapes: dict[Shape, tuple[int, dict[str, Any], dict[str, Any] | None]] = {
+            Shape.BOX: (pb.GEOM_BOX, {"halfExtents": (sx / 2, sy / 2, sz / 2)}, None),
+            Shape.CYLINDER: (pb.GEOM_CYLINDER, {"radius": sx, "length": sz}, {"radius": sx, "height": sz}),
+            Shape.SPHERE: (pb.GEOM_SPHERE, {"radius": sx}, None),
+        }
+        geometry, seen, solid = shapes[lm.shape]
+        vis = pb.createVisualShape(geometry, rgbaColor=lm.color_rgba, physicsClientId=cid, **seen)
         collide = collisions and lm.collision
-        if lm.shape is Shape.BOX:
-            half = (sx / 2, sy / 2, sz / 2)
-            vis = pb.createVisualShape(pb.GEOM_BOX, halfExtents=half, rgbaColor=lm.color_rgba, physicsClientId=cid)
-            col = pb.createCollisionShape(pb.GEOM_BOX, halfExtents=half, physicsClientId=cid) if collide else -1
-        elif lm.shape is Shape.CYLINDER:
-            vis = pb.createVisualShape(
-                pb.GEOM_CYLINDER, radius=sx, length=sz, rgbaColor=lm.color_rgba, physicsClientId=cid
-            )
-            col = (
-                pb.createCollisionShape(pb.GEOM_CYLINDER, radius=sx, height=sz, physicsClientId=cid) if collide else -1
-            )
-        else:
-            vis = pb.createVisualShape(pb.GEOM_SPHERE, radius=sx, rgbaColor=lm.color_rgba, physicsClientId=cid)
-            col = pb.createCollisionShape(pb.GEOM_SPHERE, radius=sx, physicsClientId=cid) if collide else -1
+        col = pb.createCollisionShape(geometry, physicsClientId=cid, **(solid or seen)) if collide else -1
         ids[lm.name] = pb.createMultiBody(0.0, col, vis, basePosition=lm.position_m, physicsClientId=cid)
         pb.changeDynamics(ids[lm.name], -1, restitution=1.0, physicsClientId=cid)
     return ids
