@@ -31,20 +31,21 @@ import numpy as np
 
 from quadsim.control import Controller
 from quadsim.core.invocation import install_extra
-from quadsim.core.types import StartPose, Twist, ZMode
+from quadsim.core.types import StartPose, Twist
 from quadsim.envs.quad import (
     AGENT_HZ,
     HOVER_EPISODE_S,
     ActionScale,
     QuadEnv,
+    agent_config,
+    agent_info,
     hover_observation,
     hover_observation_space,
     hover_reward,
 )
-from quadsim.envs.sensors import SensorObservation, sensor_names, sim_options
+from quadsim.envs.sensors import SensorObservation, sensor_names
 from quadsim.errors import QuadsimError
 from quadsim.physics.wind import WindModel, WindSettings
-from quadsim.sim.config import Rates, SimConfig
 from quadsim.sim.fleet import Fleet, FleetVehicle
 from quadsim.sim.flight_events import EventKind
 
@@ -86,8 +87,7 @@ class HoverFleetEnv(ParallelEnv):
         self._slots = [(spacing_m * (i - (agents - 1) / 2), 0.0) for i in range(agents)]
         if controllers is not None and len(controllers) != agents:
             raise ValueError(f"controllers: one for each of the {agents} agents, got {len(controllers)}")
-        settings = wind if isinstance(wind, WindSettings) else WindSettings()
-        config = SimConfig(z_mode=ZMode.VELOCITY, rates=Rates(input_hz=AGENT_HZ), wind=settings, **sim_options(names))
+        config, model = agent_config(wind, names)
         own = list(controllers) if controllers is not None else [None] * agents
         self.fleet = Fleet(
             [
@@ -95,7 +95,7 @@ class HoverFleetEnv(ParallelEnv):
                 for name, (x, y), controller in zip(self.possible_agents, self._slots, own)
             ],
             config,
-            wind=None if wind is None or isinstance(wind, WindSettings) else wind,
+            wind=model,
         )
         self.steps_per_action = config.rates.physics_hz // AGENT_HZ
         self.max_cycles = round(episode_s * AGENT_HZ)
@@ -141,7 +141,7 @@ class HoverFleetEnv(ParallelEnv):
             sensors.reset()
         self.agents = list(self.possible_agents)
         self._cycles = 0
-        return {a: self._observe(a) for a in self.agents}, {a: self._info(a) for a in self.agents}
+        return {a: self._observe(a) for a in self.agents}, {a: agent_info(self.fleet[a].state) for a in self.agents}
 
     def step(self, actions: dict[str, Any]) -> tuple[dict, dict, dict, dict, dict]:
         for agent, action in actions.items():
@@ -159,7 +159,7 @@ class HoverFleetEnv(ParallelEnv):
             rewards[agent] = hover_reward(state, self.targets_m[agent]) - (10.0 if failed else 0.0)
             terminations[agent] = failed
             truncations[agent] = self._cycles >= self.max_cycles
-            infos[agent] = self._info(agent)
+            infos[agent] = agent_info(state)
         self.agents = [a for a in self.agents if not (terminations[a] or truncations[a])]
         return observations, rewards, terminations, truncations, infos
 
@@ -169,10 +169,6 @@ class HoverFleetEnv(ParallelEnv):
         if agent not in self.sensors:
             return observation
         return {"state": observation, **self.sensors[agent].observe(state)}
-
-    def _info(self, agent: str) -> dict[str, Any]:
-        state = self.fleet[agent].state
-        return {"step": state.step, "position_m": np.array(state.position_m)}
 
     def render(self) -> None:
         return None

@@ -110,13 +110,10 @@ class HoverVectorEnv(VectorEnv):
     @property
     def envs(self) -> list[HoverEnv]:
         """Each env, brought up to date (one flown with the others is behind until then)."""
-        for i in range(self.num_envs):
-            self._leave(i)
-        return self._envs
-
-    def _leave(self, i: int) -> None:
         if self._quiet is not None:
-            self._quiet.leave(i)
+            for i in range(self.num_envs):
+                self._quiet.leave(i)
+        return self._envs
 
     def reset(
         self, *, seed: int | list[int | None] | None = None, options: dict[str, Any] | None = None
@@ -143,7 +140,8 @@ class HoverVectorEnv(VectorEnv):
 
     def _reset(self, i: int, seed: int | None = None, options: dict[str, Any] | None = None) -> None:
         env = self._envs[i]
-        self._leave(i)
+        if self._quiet is not None:
+            self._quiet.leave(i)
         self._put(i, env.reset(seed=seed, options=options)[0])
         self._targets[i] = env.target_m
         self._elapsed[i] = 0
