@@ -149,7 +149,6 @@ class PhysicsWorld:
         self.client = client
         self._cid = client.cid
         self.landmark_ids = client.landmark_ids
-        self._body_names = client.body_names
         self._far = (100.0 * far_index, 0.0, 1e4)
         self.start = start
         #: the base's state (quadsim.physics.free_flight: its inertial frame, world frame), as
@@ -247,8 +246,7 @@ class PhysicsWorld:
         return (self.start.x_m, self.start.y_m, self.rest_height_m + _SPAWN_CLEARANCE_M)
 
     def _spawn_orientation(self) -> tuple[float, float, float, float]:
-        x, y, z, w = pb.getQuaternionFromEuler((0.0, 0.0, self.start.yaw_rad))
-        return (x, y, z, w)
+        return pb.getQuaternionFromEuler((0.0, 0.0, self.start.yaw_rad))
 
     @functools.cached_property
     def rest_height_m(self) -> float:
@@ -298,7 +296,7 @@ class PhysicsWorld:
             offset = inertial_offset(self.body_id, cid) or (0.0, 0.0, 0.0)
         #: base_link's origin to the base's inertial frame, where PyBullet has the body's pose
         self._offset: Vec3 = offset
-        self._body_names[self.body_id] = name
+        self.client.body_names[self.body_id] = name
         self.link_index = {
             pb.getJointInfo(self.body_id, i, physicsClientId=cid)[12].decode(): i
             for i in range(pb.getNumJoints(self.body_id, physicsClientId=cid))
@@ -409,7 +407,7 @@ class PhysicsWorld:
         for other, nz in points:
             if nz > normal_z.get(other, -2.0):
                 normal_z[other] = nz
-        return tuple(Contact(self._body_names.get(b, f"body {b}"), nz) for b, nz in normal_z.items())
+        return tuple(Contact(self.client.body_names.get(b, f"body {b}"), nz) for b, nz in normal_z.items())
 
     @property
     def body_z_up(self) -> float:
@@ -538,12 +536,11 @@ class PhysicsWorld:
         ):
             return None
         arguments = self.clear_flight_arguments
-        if self._others:  # every pair measured, and this vehicle within its slack of them
-            apart = arguments[3]
-            if len(self.client.apart) != len(self.client.bodies) or apart is _NOTHING_NEAR:
-                return None
-            if not self._within_slack(apart):
-                return None
+        apart, client = arguments[3], self.client
+        if self._others and (  # every pair measured, and this vehicle within its slack of them
+            len(client.apart) != len(client.bodies) or apart is _NOTHING_NEAR or not self._within_slack(apart)
+        ):
+            return None
         return arguments
 
     @property
@@ -639,7 +636,7 @@ class PhysicsWorld:
             self._body_rates,
             self.motors.thrusts_n,
             self._specific_force,
-            None if self._wind is None else self._wind.wind_mps,
+            self.wind_mps,
         )
 
     # --- lifetime ---------------------------------------------------------------------------

@@ -37,22 +37,18 @@ def _floor_mesh(size_m: float, tile_m: float) -> tuple[list, list, list]:
     return vertices, uvs, indices
 
 
-def _obj_text(vertices: list, uvs: list, indices: list) -> str:
+def _floor_obj(vertices: list, uvs: list, indices: list) -> Path | None:
+    """The floor mesh as an OBJ file in the user's cache, written once and shared by every
+    process (named by its content). PyBullet keeps a mesh given as arrays for the life of the
+    process (~160 kB per client created), but not one loaded from a file. None if the cache
+    cannot be written."""
     lines = [f"v {x!r} {y!r} {z!r}" for x, y, z in vertices]
     lines += [f"vt {u!r} {v!r}" for u, v in uvs]
     lines.append("vn 0 0 1")
     for k in range(0, len(indices), 3):
         a, b, c = (i + 1 for i in indices[k : k + 3])
         lines.append(f"f {a}/{a}/1 {b}/{b}/1 {c}/{c}/1")
-    return "\n".join(lines) + "\n"
-
-
-def _floor_obj(vertices: list, uvs: list, indices: list) -> Path | None:
-    """The floor mesh as an OBJ file in the user's cache, written once and shared by every
-    process (named by its content). PyBullet keeps a mesh given as arrays for the life of the
-    process (~160 kB per client created), but not one loaded from a file. None if the cache
-    cannot be written."""
-    text = _obj_text(vertices, uvs, indices)
+    text = "\n".join(lines) + "\n"
     folder = cache_dir()
     path = folder / f"floor-{hashlib.sha256(text.encode()).hexdigest()[:16]}.obj"
     if path.is_file():
@@ -74,17 +70,12 @@ def build_world(world: WorldSpec, cid: int, collisions: bool = True) -> dict[str
     """Create the floor and landmarks; returns body ids by name ('floor' and each landmark)."""
     vertices, uvs, indices = _floor_mesh(world.floor.size_m, world.floor.texture_tile_m)
     obj = _floor_obj(vertices, uvs, indices)
-    if obj is not None:
-        floor_vis = pb.createVisualShape(pb.GEOM_MESH, fileName=str(obj), physicsClientId=cid)
-    else:
-        floor_vis = pb.createVisualShape(
-            pb.GEOM_MESH,
-            vertices=vertices,
-            indices=indices,
-            uvs=uvs,
-            normals=[(0.0, 0.0, 1.0)] * len(vertices),
-            physicsClientId=cid,
-        )
+    mesh = (
+        {"fileName": str(obj)}
+        if obj is not None
+        else {"vertices": vertices, "indices": indices, "uvs": uvs, "normals": [(0.0, 0.0, 1.0)] * len(vertices)}
+    )
+    floor_vis = pb.createVisualShape(pb.GEOM_MESH, physicsClientId=cid, **mesh)
     floor_col = pb.createCollisionShape(pb.GEOM_PLANE, physicsClientId=cid) if collisions else -1
     floor = pb.createMultiBody(0.0, floor_col, floor_vis, physicsClientId=cid)
     # PyBullet multiplies the restitutions of a contact's two bodies: the world's are 1, so a
