@@ -52,10 +52,8 @@ def source_tree() -> Path | None:
 
 def _as_typed(path: Path) -> str:
     """`path` as a person would type it here: relative to the current folder when inside it."""
-    try:
-        return str(path.relative_to(Path.cwd()))
-    except ValueError:
-        return str(path)
+    here = Path.cwd()
+    return str(path.relative_to(here) if path.is_relative_to(here) else path)
 
 
 def python_command() -> str:

@@ -46,6 +46,7 @@ from quadsim.envs.quad import (
 from quadsim.envs.sensors import SensorObservation, sensor_names
 from quadsim.errors import QuadsimError
 from quadsim.physics.wind import WindModel, WindSettings
+from quadsim.sim.config import MAX_SEED
 from quadsim.sim.fleet import Fleet, FleetVehicle
 from quadsim.sim.flight_events import EventKind
 
@@ -54,9 +55,6 @@ try:
     from pettingzoo import ParallelEnv
 except ImportError:  # pragma: no cover - depends on what is installed
     raise QuadsimError(f"the fleet environment needs PettingZoo: {install_extra('marl')}") from None
-
-#: the seeds the env hands the fleet (SimConfig's range)
-_SIM_SEEDS = 2**63 - 1
 
 
 class HoverFleetEnv(ParallelEnv):
@@ -134,7 +132,7 @@ class HoverFleetEnv(ParallelEnv):
             sx, sy = x + rng.uniform(-0.5, 0.5), y + rng.uniform(-0.5, 0.5)
             self.fleet[name].physics.start = StartPose(float(sx), float(sy), float(rng.uniform(-np.pi, np.pi)))
             self.targets_m[name] = np.array([sx + rng.uniform(-1, 1), sy + rng.uniform(-1, 1), rng.uniform(1.0, 2.5)])
-        self.fleet.reset(seed=int(rng.integers(_SIM_SEEDS)))
+        self.fleet.reset(seed=int(rng.integers(MAX_SEED)))
         for name in self.possible_agents:
             self.fleet[name].send(Twist())
         for sensors in self.sensors.values():

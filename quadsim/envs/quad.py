@@ -43,7 +43,7 @@ from quadsim.envs.sensors import SensorObservation, sensor_names, sim_options
 from quadsim.physics.wind import WindModel, WindSettings
 from quadsim.sensors.camera import CameraSpec
 from quadsim.sim.cameras import Cameras
-from quadsim.sim.config import Rates, SimConfig
+from quadsim.sim.config import MAX_SEED, Rates, SimConfig
 from quadsim.sim.flight_events import EventKind
 from quadsim.sim.simulator import Simulator
 
@@ -53,8 +53,6 @@ TOWER_EPISODE_S = 20
 #: observation bounds for speeds and body rates (a falling or tumbling vehicle stays within them)
 MAX_SPEED_MPS = 50.0
 MAX_RATE_RADPS = 100.0
-#: the seeds the env hands the simulator (SimConfig's range)
-_SIM_SEEDS = 2**63 - 1
 #: what render() shows: the front camera, small
 VIEW = CameraSpec("front", "front_camera_link", 160, 120, rate_hz=AGENT_HZ)
 
@@ -116,7 +114,7 @@ class QuadEnv(gym.Env):
         options = options or {}
         x, y = options.get("start_xy_m", (x, y))
         self.sim.physics.start = StartPose(float(x), float(y), float(options.get("start_yaw_rad", yaw)))
-        self.sim.reset(seed=int(self.np_random.integers(_SIM_SEEDS)))  # gusts and sensor noise
+        self.sim.reset(seed=int(self.np_random.integers(MAX_SEED)))  # gusts and sensor noise
         self.sim.send(Twist())
         state = self.sim.state
         self._after_reset()

@@ -464,8 +464,7 @@ class PhysicsWorld:
         # the hot path: the arithmetic is one function (quadsim.vehicle.wrench), and PyBullet's
         # calls get positional arguments (parsing the keyword physicsClientId costs about a
         # quarter of a microsecond a call). The force and torque are turned into the world frame
-        # with this step's attitude: a force in a child link's frame is turned with that link's
-        # pose of the previous step, so rotor thrust would lag the attitude by one step.
+        # with this step's attitude (the class's docstring says why).
         if self._reread:  # code of the user's own had the scene (client_id)
             self._reread = False
             self._read_kinematics(at_rest_before=False)

@@ -126,12 +126,9 @@ class WindSettings:
 
 def parse_wind(text: str) -> tuple[float, float]:
     """`SPEED,FROM_DEG` (m/s, degrees clockwise from north) -> (speed, from_deg)."""
-    parts = text.split(",")
     try:
-        if len(parts) != 2:
-            raise ValueError
-        speed, from_deg = float(parts[0]), float(parts[1])
-    except ValueError:
+        speed, from_deg = (float(part) for part in text.split(","))
+    except ValueError:  # not a number, or not two of them
         raise ConfigError(f"--wind must look like SPEED,FROM_DEG (e.g. 3,90), got {text!r}") from None
     if not (math.isfinite(speed) and math.isfinite(from_deg)):
         raise ConfigError(f"--wind must be finite numbers, got {text!r}")
