@@ -265,22 +265,6 @@ class PhysicsWorld:
             if pb.getCollisionShapeData(body, link, physicsClientId=cid)
         ]
 
-    # --- stepping ---------------------------------------------------------------------------
-
-    def _bounding_radius(self) -> float:
-        """The radius of a sphere about base_link's origin holding every collision shape of the
-        vehicle in any attitude (the farthest corner of the links' boxes as loaded)."""
-        self._read_kinematics()
-        base = self._position
-        corners = [
-            math.dist(base, (x, y, z))
-            for lo, hi in self._collision_boxes(self.body_id)
-            for x in (lo[0], hi[0])
-            for y in (lo[1], hi[1])
-            for z in (lo[2], hi[2])
-        ]
-        return max(corners, default=0.0)
-
     def _load_body(self, name: str) -> None:
         """The vehicle's body at its start pose, its links by name and its reach."""
         cid = self._cid
@@ -301,8 +285,17 @@ class PhysicsWorld:
             pb.getJointInfo(self.body_id, i, physicsClientId=cid)[12].decode(): i
             for i in range(pb.getNumJoints(self.body_id, physicsClientId=cid))
         }
-        #: the radius of a sphere about base_link's origin that holds the vehicle in any attitude
-        self.reach_m = self._bounding_radius()
+        self._read_kinematics()
+        corners = [
+            (x, y, z)
+            for lo, hi in self._collision_boxes(self.body_id)
+            for x in (lo[0], hi[0])
+            for y in (lo[1], hi[1])
+            for z in (lo[2], hi[2])
+        ]
+        #: the radius of a sphere about base_link's origin that holds the vehicle in any attitude:
+        #: to the farthest corner of the links' collision boxes as loaded
+        self.reach_m = max((math.dist(self._position, corner) for corner in corners), default=0.0)
         self._check_start_is_clear(name)
 
     def _check_start_is_clear(self, name: str) -> None:
@@ -318,6 +311,8 @@ class PhysicsWorld:
                     f"(x {lx:g} .. {hx:g}, y {ly:g} .. {hy:g}, and the vehicle's {reach:.2f} m reach): "
                     "start elsewhere"
                 )
+
+    # --- stepping ---------------------------------------------------------------------------
 
     def _static_scenery(self) -> tuple[tuple[float, ...], tuple[tuple[Vec3, Vec3], ...]] | None:
         """The heights of the horizontal planes and the boxes of the scenery, or None when some
