@@ -162,11 +162,7 @@ class HoverFleetEnv(ParallelEnv):
         return observations, rewards, terminations, truncations, infos
 
     def _observe(self, agent: str) -> np.ndarray | dict[str, np.ndarray]:
-        state = self.fleet[agent].state
-        observation = hover_observation(state, self.targets_m[agent], self._space)
-        if agent not in self.sensors:
-            return observation
-        return {"state": observation, **self.sensors[agent].observe(state)}
+        return hover_observation(self.fleet[agent].state, self.targets_m[agent], self._space, self.sensors.get(agent))
 
     def render(self) -> None:
         return None

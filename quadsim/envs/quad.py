@@ -222,10 +222,7 @@ class HoverEnv(QuadEnv):
         return rng.uniform(-1, 1), rng.uniform(-1, 1), rng.uniform(-math.pi, math.pi)
 
     def _observe(self, state: VehicleState) -> np.ndarray | dict[str, np.ndarray]:
-        observation = hover_observation(state, self.target_m, self._space)
-        if self.sensors is None:
-            return observation
-        return {"state": observation, **self.sensors.observe(state)}
+        return hover_observation(state, self.target_m, self._space, self.sensors)
 
     def _reward(self, state: VehicleState) -> tuple[float, bool]:
         return hover_reward(state, self.target_m), False
@@ -305,9 +302,13 @@ def hover_observation_space() -> spaces.Box:
     return spaces.Box(np.array(low, np.float32), np.array(high, np.float32), dtype=np.float32)
 
 
-def hover_observation(state: VehicleState, target_m: np.ndarray, space: spaces.Box) -> np.ndarray:
-    """The observation of `state` with the target `target_m`, clipped to `space` (Box(15))."""
-    return hover_observations([hover_observation_row(state, target_m)], space)[0]
+def hover_observation(
+    state: VehicleState, target_m: np.ndarray, space: spaces.Box, sensors: SensorObservation | None = None
+) -> np.ndarray | dict[str, np.ndarray]:
+    """The observation of `state` with the target `target_m`, clipped to `space` (Box(15)); with
+    `sensors`, a dict of it ("state") and their readings."""
+    observation = hover_observations([hover_observation_row(state, target_m)], space)[0]
+    return observation if sensors is None else {"state": observation, **sensors.observe(state)}
 
 
 def hover_observation_row(state: VehicleState, target_m: Any) -> list[float]:
