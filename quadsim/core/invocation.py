@@ -52,10 +52,8 @@ def source_tree() -> Path | None:
 
 def _as_typed(path: Path) -> str:
     """`path` as a person would type it here: relative to the current folder when inside it."""
-    try:
-        return str(path.relative_to(Path.cwd()))
-    except ValueError:
-        return str(path)
+    here = Path.cwd()
+    return str(path.relative_to(here) if path.is_relative_to(here) else path)
 
 
 def python_command() -> str:
@@ -109,13 +107,6 @@ def missing_modules() -> list[str]:
     return [name for name in RUNTIME_MODULES if find_spec(name) is None]
 
 
-def _clone_python(tree: Path) -> Path:
-    """The interpreter of the clone's own environment (what `make fly` sets up)."""
-    if sys.platform == "win32":
-        return tree / ".venv" / "Scripts" / "python.exe"
-    return tree / ".venv" / "bin" / "python"
-
-
 def missing_modules_message(missing: list[str]) -> str:
     """One line: this interpreter lacks quadsim's dependencies, and the command that works
     instead (in a clone, its own environment's python, set up first by `make fly`)."""
@@ -124,7 +115,8 @@ def missing_modules_message(missing: list[str]) -> str:
     tree = source_tree()
     if tree is None:
         return f"{lacks}: install quadsim into it with them (pip install quadsim), or use the environment it is in"
-    python = _clone_python(tree)
+    # the interpreter of the clone's own environment (what `make fly` sets up)
+    python = tree / ".venv" / ("Scripts/python.exe" if sys.platform == "win32" else "bin/python")
     typed = _as_typed(python)
     here = tree == Path.cwd()
     make = "make fly" if here else f"make -C {shlex.quote(str(tree))} fly"

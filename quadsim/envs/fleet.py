@@ -31,20 +31,22 @@ import numpy as np
 
 from quadsim.control import Controller
 from quadsim.core.invocation import install_extra
-from quadsim.core.types import StartPose, Twist, ZMode
+from quadsim.core.types import StartPose, Twist
 from quadsim.envs.quad import (
     AGENT_HZ,
     HOVER_EPISODE_S,
     ActionScale,
     QuadEnv,
+    agent_config,
+    agent_info,
     hover_observation,
     hover_observation_space,
     hover_reward,
 )
-from quadsim.envs.sensors import SensorObservation, sensor_names, sim_options
+from quadsim.envs.sensors import SensorObservation, sensor_names
 from quadsim.errors import QuadsimError
 from quadsim.physics.wind import WindModel, WindSettings
-from quadsim.sim.config import Rates, SimConfig
+from quadsim.sim.config import MAX_SEED
 from quadsim.sim.fleet import Fleet, FleetVehicle
 from quadsim.sim.flight_events import EventKind
 
@@ -53,9 +55,6 @@ try:
     from pettingzoo import ParallelEnv
 except ImportError:  # pragma: no cover - depends on what is installed
     raise QuadsimError(f"the fleet environment needs PettingZoo: {install_extra('marl')}") from None
-
-#: the seeds the env hands the fleet (SimConfig's range)
-_SIM_SEEDS = 2**63 - 1
 
 
 class HoverFleetEnv(ParallelEnv):
@@ -86,8 +85,7 @@ class HoverFleetEnv(ParallelEnv):
         self._slots = [(spacing_m * (i - (agents - 1) / 2), 0.0) for i in range(agents)]
         if controllers is not None and len(controllers) != agents:
             raise ValueError(f"controllers: one for each of the {agents} agents, got {len(controllers)}")
-        settings = wind if isinstance(wind, WindSettings) else WindSettings()
-        config = SimConfig(z_mode=ZMode.VELOCITY, rates=Rates(input_hz=AGENT_HZ), wind=settings, **sim_options(names))
+        config, model = agent_config(wind, names)
         own = list(controllers) if controllers is not None else [None] * agents
         self.fleet = Fleet(
             [
@@ -95,7 +93,7 @@ class HoverFleetEnv(ParallelEnv):
                 for name, (x, y), controller in zip(self.possible_agents, self._slots, own)
             ],
             config,
-            wind=None if wind is None or isinstance(wind, WindSettings) else wind,
+            wind=model,
         )
         self.steps_per_action = config.rates.physics_hz // AGENT_HZ
         self.max_cycles = round(episode_s * AGENT_HZ)
@@ -134,14 +132,14 @@ class HoverFleetEnv(ParallelEnv):
             sx, sy = x + rng.uniform(-0.5, 0.5), y + rng.uniform(-0.5, 0.5)
             self.fleet[name].physics.start = StartPose(float(sx), float(sy), float(rng.uniform(-np.pi, np.pi)))
             self.targets_m[name] = np.array([sx + rng.uniform(-1, 1), sy + rng.uniform(-1, 1), rng.uniform(1.0, 2.5)])
-        self.fleet.reset(seed=int(rng.integers(_SIM_SEEDS)))
+        self.fleet.reset(seed=int(rng.integers(MAX_SEED)))
         for name in self.possible_agents:
             self.fleet[name].send(Twist())
         for sensors in self.sensors.values():
             sensors.reset()
         self.agents = list(self.possible_agents)
         self._cycles = 0
-        return {a: self._observe(a) for a in self.agents}, {a: self._info(a) for a in self.agents}
+        return {a: self._observe(a) for a in self.agents}, {a: agent_info(self.fleet[a].state) for a in self.agents}
 
     def step(self, actions: dict[str, Any]) -> tuple[dict, dict, dict, dict, dict]:
         for agent, action in actions.items():
@@ -159,20 +157,12 @@ class HoverFleetEnv(ParallelEnv):
             rewards[agent] = hover_reward(state, self.targets_m[agent]) - (10.0 if failed else 0.0)
             terminations[agent] = failed
             truncations[agent] = self._cycles >= self.max_cycles
-            infos[agent] = self._info(agent)
+            infos[agent] = agent_info(state)
         self.agents = [a for a in self.agents if not (terminations[a] or truncations[a])]
         return observations, rewards, terminations, truncations, infos
 
     def _observe(self, agent: str) -> np.ndarray | dict[str, np.ndarray]:
-        state = self.fleet[agent].state
-        observation = hover_observation(state, self.targets_m[agent], self._space)
-        if agent not in self.sensors:
-            return observation
-        return {"state": observation, **self.sensors[agent].observe(state)}
-
-    def _info(self, agent: str) -> dict[str, Any]:
-        state = self.fleet[agent].state
-        return {"step": state.step, "position_m": np.array(state.position_m)}
+        return hover_observation(self.fleet[agent].state, self.targets_m[agent], self._space, self.sensors.get(agent))
 
     def render(self) -> None:
         return None

@@ -43,7 +43,7 @@ from quadsim.envs.sensors import SensorObservation, sensor_names, sim_options
 from quadsim.physics.wind import WindModel, WindSettings
 from quadsim.sensors.camera import CameraSpec
 from quadsim.sim.cameras import Cameras
-from quadsim.sim.config import Rates, SimConfig
+from quadsim.sim.config import MAX_SEED, Rates, SimConfig
 from quadsim.sim.flight_events import EventKind
 from quadsim.sim.simulator import Simulator
 
@@ -53,8 +53,6 @@ TOWER_EPISODE_S = 20
 #: observation bounds for speeds and body rates (a falling or tumbling vehicle stays within them)
 MAX_SPEED_MPS = 50.0
 MAX_RATE_RADPS = 100.0
-#: the seeds the env hands the simulator (SimConfig's range)
-_SIM_SEEDS = 2**63 - 1
 #: what render() shows: the front camera, small
 VIEW = CameraSpec("front", "front_camera_link", 160, 120, rate_hz=AGENT_HZ)
 
@@ -78,10 +76,7 @@ class QuadEnv(gym.Env):
         if render_mode is not None and render_mode not in self.metadata["render_modes"]:
             raise ValueError(f"render_mode must be one of {self.metadata['render_modes']}, got {render_mode!r}")
         self.render_mode = render_mode
-        # commands are polled at the agent rate: an action reaches the gate at its first physics step
-        settings = wind if isinstance(wind, WindSettings) else WindSettings()
-        config = SimConfig(z_mode=ZMode.VELOCITY, rates=Rates(input_hz=AGENT_HZ), wind=settings, **sim_options(names))
-        model = None if wind is None or isinstance(wind, WindSettings) else wind
+        config, model = agent_config(wind, names)
         self.sim = Simulator(config, controller=controller, wind=model)
         self.steps_per_action = config.rates.physics_hz // AGENT_HZ
         self._scale = ActionScale(self.sim.vehicle.limits)
@@ -90,10 +85,17 @@ class QuadEnv(gym.Env):
         self._events_before = 0
         #: the sensors the observation adds (None: none)
         self.sensors = SensorObservation(self.sim.drone, names, self.sim) if names else None
+        self._setup()
 
     # --- what the subclasses say ----------------------------------------------------------
 
-    def _start(self, rng: np.random.Generator, options: dict[str, Any]) -> StartPose:
+    def _setup(self) -> None:
+        """The task's own part of the env: its observation space, and what it keeps."""
+        raise NotImplementedError
+
+    def _start(self, rng: np.random.Generator) -> tuple[float, float, float]:
+        """A random start of an episode: x, y (m) and heading (rad); reset's options
+        "start_xy_m" and "start_yaw_rad" choose them instead."""
         raise NotImplementedError
 
     def _observe(self, state: VehicleState) -> Any:
@@ -108,12 +110,15 @@ class QuadEnv(gym.Env):
     def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None) -> tuple[Any, dict[str, Any]]:
         super().reset(seed=seed)
         self._check_open()
-        self.sim.physics.start = self._start(self.np_random, options or {})
-        self.sim.reset(seed=int(self.np_random.integers(_SIM_SEEDS)))  # gusts and sensor noise
+        x, y, yaw = self._start(self.np_random)
+        options = options or {}
+        x, y = options.get("start_xy_m", (x, y))
+        self.sim.physics.start = StartPose(float(x), float(y), float(options.get("start_yaw_rad", yaw)))
+        self.sim.reset(seed=int(self.np_random.integers(MAX_SEED)))  # gusts and sensor noise
         self.sim.send(Twist())
         state = self.sim.state
         self._after_reset()
-        return self._observe(state), self._info(state)
+        return self._observe(state), agent_info(state)
 
     def _after_reset(self) -> None:
         if self._view is not None:
@@ -134,7 +139,7 @@ class QuadEnv(gym.Env):
         self._check_open()
         state = self.fly(self._scale.command(action))
         reward, ended = self.judge(state)
-        return self._observe(state), reward, ended, False, self._info(state)
+        return self._observe(state), reward, ended, False, agent_info(state)
 
     def fly(self, twist: Twist, taken: int = 0) -> VehicleState:
         """The vehicle flown for one agent step under `twist` (the command an action stands for):
@@ -190,9 +195,6 @@ class QuadEnv(gym.Env):
         """Tilted past MAX_TILT_DEG."""
         return bool(_tipped(*state.roll_pitch_rad()))
 
-    def _info(self, state: VehicleState) -> dict[str, Any]:
-        return {"step": state.step, "position_m": np.array(state.position_m)}
-
 
 class HoverEnv(QuadEnv):
     """quadsim/Hover-v0: take off from a random start and reach and hold a target position.
@@ -208,34 +210,36 @@ class HoverEnv(QuadEnv):
     With `sensors` (quadsim.envs.sensors), the observation is a Dict: "state", the Box(15), and a
     Box for each sensor."""
 
-    def __init__(
-        self,
-        render_mode: str | None = None,
-        wind: WindSettings | WindModel | None = None,
-        controller: Controller | None = None,
-        sensors: Iterable[str] | str = (),
-    ) -> None:
-        super().__init__(render_mode, wind, controller, sensors)
+    def _setup(self) -> None:
         self._space = hover_observation_space()
         self.observation_space: spaces.Box | spaces.Dict = self._space
         if self.sensors is not None:
             self.observation_space = spaces.Dict({"state": self._space, **self.sensors.spaces()})
         self.target_m = np.zeros(3)
 
-    def _start(self, rng: np.random.Generator, options: dict[str, Any]) -> StartPose:
+    def _start(self, rng: np.random.Generator) -> tuple[float, float, float]:
         self.target_m = np.array([rng.uniform(-2, 2), rng.uniform(-2, 2), rng.uniform(1.0, 2.5)])
-        x, y, yaw = rng.uniform(-1, 1), rng.uniform(-1, 1), rng.uniform(-math.pi, math.pi)
-        x, y = options.get("start_xy_m", (x, y))
-        return StartPose(float(x), float(y), float(options.get("start_yaw_rad", yaw)))
+        return rng.uniform(-1, 1), rng.uniform(-1, 1), rng.uniform(-math.pi, math.pi)
 
     def _observe(self, state: VehicleState) -> np.ndarray | dict[str, np.ndarray]:
-        observation = hover_observation(state, self.target_m, self._space)
-        if self.sensors is None:
-            return observation
-        return {"state": observation, **self.sensors.observe(state)}
+        return hover_observation(state, self.target_m, self._space, self.sensors)
 
     def _reward(self, state: VehicleState) -> tuple[float, bool]:
         return hover_reward(state, self.target_m), False
+
+
+def agent_info(state: VehicleState) -> dict[str, Any]:
+    """An agent step's info: the simulation step and the position."""
+    return {"step": state.step, "position_m": np.array(state.position_m)}
+
+
+def agent_config(wind: WindSettings | WindModel | None, names: tuple[str, ...]) -> tuple[SimConfig, WindModel | None]:
+    """The simulation of an agent's vehicle, with `wind` (WindSettings, or a model of one's own:
+    returned beside) and the sensors `names`. Commands are polled at the agent rate: an action
+    reaches the gate at its first physics step."""
+    settings = wind if isinstance(wind, WindSettings) else WindSettings()
+    config = SimConfig(z_mode=ZMode.VELOCITY, rates=Rates(input_hz=AGENT_HZ), wind=settings, **sim_options(names))
+    return config, None if wind is None or isinstance(wind, WindSettings) else wind
 
 
 def _shown(action: Any) -> str:
@@ -298,9 +302,13 @@ def hover_observation_space() -> spaces.Box:
     return spaces.Box(np.array(low, np.float32), np.array(high, np.float32), dtype=np.float32)
 
 
-def hover_observation(state: VehicleState, target_m: np.ndarray, space: spaces.Box) -> np.ndarray:
-    """The observation of `state` with the target `target_m`, clipped to `space` (Box(15))."""
-    return hover_observations([hover_observation_row(state, target_m)], space)[0]
+def hover_observation(
+    state: VehicleState, target_m: np.ndarray, space: spaces.Box, sensors: SensorObservation | None = None
+) -> np.ndarray | dict[str, np.ndarray]:
+    """The observation of `state` with the target `target_m`, clipped to `space` (Box(15)); with
+    `sensors`, a dict of it ("state") and their readings."""
+    observation = hover_observations([hover_observation_row(state, target_m)], space)[0]
+    return observation if sensors is None else {"state": observation, **sensors.observe(state)}
 
 
 def hover_observation_row(state: VehicleState, target_m: Any) -> list[float]:
@@ -348,14 +356,7 @@ class TowerVisionEnv(QuadEnv):
 
     IMAGE = CameraSpec("front", "front_camera_link", 64, 64, rate_hz=AGENT_HZ)
 
-    def __init__(
-        self,
-        render_mode: str | None = None,
-        wind: WindSettings | WindModel | None = None,
-        controller: Controller | None = None,
-        sensors: Iterable[str] | str = (),
-    ) -> None:
-        super().__init__(render_mode, wind, controller, sensors)
+    def _setup(self) -> None:
         self.observation_space = spaces.Dict(
             {
                 "image": spaces.Box(0, 255, (64, 64, 3), np.uint8),
@@ -373,11 +374,9 @@ class TowerVisionEnv(QuadEnv):
         x, y, _ = state.position_m
         return math.hypot(max(abs(x - tx) - sx / 2, 0.0), max(abs(y - ty) - sy / 2, 0.0))
 
-    def _start(self, rng: np.random.Generator, options: dict[str, Any]) -> StartPose:
+    def _start(self, rng: np.random.Generator) -> tuple[float, float, float]:
         x, y = rng.uniform(-1, 1, 2)
-        yaw = rng.uniform(-math.radians(20), math.radians(20))
-        x, y = options.get("start_xy_m", (x, y))
-        return StartPose(float(x), float(y), float(options.get("start_yaw_rad", yaw)))
+        return x, y, rng.uniform(-math.radians(20), math.radians(20))
 
     def _after_reset(self) -> None:
         super()._after_reset()

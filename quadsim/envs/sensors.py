@@ -77,13 +77,10 @@ class SensorObservation:
         self.names = names
         self._drone = drone
         self._ranging: dict[str, RangingSensor] = {}
-        if "range" in names:
-            assert drone.range_finder is not None  # made with sim_options
-            self._ranging["range"] = drone.range_finder
-        for name in ("scan", "scan3d"):
+        for name, sensor in (("range", drone.range_finder), ("scan", drone.lidar), ("scan3d", drone.lidar)):
             if name in names:
-                assert drone.lidar is not None
-                self._ranging[name] = drone.lidar
+                assert sensor is not None  # made with sim_options
+                self._ranging[name] = sensor
         lidar = drone.vehicle.lidar
         self._shapes = {"range": (1,), "scan": (lidar.samples,), "scan3d": (lidar.channels, lidar.samples)}
         self.cameras = Cameras(sim, (DEPTH,), depth=True) if sim is not None and "depth" in names else None

@@ -25,6 +25,7 @@ action it ignores, giving its first observation with reward 0.
 from __future__ import annotations
 
 from collections.abc import Iterable
+from copy import deepcopy
 from typing import Any
 
 import numpy as np
@@ -91,7 +92,7 @@ class HoverVectorEnv(VectorEnv):
         self._scale = first._scale
         self._elapsed = np.zeros(num_envs, np.int64)
         self._ended = np.zeros(num_envs, np.bool_)
-        #: with sensors, a dict of arrays (HoverEnv's Dict, batched)
+        #: with sensors, a dict of arrays (HoverEnv's Dict, batched); reset and step hand out copies
         self._with_sensors = first.sensors is not None
         self._observations: Any = create_empty_array(self.single_observation_space, num_envs, np.zeros)
         self._space = first._space
@@ -110,13 +111,10 @@ class HoverVectorEnv(VectorEnv):
     @property
     def envs(self) -> list[HoverEnv]:
         """Each env, brought up to date (one flown with the others is behind until then)."""
-        for i in range(self.num_envs):
-            self._leave(i)
-        return self._envs
-
-    def _leave(self, i: int) -> None:
         if self._quiet is not None:
-            self._quiet.leave(i)
+            for i in range(self.num_envs):
+                self._quiet.leave(i)
+        return self._envs
 
     def reset(
         self, *, seed: int | list[int | None] | None = None, options: dict[str, Any] | None = None
@@ -139,11 +137,12 @@ class HoverVectorEnv(VectorEnv):
             if mask is None or mask[i]:
                 self._reset(i, seeds[i], options)
                 self._info(infos, i, env.sim.state)
-        return self._batch(), infos
+        return deepcopy(self._observations), infos
 
     def _reset(self, i: int, seed: int | None = None, options: dict[str, Any] | None = None) -> None:
         env = self._envs[i]
-        self._leave(i)
+        if self._quiet is not None:
+            self._quiet.leave(i)
         self._put(i, env.reset(seed=seed, options=options)[0])
         self._targets[i] = env.target_m
         self._elapsed[i] = 0
@@ -201,7 +200,7 @@ class HoverVectorEnv(VectorEnv):
             for i in flown:  # flown in Python this step: with the others from the next, if clear
                 if not self._ended[i]:
                     quiet.enter(i)
-        return self._batch(), rewards, terminations, truncations, infos
+        return deepcopy(self._observations), rewards, terminations, truncations, infos
 
     def _put(self, i: int, observation: Any) -> None:
         """Env i's observation into its row of the batch."""
@@ -210,12 +209,6 @@ class HoverVectorEnv(VectorEnv):
                 self._observations[key][i] = value
         else:
             self._observations[i] = observation
-
-    def _batch(self) -> Any:
-        """A copy of the batch of observations (the caller may keep it)."""
-        if self._with_sensors:
-            return {key: value.copy() for key, value in self._observations.items()}
-        return self._observations.copy()
 
     def _infos(self, every: bool = False) -> dict[str, Any]:
         """What each env's info says (its step and position), as Gymnasium's vector envs give

@@ -8,7 +8,6 @@ import ctypes
 import os
 import sys
 from collections.abc import Iterator
-from typing import Any
 
 
 @contextlib.contextmanager
@@ -36,11 +35,5 @@ def c_output_silenced() -> Iterator[None]:
         os.close(devnull)
 
 
-def _import_quietly() -> Any:
-    with c_output_silenced():
-        import pybullet
-
-    return pybullet
-
-
-pb = _import_quietly()
+with c_output_silenced():
+    import pybullet as pb  # noqa: F401 - what this module is imported for

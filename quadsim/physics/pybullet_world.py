@@ -6,6 +6,7 @@ the vehicle's state. It is the only flight module that imports pybullet.
 
 from __future__ import annotations
 
+import functools
 import math
 from typing import Any, NamedTuple
 
@@ -148,7 +149,6 @@ class PhysicsWorld:
         self.client = client
         self._cid = client.cid
         self.landmark_ids = client.landmark_ids
-        self._body_names = client.body_names
         self._far = (100.0 * far_index, 0.0, 1e4)
         self.start = start
         #: the base's state (quadsim.physics.free_flight: its inertial frame, world frame), as
@@ -174,15 +174,32 @@ class PhysicsWorld:
         self._wind: WindField | ModelWind | None = None
         self._reset_wind()
         self.motors = MotorBank(len(vehicle.rotors), vehicle.motor_time_constant_s, vehicle.max_thrust_n, self.dt_s)
-        self._prepare_wrench()
-        self._prepare_free_flight()
+        self._prepare_steps()
         self._read_kinematics()
         self._previous_velocity = self._linear_velocity
 
-    def _prepare_free_flight(self) -> None:
-        """What quadsim's own step of the body takes (quadsim.physics.free_flight), and whether it
-        may take it: one rigid body (no joints), no PyBullet window showing it; and the step
-        itself made for its arguments (quadsim.core.compiled.specialize)."""
+    def _prepare_steps(self) -> None:
+        """The constants, rotor table and output `airframe_wrench` takes each step (applied in
+        PyBullet), what quadsim's own step of the body takes (quadsim.physics.free_flight) and
+        whether it may take it: one rigid body (no joints), no PyBullet window showing it; and
+        both functions made for their arguments (without numba's type dispatch:
+        quadsim.core.compiled.specialize)."""
+        vehicle, xyz, forces = self.vehicle, (0.0, 0.0, 0.0), (0.0,) * len(self.vehicle.rotors)
+        self._airframe = floats(airframe_constants(vehicle, self.motors.alpha, self.dt_s, self.merged))
+        self._hub_table = table(hub_table(vehicle))
+        self._wrench = floats([0.0] * 6)
+        self._airframe_wrench = specialize(
+            airframe_wrench,
+            self._airframe,
+            self._hub_table,
+            self.motors.thrusts,
+            forces,
+            (xyz, xyz, xyz),
+            0.0,
+            xyz,
+            xyz,
+            self._wrench,
+        )
         mass, _, inertia = pb.getDynamicsInfo(self.body_id, -1, physicsClientId=self._cid)[:3]
         self._mass_kg, self._inertia = float(mass), floats(inertia)
         self._free = (
@@ -197,36 +214,15 @@ class PhysicsWorld:
         self._stale = False
         #: the body's state is to be read from PyBullet before the next step (`client_id`)
         self._reread = False
-        xyz = (0.0, 0.0, 0.0)
         #: what quadsim's step takes that stays the same from step to step
         self._clear_constants = (
             self._airframe, self._hub_table, self.motors.thrusts, self._wrench, self._body, self._mass_kg,
             self._inertia, self._gravity, self.dt_s, self._inv_dt, self._offset,
         )  # fmt: skip
         self._clear_step: Any = specialize(
-            clear_step, *self._clear_constants, (0.0,) * len(self.vehicle.rotors), (xyz, xyz, xyz), xyz, xyz, xyz, xyz
+            clear_step, *self._clear_constants, forces, (xyz, xyz, xyz), xyz, xyz, xyz, xyz
         )
         self._after_step: Any = None
-
-    def _prepare_wrench(self) -> None:
-        """The constants, rotor table and output `airframe_wrench` takes each step, and the
-        function itself made for them (without numba's type dispatch: quadsim.core.compiled)."""
-        vehicle, xyz = self.vehicle, (0.0, 0.0, 0.0)
-        self._airframe = floats(airframe_constants(vehicle, self.motors.alpha, self.dt_s, self.merged))
-        self._hub_table = table(hub_table(vehicle))
-        self._wrench = floats([0.0] * 6)
-        self._airframe_wrench = specialize(
-            airframe_wrench,
-            self._airframe,
-            self._hub_table,
-            self.motors.thrusts,
-            (0.0,) * len(vehicle.rotors),
-            (xyz, xyz, xyz),
-            0.0,
-            xyz,
-            xyz,
-            self._wrench,
-        )
 
     def reseed(self, wind_seed: np.random.SeedSequence) -> None:
         """The turbulence's random stream from `wind_seed` from the next reset on."""
@@ -247,49 +243,27 @@ class PhysicsWorld:
     # --- building ---------------------------------------------------------------------------
 
     def _spawn_position(self) -> tuple[float, float, float]:
-        aabb_min_z = self._resting_height()
-        return (self.start.x_m, self.start.y_m, aabb_min_z + _SPAWN_CLEARANCE_M)
+        return (self.start.x_m, self.start.y_m, self.rest_height_m + _SPAWN_CLEARANCE_M)
 
     def _spawn_orientation(self) -> tuple[float, float, float, float]:
-        x, y, z, w = pb.getQuaternionFromEuler((0.0, 0.0, self.start.yaw_rad))
-        return (x, y, z, w)
+        return pb.getQuaternionFromEuler((0.0, 0.0, self.start.yaw_rad))
 
-    def _resting_height(self) -> float:
-        """Height of base_link above the floor when the vehicle rests on its collision shape."""
-        if not hasattr(self, "_rest_z"):
-            probe = pb.loadURDF(str(self.vehicle.pybullet_urdf_path), (0, 0, 10.0), physicsClientId=self._cid)
-            lo = min(
-                pb.getAABB(probe, i, physicsClientId=self._cid)[0][2]
-                for i in range(-1, pb.getNumJoints(probe, physicsClientId=self._cid))
-                if pb.getCollisionShapeData(probe, i, physicsClientId=self._cid)
-            )
-            pb.removeBody(probe, physicsClientId=self._cid)
-            self._rest_z = 10.0 - lo
-        return self._rest_z
-
-    @property
+    @functools.cached_property
     def rest_height_m(self) -> float:
-        """Height of base_link above the floor when the vehicle rests on it."""
-        return self._resting_height()
+        """Height of base_link above the floor when the vehicle rests on its collision shape."""
+        probe = pb.loadURDF(str(self.vehicle.pybullet_urdf_path), (0, 0, 10.0), physicsClientId=self._cid)
+        lo = min(low[2] for low, _ in self._collision_boxes(probe))
+        pb.removeBody(probe, physicsClientId=self._cid)
+        return 10.0 - lo
 
-    # --- stepping ---------------------------------------------------------------------------
-
-    def _bounding_radius(self) -> float:
-        """The radius of a sphere about base_link's origin holding every collision shape of the
-        vehicle in any attitude (the farthest corner of the links' boxes as loaded)."""
-        cid, body = self._cid, self.body_id
-        self._read_kinematics()
-        base = self._position
-        corners = [
-            math.dist(base, (x, y, z))
+    def _collision_boxes(self, body: int) -> list[tuple[Vec3, Vec3]]:
+        """The bounding boxes (world frame) of `body`'s links that have a collision shape."""
+        cid = self._cid
+        return [
+            pb.getAABB(body, link, physicsClientId=cid)
             for link in range(-1, pb.getNumJoints(body, physicsClientId=cid))
             if pb.getCollisionShapeData(body, link, physicsClientId=cid)
-            for lo, hi in [pb.getAABB(body, link, physicsClientId=cid)]
-            for x in (lo[0], hi[0])
-            for y in (lo[1], hi[1])
-            for z in (lo[2], hi[2])
         ]
-        return max(corners, default=0.0)
 
     def _load_body(self, name: str) -> None:
         """The vehicle's body at its start pose, its links by name and its reach."""
@@ -306,13 +280,22 @@ class PhysicsWorld:
             offset = inertial_offset(self.body_id, cid) or (0.0, 0.0, 0.0)
         #: base_link's origin to the base's inertial frame, where PyBullet has the body's pose
         self._offset: Vec3 = offset
-        self._body_names[self.body_id] = name
+        self.client.body_names[self.body_id] = name
         self.link_index = {
             pb.getJointInfo(self.body_id, i, physicsClientId=cid)[12].decode(): i
             for i in range(pb.getNumJoints(self.body_id, physicsClientId=cid))
         }
-        #: the radius of a sphere about base_link's origin that holds the vehicle in any attitude
-        self.reach_m = self._bounding_radius()
+        self._read_kinematics()
+        corners = [
+            (x, y, z)
+            for lo, hi in self._collision_boxes(self.body_id)
+            for x in (lo[0], hi[0])
+            for y in (lo[1], hi[1])
+            for z in (lo[2], hi[2])
+        ]
+        #: the radius of a sphere about base_link's origin that holds the vehicle in any attitude:
+        #: to the farthest corner of the links' collision boxes as loaded
+        self.reach_m = max((math.dist(self._position, corner) for corner in corners), default=0.0)
         self._check_start_is_clear(name)
 
     def _check_start_is_clear(self, name: str) -> None:
@@ -328,6 +311,8 @@ class PhysicsWorld:
                     f"(x {lx:g} .. {hx:g}, y {ly:g} .. {hy:g}, and the vehicle's {reach:.2f} m reach): "
                     "start elsewhere"
                 )
+
+    # --- stepping ---------------------------------------------------------------------------
 
     def _static_scenery(self) -> tuple[tuple[float, ...], tuple[tuple[Vec3, Vec3], ...]] | None:
         """The heights of the horizontal planes and the boxes of the scenery, or None when some
@@ -417,7 +402,7 @@ class PhysicsWorld:
         for other, nz in points:
             if nz > normal_z.get(other, -2.0):
                 normal_z[other] = nz
-        return tuple(Contact(self._body_names.get(b, f"body {b}"), nz) for b, nz in normal_z.items())
+        return tuple(Contact(self.client.body_names.get(b, f"body {b}"), nz) for b, nz in normal_z.items())
 
     @property
     def body_z_up(self) -> float:
@@ -435,12 +420,8 @@ class PhysicsWorld:
         # impulses warm-start the solver): a reset then flies the same whatever came before it
         self._put(self._far, (0.0, 0.0, 0.0, 1.0))
         pb.performCollisionDetection(physicsClientId=self._cid)
-        self._put(self._spawn_position(), self._spawn_orientation())
-        pb.resetBaseVelocity(self.body_id, (0.0, 0.0, 0.0), (0.0, 0.0, 0.0), physicsClientId=self._cid)
-        self.motors.reset()
         self._reset_wind()
-        self._read_kinematics()
-        self._previous_velocity = self._linear_velocity
+        self.place(self._spawn_position())
 
     def place(
         self,
@@ -478,8 +459,7 @@ class PhysicsWorld:
         # the hot path: the arithmetic is one function (quadsim.vehicle.wrench), and PyBullet's
         # calls get positional arguments (parsing the keyword physicsClientId costs about a
         # quarter of a microsecond a call). The force and torque are turned into the world frame
-        # with this step's attitude: a force in a child link's frame is turned with that link's
-        # pose of the previous step, so rotor thrust would lag the attitude by one step.
+        # with this step's attitude (the class's docstring says why).
         if self._reread:  # code of the user's own had the scene (client_id)
             self._reread = False
             self._read_kinematics(at_rest_before=False)
@@ -550,12 +530,11 @@ class PhysicsWorld:
         ):
             return None
         arguments = self.clear_flight_arguments
-        if self._others:  # every pair measured, and this vehicle within its slack of them
-            apart = arguments[3]
-            if len(self.client.apart) != len(self.client.bodies) or apart is _NOTHING_NEAR:
-                return None
-            if not self._within_slack(apart):
-                return None
+        apart, client = arguments[3], self.client
+        if self._others and (  # every pair measured, and this vehicle within its slack of them
+            len(client.apart) != len(client.bodies) or apart is _NOTHING_NEAR or not self._within_slack(apart)
+        ):
+            return None
         return arguments
 
     @property
@@ -651,7 +630,7 @@ class PhysicsWorld:
             self._body_rates,
             self.motors.thrusts_n,
             self._specific_force,
-            None if self._wind is None else self._wind.wind_mps,
+            self.wind_mps,
         )
 
     # --- lifetime ---------------------------------------------------------------------------

@@ -9,6 +9,7 @@ import hashlib
 import os
 import tempfile
 from pathlib import Path
+from typing import Any
 
 from quadsim.errors import ConfigError
 from quadsim.physics.pybullet_quiet import c_output_silenced, pb
@@ -36,22 +37,18 @@ def _floor_mesh(size_m: float, tile_m: float) -> tuple[list, list, list]:
     return vertices, uvs, indices
 
 
-def _obj_text(vertices: list, uvs: list, indices: list) -> str:
+def _floor_obj(vertices: list, uvs: list, indices: list) -> Path | None:
+    """The floor mesh as an OBJ file in the user's cache, written once and shared by every
+    process (named by its content). PyBullet keeps a mesh given as arrays for the life of the
+    process (~160 kB per client created), but not one loaded from a file. None if the cache
+    cannot be written."""
     lines = [f"v {x!r} {y!r} {z!r}" for x, y, z in vertices]
     lines += [f"vt {u!r} {v!r}" for u, v in uvs]
     lines.append("vn 0 0 1")
     for k in range(0, len(indices), 3):
         a, b, c = (i + 1 for i in indices[k : k + 3])
         lines.append(f"f {a}/{a}/1 {b}/{b}/1 {c}/{c}/1")
-    return "\n".join(lines) + "\n"
-
-
-def _floor_obj(vertices: list, uvs: list, indices: list) -> Path | None:
-    """The floor mesh as an OBJ file in the user's cache, written once and shared by every
-    process (named by its content). PyBullet keeps a mesh given as arrays for the life of the
-    process (~160 kB per client created), but not one loaded from a file. None if the cache
-    cannot be written."""
-    text = _obj_text(vertices, uvs, indices)
+    text = "\n".join(lines) + "\n"
     folder = cache_dir()
     path = folder / f"floor-{hashlib.sha256(text.encode()).hexdigest()[:16]}.obj"
     if path.is_file():
@@ -73,17 +70,12 @@ def build_world(world: WorldSpec, cid: int, collisions: bool = True) -> dict[str
     """Create the floor and landmarks; returns body ids by name ('floor' and each landmark)."""
     vertices, uvs, indices = _floor_mesh(world.floor.size_m, world.floor.texture_tile_m)
     obj = _floor_obj(vertices, uvs, indices)
-    if obj is not None:
-        floor_vis = pb.createVisualShape(pb.GEOM_MESH, fileName=str(obj), physicsClientId=cid)
-    else:
-        floor_vis = pb.createVisualShape(
-            pb.GEOM_MESH,
-            vertices=vertices,
-            indices=indices,
-            uvs=uvs,
-            normals=[(0.0, 0.0, 1.0)] * len(vertices),
-            physicsClientId=cid,
-        )
+    mesh = (
+        {"fileName": str(obj)}
+        if obj is not None
+        else {"vertices": vertices, "indices": indices, "uvs": uvs, "normals": [(0.0, 0.0, 1.0)] * len(vertices)}
+    )
+    floor_vis = pb.createVisualShape(pb.GEOM_MESH, physicsClientId=cid, **mesh)
     floor_col = pb.createCollisionShape(pb.GEOM_PLANE, physicsClientId=cid) if collisions else -1
     floor = pb.createMultiBody(0.0, floor_col, floor_vis, physicsClientId=cid)
     # PyBullet multiplies the restitutions of a contact's two bodies: the world's are 1, so a
@@ -95,21 +87,16 @@ def build_world(world: WorldSpec, cid: int, collisions: bool = True) -> dict[str
     ids = {"floor": floor}
     for lm in world.landmarks:
         sx, sy, sz = lm.size_m
+        # each shape's geometry, and its size as the visual and the collision shape take it
+        shapes: dict[Shape, tuple[int, dict[str, Any], dict[str, Any] | None]] = {
+            Shape.BOX: (pb.GEOM_BOX, {"halfExtents": (sx / 2, sy / 2, sz / 2)}, None),
+            Shape.CYLINDER: (pb.GEOM_CYLINDER, {"radius": sx, "length": sz}, {"radius": sx, "height": sz}),
+            Shape.SPHERE: (pb.GEOM_SPHERE, {"radius": sx}, None),
+        }
+        geometry, seen, solid = shapes[lm.shape]
+        vis = pb.createVisualShape(geometry, rgbaColor=lm.color_rgba, physicsClientId=cid, **seen)
         collide = collisions and lm.collision
-        if lm.shape is Shape.BOX:
-            half = (sx / 2, sy / 2, sz / 2)
-            vis = pb.createVisualShape(pb.GEOM_BOX, halfExtents=half, rgbaColor=lm.color_rgba, physicsClientId=cid)
-            col = pb.createCollisionShape(pb.GEOM_BOX, halfExtents=half, physicsClientId=cid) if collide else -1
-        elif lm.shape is Shape.CYLINDER:
-            vis = pb.createVisualShape(
-                pb.GEOM_CYLINDER, radius=sx, length=sz, rgbaColor=lm.color_rgba, physicsClientId=cid
-            )
-            col = (
-                pb.createCollisionShape(pb.GEOM_CYLINDER, radius=sx, height=sz, physicsClientId=cid) if collide else -1
-            )
-        else:
-            vis = pb.createVisualShape(pb.GEOM_SPHERE, radius=sx, rgbaColor=lm.color_rgba, physicsClientId=cid)
-            col = pb.createCollisionShape(pb.GEOM_SPHERE, radius=sx, physicsClientId=cid) if collide else -1
+        col = pb.createCollisionShape(geometry, physicsClientId=cid, **(solid or seen)) if collide else -1
         ids[lm.name] = pb.createMultiBody(0.0, col, vis, basePosition=lm.position_m, physicsClientId=cid)
         pb.changeDynamics(ids[lm.name], -1, restitution=1.0, physicsClientId=cid)
     return ids

@@ -126,12 +126,9 @@ class WindSettings:
 
 def parse_wind(text: str) -> tuple[float, float]:
     """`SPEED,FROM_DEG` (m/s, degrees clockwise from north) -> (speed, from_deg)."""
-    parts = text.split(",")
     try:
-        if len(parts) != 2:
-            raise ValueError
-        speed, from_deg = float(parts[0]), float(parts[1])
-    except ValueError:
+        speed, from_deg = (float(part) for part in text.split(","))
+    except ValueError:  # not a number, or not two of them
         raise ConfigError(f"--wind must look like SPEED,FROM_DEG (e.g. 3,90), got {text!r}") from None
     if not (math.isfinite(speed) and math.isfinite(from_deg)):
         raise ConfigError(f"--wind must be finite numbers, got {text!r}")
@@ -196,17 +193,15 @@ class WindField:
     """The wind at the vehicle, advanced once per physics step, from its own random stream."""
 
     def __init__(self, settings: WindSettings, dt_s: float, rng: np.random.Generator) -> None:
-        self.settings = settings
         self.mean_mps = settings.mean_mps
         self._rng = rng
-        speed = settings.speed_mps
         rad = math.radians(settings.from_deg)
         # unit vectors of the gust frame in world: along the mean wind, across it (to its left)
         self._along = (-math.sin(rad), -math.cos(rad))
         self._across = (-self._along[1], self._along[0])
         self._filters: tuple[_FirstOrder, _SecondOrder, _SecondOrder] | None = None
         if settings.turbulence is not None:
-            airspeed = max(speed, MIN_TURBULENCE_AIRSPEED_MPS)
+            airspeed = max(settings.speed_mps, MIN_TURBULENCE_AIRSPEED_MPS)
             su, sv, sw = dryden_sigmas_mps(settings.turbulence)
             lu, lv, lw = dryden_lengths_m()
             self._filters = (
