@@ -16,6 +16,7 @@ Two back-ends with the same output:
 
 from __future__ import annotations
 
+import contextlib
 import math
 import os
 import signal
@@ -330,10 +331,8 @@ class CameraPipeline:
     def close(self) -> None:
         """Stop the workers (pending frames are dropped: call drain() first to keep them)."""
         for conn in self._conns:
-            try:
+            with contextlib.suppress(OSError):  # BrokenPipeError too: it is gone already
                 conn.send(None)
-            except (BrokenPipeError, OSError):
-                pass
         for proc in self._procs:
             try:
                 proc.wait(timeout=5)
