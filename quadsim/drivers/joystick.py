@@ -232,8 +232,7 @@ class JoystickDriver:
 
     def detach(self) -> None:
         if self.pad is not None:
-            self.pad.close()
-            self.pad = None
+            self.close()
             self.status = "gamepad unplugged: holding position (plug it in again to fly)"
 
     def close(self) -> None:

@@ -21,6 +21,7 @@ each segment from the first poll at or after its start time.
 
 from __future__ import annotations
 
+import itertools
 import math
 from dataclasses import dataclass
 from pathlib import Path
@@ -197,11 +198,7 @@ class ScriptedDriver:
 
     def __init__(self, script: Script) -> None:
         self.script = script
-        ends, t = [], 0.0
-        for seg in script.segments:
-            t += seg.duration_s
-            ends.append(t)
-        self._ends = tuple(ends)
+        self._ends = tuple(itertools.accumulate(seg.duration_s for seg in script.segments))
         self.rewind()
 
     def rewind(self) -> None:
