@@ -37,7 +37,7 @@ from quadsim.drivers import InputDriver
 from quadsim.drivers.scripted import Script, load_script
 from quadsim.errors import ConfigError, QuadsimError
 from quadsim.sensors.camera import default_cameras, with_images
-from quadsim.sim.description import MAX_FLEET, VEHICLE_NAME
+from quadsim.sim.description import MAX_FLEET, VEHICLE_NAME, VEHICLE_NAME_NEEDED
 from quadsim.sim.fleet import FleetVehicle
 from quadsim.vehicle.params import SHIPPED_VEHICLES
 
@@ -168,10 +168,7 @@ def _entry(path: Path, index: int, data: dict[str, Any]) -> FleetEntry:
     name = data.get("name")
     if not isinstance(name, str) or not VEHICLE_NAME.fullmatch(name):
         shown = f"{name!r}"[:40] if name is not None else "missing"
-        raise ConfigError(
-            f"{path}: vehicle {index + 1}: name {shown}: a ROS name segment is needed (a lowercase letter, then "
-            "lowercase letters, digits or _; at most 63)"
-        )
+        raise ConfigError(f"{path}: vehicle {index + 1}: name {shown}: {VEHICLE_NAME_NEEDED}")
     where = f"{path}: vehicle {name!r}"
     refuse_unknown_keys(data, VEHICLE_KEYS, where)
     input_name, script = _input(path, where, data.get("input", "idle"))
