@@ -184,6 +184,7 @@ class JoystickDriver:
     """Feed it pygame events with `handle_event`; the loop polls it at the input rate."""
 
     name = "joystick"
+    finished = False  # a person's input never runs out
 
     def __init__(
         self,
@@ -336,10 +337,6 @@ class JoystickDriver:
         self.z_mode = z_mode
         self._height_offset_m = altitude_m - HEIGHT_MODE_BASE_M
         self.next_poll_step = ASAP
-
-    @property
-    def finished(self) -> bool:
-        return False
 
     def describe(self) -> dict[str, Any]:
         pad = self.pad

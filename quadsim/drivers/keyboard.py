@@ -117,6 +117,7 @@ class KeyboardDriver:
     """Feed it pygame events with `handle_event`; the loop polls it at the input rate."""
 
     name = "keyboard"
+    finished = False  # a person's input never runs out
 
     def __init__(
         self, layout: KeyLayout = DEFAULT_LAYOUT, speeds: Speeds = Speeds(), z_mode: ZMode = ZMode.VELOCITY
@@ -200,10 +201,6 @@ class KeyboardDriver:
             linear_z=z,
             angular_z=u[Axis.YAW] * s.yaw_radps * k,
         )
-
-    @property
-    def finished(self) -> bool:
-        return False
 
     def describe(self) -> dict[str, Any]:
         return {"name": self.name, "layout": self.layout.name, "speeds": vars(self.speeds).copy()}
