@@ -173,17 +173,7 @@ class RunDescription:
         start_step = p.integer("start_step", default=0, low=0)
         own = cls._own_from(p, version, start_step)
         fleet = _fleet(p, version, start_step) if version >= FLEET_SCHEMA_VERSION else ()
-        known = {
-            "schema_version",
-            "config",
-            "vehicle",
-            "controller",
-            "driver",
-            "cameras",
-            "start_step",
-            "fleet",
-            "wind_model",
-        }
+        known = {"schema_version", "start_step", "fleet", "wind_model", *own._own_parameters()}  # the rest is extra
         return replace(
             own,
             extra={k: v for k, v in p.data.items() if k not in known},
