@@ -111,12 +111,8 @@ def load_mapping(path: Path) -> JoystickMapping:
             "(stick up negative). Mapping files now use teleop_twist_joy's names and /joy's sign (stick up and "
             "left positive), e.g. axis_linear.x = 3 and scale_linear.x = 1.5: see the teleop page of the docs"
         )
-    known = [*_TABLES, *_SCALARS]
-    refuse_unknown_keys(table, known, str(path), top_level=True)
-    defaults = JoystickMapping()
-    index: dict[str, int | None] = {f: (a.index if (a := getattr(defaults, f)) else None) for f in TWIST_FIELDS}
-    scale: dict[str, float] = {f: (a.scale if (a := getattr(defaults, f)) else 0.0) for f in TWIST_FIELDS}
-    turbo: dict[str, float] = {}
+    refuse_unknown_keys(table, [*_TABLES, *_SCALARS], str(path), top_level=True)
+    read: dict[str, dict[str, Any]] = {}  # each table's numbers, by the Twist field they are for
     for name, keys in _TABLES.items():
         sub = table.get(name, {})
         if not isinstance(sub, dict):
@@ -126,23 +122,22 @@ def load_mapping(path: Path) -> JoystickMapping:
             raise ConfigError(
                 f"{path}: {name}.{extra[0]} is not used by quadsim; {name} takes {', '.join(name + '.' + k for k in keys)}"
             )
-        for key, value in sub.items():
-            field, where = keys[key], f"{name}.{key}"
-            if name.startswith("axis_"):
-                number = _index(path, where, value, -1)
-                index[field] = None if number == -1 else number
-            elif name.endswith("_turbo"):
-                turbo[field] = _number(path, where, value)
-            else:
-                scale[field] = _number(path, where, value)
+        axis = name.startswith("axis_")
+        read[name] = {
+            keys[key]: _index(path, f"{name}.{key}", value, -1) if axis else _number(path, f"{name}.{key}", value)
+            for key, value in sub.items()
+        }
+    defaults = JoystickMapping()
     values: dict[str, Any] = {}
     for f in TWIST_FIELDS:
-        i = index[f]
-        values[f] = None if i is None else AxisMap(i, scale[f], turbo.get(f, 2.0 * scale[f]))
-        if i is not None and f in turbo and turbo[f] * scale[f] < 0:
-            kind, key = ("linear", f[-1]) if f.startswith("linear") else ("angular", "yaw")
+        kind, key = ("linear", f[-1]) if f.startswith("linear") else ("angular", "yaw")
+        default = getattr(defaults, f)
+        i, scale = read[f"axis_{kind}"].get(f, default.index), read[f"scale_{kind}"].get(f, default.scale)
+        turbo = read[f"scale_{kind}_turbo"].get(f)
+        values[f] = None if i == -1 else AxisMap(i, scale, 2.0 * scale if turbo is None else turbo)
+        if i != -1 and turbo is not None and turbo * scale < 0:
             raise ConfigError(
-                f"{path}: scale_{kind}_turbo.{key} = {turbo[f]} and scale_{kind}.{key} = {scale[f]} have opposite "
+                f"{path}: scale_{kind}_turbo.{key} = {turbo} and scale_{kind}.{key} = {scale} have opposite "
                 "signs: the turbo button would fly the other way; give both the same sign"
             )
     if "deadzone" in table:
