@@ -154,7 +154,8 @@ class CameraPipeline:
         self.sinks: list[FrameSink] = []
         self.kinds: frozenset[ImageKind] = JPEG_ONLY
         self._every = _steps_between_frames(specs, physics_hz)
-        self._tick = math.gcd(*self._every.values()) if specs else 1
+        #: physics steps between two calls of `capture` the pipeline needs
+        self.tap_interval_steps = math.gcd(*self._every.values()) if specs else 1
         self._ordered = ordered_delivery
         self._niceness = (
             (0 if ordered_delivery else WINDOW_WORKER_NICENESS) if worker_niceness is None else worker_niceness
@@ -186,11 +187,6 @@ class CameraPipeline:
         most = 2 * max(1, workers)
         captures_per_s = physics_hz / min(self._every.values())  # at least: the fastest camera's rate
         self._in_flight = min(most, int(ORDERED_LAG_S * captures_per_s)) if ordered_delivery else most
-
-    @property
-    def tap_interval_steps(self) -> int:
-        """Physics steps between two calls of `capture` the pipeline needs."""
-        return self._tick
 
     def want(self, *kinds: ImageKind) -> None:
         """Frames captured from now on also carry `kinds` (frames in flight do not)."""
