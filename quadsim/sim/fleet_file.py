@@ -197,9 +197,8 @@ def _entry(path: Path, index: int, data: dict[str, Any]) -> FleetEntry:
 
 def _images(where: str, data: Mapping[str, Any], cameras: tuple[str, ...]) -> tuple[tuple[str, ...], ...]:
     """The vehicle's `depth`, `segmentation` and `depth_colormap` lists, checked against its cameras."""
-    keys = ("depth", "segmentation", "depth_colormap")
     lists = []
-    for key in keys:
+    for key in ("depth", "segmentation", "depth_colormap"):
         value = data.get(key, [])
         if not isinstance(value, list) or not all(isinstance(v, str) for v in value):
             raise ConfigError(f"{where}: {key}: expected a list of camera names, got {value!r:.40}")
@@ -208,7 +207,7 @@ def _images(where: str, data: Mapping[str, Any], cameras: tuple[str, ...]) -> tu
     with_images(
         specs, lists[0], lists[1], lists[2], (f"{where}: depth", f"{where}: segmentation", f"{where}: depth_colormap")
     )
-    return lists[0], lists[1], lists[2]
+    return tuple(lists)
 
 
 def _flag(where: str, key: str, value: Any) -> bool | None:
