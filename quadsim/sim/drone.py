@@ -40,11 +40,13 @@ from quadsim.vehicle.params import load_vehicle
 
 class VehicleApi:
     """What one vehicle answers to, whether a fleet's (a Drone) or a Simulator's own: commands,
-    the sinks and taps outputs attach to, flight events and state. All of it is its flight
-    loop's (`loop`), which holds its driver and its command gate."""
+    the sinks and taps outputs attach to, flight events and state, all of it its flight loop's
+    (`loop`, which holds its driver and its command gate); and its run's parameters (`describe`)."""
 
     #: the vehicle's flight loop, which counts the steps
     loop: SimLoop
+    #: everything its run is made with, typed (a Drone's own, a Simulator's the fleet's)
+    description: Callable[[], RunDescription]
 
     # --- commanding -------------------------------------------------------------------------
 
@@ -117,6 +119,10 @@ class VehicleApi:
     def state(self) -> VehicleState:
         """The vehicle's state after the last step (ground truth, REP 103 frames, SI units)."""
         return self.loop.state()
+
+    def describe(self) -> dict[str, Any]:
+        """Every parameter of the run as plain data: the layout recordings carry (see description())."""
+        return self.description().to_parameters()
 
 
 class Drone(VehicleApi):
@@ -287,10 +293,6 @@ class Drone(VehicleApi):
             vehicle_model=v,
             world_model=self.world,
         )
-
-    def describe(self) -> dict[str, Any]:
-        """Every parameter of the run as plain data: the layout recordings carry (see description())."""
-        return self.description().to_parameters()
 
     # --- lifetime ---------------------------------------------------------------------------
 
