@@ -151,12 +151,11 @@ def _number(text: str, where: str, what: str) -> float:
 
 def builtin_scenarios() -> dict[str, str]:
     """Names of the shipped scenarios and their first comment line."""
-    out = {}
-    for entry in sorted(asset_path("scenarios").iterdir(), key=lambda e: e.name):
-        if entry.name.endswith(".qscript"):
-            first = entry.read_text().splitlines()[0].lstrip("# ").strip()
-            out[entry.name[: -len(".qscript")]] = first
-    return out
+    return {
+        entry.name.removesuffix(".qscript"): entry.read_text().splitlines()[0].lstrip("# ").strip()
+        for entry in sorted(asset_path("scenarios").iterdir(), key=lambda e: e.name)
+        if entry.name.endswith(".qscript")
+    }
 
 
 def load_script(name_or_path: str) -> Script:
