@@ -45,18 +45,15 @@ class KeyLayout:
     slower_keys: tuple[int, ...]
 
     def help_lines(self) -> list[str]:
+        def names(keys: tuple[int, ...]) -> str:
+            return ", ".join(pygame.key.name(k) for k in keys)
+
         out = []
         for axis in Axis:
             keys = [b for b in self.bindings if b.axis is axis]
             out.append(f"{axis.value:10s} " + ", ".join(f"{pygame.key.name(b.key)} {b.label}" for b in keys))
-        out.append("stop       " + ", ".join(pygame.key.name(k) for k in self.stop_keys))
-        out.append(
-            "speed      "
-            + ", ".join(pygame.key.name(k) for k in self.faster_keys)
-            + " faster, "
-            + ", ".join(pygame.key.name(k) for k in self.slower_keys)
-            + " slower (10% a press)"
-        )
+        out.append("stop       " + names(self.stop_keys))
+        out.append(f"speed      {names(self.faster_keys)} faster, {names(self.slower_keys)} slower (10% a press)")
         return out
 
 
