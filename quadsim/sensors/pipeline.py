@@ -171,7 +171,7 @@ class CameraPipeline:
         #: handed on), and how old they were
         self.accounts: dict[str, CameraAccount] = {spec.name: CameraAccount(physics_hz) for spec in specs}
         self._newest_step = 0  # the step of the newest capture: "now", for a frame's age
-        self._companions = companions
+        self._companions = companions if companions is not None else Companions((), tuple)  # none: no other body moves
         if not specs:
             return
         for spec in specs:
@@ -202,10 +202,8 @@ class CameraPipeline:
             "specs": self.specs,
             "renderer": self.renderer.value,
             "niceness": self._niceness,
-            "companions": [(str(c.urdf_path), str(c.params_path)) for c in self._companions.vehicles]
-            if self._companions is not None
-            else [],
-            "own_index": self._companions.own_index if self._companions is not None else 0,
+            "companions": [(str(c.urdf_path), str(c.params_path)) for c in self._companions.vehicles],
+            "own_index": self._companions.own_index,
         }
         try:
             for _ in range(count):
@@ -294,8 +292,7 @@ class CameraPipeline:
                     self.accounts[name].dropped += 1
                 return
         index = self._seq % len(self._conns)
-        companions = self._companions.poses() if self._companions is not None else ()
-        job = (self._seq, step, names, state.position_m, state.orientation_xyzw, self.kinds, companions)
+        job = (self._seq, step, names, state.position_m, state.orientation_xyzw, self.kinds, self._companions.poses())
         self._conns[index].send(job)
         self._pending.append((self._seq, index))
         self._seq += 1
