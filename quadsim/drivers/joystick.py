@@ -63,9 +63,6 @@ class JoystickMapping:
         """The mapped Twist fields (those with an axis)."""
         return {f: a for f in TWIST_FIELDS if (a := getattr(self, f)) is not None}
 
-    def to_dict(self) -> dict[str, Any]:
-        return asdict(self)
-
 
 TWIST_FIELDS = ("linear_x", "linear_y", "linear_z", "angular_z")
 #: what the HUD calls each Twist field
@@ -337,7 +334,7 @@ class JoystickDriver:
         pad = self.pad
         return {
             "name": self.name,
-            "mapping": self.mapping.to_dict(),
+            "mapping": asdict(self.mapping),
             "device": pad.name if pad is not None else None,
             "device_kind": pad.kind.value if pad is not None else None,
         }
