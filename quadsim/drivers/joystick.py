@@ -211,10 +211,8 @@ class JoystickDriver:
         self.pad = pad
         self._centred = set()
         self._axes = ()
-        if pad.kind is PadKind.GAME_CONTROLLER:
-            self.status = f"gamepad {pad.name}"
-        else:
-            self.status = f"joystick {pad.name} (raw axes, see --joy-map)"
+        known = pad.kind is PadKind.GAME_CONTROLLER
+        self.status = f"gamepad {pad.name}" if known else f"joystick {pad.name} (raw axes, see --joy-map)"
         self.next_poll_step = ASAP
         return True
 
