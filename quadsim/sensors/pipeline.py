@@ -113,14 +113,12 @@ class CameraAccount:
 
 def _steps_between_frames(specs: tuple[CameraSpec, ...], physics_hz: int) -> dict[str, int]:
     """Each camera's physics steps between two frames (its rate must divide the physics rate)."""
-    every = {}
     for spec in specs:
         if physics_hz % spec.rate_hz:
             raise ConfigError(
                 f"camera {spec.name}: rate {spec.rate_hz} Hz does not divide the physics rate {physics_hz} Hz"
             )
-        every[spec.name] = physics_hz // spec.rate_hz
-    return every
+    return {spec.name: physics_hz // spec.rate_hz for spec in specs}
 
 
 class CameraPipeline:

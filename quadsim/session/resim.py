@@ -268,11 +268,10 @@ def resimulate(
     with tempfile.TemporaryDirectory(prefix="quadsim-resim-") as tmp:
         plan = _plan(flights, Path(tmp), OutputOptions(record=record, out=out, cameras=()))
         logs = {name: StateLog() for name in flights}
-        readings: dict[str, ReadingLog] = {}
         with _rebuild(plan, first, tmp) as fleet, Run(plan, fleet) as run:
             for name, log in logs.items():
                 fleet[name].add_sink(log)
-                readings[name] = ReadingLog(fleet[name])
+            readings = {name: ReadingLog(fleet[name]) for name in flights}
             run.fly(progress=progress, stop=to_the_end)
             new_path = run.outputs.path
             stepping_wall_s = run.wall_s

@@ -282,15 +282,13 @@ def _gains(where: str, controller: ControllerKind, value: Any) -> dict[str, floa
     if not isinstance(value, dict):
         raise ConfigError(f"{where}: gains: expected a table of names and numbers, got {value!r:.40}")
     known = {f.name for f in fields(gains_type(controller))}
-    out: dict[str, float] = {}
     for key, number in value.items():
         if key not in known:
             raise ConfigError(f"{where}: gains: {controller.value} has no gain {key!r:.40}")
         problem = gain_problem(gains_type(controller), number)
         if problem is not None:
             raise ConfigError(f"{where}: gains: {key} = {number!r:.40}: {problem}")
-        out[key] = float(number)
-    return out
+    return {key: float(number) for key, number in value.items()}
 
 
 def _check_apart(path: Path, entries: list[FleetEntry]) -> None:
