@@ -157,7 +157,6 @@ class Drone(VehicleApi):
         if say is not None and will_compile():  # the vehicle's files are good: the wait is the compile's
             say(f"compiling the flight core (numba; the first run after an install: {FIRST_COMPILE})")
         self.world = client.world
-        self._client = client
         rates, timeout = config.rates, config.command_timeout_s
         self.controller: Controller = (
             controller if controller is not None else make_controller(config.controller, self.vehicle, controller_gains)
@@ -303,7 +302,7 @@ class Drone(VehicleApi):
     @property
     def closed(self) -> bool:
         """Whether the run was closed (stepping or resetting then raises QuadsimError)."""
-        return self._client.cid < 0 or self.physics.closed
+        return self.physics.client.cid < 0 or self.physics.closed
 
     def _check_open(self) -> None:
         if self.closed:
