@@ -52,17 +52,9 @@ def load_gains(vehicle: VehicleParams, section: str, gains_type: type[G], overri
     extra = sorted(set(values) - names)
     missing = sorted(names - set(values))
     if extra or missing:
-        raise ConfigError(
-            f"{path}: [{section}]: "
-            + "; ".join(
-                part
-                for part in (
-                    _unknown_gains(extra, names) if extra else "",
-                    f"missing gains {', '.join(missing)}" if missing else "",
-                )
-                if part
-            )
-        )
+        said = [_unknown_gains(extra, names)] if extra else []
+        said += [f"missing gains {', '.join(missing)}"] if missing else []
+        raise ConfigError(f"{path}: [{section}]: " + "; ".join(said))
     for key, value in values.items():
         problem = gain_problem(gains_type, value)
         if problem is not None:

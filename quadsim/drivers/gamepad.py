@@ -13,6 +13,7 @@ Either way the values are SDL's negated (stick up and left positive, triggers 0 
 
 from __future__ import annotations
 
+import contextlib
 import enum
 import os
 from types import ModuleType
@@ -23,30 +24,9 @@ import pygame
 
 #: /joy's axis names on an SDL game controller, by index
 GAME_CONTROLLER_AXES: tuple[str, ...] = ("leftx", "lefty", "rightx", "righty", "lefttrigger", "righttrigger")
-#: /joy's button names on an SDL game controller, by index (SDL_CONTROLLER_BUTTON_* order)
-GAME_CONTROLLER_BUTTONS: tuple[str, ...] = (
-    "a",
-    "b",
-    "x",
-    "y",
-    "back",
-    "guide",
-    "start",
-    "leftstick",
-    "rightstick",
-    "leftshoulder",
-    "rightshoulder",
-    "dpup",
-    "dpdown",
-    "dpleft",
-    "dpright",
-    "misc1",
-    "paddle1",
-    "paddle2",
-    "paddle3",
-    "paddle4",
-    "touchpad",
-)
+#: how many /joy buttons an SDL game controller has: those the module's docstring names, in their
+#: order (SDL_CONTROLLER_BUTTON_*), as far as this SDL knows them
+GAME_CONTROLLER_BUTTON_COUNT = 21
 
 
 #: what a person calls a game controller's axes: (control, direction when positive, when negative)
@@ -112,7 +92,7 @@ class GameControllerPad:
         controller_module.update()  # else the layer reports the triggers as 0 until the next event pump
         self.name = self._controller.name or self._joystick.get_name()
         self.instance_id = self._joystick.get_instance_id()
-        self._nbuttons = min(len(GAME_CONTROLLER_BUTTONS), int(getattr(pygame, "CONTROLLER_BUTTON_MAX", 15)))
+        self._nbuttons = min(GAME_CONTROLLER_BUTTON_COUNT, int(getattr(pygame, "CONTROLLER_BUTTON_MAX", 15)))
 
     def read(self) -> tuple[tuple[float, ...], tuple[int, ...]]:
         c = self._controller
@@ -128,10 +108,8 @@ class GameControllerPad:
 
     def close(self) -> None:
         for thing in (self._controller, self._joystick):
-            try:
+            with contextlib.suppress(pygame.error):
                 thing.quit()
-            except pygame.error:
-                pass
 
 
 class JoystickPad:
@@ -161,10 +139,8 @@ class JoystickPad:
         return f"{self.axis_names[index]} held at {value:+.2f}"
 
     def close(self) -> None:
-        try:
+        with contextlib.suppress(pygame.error):
             self._joystick.quit()
-        except pygame.error:
-            pass
 
 
 def is_game_controller(device_index: int) -> bool:

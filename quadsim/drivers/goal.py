@@ -66,19 +66,16 @@ class Goal(NamedTuple):
     def checked(self) -> Goal:
         """The goal with floats, or ValueError naming what is wrong (a coordinate that is not a
         finite number, or farther than MAX_GOAL_M)."""
-        values: list[float | None] = []
         for name, value in zip(self._fields[:4], self[:4]):
             if value is None and name in ("z", "yaw"):
-                values.append(None)
-                continue
+                continue  # left open
             if isinstance(value, bool) or not isinstance(value, (int, float)):
                 raise ValueError(f"goal {name} must be a number, got {type(value).__name__}: {value!r}")
             if not math.isfinite(value):
                 raise ValueError(f"goal {name} must be finite, got {value}")
             if name != "yaw" and abs(value) > MAX_GOAL_M:
                 raise ValueError(f"goal {name} = {value} m is farther than {MAX_GOAL_M:g} m")
-            values.append(float(value))
-        x, y, z, yaw = values
+        x, y, z, yaw = (None if value is None else float(value) for value in self[:4])
         assert x is not None and y is not None  # only z and yaw may be open
         return Goal(x, y, z, yaw, bool(self.relative))
 

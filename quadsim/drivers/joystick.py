@@ -63,9 +63,6 @@ class JoystickMapping:
         """The mapped Twist fields (those with an axis)."""
         return {f: a for f in TWIST_FIELDS if (a := getattr(self, f)) is not None}
 
-    def to_dict(self) -> dict[str, Any]:
-        return asdict(self)
-
 
 TWIST_FIELDS = ("linear_x", "linear_y", "linear_z", "angular_z")
 #: what the HUD calls each Twist field
@@ -111,12 +108,8 @@ def load_mapping(path: Path) -> JoystickMapping:
             "(stick up negative). Mapping files now use teleop_twist_joy's names and /joy's sign (stick up and "
             "left positive), e.g. axis_linear.x = 3 and scale_linear.x = 1.5: see the teleop page of the docs"
         )
-    known = [*_TABLES, *_SCALARS]
-    refuse_unknown_keys(table, known, str(path), top_level=True)
-    defaults = JoystickMapping()
-    index: dict[str, int | None] = {f: (a.index if (a := getattr(defaults, f)) else None) for f in TWIST_FIELDS}
-    scale: dict[str, float] = {f: (a.scale if (a := getattr(defaults, f)) else 0.0) for f in TWIST_FIELDS}
-    turbo: dict[str, float] = {}
+    refuse_unknown_keys(table, [*_TABLES, *_SCALARS], str(path), top_level=True)
+    read: dict[str, dict[str, Any]] = {}  # each table's numbers, by the Twist field they are for
     for name, keys in _TABLES.items():
         sub = table.get(name, {})
         if not isinstance(sub, dict):
@@ -126,23 +119,22 @@ def load_mapping(path: Path) -> JoystickMapping:
             raise ConfigError(
                 f"{path}: {name}.{extra[0]} is not used by quadsim; {name} takes {', '.join(name + '.' + k for k in keys)}"
             )
-        for key, value in sub.items():
-            field, where = keys[key], f"{name}.{key}"
-            if name.startswith("axis_"):
-                number = _index(path, where, value, -1)
-                index[field] = None if number == -1 else number
-            elif name.endswith("_turbo"):
-                turbo[field] = _number(path, where, value)
-            else:
-                scale[field] = _number(path, where, value)
+        axis = name.startswith("axis_")
+        read[name] = {
+            keys[key]: _index(path, f"{name}.{key}", value, -1) if axis else _number(path, f"{name}.{key}", value)
+            for key, value in sub.items()
+        }
+    defaults = JoystickMapping()
     values: dict[str, Any] = {}
     for f in TWIST_FIELDS:
-        i = index[f]
-        values[f] = None if i is None else AxisMap(i, scale[f], turbo.get(f, 2.0 * scale[f]))
-        if i is not None and f in turbo and turbo[f] * scale[f] < 0:
-            kind, key = ("linear", f[-1]) if f.startswith("linear") else ("angular", "yaw")
+        kind, key = ("linear", f[-1]) if f.startswith("linear") else ("angular", "yaw")
+        default = getattr(defaults, f)
+        i, scale = read[f"axis_{kind}"].get(f, default.index), read[f"scale_{kind}"].get(f, default.scale)
+        turbo = read[f"scale_{kind}_turbo"].get(f)
+        values[f] = None if i == -1 else AxisMap(i, scale, 2.0 * scale if turbo is None else turbo)
+        if i != -1 and turbo is not None and turbo * scale < 0:
             raise ConfigError(
-                f"{path}: scale_{kind}_turbo.{key} = {turbo[f]} and scale_{kind}.{key} = {scale[f]} have opposite "
+                f"{path}: scale_{kind}_turbo.{key} = {turbo} and scale_{kind}.{key} = {scale} have opposite "
                 "signs: the turbo button would fly the other way; give both the same sign"
             )
     if "deadzone" in table:
@@ -184,6 +176,7 @@ class JoystickDriver:
     """Feed it pygame events with `handle_event`; the loop polls it at the input rate."""
 
     name = "joystick"
+    finished = False  # a person's input never runs out
 
     def __init__(
         self,
@@ -218,10 +211,8 @@ class JoystickDriver:
         self.pad = pad
         self._centred = set()
         self._axes = ()
-        if pad.kind is PadKind.GAME_CONTROLLER:
-            self.status = f"gamepad {pad.name}"
-        else:
-            self.status = f"joystick {pad.name} (raw axes, see --joy-map)"
+        known = pad.kind is PadKind.GAME_CONTROLLER
+        self.status = f"gamepad {pad.name}" if known else f"joystick {pad.name} (raw axes, see --joy-map)"
         self.next_poll_step = ASAP
         return True
 
@@ -232,8 +223,7 @@ class JoystickDriver:
 
     def detach(self) -> None:
         if self.pad is not None:
-            self.pad.close()
-            self.pad = None
+            self.close()
             self.status = "gamepad unplugged: holding position (plug it in again to fly)"
 
     def close(self) -> None:
@@ -338,15 +328,11 @@ class JoystickDriver:
         self._height_offset_m = altitude_m - HEIGHT_MODE_BASE_M
         self.next_poll_step = ASAP
 
-    @property
-    def finished(self) -> bool:
-        return False
-
     def describe(self) -> dict[str, Any]:
         pad = self.pad
         return {
             "name": self.name,
-            "mapping": self.mapping.to_dict(),
+            "mapping": asdict(self.mapping),
             "device": pad.name if pad is not None else None,
             "device_kind": pad.kind.value if pad is not None else None,
         }

@@ -45,18 +45,15 @@ class KeyLayout:
     slower_keys: tuple[int, ...]
 
     def help_lines(self) -> list[str]:
+        def names(keys: tuple[int, ...]) -> str:
+            return ", ".join(pygame.key.name(k) for k in keys)
+
         out = []
         for axis in Axis:
             keys = [b for b in self.bindings if b.axis is axis]
             out.append(f"{axis.value:10s} " + ", ".join(f"{pygame.key.name(b.key)} {b.label}" for b in keys))
-        out.append("stop       " + ", ".join(pygame.key.name(k) for k in self.stop_keys))
-        out.append(
-            "speed      "
-            + ", ".join(pygame.key.name(k) for k in self.faster_keys)
-            + " faster, "
-            + ", ".join(pygame.key.name(k) for k in self.slower_keys)
-            + " slower (10% a press)"
-        )
+        out.append("stop       " + names(self.stop_keys))
+        out.append(f"speed      {names(self.faster_keys)} faster, {names(self.slower_keys)} slower (10% a press)")
         return out
 
 
@@ -117,6 +114,7 @@ class KeyboardDriver:
     """Feed it pygame events with `handle_event`; the loop polls it at the input rate."""
 
     name = "keyboard"
+    finished = False  # a person's input never runs out
 
     def __init__(
         self, layout: KeyLayout = DEFAULT_LAYOUT, speeds: Speeds = Speeds(), z_mode: ZMode = ZMode.VELOCITY
@@ -200,10 +198,6 @@ class KeyboardDriver:
             linear_z=z,
             angular_z=u[Axis.YAW] * s.yaw_radps * k,
         )
-
-    @property
-    def finished(self) -> bool:
-        return False
 
     def describe(self) -> dict[str, Any]:
         return {"name": self.name, "layout": self.layout.name, "speeds": vars(self.speeds).copy()}

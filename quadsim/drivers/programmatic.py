@@ -18,6 +18,7 @@ class ProgrammaticDriver:
     """
 
     name = "programmatic"
+    finished = False  # a program's input never runs out
     next_poll_step = NEVER  # commands follow the input rate only
 
     def __init__(self) -> None:
@@ -39,10 +40,6 @@ class ProgrammaticDriver:
 
     def poll(self, step: int, time_s: float) -> Twist | None:
         return self._twist
-
-    @property
-    def finished(self) -> bool:
-        return False
 
     def describe(self) -> dict[str, Any]:
         return {"name": self.name}

@@ -21,6 +21,7 @@ each segment from the first poll at or after its start time.
 
 from __future__ import annotations
 
+import itertools
 import math
 from dataclasses import dataclass
 from pathlib import Path
@@ -150,12 +151,11 @@ def _number(text: str, where: str, what: str) -> float:
 
 def builtin_scenarios() -> dict[str, str]:
     """Names of the shipped scenarios and their first comment line."""
-    out = {}
-    for entry in sorted(asset_path("scenarios").iterdir(), key=lambda e: e.name):
-        if entry.name.endswith(".qscript"):
-            first = entry.read_text().splitlines()[0].lstrip("# ").strip()
-            out[entry.name[: -len(".qscript")]] = first
-    return out
+    return {
+        entry.name.removesuffix(".qscript"): entry.read_text().splitlines()[0].lstrip("# ").strip()
+        for entry in sorted(asset_path("scenarios").iterdir(), key=lambda e: e.name)
+        if entry.name.endswith(".qscript")
+    }
 
 
 def load_script(name_or_path: str) -> Script:
@@ -197,11 +197,7 @@ class ScriptedDriver:
 
     def __init__(self, script: Script) -> None:
         self.script = script
-        ends, t = [], 0.0
-        for seg in script.segments:
-            t += seg.duration_s
-            ends.append(t)
-        self._ends = tuple(ends)
+        self._ends = tuple(itertools.accumulate(seg.duration_s for seg in script.segments))
         self.rewind()
 
     def rewind(self) -> None:

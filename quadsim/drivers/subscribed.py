@@ -47,6 +47,7 @@ class SubscribedDriver:
     """
 
     next_poll_step = NEVER
+    finished = False  # a live input never runs out
     #: `next_poll_step` changes from another thread, at any moment: the loop looks at it every step
     polled_anytime = True
 
@@ -135,10 +136,6 @@ class SubscribedDriver:
             twist, self._pending = self._pending, None
             self.next_poll_step = NEVER
         return twist
-
-    @property
-    def finished(self) -> bool:
-        return False
 
     def describe(self) -> dict[str, Any]:
         return {"name": self.name, "topic": self.topic}

@@ -191,12 +191,7 @@ def with_images(
     a colour map for a camera without depth."""
     names = [s.name for s in specs]
     choices: dict[str, dict[str, Any]] = {name: {} for name in names}
-    lists = (
-        ("depth", depth, where[0]),
-        ("segmentation", segmentation, where[1]),
-        ("depth_colormap", colormap, where[2]),
-    )
-    for key, items, what in lists:
+    for key, items, what in zip(("depth", "segmentation", "depth_colormap"), (depth, segmentation, colormap), where):
         for item in items:
             if not isinstance(item, str):
                 raise ConfigError(f"{what}: expected camera names, got {item!r:.40}")

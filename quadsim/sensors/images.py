@@ -31,8 +31,8 @@ MAX_IMAGE_BYTES = 4096 * 4096 * 4
 #: the depth colour map's scale (depth_colour_mapped): turbo on a log scale, red at NEAR, blue at FAR
 COLORMAP_NEAR_M = 0.2
 COLORMAP_FAR_M = 50.0
-#: the bytes per pixel of each image encoding the contract uses
-BYTES_PER_PIXEL = {"32FC1": 4, "16UC1": 2, "mono8": 1}
+#: the pixel type of each image encoding the contract uses (NumPy's, its byte order the message's)
+PIXEL_TYPES = {"32FC1": "f4", "16UC1": "u2", "mono8": "u1"}
 
 
 def depth_image(depth_m: np.ndarray, encoding: str) -> np.ndarray:
@@ -91,15 +91,15 @@ def image_pixels(encoding: str, height: int, width: int, step: int, is_bigendian
     """A sensor_msgs/msg/Image's data as a height x width array (one channel, native byte order),
     checked against its fields; ValueError for an encoding the contract does not use, or a size
     that does not add up (a damaged or hostile file)."""
-    size = BYTES_PER_PIXEL.get(encoding)
-    if size is None:
+    kind = PIXEL_TYPES.get(encoding)
+    if kind is None:
         raise ValueError(f"image encoding {encoding!r:.20} is not one quadsim reads (32FC1, 16UC1, mono8)")
+    dtype = np.dtype(("<" if not is_bigendian else ">") + kind)
+    size = dtype.itemsize
     if not (0 < height <= 4096 and 0 < width <= 4096) or step < width * size or step * height > MAX_IMAGE_BYTES:
         raise ValueError(f"image of {width}x{height} pixels, step {step}: not a size quadsim reads")
     if len(data) < step * height:
         raise ValueError(f"image of {width}x{height} pixels, step {step}: {len(data)} bytes of data")
-    kind = {"32FC1": "f4", "16UC1": "u2", "mono8": "u1"}[encoding]
-    dtype = np.dtype(("<" if not is_bigendian else ">") + kind)
     rows = np.frombuffer(data, np.uint8, step * height).reshape(height, step)[:, : width * size]
     return np.ascontiguousarray(rows).view(dtype).reshape(height, width).astype(dtype.newbyteorder("="))
 

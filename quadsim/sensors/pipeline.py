@@ -16,6 +16,7 @@ Two back-ends with the same output:
 
 from __future__ import annotations
 
+import contextlib
 import math
 import os
 import signal
@@ -112,14 +113,12 @@ class CameraAccount:
 
 def _steps_between_frames(specs: tuple[CameraSpec, ...], physics_hz: int) -> dict[str, int]:
     """Each camera's physics steps between two frames (its rate must divide the physics rate)."""
-    every = {}
     for spec in specs:
         if physics_hz % spec.rate_hz:
             raise ConfigError(
                 f"camera {spec.name}: rate {spec.rate_hz} Hz does not divide the physics rate {physics_hz} Hz"
             )
-        every[spec.name] = physics_hz // spec.rate_hz
-    return every
+    return {spec.name: physics_hz // spec.rate_hz for spec in specs}
 
 
 class CameraPipeline:
@@ -153,7 +152,8 @@ class CameraPipeline:
         self.sinks: list[FrameSink] = []
         self.kinds: frozenset[ImageKind] = JPEG_ONLY
         self._every = _steps_between_frames(specs, physics_hz)
-        self._tick = math.gcd(*self._every.values()) if specs else 1
+        #: physics steps between two calls of `capture` the pipeline needs
+        self.tap_interval_steps = math.gcd(*self._every.values()) if specs else 1
         self._ordered = ordered_delivery
         self._niceness = (
             (0 if ordered_delivery else WINDOW_WORKER_NICENESS) if worker_niceness is None else worker_niceness
@@ -169,7 +169,7 @@ class CameraPipeline:
         #: handed on), and how old they were
         self.accounts: dict[str, CameraAccount] = {spec.name: CameraAccount(physics_hz) for spec in specs}
         self._newest_step = 0  # the step of the newest capture: "now", for a frame's age
-        self._companions = companions
+        self._companions = companions if companions is not None else Companions((), tuple)  # none: no other body moves
         if not specs:
             return
         for spec in specs:
@@ -186,11 +186,6 @@ class CameraPipeline:
         captures_per_s = physics_hz / min(self._every.values())  # at least: the fastest camera's rate
         self._in_flight = min(most, int(ORDERED_LAG_S * captures_per_s)) if ordered_delivery else most
 
-    @property
-    def tap_interval_steps(self) -> int:
-        """Physics steps between two calls of `capture` the pipeline needs."""
-        return self._tick
-
     def want(self, *kinds: ImageKind) -> None:
         """Frames captured from now on also carry `kinds` (frames in flight do not)."""
         self.kinds = self.kinds.union(kinds)
@@ -205,10 +200,8 @@ class CameraPipeline:
             "specs": self.specs,
             "renderer": self.renderer.value,
             "niceness": self._niceness,
-            "companions": [(str(c.urdf_path), str(c.params_path)) for c in self._companions.vehicles]
-            if self._companions is not None
-            else [],
-            "own_index": self._companions.own_index if self._companions is not None else 0,
+            "companions": [(str(c.urdf_path), str(c.params_path)) for c in self._companions.vehicles],
+            "own_index": self._companions.own_index,
         }
         try:
             for _ in range(count):
@@ -297,8 +290,7 @@ class CameraPipeline:
                     self.accounts[name].dropped += 1
                 return
         index = self._seq % len(self._conns)
-        companions = self._companions.poses() if self._companions is not None else ()
-        job = (self._seq, step, names, state.position_m, state.orientation_xyzw, self.kinds, companions)
+        job = (self._seq, step, names, state.position_m, state.orientation_xyzw, self.kinds, self._companions.poses())
         self._conns[index].send(job)
         self._pending.append((self._seq, index))
         self._seq += 1
@@ -330,10 +322,8 @@ class CameraPipeline:
     def close(self) -> None:
         """Stop the workers (pending frames are dropped: call drain() first to keep them)."""
         for conn in self._conns:
-            try:
+            with contextlib.suppress(OSError):  # BrokenPipeError too: it is gone already
                 conn.send(None)
-            except (BrokenPipeError, OSError):
-                pass
         for proc in self._procs:
             try:
                 proc.wait(timeout=5)

@@ -14,6 +14,7 @@ Worker -> parent: ("ready",) once set up, then (seq, [CameraFrame, ...]) per job
 
 from __future__ import annotations
 
+import contextlib
 import os
 import signal
 import sys
@@ -22,16 +23,8 @@ from multiprocessing.connection import Connection
 from pathlib import Path
 
 
-def worker_main(
-    conn,
-    urdf: str,
-    params: str,
-    world: str,
-    specs: tuple,
-    renderer_value: str,
-    companions: tuple = (),
-    own_index: int = 0,
-) -> None:
+def worker_main(conn: Connection, settings: dict) -> None:
+    """Build the rig `settings` describe (CameraPipeline's), say ready, then render each job."""
     try:
         from quadsim.physics.world_spec import load_world
         from quadsim.sensors.camera import RendererKind
@@ -39,12 +32,12 @@ def worker_main(
         from quadsim.vehicle.params import load_vehicle
 
         rig = CameraRig.standalone(
-            load_vehicle(Path(urdf), Path(params)),
-            load_world(Path(world)),
-            specs,
-            RendererKind(renderer_value),
-            tuple(load_vehicle(Path(u), Path(p)) for u, p in companions),
-            own_index,
+            load_vehicle(Path(settings["urdf"]), Path(settings["params"])),
+            load_world(Path(settings["world"])),
+            settings["specs"],
+            RendererKind(settings["renderer"]),
+            tuple(load_vehicle(Path(u), Path(p)) for u, p in settings.get("companions", ())),
+            int(settings.get("own_index", 0)),
         )
     except Exception as exc:  # report, do not die silently
         conn.send(("error", f"{type(exc).__name__}: {exc}"))
@@ -60,10 +53,8 @@ def worker_main(
     except (EOFError, KeyboardInterrupt, OSError):
         pass  # the parent went away or was interrupted: nothing to report to
     except Exception:
-        try:
+        with contextlib.suppress(OSError):  # BrokenPipeError too: gone, nothing to report to
             conn.send(("error", traceback.format_exc(limit=3)))
-        except (BrokenPipeError, OSError):
-            pass
     finally:
         rig.close()
 
@@ -84,20 +75,9 @@ def main() -> None:
         os.close(devnull)
     niceness = settings.get("niceness", 0)
     if niceness:
-        try:
+        with contextlib.suppress(OSError):
             os.nice(niceness)  # the window and the flight come first on a busy machine
-        except OSError:
-            pass
-    worker_main(
-        conn,
-        settings["urdf"],
-        settings["params"],
-        settings["world"],
-        settings["specs"],
-        settings["renderer"],
-        tuple(settings.get("companions", ())),
-        int(settings.get("own_index", 0)),
-    )
+    worker_main(conn, settings)
     conn.close()
 
 

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import contextlib
 import importlib.util
 
 import cv2
@@ -34,15 +35,11 @@ def render_raw(
     the PyBullet body id drawn at each pixel, -1 for none)."""
     args = (spec.width_px, spec.height_px, view_matrix(pose), projection or projection_matrix(spec))
     flags = 0 if segmentation else pb.ER_NO_SEGMENTATION_MASK
-    if renderer is RendererKind.TINY:
-        _, _, rgba, depth, seg = pb.getCameraImage(
-            *args, renderer=pb.ER_TINY_RENDERER, flags=flags, physicsClientId=cid
-        )
-    else:
-        with c_output_silenced():  # the EGL plugin prints its GL vendor as it renders
-            _, _, rgba, depth, seg = pb.getCameraImage(
-                *args, renderer=pb.ER_BULLET_HARDWARE_OPENGL, flags=flags, physicsClientId=cid
-            )
+    tiny = renderer is RendererKind.TINY
+    # the EGL plugin prints its GL vendor as it renders
+    with contextlib.nullcontext() if tiny else c_output_silenced():
+        kind = pb.ER_TINY_RENDERER if tiny else pb.ER_BULLET_HARDWARE_OPENGL
+        _, _, rgba, depth, seg = pb.getCameraImage(*args, renderer=kind, flags=flags, physicsClientId=cid)
     shape = (spec.height_px, spec.width_px)
     rgb = np.ascontiguousarray(np.reshape(np.asarray(rgba, dtype=np.uint8), (*shape, 4))[:, :, :3])
     mask = np.reshape(np.asarray(seg, dtype=np.int32), shape) if segmentation else None

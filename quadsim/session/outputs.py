@@ -20,7 +20,7 @@ from typing import TYPE_CHECKING, Any, Protocol
 from quadsim.errors import ConfigError
 from quadsim.recording.contract import Names
 from quadsim.recording.fanout import TopicConsumer, TopicFanout, VehicleTopics
-from quadsim.sensors.camera import CameraSpec, RendererKind, default_cameras
+from quadsim.sensors.camera import CameraSpec, ImageKind, RendererKind, default_cameras
 from quadsim.session.stopping import shielded_from_signals
 from quadsim.sim.description import RunDescription
 from quadsim.sim.fleet import Fleet
@@ -113,8 +113,6 @@ class RecordedRun:
                 if own and pipeline is None:
                     self._start_cameras(fleet[name], own)
             for started in self.pipelines.values():
-                from quadsim.sensors.camera import ImageKind
-
                 started.want(ImageKind.JPEG)
             self._start()
         except BaseException:

@@ -38,22 +38,17 @@ class ProgressBar:
             width = 30
             filled = int(frac * width)
             bar = "#" * filled + "-" * (width - filled)
-            self.stream.write(
-                f"\r{self.label} [{bar}] {self._amount(done):>7}/{self._amount(self.total)} {self.unit} {extra}"
-            )
-            self.stream.flush()
+            line = f"\r{self.label} [{bar}] {self._amount(done):>7}/{self._amount(self.total)} {self.unit} {extra}"
+            print(line, end="", file=self.stream, flush=True)
         elif frac >= self._next_quarter:
             while frac >= self._next_quarter:
                 self._next_quarter += 0.25
-            self.stream.write(
-                f"{self.label}: {frac * 100:3.0f}% ({self._amount(done)}/{self._amount(self.total)} {self.unit}) {extra}\n"
-            )
-            self.stream.flush()
+            line = f"{self.label}: {frac * 100:3.0f}% ({self._amount(done)}/{self._amount(self.total)} {self.unit}) {extra}"
+            print(line, file=self.stream, flush=True)
 
     def close(self) -> None:
         if self._tty:
-            self.stream.write("\n")
-            self.stream.flush()
+            print(file=self.stream, flush=True)
 
 
 class Eta:

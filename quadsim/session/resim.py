@@ -268,11 +268,10 @@ def resimulate(
     with tempfile.TemporaryDirectory(prefix="quadsim-resim-") as tmp:
         plan = _plan(flights, Path(tmp), OutputOptions(record=record, out=out, cameras=()))
         logs = {name: StateLog() for name in flights}
-        readings: dict[str, ReadingLog] = {}
         with _rebuild(plan, first, tmp) as fleet, Run(plan, fleet) as run:
             for name, log in logs.items():
                 fleet[name].add_sink(log)
-                readings[name] = ReadingLog(fleet[name])
+            readings = {name: ReadingLog(fleet[name]) for name in flights}
             run.fly(progress=progress, stop=to_the_end)
             new_path = run.outputs.path
             stepping_wall_s = run.wall_s
@@ -387,23 +386,18 @@ class ReadingLog:
         self.readings: dict[str, dict[int, bytes]] = {}
         self._ns = drone.loop.rates.physics_hz
         if drone.range_finder is not None:
-            drone.range_finder.sinks.append(
-                lambda r: self._keep(RANGE.name, r.step, r.ranges_m.astype("<f4").tobytes())
-            )
+            drone.range_finder.sinks.append(lambda r: self._keep(RANGE.name, r.step, r.ranges_m))
         lidar = drone.lidar
         if lidar is not None:
             if drone.config.lidar is LidarMode.PLANAR:
-                lidar.sinks.append(lambda r: self._keep(SCAN.name, r.step, r.ranges_m.astype("<f4").tobytes()))
+                lidar.sinks.append(lambda r: self._keep(SCAN.name, r.step, r.ranges_m))
             else:
                 directions = lidar.directions
-                lidar.sinks.append(
-                    lambda r: self._keep(
-                        POINTS.name, r.step, xyz_points(directions, r.ranges_m).astype("<f4").tobytes()
-                    )
-                )
+                lidar.sinks.append(lambda r: self._keep(POINTS.name, r.step, xyz_points(directions, r.ranges_m)))
 
-    def _keep(self, topic: str, step: int, data: bytes) -> None:
-        self.readings.setdefault(topic, {})[step * 1_000_000_000 // self._ns] = data
+    def _keep(self, topic: str, step: int, values: np.ndarray) -> None:
+        """`values` as the recording carries them: float32 bytes, at the log time of `step`."""
+        self.readings.setdefault(topic, {})[step * 1_000_000_000 // self._ns] = values.astype("<f4").tobytes()
 
     def compared(self, flight: RecordedFlight, tolerance_m: float | None) -> Deviation | None:
         """The recorded readings against these, message by message: the largest difference of a

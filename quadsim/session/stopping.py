@@ -16,7 +16,7 @@ from __future__ import annotations
 import signal
 import sys
 from collections.abc import Iterator
-from contextlib import contextmanager
+from contextlib import AbstractContextManager, contextmanager, nullcontext
 from types import FrameType
 from typing import Any
 
@@ -114,12 +114,7 @@ def stop_requested() -> bool:
     return current is not None and current.requested
 
 
-@contextmanager
-def shielded_from_signals() -> Iterator[None]:
+def shielded_from_signals() -> AbstractContextManager[object]:
     """`SignalStop.current().shielded()`, or nothing when no SignalStop is installed."""
     current = SignalStop.current()
-    if current is None:
-        yield
-        return
-    with current.shielded():
-        yield
+    return current.shielded() if current is not None else nullcontext()

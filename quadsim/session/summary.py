@@ -16,12 +16,6 @@ if TYPE_CHECKING:  # the cameras' pipeline imports the imaging libraries: only w
     from quadsim.sensors.pipeline import CameraPipeline
 
 
-def final_pose_text(state: VehicleState) -> str:
-    """Where a fleet vehicle ended, as its summary line starts: position and heading."""
-    x, y, z = state.position_m
-    return f"final x={x:+.2f} y={y:+.2f} z={z:+.2f} m yaw={math.degrees(state.yaw_rad()):+.0f} deg"
-
-
 @dataclass(frozen=True)
 class RunSummary:
     sim_time_s: float
@@ -74,8 +68,9 @@ class RunSummary:
 
     def vehicle_line(self) -> str:
         """A fleet's vehicle in one line: where it ended, how far it flew, its commands and events."""
+        (x, y, z), yaw_deg = self.final_state.position_m, math.degrees(self.final_state.yaw_rad())
         return (
-            f"{final_pose_text(self.final_state)}; "
+            f"final x={x:+.2f} y={y:+.2f} z={z:+.2f} m yaw={yaw_deg:+.0f} deg; "
             f"flown {self.distance_m:.2f} m; {self.commands_received} commands; events: {self.events_line()}"
         )
 

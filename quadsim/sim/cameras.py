@@ -29,9 +29,6 @@ from quadsim.sensors.images import depth_metres_from_image
 from quadsim.sensors.pipeline import CameraPipeline
 from quadsim.sim.simulator import Simulator
 
-#: the body drawn where a segmentation mask is -1
-NOTHING = "nothing"
-
 
 class CameraMode(enum.Enum):
     SYNC = "sync"  # rendered in the simulator's client before step() returns: deterministic
@@ -93,12 +90,8 @@ class Cameras:
             scene_client=sim.scene_client,
             worker_niceness=0,  # code waits for these frames: no lower priority
         )
-        kinds = [ImageKind.RGB]
-        if depth:
-            kinds.append(ImageKind.DEPTH)
-        if segmentation:
-            kinds.append(ImageKind.SEGMENTATION)
-        self.pipeline.want(*kinds)
+        asked = {ImageKind.RGB: True, ImageKind.DEPTH: depth, ImageKind.SEGMENTATION: segmentation}
+        self.pipeline.want(*(kind for kind, wanted in asked.items() if wanted))
         self.pipeline.sinks.append(self)
         sim.add_tap(self.pipeline.tap_interval_steps, self.pipeline.capture)
         self._closed = False

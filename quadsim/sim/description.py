@@ -173,17 +173,7 @@ class RunDescription:
         start_step = p.integer("start_step", default=0, low=0)
         own = cls._own_from(p, version, start_step)
         fleet = _fleet(p, version, start_step) if version >= FLEET_SCHEMA_VERSION else ()
-        known = {
-            "schema_version",
-            "config",
-            "vehicle",
-            "controller",
-            "driver",
-            "cameras",
-            "start_step",
-            "fleet",
-            "wind_model",
-        }
+        known = {"schema_version", "start_step", "fleet", "wind_model", *own._own_parameters()}  # the rest is extra
         return replace(
             own,
             extra={k: v for k, v in p.data.items() if k not in known},
@@ -199,10 +189,7 @@ class RunDescription:
         vehicle = _vehicle(p.section("vehicle"))
         c = p.section("controller")
         if "import_path" in c.data:  # a controller of the user's own: its class, made again by a re-flight
-            path = c.text("import_path")
-            if not IMPORT_PATH.fullmatch(path):
-                raise DescriptionError(f"{c.where}.import_path: {path[:80]!r} is not module:Class")
-            controller = ControllerDescription(None, {}, dict(c.data), path)
+            controller = ControllerDescription(None, {}, dict(c.data), c.import_path())
         else:
             gains_f = c.section("gains", optional=True)
             gains = {key: gains_f.number(key) for key in gains_f.data}
@@ -225,6 +212,10 @@ class RunDescription:
 
 #: a vehicle's name in a fleet is a ROS name segment: it goes in front of its topics (/alpha/quad/odom)
 VEHICLE_NAME = re.compile(r"[a-z][a-z0-9_]{0,62}")
+#: what a fleet file or a Fleet says of a name that is not one
+VEHICLE_NAME_NEEDED = (
+    "a ROS name segment is needed (a lowercase letter, then lowercase letters, digits or _; at most 63)"
+)
 #: at most this many vehicles fly in one world (and are read from a recording's fleet)
 MAX_FLEET = 100
 
@@ -249,10 +240,7 @@ def _wind_model(p: _Fields) -> WindModelDescription | None:
     if p.raw("wind_model") is None:
         return None
     w = p.section("wind_model")
-    path = w.text("import_path")
-    if not IMPORT_PATH.fullmatch(path):
-        raise DescriptionError(f"{w.where}.import_path: {path[:80]!r} is not module:Class")
-    return WindModelDescription(path, dict(w.section("details", optional=True).data))
+    return WindModelDescription(w.import_path(), dict(w.section("details", optional=True).data))
 
 
 # --- validation helpers ---------------------------------------------------------------------
@@ -371,6 +359,13 @@ class _Fields:
         if not isinstance(value, str) or len(value) > 4096:
             raise self._wrong(key, "a string", value)
         return value
+
+    def import_path(self) -> str:
+        """`import_path`: a class of the user's own, module:Class."""
+        path = self.text("import_path")
+        if not IMPORT_PATH.fullmatch(path):
+            raise DescriptionError(f"{self.where}.import_path: {path[:80]!r} is not module:Class")
+        return path
 
     def path(self, key: str) -> Path | None:
         value = self.data.get(key)

@@ -40,11 +40,13 @@ from quadsim.vehicle.params import load_vehicle
 
 class VehicleApi:
     """What one vehicle answers to, whether a fleet's (a Drone) or a Simulator's own: commands,
-    the sinks and taps outputs attach to, flight events and state. All of it is its flight
-    loop's (`loop`), which holds its driver and its command gate."""
+    the sinks and taps outputs attach to, flight events and state, all of it its flight loop's
+    (`loop`, which holds its driver and its command gate); and its run's parameters (`describe`)."""
 
     #: the vehicle's flight loop, which counts the steps
     loop: SimLoop
+    #: everything its run is made with, typed (a Drone's own, a Simulator's the fleet's)
+    description: Callable[[], RunDescription]
 
     # --- commanding -------------------------------------------------------------------------
 
@@ -118,6 +120,10 @@ class VehicleApi:
         """The vehicle's state after the last step (ground truth, REP 103 frames, SI units)."""
         return self.loop.state()
 
+    def describe(self) -> dict[str, Any]:
+        """Every parameter of the run as plain data: the layout recordings carry (see description())."""
+        return self.description().to_parameters()
+
 
 class Drone(VehicleApi):
     """One vehicle in a shared world, stepped by its run's fleet (which owns the clock)."""
@@ -151,7 +157,6 @@ class Drone(VehicleApi):
         if say is not None and will_compile():  # the vehicle's files are good: the wait is the compile's
             say(f"compiling the flight core (numba; the first run after an install: {FIRST_COMPILE})")
         self.world = client.world
-        self._client = client
         rates, timeout = config.rates, config.command_timeout_s
         self.controller: Controller = (
             controller if controller is not None else make_controller(config.controller, self.vehicle, controller_gains)
@@ -288,10 +293,6 @@ class Drone(VehicleApi):
             world_model=self.world,
         )
 
-    def describe(self) -> dict[str, Any]:
-        """Every parameter of the run as plain data: the layout recordings carry (see description())."""
-        return self.description().to_parameters()
-
     # --- lifetime ---------------------------------------------------------------------------
 
     def close(self) -> None:
@@ -301,7 +302,7 @@ class Drone(VehicleApi):
     @property
     def closed(self) -> bool:
         """Whether the run was closed (stepping or resetting then raises QuadsimError)."""
-        return self._client.cid < 0 or self.physics.closed
+        return self.physics.client.cid < 0 or self.physics.closed
 
     def _check_open(self) -> None:
         if self.closed:

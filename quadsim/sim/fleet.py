@@ -40,6 +40,7 @@ from quadsim.sim.description import (
     FLEET_SCHEMA_VERSION,
     MAX_FLEET,
     VEHICLE_NAME,
+    VEHICLE_NAME_NEEDED,
     RunDescription,
     WindModelDescription,
 )
@@ -306,10 +307,7 @@ def _check(vehicles: Sequence[FleetVehicle], config: SimConfig) -> None:
         if v.name == "" and len(vehicles) == 1:  # flying alone: the contract's names
             continue
         if not isinstance(v.name, str) or not VEHICLE_NAME.fullmatch(v.name):
-            raise ConfigError(
-                f"vehicle name {v.name!r}: a ROS name segment is needed (a lowercase letter, then lowercase "
-                "letters, digits or _; at most 63)"
-            )
+            raise ConfigError(f"vehicle name {v.name!r}: {VEHICLE_NAME_NEEDED}")
         if v.name in seen:
             raise ConfigError(f"two vehicles are named {v.name!r}: each name must be unique")
         seen.add(v.name)

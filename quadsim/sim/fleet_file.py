@@ -37,7 +37,7 @@ from quadsim.drivers import InputDriver
 from quadsim.drivers.scripted import Script, load_script
 from quadsim.errors import ConfigError, QuadsimError
 from quadsim.sensors.camera import default_cameras, with_images
-from quadsim.sim.description import MAX_FLEET, VEHICLE_NAME
+from quadsim.sim.description import MAX_FLEET, VEHICLE_NAME, VEHICLE_NAME_NEEDED
 from quadsim.sim.fleet import FleetVehicle
 from quadsim.vehicle.params import SHIPPED_VEHICLES
 
@@ -168,10 +168,7 @@ def _entry(path: Path, index: int, data: dict[str, Any]) -> FleetEntry:
     name = data.get("name")
     if not isinstance(name, str) or not VEHICLE_NAME.fullmatch(name):
         shown = f"{name!r}"[:40] if name is not None else "missing"
-        raise ConfigError(
-            f"{path}: vehicle {index + 1}: name {shown}: a ROS name segment is needed (a lowercase letter, then "
-            "lowercase letters, digits or _; at most 63)"
-        )
+        raise ConfigError(f"{path}: vehicle {index + 1}: name {shown}: {VEHICLE_NAME_NEEDED}")
     where = f"{path}: vehicle {name!r}"
     refuse_unknown_keys(data, VEHICLE_KEYS, where)
     input_name, script = _input(path, where, data.get("input", "idle"))
@@ -200,9 +197,8 @@ def _entry(path: Path, index: int, data: dict[str, Any]) -> FleetEntry:
 
 def _images(where: str, data: Mapping[str, Any], cameras: tuple[str, ...]) -> tuple[tuple[str, ...], ...]:
     """The vehicle's `depth`, `segmentation` and `depth_colormap` lists, checked against its cameras."""
-    keys = ("depth", "segmentation", "depth_colormap")
     lists = []
-    for key in keys:
+    for key in ("depth", "segmentation", "depth_colormap"):
         value = data.get(key, [])
         if not isinstance(value, list) or not all(isinstance(v, str) for v in value):
             raise ConfigError(f"{where}: {key}: expected a list of camera names, got {value!r:.40}")
@@ -211,7 +207,7 @@ def _images(where: str, data: Mapping[str, Any], cameras: tuple[str, ...]) -> tu
     with_images(
         specs, lists[0], lists[1], lists[2], (f"{where}: depth", f"{where}: segmentation", f"{where}: depth_colormap")
     )
-    return lists[0], lists[1], lists[2]
+    return tuple(lists)
 
 
 def _flag(where: str, key: str, value: Any) -> bool | None:
@@ -286,15 +282,13 @@ def _gains(where: str, controller: ControllerKind, value: Any) -> dict[str, floa
     if not isinstance(value, dict):
         raise ConfigError(f"{where}: gains: expected a table of names and numbers, got {value!r:.40}")
     known = {f.name for f in fields(gains_type(controller))}
-    out: dict[str, float] = {}
     for key, number in value.items():
         if key not in known:
             raise ConfigError(f"{where}: gains: {controller.value} has no gain {key!r:.40}")
         problem = gain_problem(gains_type(controller), number)
         if problem is not None:
             raise ConfigError(f"{where}: gains: {key} = {number!r:.40}: {problem}")
-        out[key] = float(number)
-    return out
+    return {key: float(number) for key, number in value.items()}
 
 
 def _check_apart(path: Path, entries: list[FleetEntry]) -> None:

@@ -75,10 +75,6 @@ class Simulator(Fleet, VehicleApi):
         It flies bit for bit as a new Simulator with the same config and this seed would."""
         super().restart({"": driver}, seed)
 
-    def describe(self) -> dict[str, Any]:
-        """Every parameter of the run as plain data: the layout recordings carry (see description())."""
-        return self.description().to_parameters()
-
     # --- what it is made of: its vehicle's parts, for tests, tools and autonomy code ------------
 
     @property

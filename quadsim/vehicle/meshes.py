@@ -13,6 +13,7 @@ nor ASCII STL) is refused.
 
 from __future__ import annotations
 
+import contextlib
 import hashlib
 import math
 import os
@@ -166,7 +167,7 @@ def _cached(name: str, data: bytes, source: Path, folder: str = "urdf") -> Path:
     target = cache_dir() / folder / name
     if target.is_file():
         return target
-    try:
+    with contextlib.suppress(OSError):  # then the temporary folder below
         if not cache_dir().parent.parent.is_dir():  # no home (HOME=/nonexistent): none is made for it
             raise NotADirectoryError(cache_dir())
         target.parent.mkdir(parents=True, exist_ok=True)
@@ -175,8 +176,6 @@ def _cached(name: str, data: bytes, source: Path, folder: str = "urdf") -> Path:
             fh.write(data)
         os.replace(tmp, target)  # atomic: another process never reads half a file
         return target
-    except OSError:
-        pass
     try:
         if not _private:
             _private.append(Path(tempfile.mkdtemp(prefix="quadsim-meshes-")))
