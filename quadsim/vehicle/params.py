@@ -651,7 +651,7 @@ def _range(table: dict[str, Any], path: Path) -> RangeParams:
     _span(values, "range", path)
     sec, default = table.get("range", {}), RangeParams.radiation_type.value
     kind = sec.get("radiation_type", default) if isinstance(sec, dict) else default
-    if kind not in {r.value for r in RadiationType}:
+    if not isinstance(kind, str) or kind not in {r.value for r in RadiationType}:
         raise ConfigError(f'{path}: [range] radiation_type must be "infrared" or "ultrasound", got {kind!r:.40}')
     direction = values["direction"]
     norm = math.sqrt(sum(c * c for c in direction))
@@ -681,7 +681,10 @@ def _build(urdf: Path, params: Path, links: dict[str, _Link], table: dict[str, A
     """The vehicle from its URDF's links and its parameter file, every field checked."""
     mass, com, inertia = _composite_inertia(links)
     rotor_names = _rotor_links(urdf, links)
-    spins = table.get("rotors", {}).get("spin")
+    section = table.get("rotors", {})
+    if not isinstance(section, dict):
+        raise ConfigError(f"{params}: [rotors] must be a table, got {section!r:.40}")
+    spins = section.get("spin")
     if not isinstance(spins, dict):
         raise ConfigError(f'{params}: missing [rotors] spin = {{ rotor_1 = "ccw", ... }}')
     unknown = sorted(set(spins) - set(rotor_names))

@@ -174,6 +174,7 @@ def test_each_airframes_tables_and_bad_ones(tmp_path):
     base = default_params_path(SHIPPED_VEHICLES["quad"]).read_text()
     for table, words in (
         ('[range]\nradiation_type = "sonar"\n', "radiation_type must be"),
+        ("[range]\nradiation_type = [1, 2]\n", r"radiation_type must be .* got \[1, 2\]"),
         ("[range]\ndirection = [0, 0, 0]\n", "direction must not be zero"),
         ("[range]\nmin_range_m = 5.0\nmax_range_m = 1.0\n", "min_range_m must be below max_range_m"),
         ("[lidar]\nsamples = 4096\nchannels = 8\n", "over 16384 rays"),

@@ -116,6 +116,16 @@ def test_spin_of_a_rotor_the_urdf_lacks_is_refused(tmp_path):
         load_vehicle(urdf)
 
 
+def test_a_rotors_entry_that_is_not_a_table_is_refused(tmp_path):
+    urdf, params = _copy_vehicle(tmp_path)
+    text = params.read_text()
+    rotors = text.index("[rotors]")
+    end = text.index("\n[", rotors + 1)  # the table, up to the next one
+    params.write_text("rotors = 5\n" + text[:rotors] + text[end + 1 :])
+    with pytest.raises(ConfigError, match=r"\[rotors\] must be a table, got 5"):
+        load_vehicle(urdf)
+
+
 def test_shipped_vehicles_load():
     from quadsim.vehicle.params import SHIPPED_VEHICLES
 
