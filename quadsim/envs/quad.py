@@ -6,7 +6,7 @@ every driver (clamping, dead-man timeout): the agent is the programmatic driver 
 the agent rate, and each env step is 240 / 30 = 8 physics steps.
 
 Termination: leaving the arena (ARENA_HALF_M around the origin, ARENA_TOP_M high), tipping over
-(tilt beyond MAX_TILT_DEG), or a crash (the simulator's crash event: a contact other than a
+(tilt beyond MAX_TILT_DEG; these and the arithmetic in quadsim.envs.hover_numbers), or a crash (the simulator's crash event: a contact other than a
 landing, with a wall or the ground at speed or tilted). Truncation: the time limit of the
 registration (gymnasium's TimeLimit).
 

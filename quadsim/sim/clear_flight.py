@@ -21,7 +21,7 @@ import numpy as np
 from quadsim.control.cascade_step import cascade_update
 from quadsim.control.landing import landing_command
 from quadsim.core.compiled import Floats, jit, set_item, specialize, typed_list
-from quadsim.core.types import Twist
+from quadsim.core.types import Twist, ZMode
 from quadsim.drivers.programmatic import ProgrammaticDriver
 from quadsim.physics.free_flight import ClearConstants, clear_step
 from quadsim.sensors.imu import walked
@@ -309,11 +309,13 @@ class QuietApart:
     def enter(self, i: int) -> bool:
         """Vehicle i into the rows, if its next agent step can be flown there: at the start of
         one, flying clear of everything with nothing else to do in Python (SimLoop._quiet_steps),
-        commanded by a programmatic driver, with no goal and a dead-man that cannot fire in it."""
+        commanded by a programmatic driver in velocity z-mode (the limits `fly` checks commands
+        against are a climb rate's), with no goal and a dead-man that cannot fire in it."""
         loop = self.loops[i]
         steps, gate = self.steps, loop.gate
         if (
             self.inside[i]
+            or gate.z_mode is not ZMode.VELOCITY
             or loop.step_count % loop._input_every
             or not isinstance(loop.driver, ProgrammaticDriver)
             or loop.pilot.goal is not None
@@ -326,14 +328,14 @@ class QuietApart:
         body = physics._clear_flight()
         if body is None or physics._others:
             return False
-        (_, height, _), landing, cascade, constants, kinematics, clearance, _, imu, walk = loop.quiet_vehicle(body)
+        _, landing, cascade, constants, kinematics, clearance, _, imu, walk = loop.quiet_vehicle(body)
         samples, next_sample, gyro_bias, accel_bias = walk
         self._parts[i] = (landing, cascade, constants)
         self._take_samples(i, samples)
         position, orientation, velocity, spin, (r0, r1, r2), rates, specific = kinematics
         limits = gate.limits
         self.rows[i] = (
-            0.0, 0.0, 0.0, 0.0, height, False, imu, *position, *orientation, *velocity, *spin, *r0, *r1, *r2,
+            0.0, 0.0, 0.0, 0.0, False, False, imu, *position, *orientation, *velocity, *spin, *r0, *r1, *r2,
             *rates, *specific, *clearance[0], clearance[1], 0.0, 0.0, 0.0, 0.0,
             *physics.velocity_before_step_mps, next_sample, *gyro_bias, *accel_bias,
             limits.max_horizontal_speed_mps**2 * (1.0 - 1e-9), limits.max_climb_rate_mps,

@@ -110,6 +110,27 @@ def test_envs_flying_clear_are_flown_together_and_agree_to_the_bit_as_they_join_
         theirs.close()
 
 
+def test_an_env_switched_to_height_z_mode_is_flown_on_its_own_and_still_as_its_twin():
+    """The rows check commands against a climb rate's limits: an env whose z reads a height
+    (set through `envs`) leaves them, and flies as gymnasium's SyncVectorEnv's env does."""
+    ours, theirs = _pair(2)
+    try:
+        _same(ours.reset(seed=3), theirs.reset(seed=3))
+        climb = np.tile(np.array([0.0, 0.0, 0.5, 0.0], np.float32), (2, 1))
+        for _ in range(60):
+            _same(ours.step(climb), theirs.step(climb))
+        quiet = ours.unwrapped._quiet
+        assert quiet.inside.all()
+        for envs in (ours.unwrapped.envs, theirs.envs):
+            envs[0].unwrapped.sim.set_z_mode("height")
+        for _ in range(30):  # a climb command read as an altitude wanted: it comes down
+            _same(ours.step(climb), theirs.step(climb))
+            assert not quiet.inside[0] and quiet.inside[1]
+    finally:
+        ours.close()
+        theirs.close()
+
+
 def test_seeds_as_a_list_or_none_and_a_partial_reset():
     ours, theirs = _pair(3)
     try:
