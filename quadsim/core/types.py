@@ -8,6 +8,7 @@ from dataclasses import dataclass
 from typing import NamedTuple
 
 from quadsim.core.kinematics import clamp, yaw_of
+from quadsim.errors import ConfigError
 
 
 class ZMode(enum.Enum):
@@ -97,14 +98,26 @@ class VehicleState(NamedTuple):
 #: One force per rotor, N, in the vehicle's rotor order (rotor_1..rotor_N).
 RotorForces = tuple[float, ...]
 
+#: how far from the world's origin a run may start (m, and rad for the heading: any angle fits)
+MAX_START_OFFSET_M = 10_000.0
+
 
 @dataclass(frozen=True)
 class StartPose:
-    """Where a run starts: on the ground at (x, y), facing yaw (world frame, m and rad)."""
+    """Where a run starts: on the ground at (x, y), facing yaw (world frame, m and rad); each a
+    finite number within MAX_START_OFFSET_M (ConfigError otherwise)."""
 
     x_m: float = 0.0
     y_m: float = 0.0
     yaw_rad: float = 0.0
+
+    def __post_init__(self) -> None:
+        for name in ("x_m", "y_m", "yaw_rad"):
+            value = getattr(self, name)
+            if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+                raise ConfigError(f"start pose {name} must be a finite number, got {value!r}")
+            if abs(value) > MAX_START_OFFSET_M:
+                raise ConfigError(f"start pose {name} = {value:g} is beyond {MAX_START_OFFSET_M:g} from the origin")
 
 
 class LidarMode(enum.Enum):

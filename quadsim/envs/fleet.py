@@ -70,10 +70,14 @@ class HoverFleetEnv(ParallelEnv):
         wind: WindSettings | WindModel | None = None,
         controllers: Sequence[Controller] | None = None,
         sensors: Iterable[str] | str = (),
+        render_mode: str | None = None,
     ) -> None:
         """`wind`: WindSettings, or a wind of your own (a WindModel) for every agent;
         `controllers`: a controller of your own for each agent, in order (one object each);
-        `sensors`: what each agent's observation adds (see the module)."""
+        `sensors`: what each agent's observation adds (see the module); `render_mode`: None (the
+        fleet does not render: record it, or watch it in `quadsim fly --fleet`)."""
+        if render_mode is not None:
+            raise ValueError(f"the fleet environment does not render (render_mode=None), got {render_mode!r}")
         names = sensor_names(sensors, cameras=False)
         if not 1 <= agents <= 100:
             raise ValueError(f"agents must be within 1..100, got {agents}")
@@ -125,6 +129,7 @@ class HoverFleetEnv(ParallelEnv):
     def reset(
         self, seed: int | None = None, options: dict[str, Any] | None = None
     ) -> tuple[dict[str, Any], dict[str, dict[str, Any]]]:
+        self._check_open()
         if seed is not None:
             self._rng = np.random.default_rng(seed)
         rng = self._rng
@@ -142,9 +147,14 @@ class HoverFleetEnv(ParallelEnv):
         return {a: self._observe(a) for a in self.agents}, {a: agent_info(self.fleet[a].state) for a in self.agents}
 
     def step(self, actions: dict[str, Any]) -> tuple[dict, dict, dict, dict, dict]:
-        for agent, action in actions.items():
-            if agent in self.agents:
-                self.fleet[agent].send(self._scale[agent].command(action))
+        """Each agent in `actions` takes its action (all or none: one that is not an action
+        raises before any is sent); a live agent left out keeps its last command."""
+        self._check_open()
+        commands = {
+            agent: self._scale[agent].command(action) for agent, action in actions.items() if agent in self.agents
+        }
+        for agent, command in commands.items():
+            self.fleet[agent].send(command)
         events_before = {a: len(self.fleet[a].events) for a in self.agents}
         self.fleet.step(self.steps_per_action)
         self._cycles += 1
@@ -166,6 +176,10 @@ class HoverFleetEnv(ParallelEnv):
 
     def render(self) -> None:
         return None
+
+    def _check_open(self) -> None:
+        if self.fleet.closed:
+            raise QuadsimError("this environment is closed: make a new HoverFleetEnv")
 
     def close(self) -> None:
         self.fleet.close()

@@ -40,6 +40,7 @@ from quadsim.envs.hover_numbers import (
 )
 from quadsim.envs.hover_numbers import hover_reward as _reward_at
 from quadsim.envs.sensors import SensorObservation, sensor_names, sim_options
+from quadsim.errors import QuadsimError
 from quadsim.physics.wind import WindModel, WindSettings
 from quadsim.sensors.camera import CameraSpec
 from quadsim.sim.cameras import Cameras
@@ -108,12 +109,12 @@ class QuadEnv(gym.Env):
     # --- the Gymnasium API ----------------------------------------------------------------
 
     def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None) -> tuple[Any, dict[str, Any]]:
+        chosen = chosen_start(options)  # refused before anything changes
         super().reset(seed=seed)
         self._check_open()
         x, y, yaw = self._start(self.np_random)
-        options = options or {}
-        x, y = options.get("start_xy_m", (x, y))
-        self.sim.physics.start = StartPose(float(x), float(y), float(options.get("start_yaw_rad", yaw)))
+        x, y = chosen.get("start_xy_m", (x, y))
+        self.sim.physics.start = StartPose(float(x), float(y), float(chosen.get("start_yaw_rad", yaw)))
         self.sim.reset(seed=int(self.np_random.integers(MAX_SEED)))  # gusts and sensor noise
         self.sim.send(Twist())
         state = self.sim.state
@@ -173,7 +174,7 @@ class QuadEnv(gym.Env):
             self._view = Cameras(self.sim, (VIEW,))
         image = self._view.latest("front")
         assert image is not None  # SYNC cameras always have one
-        return image.rgb
+        return image.rgb.copy()  # the caller's to change: the camera's own stays as it was
 
     def close(self) -> None:
         if self._view is not None:
@@ -226,6 +227,47 @@ class HoverEnv(QuadEnv):
 
     def _reward(self, state: VehicleState) -> tuple[float, bool]:
         return hover_reward(state, self.target_m), False
+
+
+#: what `reset(options=...)` takes
+RESET_OPTIONS = ("start_xy_m", "start_yaw_rad")
+
+
+def chosen_start(options: Any) -> dict[str, Any]:
+    """What reset's `options` choose of the start, as floats: "start_xy_m" (two numbers, m) and
+    "start_yaw_rad". ValueError for anything else: an unknown option, or a start that is not
+    finite numbers within any world."""
+    if options is None:
+        return {}
+    if not isinstance(options, dict):
+        raise ValueError(f"reset's options are a dict (of {', '.join(RESET_OPTIONS)}), got {_shown(options)}")
+    unknown = sorted(str(key) for key in options if key not in RESET_OPTIONS)
+    if unknown:
+        raise ValueError(
+            f"unknown reset option {', '.join(map(repr, unknown))}: the options are {', '.join(RESET_OPTIONS)}"
+        )
+    chosen: dict[str, Any] = {}
+    if "start_xy_m" in options:
+        xy = options["start_xy_m"]
+        numbers = np.asarray(xy) if isinstance(xy, (tuple, list, np.ndarray)) else np.array(None)
+        if numbers.shape != (2,) or numbers.dtype.kind not in "iuf" or not np.isfinite(numbers).all():
+            raise ValueError(f"options['start_xy_m'] is two finite numbers (x, y in m), got {_shown(xy)}")
+        chosen["start_xy_m"] = (float(numbers[0]), float(numbers[1]))
+    if "start_yaw_rad" in options:
+        yaw = options["start_yaw_rad"]
+        if (
+            isinstance(yaw, bool)
+            or not isinstance(yaw, (int, float, np.integer, np.floating))
+            or not math.isfinite(yaw)
+        ):
+            raise ValueError(f"options['start_yaw_rad'] is a finite number (rad), got {_shown(yaw)}")
+        chosen["start_yaw_rad"] = float(yaw)
+    try:
+        x_m, y_m = chosen.get("start_xy_m", (0.0, 0.0))
+        StartPose(x_m, y_m, chosen.get("start_yaw_rad", 0.0))
+    except QuadsimError as e:  # beyond any world
+        raise ValueError(str(e)) from None
+    return chosen
 
 
 def agent_info(state: VehicleState) -> dict[str, Any]:
@@ -281,6 +323,8 @@ class ActionScale:
 
     def action_of(self, forward_mps: float, left_mps: float, climb_mps: float, yaw_rate_radps: float) -> np.ndarray:
         t = np.array([forward_mps, left_mps, climb_mps, yaw_rate_radps], np.float64)
+        if not np.isfinite(t).all():
+            raise ValueError(f"velocities must be finite numbers, got {t.tolist()}")
         return np.clip(np.where(t >= 0, t / self._up, t / self._down), -1.0, 1.0).astype(np.float32)
 
 

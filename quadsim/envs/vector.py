@@ -29,6 +29,7 @@ from copy import deepcopy
 from typing import Any
 
 import numpy as np
+from gymnasium.error import ResetNeeded
 from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space, create_empty_array
 
@@ -67,8 +68,9 @@ class HoverVectorEnv(VectorEnv):
         own seed); `sensors`: what each observation adds (HoverEnv's). A controller or a wind
         model of one's own is one object flying one vehicle: give them to `gymnasium.make` for
         one env."""
-        if isinstance(num_envs, bool) or not isinstance(num_envs, int) or num_envs < 1:
-            raise ValueError(f"num_envs must be a whole number of at least 1, got {num_envs!r}")
+        for name, value in (("num_envs", num_envs), ("max_episode_steps", max_episode_steps)):
+            if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < 1:
+                raise ValueError(f"{name} must be a whole number of at least 1, got {value!r}")
         if render_mode is not None:
             raise ValueError("the vector env does not render: gymnasium.make one env with render_mode='rgb_array'")
         if controller is not None or (wind is not None and not isinstance(wind, WindSettings)):
@@ -91,6 +93,7 @@ class HoverVectorEnv(VectorEnv):
         self.render_mode = None
         self._scale = first._scale
         self._elapsed = np.zeros(num_envs, np.int64)
+        self._reset_once = False  # step() before the first reset() is an error, as for any env
         self._ended = np.zeros(num_envs, np.bool_)
         #: with sensors, a dict of arrays (HoverEnv's Dict, batched); reset and step hand out copies
         self._with_sensors = first.sensors is not None
@@ -132,6 +135,11 @@ class HoverVectorEnv(VectorEnv):
         mask = options.pop("reset_mask", None)
         if mask is not None and (not isinstance(mask, np.ndarray) or mask.shape != (n,) or mask.dtype != np.bool_):
             raise ValueError(f"options['reset_mask'] must be a numpy array of {n} booleans")
+        if mask is not None and not mask.any():
+            raise ValueError("options['reset_mask'] resets none of the envs: mark at least one True")
+        if mask is not None and not self._reset_once and not mask.all():
+            raise ValueError("the first reset() resets every env: leave out options['reset_mask']")
+        self._reset_once = True
         infos = self._infos()
         for i, env in enumerate(self._envs):
             if mask is None or mask[i]:
@@ -150,8 +158,10 @@ class HoverVectorEnv(VectorEnv):
 
     def step(self, actions: Any) -> tuple[Any, np.ndarray, np.ndarray, np.ndarray, dict[str, Any]]:
         n, envs, quiet = self.num_envs, self._envs, self._quiet
-        commands = self._scale.twist_of(actions, (n, 4))
         envs[0]._check_open()  # (the envs close together)
+        if not self._reset_once:
+            raise ResetNeeded("call reset() before step()")
+        commands = self._scale.twist_of(actions, (n, 4))
         rewards = np.zeros(n)
         terminations = np.zeros(n, np.bool_)
         # the envs flying clear, together: flown, observed and judged from their rows

@@ -5,6 +5,7 @@ fleet). Stepping it advances every body at once."""
 from __future__ import annotations
 
 import os
+import weakref
 from typing import Any
 
 from quadsim.core.kinematics import Vec3
@@ -30,6 +31,8 @@ class WorldClient:
         self.cid = pb.connect(pb.GUI if gui else pb.DIRECT)
         if self.cid < 0:
             raise QuadsimError("could not start PyBullet" + (" with a GUI" if gui else ""))
+        #: disconnects the client when this is closed, or forgotten unclosed (an env never closed)
+        self._disconnect = weakref.finalize(self, _disconnect, self.cid)
         cid = self.cid
         pb.setGravity(0.0, 0.0, -gravity_mps2, physicsClientId=cid)
         pb.setTimeStep(self.dt_s, physicsClientId=cid)
@@ -108,9 +111,12 @@ class WorldClient:
         return self._touching.get(body, ())
 
     def close(self) -> None:
-        if self.cid >= 0:
-            try:
-                pb.disconnect(physicsClientId=self.cid)
-            except pb.error:
-                pass
-            self.cid = -1
+        self._disconnect()  # once: the first call disconnects, later ones do nothing
+        self.cid = -1
+
+
+def _disconnect(cid: int) -> None:
+    try:
+        pb.disconnect(physicsClientId=cid)
+    except pb.error:
+        pass

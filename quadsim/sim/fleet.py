@@ -273,6 +273,14 @@ class Fleet:
     def __exit__(self, *exc: object) -> None:
         self.close()
 
+    def __reduce_ex__(self, protocol: object) -> Any:  # what copy.deepcopy and pickle ask
+        # a copy would fly the same PyBullet bodies as the original (deepcopy), or none (pickle)
+        raise TypeError(
+            f"a {type(self).__name__} (and an env holding one) cannot be copied or pickled: it flies bodies in a "
+            "PyBullet world of this process. Make another the way this one was made (gymnasium's async vector "
+            "envs make theirs in each worker)"
+        )
+
 
 def _own_config(config: SimConfig, v: FleetVehicle, index: int) -> SimConfig:
     """Vehicle `v`'s settings: the run's, with its own airframe, controller, z-mode, start and seed."""

@@ -19,6 +19,7 @@ from gymnasium.utils.env_checker import check_env
 import quadsim.envs
 from quadsim.core.invocation import install_extra
 from quadsim.envs.quad import AGENT_HZ, HOVER_EPISODE_S
+from quadsim.errors import QuadsimError
 
 if TYPE_CHECKING:
     from quadsim.envs.fleet import HoverFleetEnv
@@ -222,6 +223,70 @@ def test_a_wrong_action_is_one_clear_error_and_a_closed_env_says_so():
             again()
 
 
+def test_a_bad_reset_option_is_one_clear_error_and_leaves_the_env_as_a_fresh_one():
+    """A NaN start was taken: observations and rewards were NaN for the whole episode, which never
+    ended, and later seeded episodes no longer matched a fresh env's (PyBullet kept the NaN)."""
+    env, fresh = gym.make("quadsim/Hover-v0"), gym.make("quadsim/Hover-v0")
+    env.reset(seed=0)  # (gymnasium's checker wants a first reset that returns)
+    for bad, said in (
+        ({"start_xy_m": (math.nan, 0.0)}, r"options\['start_xy_m'\] is two finite numbers .*got \(nan, 0.0\)"),
+        ({"start_xy_m": (0.0, math.inf)}, r"two finite numbers"),
+        ({"start_xy_m": (0.0, 0.0, 1.0)}, r"two finite numbers"),
+        ({"start_xy_m": 1.0}, r"two finite numbers .*got 1.0$"),
+        ({"start_xy_m": ("a", "b")}, r"two finite numbers"),
+        ({"start_yaw_rad": math.nan}, r"options\['start_yaw_rad'\] is a finite number \(rad\), got nan"),
+        ({"start_yaw_rad": "north"}, r"start_yaw_rad"),
+        ({"start_xy_m": (2e4, 0.0)}, r"start pose x_m = 20000 is beyond 10000 from the origin"),
+        ({"start_xy": (3.0, 3.0)}, r"unknown reset option 'start_xy': the options are start_xy_m, start_yaw_rad"),
+        ([("start_xy_m", (0, 0))], r"reset's options are a dict"),
+    ):
+        with pytest.raises(ValueError, match=said):
+            env.reset(seed=0, options=bad)
+    observation, _ = env.reset(seed=0, options={"start_xy_m": np.array([0.5, -0.5]), "start_yaw_rad": np.float32(1)})
+    assert observation[:2] == pytest.approx([0.5, -0.5], abs=1e-6)
+    assert env.unwrapped.action_of(0.0, 0.0, 0.0, 0.0).tolist() == [0.0] * 4
+    with pytest.raises(ValueError, match="velocities must be finite numbers"):
+        env.unwrapped.action_of(math.nan, 0.0, 0.0, 0.0)
+    runs = []
+    for e in (env, fresh):  # the refused resets left nothing behind
+        e.reset(seed=3)
+        runs.append([e.step(np.array([0.3, -0.2, 1.0, 0.1], np.float32))[0] for _ in range(40)])
+    assert np.array_equal(runs[0], runs[1])
+    env.close()
+    fresh.close()
+
+
+def test_an_env_cannot_be_copied_nor_pickled_and_a_forgotten_one_lets_go_of_its_world():
+    """deepcopy gave a second env flying the first one's PyBullet body; pickle failed on a numba
+    closure; an env dropped without close() kept its PyBullet client for the life of the process."""
+    import copy
+    import gc
+    import pickle
+
+    import pybullet as pb
+
+    from quadsim.envs.fleet import HoverFleetEnv
+
+    def connected() -> int:
+        return sum(pb.isConnected(physicsClientId=cid) for cid in range(1000))
+
+    gc.collect()  # what other tests left
+    before = connected()
+    for make in (
+        lambda: gym.make("quadsim/Hover-v0"),
+        lambda: gym.make_vec("quadsim/Hover-v0", num_envs=2),
+        lambda: HoverFleetEnv(agents=2),
+    ):
+        env = make()
+        env.reset(seed=0)
+        for copier in (copy.deepcopy, pickle.dumps):
+            with pytest.raises(TypeError, match="cannot be copied or pickled: it flies bodies in a PyBullet world"):
+                copier(env)
+        del env
+    gc.collect()
+    assert connected() == before
+
+
 class _Shown(list):
     """An action that counts how often it is shown (its repr)."""
 
@@ -330,3 +395,23 @@ def test_two_agents_flown_into_each_other_are_both_terminated():
     crashes = {a: [e for e in env.fleet[a].events if e.kind.value == "crash"] for a in (left, right)}
     assert crashes[left][0].hit == right and crashes[right][0].hit == left
     env.close()
+
+
+def test_a_fleet_step_with_one_bad_action_sends_none_and_a_closed_fleet_says_so():
+    """The agents before the bad one got their new command, though the step raised."""
+    from quadsim.envs.fleet import HoverFleetEnv
+
+    with pytest.raises(ValueError, match="does not render"):
+        HoverFleetEnv(agents=1, render_mode="rgb_array")
+    env = HoverFleetEnv(agents=2, render_mode=None)
+    env.reset(seed=1)
+    first, second = env.possible_agents
+    with pytest.raises(ValueError, match="must be finite numbers"):
+        env.step({first: np.array([0, 0, 1, 0], np.float32), second: np.array([math.nan, 0, 0, 0], np.float32)})
+    for _ in range(20):
+        env.step({})
+    assert env.fleet[first].state.position_m[2] < 0.1  # still on the ground: it never took the climb
+    env.close()
+    for again in (lambda: env.step({}), lambda: env.reset(seed=1)):
+        with pytest.raises(QuadsimError, match="this environment is closed: make a new HoverFleetEnv"):
+            again()

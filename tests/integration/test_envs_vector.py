@@ -172,6 +172,8 @@ def test_a_wind_for_every_env_each_with_its_own_gusts():
     ("kwargs", "said"),
     [
         ({"num_envs": 0}, "num_envs must be a whole number of at least 1"),
+        ({"num_envs": 2, "max_episode_steps": 0}, "max_episode_steps must be a whole number of at least 1, got 0"),
+        ({"num_envs": 2, "max_episode_steps": 1.5}, "max_episode_steps must be a whole number"),
         ({"num_envs": 2, "render_mode": "rgb_array"}, "does not render"),
         ({"num_envs": 2, "controller": object()}, "a controller of your own flies one vehicle"),
     ],
@@ -184,7 +186,15 @@ def test_what_it_refuses_is_said_in_one_line(kwargs, said):
 def test_actions_of_the_wrong_shape_or_not_finite_are_refused():
     envs = HoverVectorEnv(2)
     try:
+        with pytest.raises(gym.error.ResetNeeded, match="call reset"):  # it flew from the origin
+            envs.step(np.zeros((2, 4), np.float32))
+        with pytest.raises(ValueError, match="the first reset\\(\\) resets every env"):
+            envs.reset(seed=0, options={"reset_mask": np.array([True, False])})
         envs.reset(seed=0)
+        with pytest.raises(ValueError, match="resets none of the envs"):
+            envs.reset(options={"reset_mask": np.zeros(2, np.bool_)})
+        with pytest.raises(ValueError, match="options\\['start_xy_m'\\] is two finite numbers"):
+            envs.reset(options={"start_xy_m": (math.nan, 0.0)})
         with pytest.raises(ValueError, match=r"actions are 2 rows of 4 real numbers .* shape \(2, 4\)"):
             envs.step(np.zeros(4, np.float32))
         with pytest.raises(ValueError, match="finite"):
