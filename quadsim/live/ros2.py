@@ -277,14 +277,18 @@ class Ros2Bridge:
         """A contract topic's name on the graph (graph_topic): in the namespace, then remapped."""
         return graph_topic(name, self.namespace, self._remaps)
 
-    def startup_lines(self, takes_twist: bool | Sequence[str]) -> list[tuple[str, bool]]:
+    def startup_lines(
+        self, takes_twist: bool | Sequence[str], goal_topics: Sequence[str] | None = None
+    ) -> list[tuple[str, bool]]:
         """What to say at start-up: (line, is a warning). The node, its domain and discovery range,
         where it takes Twists (on /quad_cmd_twist, or on the topics given: a fleet's) and goal
-        poses; a warning when it takes them and discovery reaches beyond this machine."""
+        poses (the contract's, or `goal_topics`: a fleet vehicle's under its name); a warning when
+        it takes them and discovery reaches beyond this machine."""
         node = f"{self.namespace.rstrip('/')}/{NODE_NAME}"
         topics = [TWIST.name] if takes_twist is True else list(takes_twist or ())
         twist = " and ".join(self.graph_name(t) for t in topics)
-        goals = " and ".join(self.graph_name(goal.name) for goal in GOALS)
+        taken = [goal.name for goal in GOALS] if goal_topics is None else goal_topics
+        goals = " and ".join(self.graph_name(topic) for topic in taken)
         if len(topics) > 1:
             goals = "each vehicle's " + " and ".join(goal.name.lstrip("/") for goal in GOALS)
         takes = f"; it takes geometry_msgs/Twist on {twist} and goal poses on {goals}" if takes_twist else ""

@@ -40,29 +40,7 @@ def open_live_outputs(
         raise QuadsimError(f"{option} is for the ROS 2 bridge: add --ros2 (or fly with --input ros2)")
     try:
         if foxglove is not None or from_foxglove:
-            from quadsim.live.foxglove import FoxgloveBridge, parse_endpoint
-
-            host, port = parse_endpoint(foxglove or FOXGLOVE_DEFAULT_ENDPOINT)
-            bridge = FoxgloveBridge(host, port, from_foxglove)
-            topics = " and ".join(d.topic for d in from_foxglove)
-            holds = {d.command_timeout_s for d in from_foxglove if d.command_timeout_s is not None}
-            held = f", holding {min(holds):g} s after the last" if len(holds) == 1 else ""
-            takes = (
-                f"; it takes Twists on {topics} (Teleop panel{held}) and goals on /move_base_simple/goal "
-                "(3D panel, publish pose)" + (" under each name" if len(from_foxglove) > 1 else "")
-                if from_foxglove
-                else ""
-            )
-            print(f"Foxglove: serving {bridge.url} (Open connection -> Foxglove WebSocket){takes}", flush=True)
-            if bridge.exposed:  # said as the ROS 2 bridge says an unlimited discovery range
-                can = "watch this run and fly the vehicle" if from_foxglove else "watch this run"
-                print(
-                    f"quadsim: warning: Foxglove: {bridge.host} is not loopback: anyone who can reach port "
-                    f"{bridge.port} can {can}",
-                    file=sys.stderr,
-                    flush=True,
-                )
-            outputs.append(bridge)
+            outputs.append(_open_foxglove(foxglove or FOXGLOVE_DEFAULT_ENDPOINT, from_foxglove))
         if ros2 or from_ros2:
             from quadsim.live.ros2 import Ros2Bridge
 
@@ -72,7 +50,8 @@ def open_live_outputs(
             for driver in from_ros2:
                 ros2_bridge.subscribe_twist(driver)
                 ros2_bridge.subscribe_goals(driver, _say_goal_publishers)
-            for line, warning in ros2_bridge.startup_lines(takes_twist=[d.topic for d in from_ros2]):
+            goals = [topic for d in from_ros2 for topic in d.goal_topics]
+            for line, warning in ros2_bridge.startup_lines([d.topic for d in from_ros2], goals):
                 print(f"quadsim: warning: {line}" if warning else line, file=sys.stderr if warning else sys.stdout)
             sys.stdout.flush()
     except BaseException:
@@ -80,6 +59,34 @@ def open_live_outputs(
             output.close()
         raise
     return outputs
+
+
+def _open_foxglove(endpoint: str, from_foxglove: list[SubscribedDriver]) -> LiveOutput:
+    """The Foxglove server at `endpoint` (HOST:PORT), feeding `from_foxglove`; what it serves and
+    takes said on stdout, and a warning when it is reachable beyond this machine."""
+    from quadsim.live.foxglove import FoxgloveBridge, parse_endpoint
+
+    host, port = parse_endpoint(endpoint)
+    bridge = FoxgloveBridge(host, port, from_foxglove)
+    topics = " and ".join(d.topic for d in from_foxglove)
+    holds = {d.command_timeout_s for d in from_foxglove if d.command_timeout_s is not None}
+    held = f", holding {min(holds):g} s after the last" if len(holds) == 1 else ""
+    takes = (
+        f"; it takes Twists on {topics} (Teleop panel{held}) and goals on /move_base_simple/goal "
+        "(3D panel, publish pose)" + (" under each name" if len(from_foxglove) > 1 else "")
+        if from_foxglove
+        else ""
+    )
+    print(f"Foxglove: serving {bridge.url} (Open connection -> Foxglove WebSocket){takes}", flush=True)
+    if bridge.exposed:  # said as the ROS 2 bridge says an unlimited discovery range
+        can = "watch this run and fly the vehicle" if from_foxglove else "watch this run"
+        print(
+            f"quadsim: warning: Foxglove: {bridge.host} is not loopback: anyone who can reach port "
+            f"{bridge.port} can {can}",
+            file=sys.stderr,
+            flush=True,
+        )
+    return bridge
 
 
 def _say_goal_publishers(topic: str, count: int) -> None:

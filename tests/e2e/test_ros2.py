@@ -321,6 +321,14 @@ def test_namespace_and_remapping_name_the_topics_as_ros2_would() -> None:
             "/robot1/move_base_simple/goal"
         )
         assert not warning and rest == []  # LOCALHOST: nobody else can fly it
+        # a fleet's one vehicle flown from ROS 2 takes its goals under its name, and says so
+        (line, _), *_ = bridge.startup_lines(
+            ["/delta/quad_cmd_twist"], ["/delta/goal_pose", "/delta/move_base_simple/goal"]
+        )
+        assert line.endswith(
+            "Twist on /robot1/delta/quad_cmd_twist and goal poses on /robot1/delta/goal_pose and "
+            "/robot1/delta/move_base_simple/goal"
+        ), line
     assert graph_topic("/quad_cmd_twist", *graph_names("", ["quad_cmd_twist:=cmd_vel"])) == "/cmd_vel"
     assert graph_topic("/alpha/quad_cmd_twist", *graph_names("t4ns", ["alpha/quad_cmd_twist:=/a"])) == "/a"
     for bad in ("/quad_cmd_twist=/cmd_vel", "/quad_cmd_twist:=", "/quad cmd:=/x", "other:/x:=/y"):

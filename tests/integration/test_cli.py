@@ -100,6 +100,12 @@ def test_fly_without_display_keeps_no_demo_under_a_name_meant_for_a_flight_by_ha
     out = cli("fly", "--cameras", "none", "--out", str(tmp_path / "by_hand.mcap"))
     _one_line_error(out, "would hold the scripted demo")
     assert "run --script NAME --out" in out.stderr and not (tmp_path / "by_hand.mcap").exists()
+    # a folder is no such name: the demo lands there under a dated name that says what it is
+    out = cli("fly", "--cameras", "none", "--duration", "2", "--out", str(tmp_path / "flights"))
+    assert out.returncode == 0 and "Recording the scripted demo 'figure8'" in out.stdout, out.stderr
+    assert [p.name.endswith("_figure8_cascade.mcap") for p in (tmp_path / "flights").iterdir()] == [True]
+    out = cli("fly", "--cameras", "none", "--duration", "2", "--no-record")
+    assert out.returncode == 0 and "Flying the scripted demo 'figure8'" in out.stdout, out.stderr
 
 
 def test_fly_fleet_without_a_display_says_what_to_do(tmp_path):

@@ -102,7 +102,7 @@ def main(args: argparse.Namespace) -> int:
         print(f"No display found: flying headless, in real time, what {who} publish.")
         args.gui = False
         return HeadlessFlight(args, subscribed_plan(args, "fly")).fly()
-    if not has_display() and args.out is not None:  # a flight by hand was to be kept there, not the demo
+    if not has_display() and args.out is not None and args.out.suffix == ".mcap":  # named for a flight by hand
         raise QuadsimError(
             f"no display: the teleop window cannot open, and {args.out} would hold the scripted demo instead of "
             f"a flight by hand; record a scripted flight there with: {program()} run --script NAME --out {args.out}"
@@ -114,8 +114,8 @@ def main(args: argparse.Namespace) -> int:
             else " (with both cameras: a minute or so on a busy machine; --cameras none flies it in seconds)"
         )
         print(
-            f"No display found: the teleop window cannot open. Recording the scripted demo '{DEMO_SCENARIO}' "
-            f"headless instead{cameras}. (Headless flights: {program()} run --script NAME; list them with: "
+            f"No display found: the teleop window cannot open. {'Flying' if args.no_record else 'Recording'} the "
+            f"scripted demo '{DEMO_SCENARIO}' headless instead{cameras}. (Headless flights: {program()} run --script NAME; list them with: "
             f"{program()} scenarios)"
         )
         args.gui = False
