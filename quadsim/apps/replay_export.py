@@ -137,13 +137,33 @@ def _encode(path: Path, frames: list[tuple[int, bytes]], shape: tuple[int, ...],
     writer = cv2.VideoWriter(str(path), cv2.VideoWriter.fourcc(*"vp09"), fps, (shape[1], shape[0]))
     if not writer.isOpened():
         raise QuadsimError(f"OpenCV cannot write MP4 files here ({path})")
+    done = 0
     try:
-        for count, (_, jpeg) in enumerate(frames, 1):
+        for _, jpeg in frames:
             image = cv2.imdecode(np.frombuffer(jpeg, np.uint8), cv2.IMREAD_COLOR)
             if image is not None and image.shape == shape:  # skip what cannot be shown
                 writer.write(image)
+            done += 1
             if not next_frame():
-                return count
-        return len(frames)
+                break
     finally:
         writer.release()
+    _check_playable(path)
+    return done
+
+
+def _check_playable(path: Path) -> None:
+    """OpenCV says nothing when the disk refuses a video (full, or a file size limit): the file
+    is left cut, unplayable. Opened again to be sure; one that does not open is removed."""
+    capture = cv2.VideoCapture(str(path))
+    try:
+        playable = capture.isOpened() and capture.get(cv2.CAP_PROP_FRAME_COUNT) > 0
+    finally:
+        capture.release()
+    if not playable:
+        size = path.stat().st_size if path.exists() else 0
+        path.unlink(missing_ok=True)
+        raise QuadsimError(
+            f"cannot write the video {path}: the disk took {size} bytes of it and it does not play (is the disk "
+            "full?); the cut file was removed"
+        )

@@ -53,6 +53,8 @@ def recording_path(out: Path | None, label: str, now: dt.datetime | None = None)
     folder = out if out is not None else default_recordings_dir()
     stamp = (now or dt.datetime.now()).strftime("%Y-%m-%d_%H-%M-%S")
     safe = re.sub(r"[^A-Za-z0-9_.-]+", "-", label).strip("-") or "run"
+    if len(safe) > 200:  # a long script or fleet file name: within a file name's 255 bytes, the end kept
+        safe = f"{safe[:140]}-{safe[-59:]}"
     path = folder / f"{stamp}_{safe}.mcap"
     n = 2
     while path.exists():  # two recordings in the same second

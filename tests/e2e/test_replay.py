@@ -3,6 +3,7 @@
 Its e2e tests (real processes, signals, windows or peers); the others are in tests/integration/test_replay.py."""
 
 import re
+import resource
 import signal
 import subprocess
 import sys
@@ -13,7 +14,7 @@ import pytest
 
 from tests.helpers import RECORDINGS as RECORDINGS_DIR
 from tests.helpers import ROOT
-from tests.helpers.cli import wait_for_line
+from tests.helpers.cli import MAIN, bare_env, wait_for_line
 from tests.helpers.fleets import under
 from tests.helpers.recording import copy_recording, record_flight
 from tests.integration.test_replay import (
@@ -133,6 +134,31 @@ def test_mp4_given_a_file_name_writes_each_camera_beside_it(with_cameras, tmp_pa
     assert again.returncode == 2 and "flight_floor.mp4 already exists" in again.stderr, again.stderr
     assert "duration" not in again.stdout  # refused before the summary
     assert (tmp_path / "out" / "flight_front.mp4").stat().st_size == size
+
+
+def test_a_video_the_disk_refuses_is_an_error_and_no_cut_file_is_left(with_cameras, tmp_path):
+    """On a full disk, OpenCV wrote cut MP4s that do not play, said nothing, and the export ended
+    with exit 0. A file size limit below each video's size refuses writes as a full disk does."""
+    whole = cli("replay", with_cameras, "--headless", "--mp4", tmp_path / "whole")
+    assert whole.returncode == 0, whole.stderr
+    limit = min(p.stat().st_size for p in (tmp_path / "whole").iterdir()) // 2
+
+    def disk_takes_only_the_limit() -> None:
+        signal.signal(signal.SIGXFSZ, signal.SIG_IGN)  # a write past it fails (EFBIG), as on a full disk
+        resource.setrlimit(resource.RLIMIT_FSIZE, (limit, limit))
+
+    out = subprocess.run(
+        [sys.executable, str(MAIN), "replay", str(with_cameras), "--headless", "--mp4", str(tmp_path / "cut")],
+        capture_output=True,
+        text=True,
+        cwd=ROOT,
+        env=bare_env(SDL_VIDEODRIVER="dummy"),
+        preexec_fn=disk_takes_only_the_limit,
+        timeout=300,
+    )
+    assert out.returncode == 2 and "Traceback" not in out.stderr, out.stderr
+    assert re.search(r"cannot write the video \S+cams_f\w+\.mp4: the disk took \d+ bytes of it", out.stderr), out.stderr
+    assert list((tmp_path / "cut").iterdir()) == []  # the cut videos were removed: a retry is not refused
 
 
 def test_replay_refuses_options_it_would_ignore(tmp_path):

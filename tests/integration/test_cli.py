@@ -122,3 +122,14 @@ def test_scenarios_lists_builtins():
 
 def test_gui_without_display_is_a_clear_error():
     _one_line_error(cli("run", "--script", "hover", "--gui", *QUIET), "needs a display")
+
+
+def test_a_script_with_a_long_name_records_under_a_name_the_file_system_takes(tmp_path):
+    """The dated name was the script's name and more: past 255 bytes, a traceback (ENAMETOOLONG)."""
+    script = tmp_path / ("a" * 240 + ".qscript")
+    script.write_text("1.0 linear.z=0.5\n")
+    out = cli("run", "--script", str(script), "--cameras", "none", "--out", str(tmp_path / "runs"))
+    assert out.returncode == 0 and "Traceback" not in out.stderr, out.stderr
+    (recording,) = (tmp_path / "runs").iterdir()
+    assert len(recording.name.encode()) <= 255 and recording.name.endswith("_cascade.mcap"), recording.name
+    assert "a" * 100 in recording.name  # as much of the script's name as fits

@@ -183,4 +183,4 @@ def recording_path(folder: Path, run: RunSpec) -> Path:
 
 
 def _safe(name: str) -> str:
-    return "".join(c if c.isalnum() or c in "._-" else "-" for c in name)[:200]
+    return "".join(c if (c.isascii() and c.isalnum()) or c in "._-" else "-" for c in name)[:200]  # bytes, too
