@@ -13,6 +13,7 @@ import tempfile
 from pathlib import Path
 from typing import Any
 
+from quadsim.core.files import write_new_file
 from quadsim.core.invocation import install_extra
 from quadsim.core.types import HEIGHT_MODE_BASE_M, VehicleState, ZMode
 from quadsim.errors import QuadsimError
@@ -84,13 +85,13 @@ def recorded_world(f: RecordedFlight) -> WorldSpec | None:
     data = f.attachments.get(name)
     if not data:
         return None
-    with tempfile.TemporaryDirectory(prefix="quadsim-world-") as tmp:
-        path = Path(tmp) / "world.toml"
-        path.write_bytes(data)
-        try:
+    try:
+        with tempfile.TemporaryDirectory(prefix="quadsim-world-") as tmp:
+            path = Path(tmp) / "world.toml"
+            path.write_bytes(data)
             return load_world(path, texture_required=False)
-        except Exception:
-            return None
+    except Exception:  # a world that does not read, or a temporary folder that cannot take it
+        return None
 
 
 def _landmarks(f: RecordedFlight) -> list[tuple[str, float, float, tuple[float, float, float]]]:
@@ -221,10 +222,11 @@ def export_plot(f: RecordedFlight, path: Path, others: dict[str, list[VehicleSta
         ),
     ]
     _draw_panels(fig, grid, panels, t, spans, max(f.duration_s, t[-1]))
+    exists = f"{path} already exists; choose another --plot (nothing is overwritten)"
     try:
-        fig.savefig(path, dpi=100)
+        write_new_file(path, lambda fh: fig.savefig(fh, dpi=100, format=path.suffix[1:].lower()), exists)
     except OSError as exc:
-        raise QuadsimError(f"cannot write the plot to {path}: {exc.strerror or exc}") from None
+        raise QuadsimError(f"cannot write the plot to {path}: {exc.strerror or exc}; nothing was written") from None
     finally:
         plt.close(fig)
     return path

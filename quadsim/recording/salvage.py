@@ -12,14 +12,12 @@ beside the target and moved into place only once finished: a full disk leaves no
 
 from __future__ import annotations
 
-import contextlib
-import os
-import tempfile
 from dataclasses import dataclass
 from pathlib import Path
 
 from mcap.writer import CompressionType, Writer
 
+from quadsim.core.files import write_new_file
 from quadsim.errors import QuadsimError
 from quadsim.recording.mcap_scan import Damage, McapFile, SchemaDef
 
@@ -45,7 +43,7 @@ def recover(src: Path, dst: Path | None = None, required_topics: tuple[str, ...]
     out = dst if dst is not None else src.with_name(src.stem + ".recovered.mcap")
     with McapFile(src) as f:
         if out.exists():
-            raise QuadsimError(f"{out} already exists; choose another -o (nothing is overwritten)")
+            raise QuadsimError(_already(out))
         if out.resolve() == src.resolve():
             raise QuadsimError("the output must be a different file from the input")
         if not f.message_count:
@@ -57,29 +55,12 @@ def recover(src: Path, dst: Path | None = None, required_topics: tuple[str, ...]
                 f"{src}: has none of a quadsim recording's topics (found {', '.join(sorted(topics)) or 'none'}); "
                 f"it is someone else's MCAP file: nothing written"
             )
+        written: list[tuple[int, int, int]] = []
         try:
-            folder = out.parent if str(out.parent) else Path(".")
-            fd, tmp_name = tempfile.mkstemp(prefix=f".{out.name}.", suffix=".partial", dir=folder)
+            write_new_file(out, lambda fh: written.append(_write(f, fh)), _already(out))
         except OSError as exc:
-            raise QuadsimError(f"cannot create {out}: {exc.strerror}") from None
-        tmp = Path(tmp_name)
-        try:
-            mask = os.umask(0)
-            os.umask(mask)
-            os.fchmod(fd, 0o666 & ~mask)  # as a file made by open() would be
-            with os.fdopen(fd, "wb") as fh:
-                counts = _write(f, fh)
-                fh.flush()
-                os.fsync(fh.fileno())
-            _move_into_place(tmp, out)
-        except OSError as exc:
-            with contextlib.suppress(OSError):
-                tmp.unlink()
             raise QuadsimError(f"cannot write {out}: {exc.strerror or exc}; nothing was written") from None
-        except BaseException:
-            with contextlib.suppress(OSError):
-                tmp.unlink()
-            raise
+        (counts,) = written
         t0, t1 = f.span_ns
         return Recovered(
             out,
@@ -92,6 +73,10 @@ def recover(src: Path, dst: Path | None = None, required_topics: tuple[str, ...]
             counts[1],
             counts[2],
         )
+
+
+def _already(out: Path) -> str:
+    return f"{out} already exists; choose another -o (nothing is overwritten)"
 
 
 def _write(f: McapFile, fh: object) -> tuple[int, int, int]:
@@ -123,17 +108,3 @@ def _write(f: McapFile, fh: object) -> tuple[int, int, int]:
         kept += 1
     writer.finish()
     return kept, len(f.attachments), len(f.metadata)
-
-
-def _move_into_place(tmp: Path, out: Path) -> None:
-    """Give the finished file its name, never replacing a file that appeared meanwhile."""
-    try:
-        os.link(tmp, out)
-    except FileExistsError:
-        raise QuadsimError(f"{out} already exists; choose another -o (nothing is overwritten)") from None
-    except OSError:  # a file system without hard links
-        if out.exists():
-            raise QuadsimError(f"{out} already exists; choose another -o (nothing is overwritten)") from None
-        os.replace(tmp, out)
-        return
-    tmp.unlink()

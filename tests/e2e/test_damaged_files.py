@@ -17,6 +17,7 @@ import pytest
 
 from quadsim.apps.cli import main
 from tests.helpers import RECORDINGS, ROOT
+from tests.helpers.cli import file_size_limit, without_caches
 from tests.helpers.recording import copy_recording, record_flight
 from tests.integration.test_damaged_files import (
     _damaged_chunk,
@@ -233,3 +234,34 @@ def test_a_crafted_fleet_recording_is_refused_in_one_line_by_every_command(tmp_p
         shown = cli(*argv)
         assert shown.returncode == 0 and "Traceback" not in shown.stderr, (argv, shown.stderr)
     assert set(Path("/etc").iterdir()) == before and not (tmp_path / "resim").exists()
+
+
+@pytest.mark.parametrize("command", ["plot", "layout", "examples"])
+def test_a_file_the_disk_refuses_is_one_line_leaves_nothing_and_the_retry_works(tmp_path, command):
+    """On a full disk, --plot, layout and examples --copy said so but left a 0-byte file (or a
+    half of the examples), and the retry was then refused as 'already exists'."""
+    flight = str(ROOT / "tests" / "recordings" / "climb_cascade.mcap")
+    out = tmp_path / "out"
+    out.mkdir()
+    args = {
+        "plot": ["replay", flight, "--headless", "--plot", str(out / "p.png")],
+        "layout": ["layout", flight, "-o", str(out / "l.json")],
+        "examples": ["examples", "--copy", str(out / "ex")],
+    }[command]
+    env = {"PATH": "/usr/bin:/bin", "PYTHONPATH": str(ROOT), "SDL_VIDEODRIVER": "dummy", **without_caches(tmp_path)}
+
+    def run(limit=None) -> subprocess.CompletedProcess[str]:
+        return subprocess.run(
+            [sys.executable, str(ROOT / "main.py"), *args], capture_output=True, text=True, env=env, preexec_fn=limit
+        )
+
+    refused = run(file_size_limit(1024))
+    assert refused.returncode == 2 and "Traceback" not in refused.stderr, refused.stderr
+    (line,) = [s for s in refused.stderr.splitlines() if "pybullet build time" not in s]
+    assert "File too large; nothing was" in line, line
+    assert [p for p in out.rglob("*") if p.is_file()] == []  # no cut file, no hidden partial one
+    retried = run()
+    assert retried.returncode == 0, retried.stderr
+    assert [p for p in out.rglob("*") if p.is_file()] and all(p.stat().st_size for p in out.rglob("*") if p.is_file())
+    again = run()  # and what is there is never overwritten
+    assert again.returncode == 2 and "exists" in again.stderr, again.stderr

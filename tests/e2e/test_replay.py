@@ -3,7 +3,6 @@
 Its e2e tests (real processes, signals, windows or peers); the others are in tests/integration/test_replay.py."""
 
 import re
-import resource
 import signal
 import subprocess
 import sys
@@ -14,7 +13,7 @@ import pytest
 
 from tests.helpers import RECORDINGS as RECORDINGS_DIR
 from tests.helpers import ROOT
-from tests.helpers.cli import MAIN, bare_env, wait_for_line
+from tests.helpers.cli import MAIN, bare_env, file_size_limit, wait_for_line, without_caches
 from tests.helpers.fleets import under
 from tests.helpers.recording import copy_recording, record_flight
 from tests.integration.test_replay import (
@@ -142,18 +141,13 @@ def test_a_video_the_disk_refuses_is_an_error_and_no_cut_file_is_left(with_camer
     whole = cli("replay", with_cameras, "--headless", "--mp4", tmp_path / "whole")
     assert whole.returncode == 0, whole.stderr
     limit = min(p.stat().st_size for p in (tmp_path / "whole").iterdir()) // 2
-
-    def disk_takes_only_the_limit() -> None:
-        signal.signal(signal.SIGXFSZ, signal.SIG_IGN)  # a write past it fails (EFBIG), as on a full disk
-        resource.setrlimit(resource.RLIMIT_FSIZE, (limit, limit))
-
     out = subprocess.run(
         [sys.executable, str(MAIN), "replay", str(with_cameras), "--headless", "--mp4", str(tmp_path / "cut")],
         capture_output=True,
         text=True,
         cwd=ROOT,
-        env=bare_env(SDL_VIDEODRIVER="dummy"),
-        preexec_fn=disk_takes_only_the_limit,
+        env=bare_env(SDL_VIDEODRIVER="dummy", **without_caches(tmp_path)),
+        preexec_fn=file_size_limit(limit),
         timeout=300,
     )
     assert out.returncode == 2 and "Traceback" not in out.stderr, out.stderr

@@ -2,10 +2,12 @@
 
 from __future__ import annotations
 
+import resource
+import signal
 import subprocess
 import sys
 import threading
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from pathlib import Path
 
 from tests.helpers import ROOT
@@ -66,3 +68,20 @@ def wait_for_line(proc: subprocess.Popen, text: str | None, count: int) -> tuple
     if text is not None:
         seen.wait(timeout=120)
     return lines[0], lines[1], readers
+
+
+def file_size_limit(size: int) -> Callable[[], None]:
+    """A child's `preexec_fn`: a write past `size` bytes of a file fails (EFBIG), as a full disk's
+    do. Give the child `without_caches` too."""
+
+    def limit() -> None:
+        signal.signal(signal.SIGXFSZ, signal.SIG_IGN)  # an error, not the end of the process
+        resource.setrlimit(resource.RLIMIT_FSIZE, (size, size))
+
+    return limit
+
+
+def without_caches(tmp_path: Path) -> dict[str, str]:
+    """The environment of a child under `file_size_limit`: Python's bytecode and numba's cache
+    are written with writes the limit cuts short, unchecked; the next process would read them cut."""
+    return {"PYTHONDONTWRITEBYTECODE": "1", "NUMBA_CACHE_DIR": str(tmp_path / "numba-cache")}

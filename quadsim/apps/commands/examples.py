@@ -5,11 +5,11 @@ from __future__ import annotations
 
 import argparse
 import re
-import shutil
 from pathlib import Path
 
 from quadsim.apps.commands import add_command_parser
 from quadsim.assets import shipped_examples
+from quadsim.core.files import write_new_file
 from quadsim.errors import QuadsimError
 
 
@@ -57,12 +57,24 @@ def main(args: argparse.Namespace) -> int:
     clashes = [n for n in chosen if (folder / n).exists()]
     if clashes:
         raise QuadsimError(f"{folder / clashes[0]} exists: nothing was copied (choose another folder)")
+    copied: list[Path] = []
     try:
         folder.mkdir(parents=True, exist_ok=True)
-        for name in chosen:
-            shutil.copyfile(examples[name], folder / name)  # names come from the package, never the user
+        for name in dict.fromkeys(chosen):  # names come from the package, never the user; each once
+            _copy(examples[name], folder / name)
+            copied.append(folder / name)
     except OSError as exc:
-        raise QuadsimError(f"cannot copy the examples into {folder}: {exc.strerror or exc}") from None
-    for name in chosen:
-        print(f"copied          {folder / name}")
+        for path in copied:  # all or none: a retry is not refused by the half copied
+            path.unlink(missing_ok=True)
+        raise QuadsimError(
+            f"cannot copy the examples into {folder}: {exc.strerror or exc}; nothing was copied"
+        ) from None
+    for path in copied:
+        print(f"copied          {path}")
     return 0
+
+
+def _copy(src: Path, dst: Path) -> None:
+    """`src` copied to `dst`, whole or not at all (never over a file that is there)."""
+    data = src.read_bytes()  # an example: a few kB
+    write_new_file(dst, lambda fh: fh.write(data), f"{dst} exists: choose another folder")

@@ -8,6 +8,7 @@ from collections.abc import Sequence
 from pathlib import Path
 
 from quadsim.apps.commands import add_command_parser
+from quadsim.core.files import write_new_file
 from quadsim.errors import QuadsimError
 from quadsim.recording.contract import BODY_FRAME, TF, TF_STATIC, WORLD_FRAME, Names
 from quadsim.recording.fanout import TopicFanout
@@ -42,7 +43,8 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         "--out",
         type=Path,
         metavar="FILE.json",
-        help=f"where to write it (default: beside SOURCE as NAME.layout.json; with no SOURCE, ./{DEFAULT_NAME})",
+        help=f"where to write it, never over a file that is there (default: beside SOURCE as NAME.layout.json; "
+        f"with no SOURCE, ./{DEFAULT_NAME})",
     )
     p.add_argument(
         "--cameras",
@@ -68,10 +70,12 @@ def main(args: argparse.Namespace) -> int:
         out = args.out or source.with_name(f"{source.stem}.layout.json")
     if out.suffix.lower() != ".json":
         raise QuadsimError(f"--out {out}: a layout is a .json file")
+    text = layout_json(foxglove_layout(vehicles)).encode()
+    exists = f"{out} already exists; choose another --out (nothing is overwritten)"
     try:
-        out.write_text(layout_json(foxglove_layout(vehicles)), encoding="utf-8")
+        write_new_file(out, lambda fh: fh.write(text), exists)
     except OSError as exc:
-        raise QuadsimError(f"cannot write {out}: {exc.strerror or exc}") from None
+        raise QuadsimError(f"cannot write {out}: {exc.strerror or exc}; nothing was written") from None
     shown = ", ".join(v.name or "the vehicle" for v in vehicles if v.model_topic) or "no vehicle's model"
     print(f"wrote {out}: {shown}; in Foxglove: Layouts -> Import from file -> {out.name}")
     missing = [v.name for v in vehicles if v.model_topic is None]
