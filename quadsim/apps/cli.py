@@ -3,7 +3,7 @@
 Each command lives in its own module of quadsim.apps.commands; this module assembles the parser,
 importing the module of the command that runs (and no other: the one place quadsim loads lazily
 what a command needs), and turns what a command raises into one line and an exit code: 2 for a
-usage or input error, 130 and 143 for SIGINT and SIGTERM (a run stops at its next safe point),
+usage or input error, 130, 143 and 129 for SIGINT, SIGTERM and SIGHUP (a run stops at its next safe point),
 141 for a closed pipe."""
 
 from __future__ import annotations
@@ -61,7 +61,7 @@ def _command_named(argv: list[str]) -> str | None:
 
 
 def main(argv: list[str] | None = None) -> int:
-    """The command line. SIGINT and SIGTERM stop any command cleanly (exit 130 and 143)."""
+    """The command line. SIGINT, SIGTERM and SIGHUP stop any command cleanly (exit 130, 143, 129)."""
     with SignalStop() as stop:
         try:
             code = _main(argv)

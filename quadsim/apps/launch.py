@@ -24,7 +24,7 @@ try:  # the C module: `signal` itself first imports enum, a few ms more with Pyt
 except ImportError:  # another Python than CPython
     import signal as _early
 
-_HELD = {_early.SIGINT, _early.SIGTERM}
+_HELD = {_early.SIGINT, _early.SIGTERM, *((_early.SIGHUP,) if hasattr(_early, "SIGHUP") else ())}
 _CAN_HOLD = hasattr(_early, "pthread_sigmask") and hasattr(_early, "sigpending")  # POSIX
 if _CAN_HOLD:  # (this thread only: no other one exists yet)
     _early.pthread_sigmask(_early.SIG_BLOCK, _HELD)

@@ -60,10 +60,11 @@ def worker_main(conn: Connection, settings: dict) -> None:
 
 
 def main() -> None:
-    # Ctrl-C and SIGTERM reach the whole process group: let the parent decide when the worker
+    # Ctrl-C, SIGTERM and SIGHUP reach the whole process group: let the parent decide when the worker
     # stops, so it can still collect the frames in flight and finish its recording
-    signal.signal(signal.SIGINT, signal.SIG_IGN)
-    signal.signal(signal.SIGTERM, signal.SIG_IGN)
+    for name in ("SIGINT", "SIGTERM", "SIGHUP"):  # (a closed terminal's SIGHUP too)
+        if hasattr(signal, name):
+            signal.signal(getattr(signal, name), signal.SIG_IGN)
     conn = Connection(int(sys.argv[1]))
     try:
         settings = conn.recv()

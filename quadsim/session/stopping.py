@@ -1,4 +1,4 @@
-"""Stopping on SIGINT (Ctrl-C) and SIGTERM, at any moment, without a traceback.
+"""Stopping on SIGINT (Ctrl-C), SIGTERM and SIGHUP, at any moment, without a traceback.
 
 A signal is turned into a request, never into an exception thrown into the middle of an
 import, a camera pipeline or a file write:
@@ -8,7 +8,8 @@ import, a camera pipeline or a file write:
 - a second signal raises `StopRequested`, a KeyboardInterrupt, which `with` blocks unwind as
   they do for Ctrl-C (for a person who does not want to wait);
 - while files are being finished (`with stop.shielded():`), signals only set `requested`.
-Either way the program exits 128 + the signal number (130 for SIGINT, 143 for SIGTERM).
+Either way the program exits 128 + the signal number (130 for SIGINT, 143 for SIGTERM, 129 for
+SIGHUP).
 """
 
 from __future__ import annotations
@@ -20,7 +21,8 @@ from contextlib import AbstractContextManager, contextmanager, nullcontext
 from types import FrameType
 from typing import Any
 
-HANDLED = (signal.SIGINT, signal.SIGTERM)
+#: the signals that stop a run: Ctrl-C, kill, and the terminal closed (an ssh session dropped)
+HANDLED = (signal.SIGINT, signal.SIGTERM, *((signal.SIGHUP,) if hasattr(signal, "SIGHUP") else ()))
 
 
 class StopRequested(KeyboardInterrupt):
@@ -36,7 +38,13 @@ def exit_code(signum: int) -> int:
 
 
 def describe(signum: int) -> str:
-    return "interrupted" if signum == signal.SIGINT else "terminated"
+    return (
+        "interrupted"
+        if signum == signal.SIGINT
+        else "hung up"
+        if signum == getattr(signal, "SIGHUP", -1)
+        else "terminated"
+    )
 
 
 class SignalStop:

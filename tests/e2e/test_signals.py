@@ -1,5 +1,5 @@
-"""SIGINT and SIGTERM at random moments, from start-up to shutdown, to the process and to its
-process group: exit 130 / 143, no traceback, the summary printed once the run has begun, the
+"""SIGINT, SIGTERM and SIGHUP at random moments, from start-up to shutdown, to the process and to its
+process group: exit 130 / 143 / 129, no traceback, the summary printed once the run has begun, the
 recording finished, no process left behind, no temporary folder left behind.
 
 Each trial is a real `run` with both cameras and two render workers (a process group of
@@ -34,7 +34,7 @@ from tests.helpers.cli import wait_for_line
 from tests.helpers.fleets import fleet_toml, vehicle
 
 MOMENTS_PER_CASE = int(os.environ.get("QUADSIM_SIGNAL_MOMENTS", "14"))  # each anchor twice
-EXPECTED = {signal.SIGINT: 130, signal.SIGTERM: 143}
+EXPECTED = {signal.SIGINT: 130, signal.SIGTERM: 143, signal.SIGHUP: 129}  # SIGHUP: the terminal closed
 
 
 @dataclass
@@ -175,9 +175,10 @@ def trials(tmp_path_factory) -> list[Trial]:
     base = tmp_path_factory.mktemp("signals")
     rng = random.Random(20261128)
     cases = []
-    for signum in (signal.SIGINT, signal.SIGTERM):
+    for signum in (signal.SIGINT, signal.SIGTERM, signal.SIGHUP):
         for to_group in (False, True):
-            for i in range(MOMENTS_PER_CASE):
+            # SIGHUP (an ssh session dropped) takes the same path: a few moments of it
+            for i in range(MOMENTS_PER_CASE if signum != signal.SIGHUP else 3):
                 text, count, low, high = ANCHORS[i % len(ANCHORS)]  # every anchor, in turn
                 cases.append((signum, to_group, rng.uniform(low, high), (text, count)))
     with ThreadPoolExecutor(max_workers=2) as pool:

@@ -20,7 +20,7 @@ from typing import Any, TypeVar
 
 from quadsim.core.invocation import install_extra
 from quadsim.errors import QuadsimError
-from quadsim.session.stopping import stop_requested
+from quadsim.session.stopping import HANDLED, stop_requested
 
 T = TypeVar("T")
 R = TypeVar("R")
@@ -31,7 +31,7 @@ def ray_missing() -> str:
     return f"Ray is not installed: {install_extra('ray')}"
 
 
-_STOP_SIGNALS = {signal.SIGINT, signal.SIGTERM}
+_STOP_SIGNALS = set(HANDLED)
 
 
 def _ignore_signals() -> None:
