@@ -569,8 +569,8 @@ def check_output_dir(option: str, folder: Path, create: bool = True) -> None:
 
 
 def stopped_by_signal(said: str = "") -> int | None:
-    """When SIGINT or SIGTERM stopped the command: say so on stderr (`said` follows the signal's
-    name) and return its exit code (130, 143); None when no signal came."""
+    """When a signal (SIGINT, SIGTERM, SIGHUP) stopped the command: say so on stderr (`said`
+    follows the signal's name) and return its exit code (130, 143, 129); None when no signal came."""
     stop = SignalStop.current()
     if stop is None or stop.signum is None:
         return None

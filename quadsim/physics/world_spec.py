@@ -105,7 +105,7 @@ def load_world(path: Path | str | None = None, texture_required: bool = True) ->
     a recording, whose attachments hold the world file but not its texture)."""
     world_path = Path(path) if path is not None else DEFAULT_WORLD
     if not world_path.is_file():
-        raise ConfigError(f"world file not found: {world_path}")
+        raise ConfigError(f"world file {'is a folder' if world_path.is_dir() else 'not found'}: {world_path}")
     table = read_toml(world_path, "world file")
     refuse_unknown_keys(
         table,

@@ -70,6 +70,8 @@ def check_writable(path: Path, min_free_bytes: int = MIN_FREE_BYTES) -> None:
         raise QuadsimError(f"the recording's file name is too long ({len(path.name.encode())} bytes; at most 255)")
     try:
         folder.mkdir(parents=True, exist_ok=True)
+    except FileExistsError:  # (mkdir's "File exists" for a file of that name)
+        raise QuadsimError(f"cannot write recordings to {folder}: it is a file, not a folder") from None
     except OSError as exc:
         raise QuadsimError(f"cannot create the recording folder {folder}: {exc.strerror}") from None
     if not folder.is_dir():

@@ -282,7 +282,7 @@ def load_vehicle(urdf_path: Path | str | None = None, params_path: Path | str | 
     urdf = Path(urdf_path) if urdf_path is not None else DEFAULT_URDF
     params = Path(params_path) if params_path is not None else default_params_path(urdf)
     if not urdf.is_file():
-        raise ConfigError(f"vehicle URDF not found: {urdf}")
+        raise ConfigError(f"vehicle URDF {'is a folder' if urdf.is_dir() else 'not found'}: {urdf}")
     if not params.is_file():
         raise ConfigError(f"vehicle parameter file not found: {params} (expected beside {urdf.name})")
     links = _read_urdf(urdf)

@@ -479,3 +479,16 @@ def test_a_signal_once_the_command_has_finished_says_nothing_was_cut_short(capsy
     out, err = capsys.readouterr()
     assert out.startswith("done")
     assert err.strip().endswith("quadsim: interrupted once the command had finished: nothing was cut short")
+
+
+def test_a_window_that_recorded_nothing_says_no_recording_was_finished(capsys):
+    """`fly --no-record` stopped by Ctrl-C said 'the recording is finished and readable'."""
+    from quadsim.apps.commands.fly import _report
+    from quadsim.session.stopping import SignalStop
+
+    for recordings, said in (([], "interrupted"), ([Path("f.mcap")], "interrupted; the recording is finished")):
+        with SignalStop() as stop:
+            stop.signum = signal.SIGINT  # what its handler sets on Ctrl-C
+            assert _report(5.1, recordings, None) == 130
+        err = capsys.readouterr().err.strip()
+        assert err.startswith(said) and ("recording" in err) == bool(recordings), err

@@ -133,3 +133,20 @@ def test_a_script_with_a_long_name_records_under_a_name_the_file_system_takes(tm
     (recording,) = (tmp_path / "runs").iterdir()
     assert len(recording.name.encode()) <= 255 and recording.name.endswith("_cascade.mcap"), recording.name
     assert "a" * 100 in recording.name  # as much of the script's name as fits
+
+
+@pytest.mark.parametrize(
+    ("option", "said"),
+    [
+        ("--urdf", "vehicle URDF is a folder: "),
+        ("--world", "world file is a folder: "),
+        ("--out", "it is a file, not a folder"),
+    ],
+)
+def test_a_folder_for_a_file_or_a_file_for_a_folder_is_named_so(tmp_path, option, said):
+    """A folder given as the URDF or world said 'not found'; a file in the place of the recording
+    folder said 'cannot create the recording folder ...: File exists'."""
+    (tmp_path / "taken.mcap").write_bytes(b"")
+    value = str(tmp_path / "taken.mcap" / "run.mcap") if option == "--out" else str(tmp_path)
+    out = cli("run", "--script", "takeoff", "--cameras", "none", option, value)
+    _one_line_error(out, said)

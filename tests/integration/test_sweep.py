@@ -179,3 +179,16 @@ def test_a_worker_that_reuses_its_simulators_gives_the_rows_of_new_ones(tmp_path
         sweep_run.forget_simulators()
     assert len(built) == 16
     assert sorted(map(repr, in_order)) == sorted(map(repr, fresh))
+
+
+def test_no_more_workers_than_runs_and_an_out_that_is_a_file_is_refused_first(tmp_path: Path) -> None:
+    """--jobs 1000 for 2 runs started 1000 worker processes (654 seen at once on 2 cores); --out
+    naming a file printed the sweep's first line before its error."""
+    text = 'scenarios = ["takeoff"]\nseeds = 2\n'
+    done = _sweep(tmp_path, text, "--jobs", "1000", "--out", str(tmp_path / "o"), "--format", "csv", "--no-plot")
+    assert done.returncode == 0, done.stderr
+    assert "2 runs on 2 worker processes" in done.stdout, done.stdout
+    (tmp_path / "taken.mcap").write_bytes(b"")
+    refused = _sweep(tmp_path, text, "--out", str(tmp_path / "taken.mcap"), "--no-plot")
+    assert refused.returncode == 2 and refused.stdout == "", refused.stdout
+    assert "--out " in refused.stderr and "taken.mcap is a file: a sweep's results go in a folder" in refused.stderr

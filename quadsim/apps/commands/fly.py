@@ -194,4 +194,4 @@ def _report(flown: float, recordings: list, lost: str | None, finals: Sequence[s
         finished = "; the recording is finished" if recordings else ""
         print(f"the window's display was lost ({lost}){finished}", file=sys.stderr)
         return EXIT_DISPLAY_LOST
-    return stopped_by_signal("; the recording is finished and readable") or 0
+    return stopped_by_signal("; the recording is finished and readable" if recordings else "") or 0

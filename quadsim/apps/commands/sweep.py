@@ -83,7 +83,11 @@ def main(args: argparse.Namespace) -> int:
     jobs = args.jobs if args.jobs is not None else default_jobs()
     _check_where(args, jobs)
     out = args.out if args.out is not None else default_recordings_dir() / "sweeps" / spec.name
+    if out.exists() and not out.is_dir():
+        raise QuadsimError(f"--out {out} is a file: a sweep's results go in a folder")
     use_ray = args.ray is not None
+    if not use_ray:  # a worker beyond one per run would only start and stop (--jobs 1000: 654 processes)
+        jobs = min(jobs, len(spec.runs))
     where = (
         f"Ray ({'local, ' + str(jobs) + ' CPUs' if args.ray == 'local' else args.ray})"
         if use_ray
