@@ -308,10 +308,14 @@ def _floats(text: str | None, count: int, where: str) -> tuple[float, ...]:
     try:
         values = tuple(float(v) for v in (text or "").split())
     except ValueError:
-        raise ConfigError(f"{where}: expected {count} numbers, got {text!r}") from None
+        raise ConfigError(f"{where}: expected {_numbers(count)}, got {text!r}") from None
     if len(values) != count or not all(math.isfinite(v) for v in values):
-        raise ConfigError(f"{where}: expected {count} finite numbers, got {text!r}")
+        raise ConfigError(f"{where}: expected {_numbers(count, 'finite ')}, got {text!r}")
     return values
+
+
+def _numbers(count: int, kind: str = "") -> str:
+    return f"{count} {kind}number{'s' * (count != 1)}"
 
 
 def _origin(elem: ET.Element | None, where: str) -> tuple[Vec3, Mat3]:

@@ -48,6 +48,8 @@ from tests.helpers import ROOT
             r"controllers.c.gains.altitude_p_per_s = -1: expected a number >= 0",
         ),
         ('scenarios = ["hover"]\n[limits]\nwobble = 3', "limits.wobble: no such metric"),
+        ('scenarios = ["hover"]\n[limits]\nwind = ["fast"]', "limits.wind: no such metric"),
+        ('scenarios = ["hover"]\n[limits]\ncrashes = -1', "limits.crashes = -1: a limit is the highest value allowed"),
         ('scenarios = ["hover"', "not valid TOML"),
     ],
 )

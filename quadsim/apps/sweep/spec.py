@@ -257,7 +257,6 @@ def load_sweep(path: Path) -> SweepSpec:
     limits = _limits(data, where)
     runs, sim_s = _runs(axes, seeds, duration, lengths_s, where)
     runs = tuple(replace(run, scenario_digest=digests[run.scenario]) for run in runs)
-    _check_limit_names(limits, where)
     varied = tuple(k for k, values in axes.items() if len(values) > 1)
     return SweepSpec(name.strip(), path, runs, limits, varied, sim_s)
 
@@ -361,13 +360,16 @@ def _limits(data: dict[str, Any], where: str) -> dict[str, float]:
     limits = data.get("limits", {})
     if not isinstance(limits, dict):
         raise ConfigError(f"{where}: [limits] must be a table of metric = highest allowed value")
+    _check_limit_names(limits, where)
     for k, v in limits.items():
         if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
             raise ConfigError(f"{where}: limits.{k} must be a finite number, got {_short(v)}")
+        if v < 0:  # every metric is 0 or more: every run would fail
+            raise ConfigError(f"{where}: limits.{k} = {v:g}: a limit is the highest value allowed, 0 or more")
     return {k: float(v) for k, v in limits.items()}
 
 
-def _check_limit_names(limits: dict[str, float], where: str) -> None:
+def _check_limit_names(limits: dict[str, Any], where: str) -> None:
     from quadsim.apps.sweep.metrics import METRICS
 
     for k in limits:
