@@ -14,8 +14,11 @@ client advertisements and message data itself and hands them to a `ClientInput`,
 channel to that one client.
 
 Bounds, whatever a client sends: a frame over MAX_FRAME_BYTES closes its connection (1009, before
-the frame is read); at most MAX_FRAMES_PER_S frames a second are read from a client (past that
-the front stops reading and TCP slows the sender); at most MAX_CLIENT_CHANNELS advertised channels
+the frame is read); at most MAX_FRAMES_PER_S frames a second are taken from a client (past that,
+the rest of that second's are dropped: a Twist is stale once a newer one came, and the front once
+read them more slowly, so that a flood's backlog flew commands seconds after the client stopped or
+left), and a client sending over CLOSE_AT_FRAMES_PER_S in a second is closed (1008: reading that
+many costs a core); at most MAX_CLIENT_CHANNELS advertised channels
 and MAX_NAME_CHARS in a name; at most MAX_CLIENTS connections. Problems go to that client as a
 status message, at most one a second, and to the log at most one line every LOG_EVERY_S seconds
 for all clients together.
@@ -57,6 +60,7 @@ SUBPROTOCOLS = (SDK_SUBPROTOCOL, "foxglove.websocket.v1")
 
 MAX_FRAME_BYTES = 256 * 1024  # a Twist is 52 bytes in CDR; a subscription to 100 channels ~5 KB
 MAX_FRAMES_PER_S = 1000  # the Teleop panel publishes at 10-20 Hz, a joystick node at 50 Hz; ~5 % of a core
+CLOSE_AT_FRAMES_PER_S = 10 * MAX_FRAMES_PER_S
 MAX_CLIENT_CHANNELS = 16
 MAX_NAME_CHARS = 256
 MAX_CLIENTS = 16
@@ -273,16 +277,21 @@ class FoxgloveFront:
 
     async def _upstream(self, ws: ServerConnection, upstream: Any, client: FrontClient) -> None:
         """The client's frames: requests the SDK answers go on, what it publishes goes to
-        `inputs`, the rest is refused with a status; never more than MAX_FRAMES_PER_S a second."""
+        `inputs`, the rest is refused with a status; never more than MAX_FRAMES_PER_S a second
+        (the rest of that second's dropped), and a flood past CLOSE_AT_FRAMES_PER_S is closed."""
         window_s, frames = time.monotonic(), 0
         async for frame in ws:
             frames += 1
             if frames > MAX_FRAMES_PER_S:
                 now = time.monotonic()
-                if now - window_s < 1.0:
-                    client.tell(f"over {MAX_FRAMES_PER_S} messages a second: the server reads them more slowly")
-                    await asyncio.sleep(1.0 - (now - window_s))
-                window_s, frames = time.monotonic(), 1
+                if now - window_s >= 1.0:
+                    window_s, frames = now, 1
+                elif frames > CLOSE_AT_FRAMES_PER_S:
+                    await ws.close(1008, f"over {CLOSE_AT_FRAMES_PER_S} messages a second")
+                    return
+                else:
+                    client.tell(f"over {MAX_FRAMES_PER_S} messages a second: the rest of this second's are dropped")
+                    continue
             try:
                 forward = self._text(client, frame) if isinstance(frame, str) else self._binary(client, frame)
             except Exception as exc:  # a case the checks above missed: that client is told, the server goes on

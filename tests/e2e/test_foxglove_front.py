@@ -6,6 +6,7 @@ without the front's mend (the npm client met it once in a CI run on a loaded mac
 from __future__ import annotations
 
 import asyncio
+import contextlib
 import json
 import struct
 from typing import Any
@@ -145,3 +146,54 @@ def test_a_place_is_taken_when_a_connection_is_admitted_not_when_its_handler_sta
         assert front._admit(_Handshaking(), request) == 503  # type: ignore[arg-type]
     finally:
         front.close()
+
+
+class _Counting(_NoInput):
+    def __init__(self) -> None:
+        self.taken = 0
+
+    def received(self, client: Any, channel_id: int, data: bytes) -> None:
+        self.taken += 1
+
+
+async def _silent_sdk(ws: ServerConnection) -> None:
+    async for _ in ws:
+        pass
+
+
+async def _flood(frames: int) -> tuple[int, int | None]:
+    """A client that sends `frames` Twists as fast as it can, then leaves: how many the front
+    handed on, and the close code it was given (None: it closed itself)."""
+    async with serve(_silent_sdk, "127.0.0.1", 0, subprotocols=[SDK_SUBPROTOCOL]) as sdk:  # type: ignore[list-item]
+        counting = _Counting()
+        front = FoxgloveFront("127.0.0.1", 0, sdk.sockets[0].getsockname()[1], counting)
+        code = None
+        try:
+            async with connect(f"ws://127.0.0.1:{front.port}", subprotocols=["foxglove.websocket.v1"]) as ws:  # type: ignore[list-item]
+                channel = {
+                    "id": 7,
+                    "topic": "/quad_cmd_twist",
+                    "encoding": "json",
+                    "schemaName": "geometry_msgs/msg/Twist",
+                }
+                await ws.send(json.dumps({"op": "advertise", "channels": [channel]}))
+                twist = struct.pack("<BI", 1, 7) + b'{"linear": {"x": -0.5}}'
+                for _ in range(frames):
+                    await ws.send(twist)
+                with contextlib.suppress(TimeoutError):  # until the front has read them all
+                    await asyncio.wait_for(ws.wait_closed(), 3.0)
+                code = ws.close_code
+        finally:
+            await asyncio.to_thread(front.close)
+    return counting.taken, code
+
+
+def test_a_flood_is_cut_to_the_seconds_limit_not_flown_late_and_past_ten_times_it_closed() -> None:
+    """A client sending 3,000 Twists at once had them read at 1,000 a second: the vehicle flew
+    them for seconds after it had stopped and left. The rest of the second's are dropped now."""
+    from quadsim.live.foxglove_front import CLOSE_AT_FRAMES_PER_S, MAX_FRAMES_PER_S
+
+    taken, code = asyncio.run(_flood(3000))
+    assert 0 < taken <= 2 * MAX_FRAMES_PER_S and code is None, (taken, code)  # 3,000 sent within 1-2 s
+    taken, code = asyncio.run(_flood(CLOSE_AT_FRAMES_PER_S + 2000))
+    assert code == 1008 and taken <= CLOSE_AT_FRAMES_PER_S, (taken, code)
