@@ -332,8 +332,13 @@ class Ros2Bridge:
         )
         if latched is None:
             return self._Qos(reliability, Policy.History.KeepLast(depth))
-        durability = Policy.Durability.TransientLocal if latched else Policy.Durability.Volatile
-        return self._Qos(reliability, Policy.History.KeepLast(depth), durability)
+        if not latched:
+            return self._Qos(reliability, Policy.History.KeepLast(depth), Policy.Durability.Volatile)
+        # what a node started later gets is kept by the durability service, whose history is its
+        # own (Cyclone's default: the last 1): the same depth, as rmw_cyclonedds sets it
+        unlimited = -1
+        kept = Policy.DurabilityService(0, Policy.History.KeepLast(depth), unlimited, unlimited, unlimited)
+        return self._Qos(reliability, Policy.History.KeepLast(depth), Policy.Durability.TransientLocal, kept)
 
     def _announce(self) -> None:
         """Publish this participant's node and its endpoints (after each new endpoint).

@@ -219,3 +219,37 @@ def test_goal_publishers_are_said_when_heard_and_a_best_effort_one_is_warned_abo
         "a publisher on /move_base_simple/goal is not heard: its QoS does not match this reader's "
         "(reliable, keep last; publish reliably, as ROS 2 does by default)"
     ]
+
+
+def test_a_node_started_later_gets_every_rosout_message_so_far() -> None:
+    """/rosout is transient-local with depth 1000, but a node that joined late got only the last
+    message: Cyclone keeps what late joiners get in its durability service, whose history was
+    its default, the last 1."""
+    from cyclonedds.core import Policy, Qos
+    from cyclonedds.domain import DomainParticipant
+    from cyclonedds.sub import DataReader
+    from cyclonedds.topic import Topic
+
+    from quadsim.live.ros2 import Ros2Bridge
+    from quadsim.recording.fanout import TopicFanout
+
+    domain = free_domain(8)
+    fanout = TopicFanout(240)
+    with Ros2Bridge(env=local_env(domain)) as bridge:
+        fanout.add_consumer(bridge)
+        for step, (kind, value) in enumerate((("recording", "started"), ("takeoff", "at 0.05 m"), ("goal", "x=1"))):
+            fanout.note_event(step * 240, kind, value)
+        participant = DomainParticipant(domain)  # the late node, as rclpy's /rosout subscription asks
+        topic = Topic(participant, "rt/rosout", idl_type("rcl_interfaces/msg/Log"))
+        qos = Qos(
+            Policy.Reliability.Reliable(max_blocking_time=0),
+            Policy.History.KeepLast(1000),
+            Policy.Durability.TransientLocal,
+        )
+        reader = DataReader(participant, topic, qos=qos)
+        got: list[str] = []
+        deadline = time.monotonic() + 10.0
+        while len(got) < 3 and time.monotonic() < deadline:  # discovery, then the history
+            got += [m.msg for m in reader.take(100)]
+            time.sleep(0.05)
+    assert got == ["recording: started", "takeoff: at 0.05 m", "goal: x=1"], got
