@@ -427,7 +427,12 @@ class Ros2Bridge:
         vehicle's /NAME/quad_cmd_twist), as they arrive."""
 
         def on_sample(twist: Any) -> None:
-            driver.deliver((twist.linear.x, twist.linear.y, twist.linear.z), twist.angular.z)
+            taken = driver.deliver((twist.linear.x, twist.linear.y, twist.linear.z), twist.angular.z)
+            if not taken and driver.rejected == 1:  # once: the summary counts the rest
+                log.warning(
+                    "a Twist on %s with a field that is not finite is ignored (the summary counts any more)",
+                    driver.heard_on,
+                )
             if on_twist is not None:
                 on_twist()
 
@@ -444,11 +449,14 @@ class Ros2Bridge:
         each time the number of goal publishers heard on a topic changes; a publisher that cannot
         be heard (best effort) is warned about once per topic."""
 
-        def on_sample(goal: Any) -> None:
-            p, q = goal.pose.position, goal.pose.orientation
-            why = driver.deliver_goal(goal.header.frame_id, (p.x, p.y, p.z), (q.x, q.y, q.z, q.w))
-            if why is not None and driver.goals_rejected == 1:
-                log.warning("a goal for %s is ignored: %s (the summary counts any more)", driver.topic, why)
+        def taker(name: str) -> Callable[[Any], None]:
+            def on_sample(goal: Any) -> None:
+                p, q = goal.pose.position, goal.pose.orientation
+                why = driver.deliver_goal(goal.header.frame_id, (p.x, p.y, p.z), (q.x, q.y, q.z, q.w))
+                if why is not None and driver.goals_rejected == 1:
+                    log.warning("a goal on %s is ignored: %s (the summary counts any more)", name, why)
+
+            return on_sample
 
         for topic in driver.goal_topics:
             # reliable: a goal comes once (RViz publishes one per click), and a best-effort reader
@@ -456,7 +464,7 @@ class Ros2Bridge:
             # writer is lost all the same (DDS gives a volatile reader only what is written after
             # the match): `on_publishers` says when a publisher is heard.
             name = self.graph_name(topic)
-            self._read(name, "geometry_msgs/msg/PoseStamped", 1, on_sample, reliable=True, heard=on_publishers)
+            self._read(name, "geometry_msgs/msg/PoseStamped", 1, taker(name), reliable=True, heard=on_publishers)
 
     def _read(
         self,

@@ -253,3 +253,36 @@ def test_a_node_started_later_gets_every_rosout_message_so_far() -> None:
             got += [m.msg for m in reader.take(100)]
             time.sleep(0.05)
     assert got == ["recording: started", "takeoff: at 0.05 m", "goal: x=1"], got
+
+
+def test_a_twist_that_is_not_finite_is_warned_about_once(caplog) -> None:
+    """The bridge dropped what the driver refused without a word (Foxglove's client is told;
+    command-semantics.md says a warning is logged once); the summary counted them."""
+    import math
+
+    from cyclonedds.core import Policy, Qos
+    from cyclonedds.domain import DomainParticipant
+    from cyclonedds.pub import DataWriter
+    from cyclonedds.topic import Topic
+
+    from quadsim.drivers.subscribed import SubscribedDriver
+    from quadsim.live.ros2 import Ros2Bridge
+
+    domain = free_domain(9)
+    driver = SubscribedDriver("ros2")
+    kind = idl_type("geometry_msgs/msg/Twist")
+    vector = idl_type("geometry_msgs/msg/Vector3")
+    with Ros2Bridge(env=local_env(domain)) as bridge:
+        bridge.subscribe_twist(driver)
+        participant = DomainParticipant(domain)  # the user's node
+        topic = Topic(participant, "rt/quad_cmd_twist", kind)
+        writer = DataWriter(participant, topic, qos=Qos(Policy.Reliability.Reliable(max_blocking_time=10**9)))
+        deadline = time.monotonic() + 10.0
+        while driver.rejected < 3 and time.monotonic() < deadline:  # until matched and three taken
+            writer.write(kind(linear=vector(math.nan, 0.0, 0.0), angular=vector(0.0, 0.0, 0.0)))
+            time.sleep(0.05)
+    said = [r.getMessage() for r in caplog.records if "not finite" in r.getMessage()]
+    assert driver.rejected >= 3 and driver.received == 0
+    assert said == [
+        "a Twist on /quad_cmd_twist with a field that is not finite is ignored (the summary counts any more)"
+    ]
