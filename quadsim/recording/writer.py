@@ -22,7 +22,7 @@ import os
 import re
 import shutil
 import time
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from functools import cache
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, BinaryIO
@@ -182,20 +182,28 @@ MAX_FRAME_WAIT_NS = 500_000_000
 class _LogTimeOrder:
     """Puts messages from producers that run at different delays back in log-time order.
 
-    Frames come in capture order, from the render workers, a few camera periods after the states
-    of their time. Everything else is held until a frame at least as late has come, or until
-    `max_hold_ns` of newer messages have piled up (frames stop: a window dropping them on a busy
-    machine); a frame older than what was written by then is left out and counted in `late`.
-    Frames from before `start_ns` (rendered before recording began) are left out.
+    Each vehicle's frames come in capture order, from its render workers, a few camera periods
+    after the states of their time; a fleet's vehicles each at their own pace. Everything else is
+    held until every vehicle's frames have come at least as far, or until `max_hold_ns` of newer
+    messages have piled up (frames stop: a window dropping them on a busy machine); a frame older
+    than what was written by then is left out and counted in `late`. Frames from before
+    `start_ns` (rendered before recording began) are left out.
+
+    `camera_topics`: the topics of frames, each with the vehicle whose pipeline delivers it (a
+    set: one vehicle's). One vehicle's frames once let everything up to them be written, so a
+    fleet's second vehicle with cameras found its frames already passed: nearly all left out.
     """
 
-    def __init__(self, camera_topics: set[str], start_ns: int, max_hold_ns: int = MAX_FRAME_WAIT_NS) -> None:
-        self._camera_topics = camera_topics
+    def __init__(
+        self, camera_topics: Mapping[str, str] | set[str], start_ns: int, max_hold_ns: int = MAX_FRAME_WAIT_NS
+    ) -> None:
+        self._producer = dict(camera_topics) if isinstance(camera_topics, Mapping) else dict.fromkeys(camera_topics, "")
         self._start_ns = start_ns
         self._max_hold_ns = max_hold_ns
         self._held: list[tuple[int, int, Message]] = []  # heap of (log time, arrival, message)
         self._arrivals = 0
-        self._frames_up_to = -1  # every frame up to this log time is in
+        #: how far each vehicle's frames have come: every one of its frames up to this log time is in
+        self._frames_up_to = dict.fromkeys(self._producer.values(), -1)
         self._newest = 0
         self._released_to = -1  # every message up to this log time has been handed on
         self.late = 0  # frames that came after their time was written: left out
@@ -203,19 +211,20 @@ class _LogTimeOrder:
     def push(self, messages: Sequence[Message]) -> list[Message]:
         for message in messages:
             topic, ns, _ = message
-            if topic.name in self._camera_topics:
+            producer = self._producer.get(topic.name)
+            if producer is not None:
                 if ns < self._start_ns:
                     continue
                 if ns < self._released_to:
                     self.late += 1
                     continue
-                if ns > self._frames_up_to:
-                    self._frames_up_to = ns
+                if ns > self._frames_up_to[producer]:
+                    self._frames_up_to[producer] = ns
             heapq.heappush(self._held, (ns, self._arrivals, message))
             self._arrivals += 1
             if ns > self._newest:
                 self._newest = ns
-        release_to = max(self._frames_up_to, self._newest - self._max_hold_ns)
+        release_to = max(min(self._frames_up_to.values()), self._newest - self._max_hold_ns)
         out = []
         held = self._held
         while held and held[0][0] <= release_to:
@@ -261,12 +270,15 @@ def route_sdk_logs_through_python() -> None:
             root.removeHandler(stand_in)
 
 
-def _camera_topics(description: RunDescription) -> set[str]:
+def _camera_topics(description: RunDescription) -> dict[str, str]:
     """The topics of the run's camera frames, depth and segmentation included (of each fleet
-    vehicle's, under its name)."""
+    vehicle's, under its name), each with the name of the vehicle whose cameras they are."""
     runs = description.fleet or (("", description),)
     return {
-        Names(name).topic(topic).name for name, d in runs for spec in d.cameras for topic in frame_topics(spec).values()
+        Names(name).topic(topic).name: name
+        for name, d in runs
+        for spec in d.cameras
+        for topic in frame_topics(spec).values()
     }
 
 
