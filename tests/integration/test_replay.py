@@ -380,3 +380,32 @@ def test_replay_ros2_without_cyclone_says_so_before_the_summary(monkeypatch, cap
     code, out, err = run_cli(capsys, "replay", str(recording), "--headless", "--ros2")
     assert_one_line_error(code, err, "ros2")
     assert "duration" not in out  # said first, not after the summary
+
+
+def test_a_recording_started_part_way_plays_from_where_it_starts(tmp_path):
+    """A file started with F5 after 3 minutes played from 0 s: 88 % of its timeline showed no
+    image, no command and the vehicle at the origin before the flight."""
+    from quadsim import Simulator, Twist, record
+
+    out = tmp_path / "part_way.mcap"
+    with Simulator(SimConfig(z_mode=ZMode.VELOCITY)) as sim:
+        sim.send(Twist(linear_z=1.0))
+        sim.step(480)  # 2 s before the recording starts
+        with record(sim, out):
+            sim.step(480)
+    flight = load_flight(out)
+    start, end = flight.start_ns, flight.end_ns
+    assert start == pytest.approx(2e9, abs=1e7) and end == pytest.approx(4e9, abs=2e7)
+    app = ReplayApp(flight, (960, 540), frame_s=0.1)
+    assert app.t_ns == start and app.model().state is not None and app.model().state.position_m[2] > 0.5
+    app.run(max_frames=5)
+    assert app.t_ns == pytest.approx(start + 0.5e9, abs=1e6)
+    assert app.model().timeline == pytest.approx((app.t_ns / 1e9, start / 1e9, end / 1e9))
+    bar = app.view.layout(app.screen.get_size())["timeline"]
+    pygame.event.post(pygame.event.Event(pygame.MOUSEBUTTONDOWN, button=1, pos=(bar.x + bar.width // 4, bar.centery)))
+    app.run(max_frames=6)
+    assert app.t_ns / 1e9 == pytest.approx((start + 0.25 * (end - start) + 0.1e9) / 1e9, abs=0.05)  # and a frame
+    key(pygame.K_HOME)
+    app.run(max_frames=7)
+    assert app.t_ns == pytest.approx(start + 0.1e9, abs=1e6)  # from the start, and played a frame
+    app.close()

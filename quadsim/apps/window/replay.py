@@ -61,7 +61,9 @@ class ReplayApp(Window):
         #: the world the recording was flown in, or an empty one
         self.world = recorded_world(flight) or WorldSpec(Path("none.toml"), FloorSpec(80.0, None, 4.0, 0.9), ())
         self.view = TeleopView()
-        self.t_ns = 0
+        #: where the file starts: later than 0 for one recorded from part-way (F5, a reset)
+        self.start_ns = flight.start_ns
+        self.t_ns = self.start_ns
         self.end_ns = max(flight.end_ns, flight.state_ns[-1] if flight.state_ns else 0)
         self.playing = True
         self.speed = min(SPEEDS, key=lambda s: abs(s - speed))
@@ -89,7 +91,7 @@ class ReplayApp(Window):
             pygame.K_PERIOD: lambda: self.step_state(+1),
             pygame.K_COMMA: lambda: self.step_state(-1),
             pygame.K_l: lambda: setattr(self, "loop", not self.loop),
-            pygame.K_HOME: lambda: self.seek(0.0),
+            pygame.K_HOME: lambda: self.seek(self.start_ns / NS),
             pygame.K_END: lambda: self.seek(self.end_ns / NS),
             pygame.K_h: self.toggle_help,
             pygame.K_F1: self.toggle_help,
@@ -104,7 +106,7 @@ class ReplayApp(Window):
     # --- control ----------------------------------------------------------------------------
 
     def seek(self, t_s: float) -> None:
-        self.t_ns = int(clamp(t_s * NS, 0.0, self.end_ns))
+        self.t_ns = int(clamp(t_s * NS, self.start_ns, self.end_ns))
 
     def step_state(self, direction: int) -> None:
         self.playing = False
@@ -130,13 +132,14 @@ class ReplayApp(Window):
         elif event.type == pygame.MOUSEBUTTONDOWN and event.button == 1:
             bar = self.view.layout(self.screen.get_size())["timeline"].inflate(0, 16)
             if bar.collidepoint(event.pos):
-                self.seek((event.pos[0] - bar.x) / bar.width * self.end_ns / NS)
+                part = (event.pos[0] - bar.x) / bar.width
+                self.seek((self.start_ns + part * (self.end_ns - self.start_ns)) / NS)
 
     def toggle_play(self) -> None:
         """Play or pause; played at the end, from the start."""
         self.playing = not self.playing
         if self.playing and self.t_ns >= self.end_ns:
-            self.t_ns = 0
+            self.t_ns = self.start_ns
 
     def faster(self, by: int) -> None:
         """`by` steps up SPEEDS (down, when negative), within it."""
@@ -185,8 +188,8 @@ class ReplayApp(Window):
             self.t_ns += self.pacer.steps_for_frame(self.t_ns)
             if self.t_ns >= self.end_ns:
                 if self.loop:
-                    self.t_ns = 0
-                    self.pacer.rebase(0, self.speed)
+                    self.t_ns = self.start_ns
+                    self.pacer.rebase(self.start_ns, self.speed)
                 else:
                     self.t_ns = self.end_ns
                     self.playing = False
@@ -204,8 +207,13 @@ class ReplayApp(Window):
 
     def model(self) -> ViewModel:
         f, t = self.flight, self.t_ns
-        state = f.state_at(t) or VehicleState(
-            0, (0.0, 0.0, 0.0), (0.0, 0.0, 0.0, 1.0), (0.0, 0.0, 0.0), (0.0, 0.0, 0.0), (0.0,) * 4, (0.0, 0.0, 0.0)
+        # before its first state (a file started part-way begins a few ms before one): that state
+        state = (
+            f.state_at(t)
+            or (f.states[0] if f.states else None)
+            or VehicleState(
+                0, (0.0, 0.0, 0.0), (0.0, 0.0, 0.0, 1.0), (0.0, 0.0, 0.0), (0.0, 0.0, 0.0), (0.0,) * 4, (0.0, 0.0, 0.0)
+            )
         )
         command = f.command_at(t)
         frames = {}
@@ -248,7 +256,7 @@ class ReplayApp(Window):
             show_help=self.show_help,
             warnings=warnings,
             playback=f"{state_word} {self.speed:g}x{'  loop' if self.loop else ''}   {f.path.name}",
-            timeline=(t / NS, self.end_ns / NS),
+            timeline=(t / NS, self.start_ns / NS, self.end_ns / NS),
             others=[
                 (name, s.position_m[:2], s.yaw_rad(), track)
                 for name, (other, track) in self.others.items()

@@ -52,7 +52,7 @@ class ViewModel:
     camera_rate_hz: int = 0  # the rate the cameras were asked for
     camera_dropped: int = 0  # captures dropped so far, every render worker busy
     playback: str | None = None  # replay: shown instead of the recording state
-    timeline: tuple[float, float] | None = None  # replay: (time, duration) s, drawn as a clickable bar
+    timeline: tuple[float, float, float] | None = None  # replay: (time, start, end) s, drawn as a clickable bar
     phase: str = ""  # landed / flying (empty: not known, as in replay)
     flight_event: str = ""  # the last flight event (take-off, touchdown, landed, crash, reset), while shown
     flight_alert: bool = False  # that event is a crash
@@ -235,13 +235,14 @@ class TeleopView:
         for i, (text, color) in enumerate(lines):
             self._text(surface, text, (rect.x + 12, rect.y + 10 + 20 * i), color)
 
-    def _timeline(self, surface: pygame.Surface, rect: pygame.Rect, t: float, duration: float) -> None:
+    def _timeline(self, surface: pygame.Surface, rect: pygame.Rect, t: float, start: float, end: float) -> None:
         pygame.draw.rect(surface, (20, 20, 24), rect.inflate(4, 4))
         done = rect.copy()
-        done.width = int(rect.width * (t / duration if duration > 0 else 0.0))
+        done.width = int(rect.width * ((t - start) / (end - start) if end > start else 0.0))
         pygame.draw.rect(surface, (90, 160, 240), done)
         pygame.draw.rect(surface, (200, 200, 210), rect, 1)
-        self._text(surface, f"{t:6.2f} / {duration:.2f} s", (rect.x, rect.y - 20), TEXT, backed=True)
+        span = f"{t:6.2f} / {end:.2f} s" if start == 0 else f"{t:6.2f} s ({start:.2f} .. {end:.2f})"
+        self._text(surface, span, (rect.x, rect.y - 20), TEXT, backed=True)
 
     def _help(self, surface: pygame.Surface, lines: list[str]) -> None:
         w, h = surface.get_size()
