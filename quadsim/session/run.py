@@ -68,6 +68,7 @@ class Run:
             self._close_fleet()
             raise
         self._start_step = self.fleet.step_count
+        self._flown_before_s = 0.0  # simulated time flown before the last reset
         self._switches = sorted(plan.z_switches, key=lambda s: s[0])
         self.wall_s = 0.0  # wall time spent stepping
         self.stopped_early = False
@@ -93,6 +94,13 @@ class Run:
             self.switch_z_mode(name, mode)
         if target > fleet.step_count:
             fleet.step(target - fleet.step_count)
+
+    def reset(self) -> None:
+        """Every vehicle back to the start (the window's Backspace); the summaries' camera rates
+        still count what was flown before (they divided every frame by the time since the reset)."""
+        self._flown_before_s += (self.fleet.step_count - self._start_step) / self.fleet.config.rates.physics_hz
+        self.fleet.reset()
+        self._start_step = self.fleet.step_count
 
     def switch_z_mode(self, name: str, mode: ZMode) -> None:
         """Vehicle `name` reads linear.z in `mode` from now on; the recording keeps the switch
@@ -140,7 +148,7 @@ class Run:
     def summaries(self) -> dict[str, RunSummary]:
         """What each vehicle did so far, by name (with what its cameras delivered)."""
         hz = self.fleet.config.rates.physics_hz
-        flown_s = (self.fleet.step_count - self._start_step) / hz
+        flown_s = self._flown_before_s + (self.fleet.step_count - self._start_step) / hz
         pipelines = self.outputs.pipelines
         return {
             name: odometer.summary(

@@ -4,6 +4,7 @@ vehicle (`fly`) or one vehicle of a fleet among the others (`fly --fleet`).
 Its integration tests (several layers, in-process or one process started); the others are in tests/e2e/test_teleop.py."""
 
 import math
+import re
 from pathlib import Path
 
 import pygame
@@ -421,3 +422,16 @@ def test_the_start_up_lines_are_not_drawn_on_a_lost_display():
         assert screen.get_at((0, 0))[:3] == (18, 20, 26)
     finally:
         pygame.display.quit()
+
+
+def test_the_camera_rates_after_a_reset_count_every_frame_over_every_second_flown(tmp_path):
+    """After Backspace the summary divided every frame of the session by the time since the reset:
+    'front 272.5 of 30 Hz'."""
+    from quadsim.sensors.camera import default_cameras
+
+    app = make_app(tmp_path, cameras=default_cameras(160, 120, 30))
+    run_with(app, 60, {30: [lambda: key(pygame.K_BACKSPACE)]})  # 1 s before the reset, 1 s after
+    line = app.session.summaries()[""].cameras
+    app.close()
+    rates = [float(r) for r in re.findall(r"(\d+\.\d) of 30 Hz", line)]
+    assert len(rates) == 2 and all(25.0 < r <= 31.0 for r in rates), line

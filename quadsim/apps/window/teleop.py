@@ -506,7 +506,7 @@ class TeleopApp(Window):
         was_recording = outputs.recording
         if was_recording:
             outputs.stop_recording()
-        self.session.fleet.reset()
+        self.session.reset()
         for track in self.crew.tracks.values():
             track.points.clear()
         self.keyboard.reset()
