@@ -21,7 +21,7 @@ from quadsim.session.outputs import OutputOptions
 from quadsim.session.pacing import FixedStepPacer
 from quadsim.session.resim import resimulate
 from quadsim.sim.fleet_file import load_fleet_file
-from tests.helpers.fleets import WINDOW_FLEET, under
+from tests.helpers.fleets import WINDOW_FLEET, fleet_toml, under, vehicle
 from tests.helpers.mcap import topic_messages
 
 FPS = 30  # each frame advances 1/30 s of simulation time
@@ -273,6 +273,27 @@ def test_speed_keys_and_teleop_twist_layout(tmp_path):
     assert app.sim.gate.last_command.linear_x == pytest.approx(1.1)
     run_with(app, 5, {0: [lambda: key(pygame.K_k)]})  # k: stop
     assert app.sim.gate.last_command.linear_x == 0.0
+    # H strafes in this layout: the HUD, the help and the terminal name F1 alone (they said H/F1)
+    assert app.help_keys == "F1" and app._help_lines()[-1] == "F1         this help"
+    assert all(not line.startswith("H, F1") for line in app._help_lines())
+    app.close()
+
+
+def test_the_hud_wraps_a_long_line_within_its_box_and_says_no_negative_zero(tmp_path):
+    """At 800x600 long HUD lines ran over the floor camera's pane and off the window's edge;
+    a vehicle at rest said 'climb -0.00 m/s'."""
+    from quadsim.apps.window.view import _signed
+
+    app = make_app(tmp_path, options=TeleopOptions(window_size=(800, 600)))
+    run_with(app, 5)
+    app._say("a notice long enough to run past the HUD's right edge at this size of window, " * 2)
+    run_with(app, 1)
+    hud = app.view.layout(app.screen.get_size())["front"]
+    pixels = pygame.surfarray.array3d(app.screen).swapaxes(0, 1)
+    floor = app.view.layout(app.screen.get_size())["floor"]
+    green = (pixels[..., 1] > 180) & (pixels[..., 0] < 150)  # the notice's colour (OK)
+    assert green[:, : hud.right].any() and not green[floor.top : floor.bottom, floor.left :].any()
+    assert [_signed(-0.001), _signed(-0.04, 1), _signed(-1.5)] == ["+0.00", "+0.0", "-1.50"]
     app.close()
 
 
@@ -331,6 +352,12 @@ def test_without_cameras_the_panes_say_the_cameras_are_off(tmp_path, monkeypatch
     run_with(app, 2)
     app.close()
     assert said == {"front camera": "cameras off (--cameras none)", "floor camera": "cameras off (--cameras none)"}
+    # a fleet whose file gives no vehicle cameras: no option was given, so none is named
+    said.clear()
+    app = fleet_app(tmp_path, fleet_toml(vehicle("alpha", (0.0, 0.0, 0.0, 0.0), input="keyboard")))
+    run_with(app, 2)
+    app.close()
+    assert set(said.values()) == {"no vehicle of this fleet has cameras"}, said
 
 
 def test_input_foxglove_flies_the_delivered_twists_and_ignores_the_keyboard(tmp_path: Path) -> None:

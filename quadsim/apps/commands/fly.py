@@ -151,7 +151,8 @@ def _fly_window(
                 )
             else:
                 what = f"{app.fleet.flown} of the fleet " if app.fleet is not None else ""
-                print(f"flying {what}with {app.driver.name}; press H or F1 in the window for the keys, Esc to quit")
+                keys = app.help_keys.replace("/", " or ")
+                print(f"flying {what}with {app.driver.name}; press {keys} in the window for the keys, Esc to quit")
             try:
                 app.run(stop=stop_requested)  # a signal ends the window loop at its next frame
             finally:

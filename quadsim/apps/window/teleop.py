@@ -71,6 +71,8 @@ APP_KEYS = [
     "V          depth images in place of the cameras' (--camera-depth) on / off",
     "H, F1      this help",
 ]
+#: APP_KEYS' help line where the layout flies with H (teleop_twist_keyboard strafes with it)
+F1_HELP = "F1         this help"
 
 
 @dataclass(frozen=True)
@@ -316,6 +318,8 @@ class TeleopApp(Window):
         help_keys = [pygame.K_F1] + (
             [pygame.K_h] if pygame.K_h not in {b.key for b in self.keyboard.layout.bindings} else []
         )
+        #: what shows the help, as the HUD and the terminal say it
+        self.help_keys = "H/F1" if pygame.K_h in help_keys else "F1"
         #: the window's own keys (APP_KEYS) and what they do; the others go to the input devices
         self._app_keys: dict[int, Callable[[], None]] = {
             pygame.K_ESCAPE: self.stop,
@@ -400,10 +404,11 @@ class TeleopApp(Window):
     def _help_lines(self) -> list[str]:
         """The flying keys (or the gamepad's sticks) of the vehicle flown, then the window's own
         keys (a watched fleet: the window's keys only, since nothing is flown)."""
+        app_keys = APP_KEYS if self.help_keys == "H/F1" else [*APP_KEYS[:-1], F1_HELP]
         if self.fleet is not None and not self.fleet.by_hand:
-            return APP_KEYS
+            return app_keys
         flying = self.joystick.help_lines() if self.driver is self.joystick else self.keyboard.layout.help_lines()
-        return [*flying, "", *APP_KEYS]
+        return [*flying, "", *app_keys]
 
     def _input_status(self) -> str:
         driver = self.driver
@@ -608,6 +613,8 @@ class TeleopApp(Window):
             track=list(self.track.points),
             world=self.sim.world,
             help_lines=self._help_lines(),
+            help_keys=self.help_keys,
+            no_cameras="no vehicle of this fleet has cameras" if self.fleet is not None else ViewModel.no_cameras,
             show_help=self.show_help,
             notice=self.notice,
             warnings=warnings,

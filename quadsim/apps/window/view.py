@@ -61,6 +61,8 @@ class ViewModel:
     cameras_of: str = ""  # a fleet: whose cameras are shown
     camera_names: frozenset[str] | None = None  # a fleet: the cameras that vehicle has (None: not said)
     flown_name: str = ""  # a fleet: the vehicle the HUD and the red arrow are (named on the map)
+    help_keys: str = "H/F1"  # what shows the help (F1 alone where the layout flies with H)
+    no_cameras: str = "cameras off (--cameras none)"  # what the panes say when no camera flies
 
 
 class TeleopView:
@@ -95,7 +97,7 @@ class TeleopView:
         for name in ("front", "floor"):
             absent = m.camera_names is not None and name not in m.camera_names
             if cameras_off:
-                empty = "cameras off (--cameras none)"
+                empty = m.no_cameras
             elif not absent:
                 empty = "no image yet"
             elif m.cameras_of:
@@ -196,15 +198,16 @@ class TeleopView:
             "holding (no command)"
             if m.command_held
             else (
-                f"x {c.linear_x:+.2f}  y {c.linear_y:+.2f}  {_z_text(c, m.z_mode)}  yaw {c.angular_z:+.2f}"
+                f"x {_signed(c.linear_x)}  y {_signed(c.linear_y)} m/s  {_z_text(c, m.z_mode)}  "
+                f"yaw {_signed(c.angular_z)} rad/s"
                 if m.armed
                 else "idle: no command yet"
             )
         )
         lines = [
             (
-                f"alt {s.position_m[2]:5.2f} m   speed {math.hypot(vx, vy):4.2f} m/s   climb {vz:+.2f} m/s   "
-                f"heading {math.degrees(s.yaw_rad()):+6.1f} deg",
+                f"alt {s.position_m[2]:5.2f} m   speed {math.hypot(vx, vy):4.2f} m/s   climb {_signed(vz)} m/s   "
+                f"heading {_signed(math.degrees(s.yaw_rad()), 1):>6} deg",
                 TEXT,
             ),
             (f"command  {cmd}", TEXT),
@@ -214,7 +217,10 @@ class TeleopView:
                 TEXT,
             ),
             (rec, ALERT if m.recording_error else (OK if m.recording_path or m.playback else WARN)),
-            (f"{m.fps:4.1f} fps   {m.real_time_factor:4.2f}x real time   sim {m.sim_time_s:7.2f} s   H/F1: help", TEXT),
+            (
+                f"{m.fps:4.1f} fps   {m.real_time_factor:4.2f}x real time   sim {m.sim_time_s:7.2f} s   {m.help_keys}: help",
+                TEXT,
+            ),
         ]
         if m.camera_rates:
             lines.append(_camera_hud_line(m))
@@ -227,6 +233,8 @@ class TeleopView:
             lines.append((m.flight_event, ALERT if m.flight_alert else OK))
         if m.notice:
             lines.append((m.notice, OK))
+        room = rect.width - 24  # a line longer than the HUD goes on below, not over the panes beside it
+        lines = [(part, color) for text, color in lines for part in self._wrapped(text, room)]
         height = 8 + 20 * len(lines)
         widest = max(self.font.size(text)[0] for text, _ in lines)
         panel = pygame.Surface((min(rect.width - 12, widest + 14), height), pygame.SRCALPHA)
@@ -234,6 +242,19 @@ class TeleopView:
         surface.blit(panel, (rect.x + 6, rect.y + 6))
         for i, (text, color) in enumerate(lines):
             self._text(surface, text, (rect.x + 12, rect.y + 10 + 20 * i), color)
+
+    def _wrapped(self, text: str, room: int) -> list[str]:
+        """`text` in lines at most `room` pixels wide, broken between words (the later ones indented)."""
+        if self.font.size(text)[0] <= room:
+            return [text]
+        lines, line = [], ""
+        for word in text.split(" "):
+            trial = f"{line} {word}" if line else word
+            if line and self.font.size(trial)[0] > room:
+                lines.append(line)
+                trial = f"    {word}"
+            line = trial
+        return [*lines, line]
 
     def _timeline(self, surface: pygame.Surface, rect: pygame.Rect, t: float, start: float, end: float) -> None:
         pygame.draw.rect(surface, (20, 20, 24), rect.inflate(4, 4))
@@ -281,7 +302,12 @@ def _z_text(command: Twist, z_mode: str) -> str:
     """linear.z as the HUD says it: a climb rate, or in height z-mode the altitude it wants."""
     if z_mode == "height":
         return f"alt wanted {HEIGHT_MODE_BASE_M + command.linear_z:.2f} m"
-    return f"z {command.linear_z:+.2f}"
+    return f"z {_signed(command.linear_z)} m/s"
+
+
+def _signed(value: float, digits: int = 2) -> str:
+    """`value` with its sign, never -0.00 (a value that rounds to zero is +0.00)."""
+    return f"{round(value, digits) + 0.0:+.{digits}f}"
 
 
 def _arrow(px, x: float, y: float, yaw: float) -> list[tuple[int, int]]:
@@ -300,6 +326,6 @@ def _camera_hud_line(m: ViewModel) -> tuple[str, tuple[int, int, int]]:
     return (
         f"cameras {achieved} of {m.camera_rate_hz} frames/s"
         + (f", {m.camera_dropped} dropped" if m.camera_dropped else "")
-        + ("  (the machine is busy: frames are dropped, the flight keeps real time)" if short else ""),
+        + ("  (busy: frames dropped" + ("" if m.lagging else " to keep real time") + ")" if short else ""),
         WARN if short else TEXT,
     )
