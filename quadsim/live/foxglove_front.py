@@ -365,6 +365,11 @@ class FoxgloveFront:
         handler is left pending to be destroyed, with a traceback, when the process ends."""
 
         async def stop() -> None:
+            for ws in list(self._admitted):  # a client that reads nothing holds its handler in a send (the
+                transport = ws.transport  # closing handshake waits behind it): cut off first, or it outlives the loop
+                if transport is not None and transport.get_write_buffer_size() > 0:
+                    transport.abort()
+            await asyncio.sleep(0)  # (their handlers see it)
             self._server.close()
             with contextlib.suppress(TimeoutError):
                 await asyncio.wait_for(self._server.wait_closed(), 2 * CLOSE_TIMEOUT_S)

@@ -119,6 +119,7 @@ class _Handshaking:
         from websockets.protocol import State
 
         self.state = State.CONNECTING
+        self.transport = None  # no connection made yet
 
     def respond(self, status: int, text: str) -> Any:
         return status
@@ -197,3 +198,31 @@ def test_a_flood_is_cut_to_the_seconds_limit_not_flown_late_and_past_ten_times_i
     assert 0 < taken <= 2 * MAX_FRAMES_PER_S and code is None, (taken, code)  # 3,000 sent within 1-2 s
     taken, code = asyncio.run(_flood(CLOSE_AT_FRAMES_PER_S + 2000))
     assert code == 1008 and taken <= CLOSE_AT_FRAMES_PER_S, (taken, code)
+
+
+async def _flooding_sdk(ws: ServerConnection) -> None:
+    with contextlib.suppress(Exception):  # until the front goes
+        while True:
+            await ws.send(b"\x01" + b"x" * 200_000)
+
+
+async def _closed_with_a_client_that_reads_nothing() -> list[asyncio.Task[Any]]:
+    async with serve(_flooding_sdk, "127.0.0.1", 0, subprotocols=[SDK_SUBPROTOCOL], close_timeout=0.5) as sdk:  # type: ignore[list-item]
+        front = FoxgloveFront("127.0.0.1", 0, sdk.sockets[0].getsockname()[1], _NoInput())
+        ws = await connect(f"ws://127.0.0.1:{front.port}", subprotocols=["foxglove.websocket.v1"], max_queue=1)  # type: ignore[list-item]
+        loop = asyncio.get_running_loop()
+        deadline = loop.time() + 10.0
+        while loop.time() < deadline and not any(  # until the front's sends to it pile up
+            c.transport.get_write_buffer_size() > 0 for c in list(front._admitted)
+        ):
+            await asyncio.sleep(0.05)
+        await asyncio.to_thread(front.close)
+        ws.transport.abort()
+        return list(asyncio.all_tasks(front._loop))
+
+
+def test_closing_with_a_client_that_reads_nothing_leaves_no_task_to_die_with_a_traceback() -> None:
+    """Ctrl-C with a Foxglove client subscribed to everything and reading nothing: exit 130 and a
+    whole recording, but some 40 lines of asyncio traceback ('Task was destroyed but it is
+    pending!', 'no running event loop'): its handler outlived the front's loop, stuck in a send."""
+    assert asyncio.run(_closed_with_a_client_that_reads_nothing()) == []
