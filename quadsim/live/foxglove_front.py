@@ -131,7 +131,7 @@ class _LogLimiter(logging.Filter):
 
     def __init__(self) -> None:
         super().__init__()
-        self._every = _Every(LOG_EVERY_S, "more since not logged")
+        self._every = _Every(LOG_EVERY_S, "other problems since the last line, not logged")
 
     def warning(self, text: str) -> None:
         more = self._every.allow()
@@ -163,7 +163,7 @@ class FrontClient:
         self._ws = ws
         self._logger = logger
         #: one status a second at most to this client, ours and the SDK's answers
-        self.status = _Every(STATUS_EVERY_S, "similar problems since not reported")
+        self.status = _Every(STATUS_EVERY_S, "other problems since the last status, not reported")
 
     def tell(self, message: str) -> None:
         """A warning status to this client (one a second at most, with the SDK's answers; the
