@@ -42,6 +42,10 @@ KEYS = [
 ]
 
 
+#: what the HUD shows of a recording that holds no state
+_NO_STATE = VehicleState(0, (0.0, 0.0, 0.0), (0.0, 0.0, 0.0, 1.0), (0.0,) * 3, (0.0,) * 3, (0.0,) * 4, (0.0,) * 3)
+
+
 class ReplayApp(Window):
     def __init__(
         self,
@@ -208,13 +212,7 @@ class ReplayApp(Window):
     def model(self) -> ViewModel:
         f, t = self.flight, self.t_ns
         # before its first state (a file started part-way begins a few ms before one): that state
-        state = (
-            f.state_at(t)
-            or (f.states[0] if f.states else None)
-            or VehicleState(
-                0, (0.0, 0.0, 0.0), (0.0, 0.0, 0.0, 1.0), (0.0, 0.0, 0.0), (0.0, 0.0, 0.0), (0.0,) * 4, (0.0, 0.0, 0.0)
-            )
-        )
+        state = f.state_at(t) or (f.states[0] if f.states else _NO_STATE)
         command = f.command_at(t)
         frames = {}
         for cam in f.frames:
