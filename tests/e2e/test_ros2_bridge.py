@@ -225,10 +225,11 @@ def test_a_node_started_later_gets_every_rosout_message_so_far() -> None:
     """/rosout is transient-local with depth 1000, but a node that joined late got only the last
     message: Cyclone keeps what late joiners get in its durability service, whose history was
     its default, the last 1."""
-    from cyclonedds.core import Policy, Qos
+    from cyclonedds.core import InstanceState, Policy, Qos, ReadCondition, SampleState, ViewState, WaitSet
     from cyclonedds.domain import DomainParticipant
     from cyclonedds.sub import DataReader
     from cyclonedds.topic import Topic
+    from cyclonedds.util import duration
 
     from quadsim.live.ros2 import Ros2Bridge
     from quadsim.recording.fanout import TopicFanout
@@ -247,11 +248,11 @@ def test_a_node_started_later_gets_every_rosout_message_so_far() -> None:
             Policy.Durability.TransientLocal,
         )
         reader = DataReader(participant, topic, qos=qos)
+        arrived = WaitSet(participant)
+        arrived.attach(ReadCondition(reader, SampleState.Any | ViewState.Any | InstanceState.Any))
         got: list[str] = []
-        deadline = time.monotonic() + 10.0
-        while len(got) < 3 and time.monotonic() < deadline:  # discovery, then the history
+        while len(got) < 3 and arrived.wait(duration(seconds=10)):  # as they come: discovery, then the history
             got += [m.msg for m in reader.take(100)]
-            time.sleep(0.05)
     assert got == ["recording: started", "takeoff: at 0.05 m", "goal: x=1"], got
 
 
@@ -259,8 +260,9 @@ def test_a_twist_that_is_not_finite_is_warned_about_once(caplog) -> None:
     """The bridge dropped what the driver refused without a word (Foxglove's client is told;
     command-semantics.md says a warning is logged once); the summary counted them."""
     import math
+    import threading
 
-    from cyclonedds.core import Policy, Qos
+    from cyclonedds.core import Listener, Policy, Qos
     from cyclonedds.domain import DomainParticipant
     from cyclonedds.pub import DataWriter
     from cyclonedds.topic import Topic
@@ -272,17 +274,24 @@ def test_a_twist_that_is_not_finite_is_warned_about_once(caplog) -> None:
     driver = SubscribedDriver("ros2")
     kind = idl_type("geometry_msgs/msg/Twist")
     vector = idl_type("geometry_msgs/msg/Vector3")
+    heard = threading.Semaphore(0)  # released by the bridge for each Twist it took or refused
+    matched = threading.Event()
     with Ros2Bridge(env=local_env(domain)) as bridge:
-        bridge.subscribe_twist(driver)
+        bridge.subscribe_twist(driver, on_twist=heard.release)
         participant = DomainParticipant(domain)  # the user's node
         topic = Topic(participant, "rt/quad_cmd_twist", kind)
-        writer = DataWriter(participant, topic, qos=Qos(Policy.Reliability.Reliable(max_blocking_time=10**9)))
-        deadline = time.monotonic() + 10.0
-        while driver.rejected < 3 and time.monotonic() < deadline:  # until matched and three taken
-            writer.write(kind(linear=vector(math.nan, 0.0, 0.0), angular=vector(0.0, 0.0, 0.0)))
-            time.sleep(0.05)
+        qos = Qos(Policy.Reliability.Reliable(max_blocking_time=10**9))
+        writer = DataWriter(
+            participant, topic, qos=qos, listener=Listener(on_publication_matched=lambda *_: matched.set())
+        )
+        assert matched.wait(10.0)
+        for _ in range(3):
+            for _attempt in range(20):  # one sent before the bridge's reader has matched this writer is lost
+                writer.write(kind(linear=vector(math.nan, 0.0, 0.0), angular=vector(0.0, 0.0, 0.0)))
+                if heard.acquire(timeout=0.5):
+                    break
     said = [r.getMessage() for r in caplog.records if "not finite" in r.getMessage()]
-    assert driver.rejected >= 3 and driver.received == 0
+    assert driver.rejected == 3 and driver.received == 0
     assert said == [
         "a Twist on /quad_cmd_twist with a field that is not finite is ignored (the summary counts any more)"
     ]
