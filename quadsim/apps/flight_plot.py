@@ -13,7 +13,7 @@ import tempfile
 from pathlib import Path
 from typing import Any
 
-from quadsim.core.files import write_new_file
+from quadsim.core.files import write_whole
 from quadsim.core.invocation import install_extra
 from quadsim.core.types import HEIGHT_MODE_BASE_M, VehicleState, ZMode
 from quadsim.errors import QuadsimError
@@ -224,7 +224,7 @@ def export_plot(f: RecordedFlight, path: Path, others: dict[str, list[VehicleSta
     _draw_panels(fig, grid, panels, t, spans, max(f.duration_s, t[-1]))
     exists = f"{path} already exists; choose another --plot (nothing is overwritten)"
     try:
-        write_new_file(path, lambda fh: fig.savefig(fh, dpi=100, format=path.suffix[1:].lower()), exists)
+        write_whole(path, lambda fh: fig.savefig(fh, dpi=100, format=path.suffix[1:].lower()), exists)
     except OSError as exc:
         raise QuadsimError(f"cannot write the plot to {path}: {exc.strerror or exc}; nothing was written") from None
     finally:

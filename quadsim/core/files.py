@@ -1,6 +1,7 @@
-"""Writing a file the user named, whole or not at all: written beside it under a hidden name,
-then given its name, never replacing a file that is there (or appeared meanwhile). A full disk,
-an error or Ctrl-C leaves nothing behind: a retry is not refused by a cut file."""
+"""Writing a file whole or not at all: written beside it under a hidden name, then given its name.
+A full disk, an error or Ctrl-C leaves nothing behind (a retry is not refused by a cut file), and
+another process reading it never sees half of it. A file the user named is never written over a
+file that is there (or appeared meanwhile); a cache's file replaces its twin."""
 
 from __future__ import annotations
 
@@ -14,10 +15,11 @@ from typing import BinaryIO
 from quadsim.errors import QuadsimError
 
 
-def write_new_file(out: Path, write: Callable[[BinaryIO], object], exists: str) -> None:
-    """`write(file)` fills `out`, which must not exist (`exists`: what to say when it does). An
-    OSError (the disk full, a folder that cannot hold it) is raised as it came, with nothing left."""
-    if out.exists():
+def write_whole(out: Path, write: Callable[[BinaryIO], object], exists: str | None = None) -> None:
+    """`write(file)` fills `out`. With `exists` (what to say when it is there), `out` must not
+    exist; without, it is replaced. An OSError (the disk full, a folder that cannot hold it) is
+    raised as it came, with nothing left."""
+    if exists is not None and out.exists():
         raise QuadsimError(exists)
     folder = out.parent if str(out.parent) else Path(".")
     fd, tmp_name = tempfile.mkstemp(prefix=f".{out.name[:200]}.", suffix=".partial", dir=folder)
@@ -30,6 +32,9 @@ def write_new_file(out: Path, write: Callable[[BinaryIO], object], exists: str) 
             write(fh)
             fh.flush()
             os.fsync(fh.fileno())
+        if exists is None:
+            os.replace(tmp, out)
+            return
         try:
             os.link(tmp, out)
         except FileExistsError:

@@ -6,11 +6,10 @@ Shared by the physics world and the render workers, so both hold the same scene.
 from __future__ import annotations
 
 import hashlib
-import os
-import tempfile
 from pathlib import Path
 from typing import Any
 
+from quadsim.core.files import write_whole
 from quadsim.errors import ConfigError
 from quadsim.physics.pybullet_quiet import c_output_silenced, pb
 from quadsim.physics.world_spec import Shape, WorldSpec
@@ -57,10 +56,7 @@ def _floor_obj(vertices: list, uvs: list, indices: list) -> Path | None:
         return None
     try:
         folder.mkdir(parents=True, exist_ok=True)
-        fd, tmp = tempfile.mkstemp(prefix=".floor-", suffix=".tmp", dir=folder)
-        with os.fdopen(fd, "w") as fh:
-            fh.write(text)
-        os.replace(tmp, path)  # atomic: a render worker never reads half a file
+        write_whole(path, lambda fh: fh.write(text.encode()))  # a render worker never reads half of it
     except OSError:
         return None
     return path

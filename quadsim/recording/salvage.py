@@ -17,7 +17,7 @@ from pathlib import Path
 
 from mcap.writer import CompressionType, Writer
 
-from quadsim.core.files import write_new_file
+from quadsim.core.files import write_whole
 from quadsim.errors import QuadsimError
 from quadsim.recording.mcap_scan import Damage, McapFile, SchemaDef
 
@@ -57,7 +57,7 @@ def recover(src: Path, dst: Path | None = None, required_topics: tuple[str, ...]
             )
         written: list[tuple[int, int, int]] = []
         try:
-            write_new_file(out, lambda fh: written.append(_write(f, fh)), _already(out))
+            write_whole(out, lambda fh: written.append(_write(f, fh)), _already(out))
         except OSError as exc:
             raise QuadsimError(f"cannot write {out}: {exc.strerror or exc}; nothing was written") from None
         (counts,) = written

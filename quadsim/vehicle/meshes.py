@@ -22,6 +22,7 @@ import tempfile
 import xml.etree.ElementTree as ET
 from pathlib import Path
 
+from quadsim.core.files import write_whole
 from quadsim.errors import ConfigError
 
 #: the mesh kinds PyBullet's URDF importer loads (by file name, as it tells them apart)
@@ -171,10 +172,7 @@ def _cached(name: str, data: bytes, source: Path, folder: str = "urdf") -> Path:
         if not cache_dir().parent.parent.is_dir():  # no home (HOME=/nonexistent): none is made for it
             raise NotADirectoryError(cache_dir())
         target.parent.mkdir(parents=True, exist_ok=True)
-        fd, tmp = tempfile.mkstemp(prefix=".part-", dir=target.parent)
-        with os.fdopen(fd, "wb") as fh:
-            fh.write(data)
-        os.replace(tmp, target)  # atomic: another process never reads half a file
+        write_whole(target, lambda fh: fh.write(data))  # another process never reads half of it
         return target
     try:
         if not _private:

@@ -9,7 +9,7 @@ from pathlib import Path
 
 from quadsim.apps.commands import add_command_parser
 from quadsim.assets import shipped_examples
-from quadsim.core.files import write_new_file
+from quadsim.core.files import write_whole
 from quadsim.errors import QuadsimError
 
 
@@ -77,4 +77,4 @@ def main(args: argparse.Namespace) -> int:
 def _copy(src: Path, dst: Path) -> None:
     """`src` copied to `dst`, whole or not at all (never over a file that is there)."""
     data = src.read_bytes()  # an example: a few kB
-    write_new_file(dst, lambda fh: fh.write(data), f"{dst} exists: choose another folder")
+    write_whole(dst, lambda fh: fh.write(data), f"{dst} exists: choose another folder")

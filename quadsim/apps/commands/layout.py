@@ -8,7 +8,7 @@ from collections.abc import Sequence
 from pathlib import Path
 
 from quadsim.apps.commands import add_command_parser
-from quadsim.core.files import write_new_file
+from quadsim.core.files import write_whole
 from quadsim.errors import QuadsimError
 from quadsim.recording.contract import BODY_FRAME, TF, TF_STATIC, WORLD_FRAME, Names
 from quadsim.recording.fanout import TopicFanout
@@ -73,7 +73,7 @@ def main(args: argparse.Namespace) -> int:
     text = layout_json(foxglove_layout(vehicles)).encode()
     exists = f"{out} already exists; choose another --out (nothing is overwritten)"
     try:
-        write_new_file(out, lambda fh: fh.write(text), exists)
+        write_whole(out, lambda fh: fh.write(text), exists)
     except OSError as exc:
         raise QuadsimError(f"cannot write {out}: {exc.strerror or exc}; nothing was written") from None
     shown = ", ".join(v.name or "the vehicle" for v in vehicles if v.model_topic) or "no vehicle's model"

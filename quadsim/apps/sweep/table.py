@@ -8,13 +8,14 @@ sweep gives byte-identical tables whatever back-end or number of workers flew it
 from __future__ import annotations
 
 import csv
+import io
 import math
-import os
 from collections.abc import Iterable
 from pathlib import Path
-from typing import Any
+from typing import Any, BinaryIO
 
 from quadsim.apps.sweep.metrics import METRICS
+from quadsim.core.files import write_whole
 from quadsim.core.invocation import install_extra
 from quadsim.errors import QuadsimError
 
@@ -52,7 +53,6 @@ def existing_table(folder: Path) -> Path | None:
 
 def write_table(path: Path, rows: Iterable[dict[str, Any]]) -> None:
     ordered = sorted(rows, key=lambda r: r["index"])
-    tmp = path.with_name(path.name + ".partial")
     if path.suffix == ".parquet":
         try:
             import pyarrow as pa
@@ -68,14 +68,20 @@ def write_table(path: Path, rows: Iterable[dict[str, Any]]) -> None:
         schema = pa.schema(
             [(c, pa.int64() if c in _INTS else pa.float64() if c in _FLOATS else pa.string()) for c in COLUMNS]
         )
-        pq.write_table(pa.table(columns, schema=schema), tmp)
+        table = pa.table(columns, schema=schema)
+        write_whole(path, lambda fh: pq.write_table(table, fh))
     else:
-        with tmp.open("w", newline="", encoding="utf-8") as f:
-            writer = csv.writer(f, lineterminator="\n")
-            writer.writerow(COLUMNS)
-            for r in ordered:
-                writer.writerow([_cell(r.get(c)) for c in COLUMNS])
-    os.replace(tmp, path)
+        write_whole(path, lambda fh: _write_csv(fh, ordered))
+
+
+def _write_csv(fh: BinaryIO, ordered: list[dict[str, Any]]) -> None:
+    text = io.TextIOWrapper(fh, encoding="utf-8", newline="")
+    writer = csv.writer(text, lineterminator="\n")
+    writer.writerow(COLUMNS)
+    for r in ordered:
+        writer.writerow([_cell(r.get(c)) for c in COLUMNS])
+    text.flush()
+    text.detach()  # the file stays open for write_whole to finish
 
 
 def _cell(value: Any) -> str:
