@@ -189,15 +189,13 @@ class _LogTimeOrder:
     than what was written by then is left out and counted in `late`. Frames from before
     `start_ns` (rendered before recording began) are left out.
 
-    `camera_topics`: the topics of frames, each with the vehicle whose pipeline delivers it (a
-    set: one vehicle's). One vehicle's frames once let everything up to them be written, so a
-    fleet's second vehicle with cameras found its frames already passed: nearly all left out.
+    `camera_topics`: the topics of frames, each with the vehicle whose pipeline delivers it. One
+    vehicle's frames once let everything up to them be written, so a fleet's second vehicle with
+    cameras found its frames already passed: nearly all left out.
     """
 
-    def __init__(
-        self, camera_topics: Mapping[str, str] | set[str], start_ns: int, max_hold_ns: int = MAX_FRAME_WAIT_NS
-    ) -> None:
-        self._producer = dict(camera_topics) if isinstance(camera_topics, Mapping) else dict.fromkeys(camera_topics, "")
+    def __init__(self, camera_topics: Mapping[str, str], start_ns: int, max_hold_ns: int = MAX_FRAME_WAIT_NS) -> None:
+        self._producer = dict(camera_topics)
         self._start_ns = start_ns
         self._max_hold_ns = max_hold_ns
         self._held: list[tuple[int, int, Message]] = []  # heap of (log time, arrival, message)

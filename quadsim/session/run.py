@@ -98,7 +98,7 @@ class Run:
     def reset(self) -> None:
         """Every vehicle back to the start (the window's Backspace); the summaries' camera rates
         still count what was flown before (they divided every frame by the time since the reset)."""
-        self._flown_before_s += (self.fleet.step_count - self._start_step) / self.fleet.config.rates.physics_hz
+        self._flown_before_s = self.flown_s
         self.fleet.reset()
         self._start_step = self.fleet.step_count
 
@@ -145,10 +145,14 @@ class Run:
         self.outputs.drain()  # the frames still being rendered count in the summary (and go in the file)
         return self.summaries()
 
+    @property
+    def flown_s(self) -> float:
+        """Simulated time flown in this run, over every reset (each starts the clock again)."""
+        return self._flown_before_s + (self.fleet.step_count - self._start_step) / self.fleet.config.rates.physics_hz
+
     def summaries(self) -> dict[str, RunSummary]:
         """What each vehicle did so far, by name (with what its cameras delivered)."""
-        hz = self.fleet.config.rates.physics_hz
-        flown_s = self._flown_before_s + (self.fleet.step_count - self._start_step) / hz
+        flown_s = self.flown_s
         pipelines = self.outputs.pipelines
         return {
             name: odometer.summary(

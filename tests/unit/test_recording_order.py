@@ -16,7 +16,7 @@ def test_a_frame_later_than_the_hold_is_left_out_not_written_out_of_order():
     from quadsim.recording.writer import MAX_FRAME_WAIT_NS, _LogTimeOrder
 
     image = Topic("/quad/front_camera/image_raw/compressed", "sensor_msgs/msg/CompressedImage")
-    order = _LogTimeOrder({image.name}, start_ns=0)
+    order = _LogTimeOrder({image.name: ""}, start_ns=0)
     written = []
     for i in range(1, 61):  # a second of states at 60 Hz, no frame yet
         written += order.push([(POSE, i * 1_000_000_000 // 60, b"")])

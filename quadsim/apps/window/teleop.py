@@ -307,7 +307,6 @@ class TeleopApp(Window):
         self.view = TeleopView()
         #: the depth of the cameras that have it, colour-mapped in place of their images (V)
         self.depth_view = DepthView()
-        self._flown_before_resets_s = 0.0
         self.pacer = pacer
         self.paused = False
         self._frame_walls: deque[tuple[float, int]] = deque()  # (wall s, step) of the last second
@@ -491,7 +490,7 @@ class TeleopApp(Window):
     @property
     def flown_s(self) -> float:
         """Simulation time flown in this window, over every reset (each starts the clock again)."""
-        return self._flown_before_resets_s + self.sim.time_s
+        return self.session.flown_s
 
     def final_lines(self) -> list[str]:
         """What the window flew, as `run` says it: where the vehicle ended, how far it flew, its
@@ -506,7 +505,6 @@ class TeleopApp(Window):
         ]
 
     def reset(self) -> None:
-        self._flown_before_resets_s += self.sim.time_s
         outputs = self.session.outputs
         was_recording = outputs.recording
         if was_recording:
