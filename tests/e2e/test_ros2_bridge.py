@@ -285,13 +285,13 @@ def test_a_twist_that_is_not_finite_is_warned_about_once(caplog) -> None:
             participant, topic, qos=qos, listener=Listener(on_publication_matched=lambda *_: matched.set())
         )
         assert matched.wait(10.0)
-        for _ in range(3):
-            for _attempt in range(20):  # one sent before the bridge's reader has matched this writer is lost
-                writer.write(kind(linear=vector(math.nan, 0.0, 0.0), angular=vector(0.0, 0.0, 0.0)))
-                if heard.acquire(timeout=0.5):
-                    break
+        for _attempt in range(60):  # until three are taken: one sent before the bridge's reader matched is lost
+            if driver.rejected >= 3:
+                break
+            writer.write(kind(linear=vector(math.nan, 0.0, 0.0), angular=vector(0.0, 0.0, 0.0)))
+            heard.acquire(timeout=0.5)  # returns as the bridge takes it
     said = [r.getMessage() for r in caplog.records if "not finite" in r.getMessage()]
-    assert driver.rejected == 3 and driver.received == 0
+    assert driver.rejected >= 3 and driver.received == 0
     assert said == [
         "a Twist on /quad_cmd_twist with a field that is not finite is ignored (the summary counts any more)"
     ]
